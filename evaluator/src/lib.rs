@@ -1,0 +1,19 @@
+//! The scoring core of OSMa-Bench++.
+//!
+//! Data flows one way: files are parsed once into validated domain types
+//! ([`formats`]), ground truth is built from rendered sequences ([`ground_truth`]),
+//! and [`semseg`] turns a ground-truth cloud and a predicted map into a confusion
+//! matrix and the published metrics, bit for bit. Nothing here knows about HTTP,
+//! databases or async runtimes.
+
+pub mod error;
+pub mod formats;
+pub mod ground_truth;
+pub mod numeric;
+pub mod semseg;
+pub mod synthetic;
+
+pub use error::{InputError, Result};
+
+/// Version of the scoring code; recorded with every score so re-scoring is traceable.
+pub const EVALUATOR_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,137 @@
+//! The confusion matrix: rows are ground-truth labels, columns predicted labels, both
+//! in the order of `labels` (the scene vocabulary ascending, then -1).
+
+use std::collections::{BTreeSet, HashMap};
+
+/// The label of "no class from the vocabulary" (the last row and column).
+pub const UNMATCHED: i64 = -1;
+
+/// A square matrix of point counts indexed by class label.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfusionMatrix {
+    labels: Vec<i64>,
+    counts: Vec<u64>,
+}
+
+impl ConfusionMatrix {
+    /// A matrix over `labels` (unique) with `counts` in row-major order.
+    pub fn new(labels: Vec<i64>, counts: Vec<u64>) -> Result<Self, String> {
+        let n = labels.len();
+        if counts.len() != n * n {
+            return Err(format!("{} labels need {} counts, found {}", n, n * n, counts.len()));
+        }
+        let unique: BTreeSet<i64> = labels.iter().copied().collect();
+        if unique.len() != n {
+            return Err("labels must be unique".into());
+        }
+        Ok(Self { labels, counts })
+    }
+
+    /// Count every ground-truth point whose label is in `vocabulary` (points of other
+    /// classes, such as 0, are dropped) against its predicted label; a prediction
+    /// outside the vocabulary counts in the -1 column.
+    pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
+        assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
+        let mut labels = vocabulary.to_vec();
+        labels.push(UNMATCHED);
+        let n = labels.len();
+        let position: HashMap<i64, usize> = labels.iter().enumerate().map(|(i, &l)| (l, i)).collect();
+        let lookup = DenseLookup::new(&position);
+        let mut counts = vec![0u64; n * n];
+        for (&g, &p) in ground_truth.iter().zip(predicted) {
+            // The -1 row is kept (it only arises from mesh ground truth), as the reference does.
+            let Some(row) = lookup.get(g) else { continue };
+            let col = lookup.get(p).unwrap_or(n - 1);
+            counts[row * n + col] += 1;
+        }
+        Self { labels, counts }
+    }
+
+    /// The pooled matrix of several scenes: labels are the sorted union (so -1 comes
+    /// first), each scene's counts added in by label.
+    pub fn pooled<'a>(matrices: impl IntoIterator<Item = &'a ConfusionMatrix>) -> Self {
+        let matrices: Vec<&ConfusionMatrix> = matrices.into_iter().collect();
+        let labels: Vec<i64> = matrices.iter().flat_map(|m| m.labels.iter().copied()).collect::<BTreeSet<_>>().into_iter().collect();
+        let n = labels.len();
+        let position: HashMap<i64, usize> = labels.iter().enumerate().map(|(i, &l)| (l, i)).collect();
+        let mut counts = vec![0u64; n * n];
+        for m in matrices {
+            let map: Vec<usize> = m.labels.iter().map(|l| position[l]).collect();
+            let k = m.labels.len();
+            for r in 0..k {
+                for c in 0..k {
+                    counts[map[r] * n + map[c]] += m.counts[r * k + c];
+                }
+            }
+        }
+        Self { labels, counts }
+    }
+
+    /// Row and column labels.
+    pub fn labels(&self) -> &[i64] {
+        &self.labels
+    }
+
+    /// Row `r` (ground truth of `labels[r]`).
+    pub fn row(&self, r: usize) -> &[u64] {
+        let n = self.labels.len();
+        &self.counts[r * n..(r + 1) * n]
+    }
+
+    /// Count at row `r`, column `c`.
+    pub fn count(&self, r: usize, c: usize) -> u64 {
+        self.counts[r * self.labels.len() + c]
+    }
+
+    /// Ground-truth points of `labels[r]`.
+    pub fn row_sum(&self, r: usize) -> u64 {
+        self.row(r).iter().sum()
+    }
+
+    /// Points predicted as `labels[c]`, over all rows.
+    pub fn column_sum(&self, c: usize) -> u64 {
+        (0..self.labels.len()).map(|r| self.count(r, c)).sum()
+    }
+
+    /// All counted points.
+    pub fn total(&self) -> u64 {
+        self.counts.iter().sum()
+    }
+}
+
+/// Label → position, as a dense table when labels are small non-negative ids.
+struct DenseLookup {
+    table: Vec<u32>,
+    unmatched: Option<usize>,
+    sparse: HashMap<i64, usize>,
+}
+
+impl DenseLookup {
+    const DENSE_LIMIT: i64 = 1 << 20;
+
+    fn new(position: &HashMap<i64, usize>) -> Self {
+        let max = position.keys().copied().filter(|&l| (0..Self::DENSE_LIMIT).contains(&l)).max().unwrap_or(0);
+        let mut table = vec![u32::MAX; max as usize + 1];
+        let mut sparse = HashMap::new();
+        for (&label, &pos) in position {
+            if (0..Self::DENSE_LIMIT).contains(&label) {
+                table[label as usize] = pos as u32;
+            } else if label != UNMATCHED {
+                sparse.insert(label, pos);
+            }
+        }
+        Self { table, unmatched: position.get(&UNMATCHED).copied(), sparse }
+    }
+
+    #[inline]
+    fn get(&self, label: i64) -> Option<usize> {
+        if label >= 0 && (label as usize) < self.table.len() {
+            let pos = self.table[label as usize];
+            (pos != u32::MAX).then_some(pos as usize)
+        } else if label == UNMATCHED {
+            self.unmatched
+        } else {
+            self.sparse.get(&label).copied()
+        }
+    }
+}

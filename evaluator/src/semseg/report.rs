@@ -1,0 +1,79 @@
+//! Dataset-level tables: one row per scene, then `overall_mean` (the mean of the
+//! scene rows) and `overall` (the metrics of the pooled matrix), as `metrics.csv`.
+
+use super::confusion::ConfusionMatrix;
+use super::metrics::SegmentationMetrics;
+use crate::numeric::{nan_skipping_mean, python_repr};
+
+/// The three headline numbers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetricTriple {
+    /// Mean IoU.
+    pub miou: f64,
+    /// Frequency-weighted IoU.
+    pub fmiou: f64,
+    /// Mean accuracy (recall).
+    pub macc: f64,
+}
+
+impl From<&SegmentationMetrics> for MetricTriple {
+    fn from(m: &SegmentationMetrics) -> Self {
+        Self { miou: m.miou, fmiou: m.fmiou, macc: m.macc }
+    }
+}
+
+impl MetricTriple {
+    /// The relative change of each metric against `baseline`: (self − baseline) / baseline.
+    pub fn relative_change(&self, baseline: &MetricTriple) -> MetricTriple {
+        let change = |v: f64, b: f64| (v - b) / b;
+        MetricTriple {
+            miou: change(self.miou, baseline.miou),
+            fmiou: change(self.fmiou, baseline.fmiou),
+            macc: change(self.macc, baseline.macc),
+        }
+    }
+}
+
+/// The metrics of one lighting over a set of scenes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MetricsTable {
+    /// Scene name and its metrics, in the reference's row order.
+    pub scenes: Vec<(String, SegmentationMetrics)>,
+    /// Mean over the scene rows (NaN rows skipped, as pandas does).
+    pub overall_mean: MetricTriple,
+    /// Metrics of the pooled confusion matrix.
+    pub overall: SegmentationMetrics,
+}
+
+/// The reference sorts `<scene>_conf_matrix.pkl` file names; sorting by that key keeps
+/// its row order (and so its summation order) for any scene names.
+fn reference_sort_key(scene: &str) -> String {
+    format!("{scene}_conf_matrix.pkl")
+}
+
+impl MetricsTable {
+    /// Score every scene and the pool of all of them.
+    pub fn from_scenes(mut scenes: Vec<(String, ConfusionMatrix)>) -> Self {
+        scenes.sort_by_cached_key(|(name, _)| reference_sort_key(name));
+        let pooled = ConfusionMatrix::pooled(scenes.iter().map(|(_, m)| m));
+        let rows: Vec<(String, SegmentationMetrics)> =
+            scenes.into_iter().map(|(name, m)| (name, SegmentationMetrics::from_confusion(&m))).collect();
+        let column = |f: fn(&SegmentationMetrics) -> f64| nan_skipping_mean(&rows.iter().map(|(_, m)| f(m)).collect::<Vec<_>>());
+        let overall_mean = MetricTriple { miou: column(|m| m.miou), fmiou: column(|m| m.fmiou), macc: column(|m| m.macc) };
+        Self { overall: SegmentationMetrics::from_confusion(&pooled), scenes: rows, overall_mean }
+    }
+
+    /// `metrics.csv` as OSMa-Bench writes it: `miou,fmiou,macc,scene`, Python float
+    /// repr, NaN as an empty field (pandas' default).
+    pub fn to_csv(&self) -> String {
+        let cell = |v: f64| if v.is_nan() { String::new() } else { python_repr(v) };
+        let line = |t: MetricTriple, name: &str| format!("{},{},{},{}\n", cell(t.miou), cell(t.fmiou), cell(t.macc), name);
+        let mut out = String::from("miou,fmiou,macc,scene\n");
+        for (name, metrics) in &self.scenes {
+            out.push_str(&line(metrics.into(), name));
+        }
+        out.push_str(&line(self.overall_mean, "overall_mean"));
+        out.push_str(&line((&self.overall).into(), "overall"));
+        out
+    }
+}

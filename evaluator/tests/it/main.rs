@@ -1,0 +1,8 @@
+//! The evaluator's specification, as tests. One binary (fast to build on 2 cores).
+
+mod common;
+mod formats;
+mod golden;
+mod ground_truth;
+mod nearest;
+mod semseg;

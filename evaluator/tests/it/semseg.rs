@@ -1,0 +1,147 @@
+//! Scoring one map against one ground truth.
+
+use std::path::PathBuf;
+
+use osmab_evaluator::formats::map::{FeatureMatrix, MapSemantics, PredictedMap, TextFeatures};
+use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::semseg::score_scene;
+use osmab_evaluator::synthetic::Rng;
+
+use crate::common::classes;
+
+/// Three clusters of ground truth: class 1 near x=0, class 2 near x=10, class 0 at x=20.
+fn ground_truth() -> GroundTruth {
+    let mut rng = Rng::new(3);
+    let mut points = Vec::new();
+    let mut labels = Vec::new();
+    for (center, label, n) in [(0.0, 1, 300), (10.0, 2, 200), (20.0, 0, 50)] {
+        for _ in 0..n {
+            points.push([center + rng.range(-1.0, 1.0) as f32, rng.range(-1.0, 1.0) as f32, rng.range(-1.0, 1.0) as f32]);
+            labels.push(label);
+        }
+    }
+    GroundTruth { source: PathBuf::from("gt"), points, colors: None, labels }
+}
+
+fn labelled_map(gt: &GroundTruth, object_of: impl Fn(i64) -> u32, labels: Vec<i64>) -> PredictedMap {
+    PredictedMap {
+        source: PathBuf::from("map.npz"),
+        points: gt.points.clone(),
+        semantics: MapSemantics::ObjectLabels { object_ids: gt.labels.iter().map(|&l| object_of(l)).collect(), labels },
+    }
+}
+
+fn one_hot_text(classes: &[i64], dim: usize) -> TextFeatures {
+    let mut values = vec![0.0f32; classes.len() * dim];
+    for (row, _) in classes.iter().enumerate() {
+        values[row * dim + row] = 1.0;
+    }
+    TextFeatures { source: PathBuf::from("text_features.npz"), class_ids: classes.to_vec(), features: FeatureMatrix { rows: classes.len(), dim, values } }
+}
+
+#[test]
+fn a_perfect_map_scores_one() {
+    let gt = ground_truth();
+    let map = labelled_map(&gt, |l| l as u32, vec![0, 1, 2]);
+    let score = score_scene(&gt, &map, &classes(5), None).unwrap();
+    assert_eq!((score.metrics.miou, score.metrics.fmiou, score.metrics.macc), (1.0, 1.0, 1.0));
+    assert_eq!(score.confusion.labels(), &[1, 2, -1]);
+    assert_eq!(score.confusion.total(), 500, "class-0 points are not scored");
+}
+
+#[test]
+fn features_and_labels_give_the_same_result_when_they_agree() {
+    let gt = ground_truth();
+    // Object 0 is class 1, object 1 is class 2, object 2 (the class-0 cloud) is called class 2.
+    let object_of = |l: i64| match l {
+        1 => 0,
+        2 => 1,
+        _ => 2,
+    };
+    let by_labels = score_scene(&gt, &labelled_map(&gt, object_of, vec![1, 2, 2]), &classes(5), None).unwrap();
+    let dim = 8;
+    let text = one_hot_text(&[1, 2, 3, 4, 5], dim);
+    let mut features = vec![0.0f32; 3 * dim];
+    features[0] = 0.9; // object 0 points along class 1
+    features[1] = 0.2;
+    features[dim + 1] = 2.0; // object 1 along class 2
+    features[2 * dim + 1] = 0.5; // object 2 along class 2
+    let feature_map = PredictedMap {
+        source: PathBuf::from("map.npz"),
+        points: gt.points.clone(),
+        semantics: MapSemantics::ObjectFeatures { object_ids: gt.labels.iter().map(|&l| object_of(l)).collect(), features: FeatureMatrix { rows: 3, dim, values: features } },
+    };
+    let by_features = score_scene(&gt, &feature_map, &classes(5), Some(&text)).unwrap();
+    assert_eq!(by_features.confusion, by_labels.confusion);
+    assert_eq!(by_features.metrics, by_labels.metrics);
+}
+
+#[test]
+fn equal_similarities_pick_the_first_class() {
+    let gt = ground_truth();
+    let dim = 4;
+    let text = one_hot_text(&[1, 2], dim);
+    // Exactly between classes 1 and 2: the first (lowest id) wins.
+    let map = PredictedMap {
+        source: PathBuf::from("map.npz"),
+        points: gt.points.clone(),
+        semantics: MapSemantics::PointFeatures(FeatureMatrix { rows: gt.points.len(), dim, values: gt.points.iter().flat_map(|_| [1.0, 1.0, 0.0, 0.0]).collect() }),
+    };
+    let score = score_scene(&gt, &map, &classes(5), Some(&text)).unwrap();
+    assert_eq!(score.confusion.column_sum(0), 500, "every point predicted as class 1");
+}
+
+#[test]
+fn a_label_outside_the_scene_vocabulary_is_a_miss() {
+    let gt = ground_truth();
+    // Class 4 exists in the release but not in this scene: counts in the -1 column.
+    let map = labelled_map(&gt, |l| l as u32, vec![0, 4, 2]);
+    let score = score_scene(&gt, &map, &classes(5), None).unwrap();
+    assert_eq!(score.confusion.count(0, 2), 300);
+    assert_eq!(score.metrics.classes[0].recall, 0.0);
+}
+
+#[test]
+fn a_label_outside_the_class_list_is_an_error() {
+    let gt = ground_truth();
+    let map = labelled_map(&gt, |l| l as u32, vec![0, 1, 99]);
+    let err = score_scene(&gt, &map, &classes(5), None).unwrap_err();
+    assert_eq!((err.file.as_str(), err.field.as_str()), ("map.npz", "labels"));
+    assert!(err.message.contains("object 2 has label 99"), "{err}");
+}
+
+#[test]
+fn features_without_text_features_are_an_error() {
+    let gt = ground_truth();
+    let map = PredictedMap {
+        source: PathBuf::from("map.npz"),
+        points: gt.points.clone(),
+        semantics: MapSemantics::PointFeatures(FeatureMatrix { rows: gt.points.len(), dim: 2, values: vec![1.0; gt.points.len() * 2] }),
+    };
+    let err = score_scene(&gt, &map, &classes(5), None).unwrap_err();
+    assert!(err.message.contains("text features"), "{err}");
+}
+
+#[test]
+fn text_features_must_cover_the_scene_and_match_dimensions() {
+    let gt = ground_truth();
+    let map = PredictedMap {
+        source: PathBuf::from("map.npz"),
+        points: gt.points.clone(),
+        semantics: MapSemantics::PointFeatures(FeatureMatrix { rows: gt.points.len(), dim: 4, values: vec![1.0; gt.points.len() * 4] }),
+    };
+    let missing = score_scene(&gt, &map, &classes(5), Some(&one_hot_text(&[1, 3], 4))).unwrap_err();
+    assert_eq!(missing.field, "class_ids");
+    assert!(missing.message.contains("class 2"), "{missing}");
+    let narrow = score_scene(&gt, &map, &classes(5), Some(&one_hot_text(&[1, 2], 3))).unwrap_err();
+    assert!(narrow.message.contains("3 dimensions"), "{narrow}");
+}
+
+#[test]
+fn a_worse_map_never_scores_higher() {
+    let gt = ground_truth();
+    let perfect = score_scene(&gt, &labelled_map(&gt, |l| l as u32, vec![0, 1, 2]), &classes(5), None).unwrap();
+    let swapped = score_scene(&gt, &labelled_map(&gt, |l| l as u32, vec![0, 2, 1]), &classes(5), None).unwrap();
+    assert!(swapped.metrics.miou < perfect.metrics.miou);
+    assert_eq!(swapped.metrics.miou, 0.0);
+}

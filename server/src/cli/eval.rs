@@ -1,0 +1,130 @@
+//! `osmab eval metrics` and `osmab eval semseg`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+use osmab_evaluator::formats::classes::ClassList;
+use osmab_evaluator::formats::confusion::{confusion_to_json, read_confusion};
+use osmab_evaluator::formats::map::{PredictedMap, TextFeatures};
+use osmab_evaluator::formats::npy::ReadLimits;
+use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::numeric::python_repr;
+use osmab_evaluator::semseg::{MetricsTable, SceneScore, score_scene};
+
+#[derive(Debug, Subcommand)]
+pub enum EvalCommand {
+    /// Print metrics.csv (miou,fmiou,macc,scene; overall_mean; overall) for a directory of *.confusion.json.
+    Metrics {
+        /// Directory holding one `<scene>.confusion.json` per scene.
+        dir: PathBuf,
+    },
+    /// Score one map against one ground-truth directory.
+    Semseg(SemsegArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct SemsegArgs {
+    /// Ground-truth directory with pointcloud.pcd and semantic.npy.
+    #[arg(long)]
+    gt: PathBuf,
+    /// The map (.npz: points, object_ids, labels | features, or point_features).
+    #[arg(long)]
+    map: PathBuf,
+    /// Class text features (.npz: class_ids, features); needed when the map carries features.
+    #[arg(long)]
+    text_features: Option<PathBuf>,
+    /// Class list; defaults to embed_semseg_classes.json beside the ground truth.
+    #[arg(long)]
+    classes: Option<PathBuf>,
+    /// Write labels, matrix and metrics as one JSON object to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Print stage timings as one JSON line on stderr.
+    #[arg(long)]
+    timings: bool,
+}
+
+pub fn run(cmd: EvalCommand) -> anyhow::Result<()> {
+    match cmd {
+        EvalCommand::Metrics { dir } => metrics(&dir),
+        EvalCommand::Semseg(args) => semseg(&args),
+    }
+}
+
+const CONFUSION_SUFFIX: &str = ".confusion.json";
+
+fn metrics(dir: &Path) -> anyhow::Result<()> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read directory", dir.display()))?;
+    let mut scenes = Vec::new();
+    for entry in entries {
+        let path = entry?.path();
+        let Some(scene) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(CONFUSION_SUFFIX)) else {
+            continue;
+        };
+        scenes.push((scene.to_string(), read_confusion(&path)?));
+    }
+    if scenes.is_empty() {
+        bail!("{}: no *{CONFUSION_SUFFIX} files found", dir.display());
+    }
+    print!("{}", MetricsTable::from_scenes(scenes).to_csv());
+    Ok(())
+}
+
+fn semseg(args: &SemsegArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let classes_path = args.classes.clone().unwrap_or_else(|| args.gt.join("embed_semseg_classes.json"));
+    let classes = ClassList::read(&classes_path)?;
+    let limits = ReadLimits::default();
+    // The ground truth and the map are independent files: read them on both cores.
+    let (ground_truth, map) = rayon::join(|| GroundTruth::read(&args.gt, &classes), || PredictedMap::read(&args.map, limits));
+    let (ground_truth, map) = (ground_truth?, map?);
+    let text = args.text_features.as_deref().map(|p| TextFeatures::read(p, limits)).transpose()?;
+    let load = started.elapsed();
+
+    let score = score_scene(&ground_truth, &map, &classes, text.as_ref())?;
+    print_scores(&score, &classes, ground_truth.points.len(), map.points.len());
+    if let Some(out) = &args.json {
+        let mut json = confusion_to_json(&score.confusion);
+        json["metrics"] = serde_json::json!({ "miou": score.metrics.miou, "fmiou": score.metrics.fmiou, "macc": score.metrics.macc });
+        std::fs::write(out, serde_json::to_string(&json)?).with_context(|| format!("{}: cannot write", out.display()))?;
+    }
+    if args.timings {
+        let t = &score.timings;
+        eprintln!(
+            "{}",
+            serde_json::json!({
+                "load_s": load.as_secs_f64(),
+                "labels_s": t.labels.as_secs_f64(),
+                "index_s": t.index.as_secs_f64(),
+                "query_s": t.query.as_secs_f64(),
+                "nearest_s": (t.index + t.query).as_secs_f64(),
+                "confusion_metrics_s": t.confusion.as_secs_f64(),
+                "total_s": started.elapsed().as_secs_f64(),
+            })
+        );
+    }
+    Ok(())
+}
+
+fn print_scores(score: &SceneScore, classes: &ClassList, gt_points: usize, map_points: usize) {
+    let m = &score.metrics;
+    println!("ground truth: {gt_points} points ({} scored), map: {map_points} points", score.confusion.total());
+    println!("miou   {}", python_repr(m.miou));
+    println!("fmiou  {}", python_repr(m.fmiou));
+    println!("macc   {}", python_repr(m.macc));
+    println!();
+    println!("{:>6}  {:<24} {:>10} {:>10} {:>8} {:>8}", "class", "name", "gt", "predicted", "iou", "recall");
+    for c in &m.classes {
+        println!(
+            "{:>6}  {:<24} {:>10} {:>10} {:>8.4} {:>8.4}",
+            c.label,
+            classes.name(c.label).unwrap_or("?"),
+            c.ground_truth,
+            c.predicted,
+            c.iou,
+            c.recall
+        );
+    }
+}

@@ -1,0 +1,37 @@
+//! The subcommands of `osmab`.
+
+mod bench;
+mod eval;
+mod gt;
+
+use clap::{Parser, Subcommand};
+
+/// OSMa-Bench++: evaluation service, scorer and dataset tools.
+#[derive(Debug, Parser)]
+#[command(name = "osmab", version, about, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Score maps and confusion matrices.
+    #[command(subcommand)]
+    Eval(eval::EvalCommand),
+    /// Build ground truth from rendered sequences.
+    #[command(subcommand)]
+    Gt(gt::GtCommand),
+    /// Generate benchmark data and time the scorer.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+/// Run the parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Eval(cmd) => eval::run(cmd),
+        Command::Gt(cmd) => gt::run(cmd),
+        Command::Bench(cmd) => bench::run(cmd),
+    }
+}

@@ -46,10 +46,15 @@ def ensure_venv():
 
 
 def parse_sizes(text):
+    """`GxP` (the room's shell unmapped, as many methods leave it) or `GxP:room` (the map
+    also covers floor, walls and ceiling) -> [(G, P, covers_room)]."""
     sizes = []
     for item in text.split(","):
-        g, p = item.lower().split("x")
-        sizes.append((int(g), int(p)))
+        item, _, variant = item.lower().partition(":")
+        if variant not in ("", "room"):
+            sys.exit(f"error: unknown size variant ':{variant}' (expected ':room' or nothing)")
+        g, p = item.split("x")
+        sizes.append((int(g), int(p), variant == "room"))
     return sizes
 
 
@@ -109,7 +114,7 @@ def machine():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="5000000x1000000,20000000x2000000",
+    ap.add_argument("--sizes", default="5000000x1000000,5000000x1000000:room,20000000x2000000,20000000x2000000:room",
                     help="comma-separated GT_POINTSxMAP_POINTS (default: %(default)s)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per tool and size (default: %(default)s)")
     ap.add_argument("--out", default="docs/performance-semseg.json", help="raw results JSON (default: %(default)s)")
@@ -124,12 +129,12 @@ def main():
     unset = {k: os.environ.get(k) for k in REF_UNSET}  # original values (None = was not set)
 
     results = []
-    for g, p in sizes:
-        d = Path(f"bench/data/{g}x{p}")
+    for g, p, covers_room in sizes:
+        d = Path(f"bench/data/{g}x{p}" + ("-room" if covers_room else ""))
         if not (d / ".complete").exists():
             print(f"generating {d} ...", file=sys.stderr)
             subprocess.run([str(OSMAB), "bench", "synth", "--gt-points", str(g), "--map-points", str(p),
-                            "--out", str(d)], check=True)
+                            *(["--map-covers-room"] if covers_room else []), "--out", str(d)], check=True)
             (d / ".complete").touch()
         inputs = ["--gt", str(d / "gt"), "--map", str(d / "map.npz"),
                   "--text-features", str(d / "text_features.npz")]
@@ -147,13 +152,14 @@ def main():
                    for stage, vals in (("nearest-neighbour association", nn),
                                        ("whole eval semseg", {t: [r["wall_s"] for r in runs[t]] for t in runs}))}
         peak = {t: max(r["maxrss_kib"] for r in runs[t]) / 1024 for t in runs}
-        results.append({"gt_points": g, "map_points": p, "runs": runs, "median_s": summary,
+        results.append({"gt_points": g, "map_points": p, "map_covers_room": covers_room, "runs": runs, "median_s": summary,
                         "peak_rss_mib": peak, "agreement": compare(out_rust, out_ref)})
 
     lines = ["| size | stage | osmab median s | SciPy median s | speed-up | osmab peak RSS MiB | SciPy peak RSS MiB |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for r in results:
-        size = f"{r['gt_points']:,} GT × {r['map_points']:,} map"
+        size = f"{r['gt_points']:,} GT × {r['map_points']:,} map" + (
+            ", map covers the room" if r["map_covers_room"] else ", room shell unmapped")
         for stage, med in r["median_s"].items():
             lines.append(f"| {size} | {stage} | {med['osmab']:.3f} | {med['scipy']:.3f} | "
                          f"{med['scipy'] / med['osmab']:.1f}× | {r['peak_rss_mib']['osmab']:.0f} | "
@@ -168,7 +174,7 @@ def main():
                        f"differently ({a['differing_cells']} confusion cells differ)")
         else:
             verdict = "LABELS DIFFER"
-        lines.append(f"- agreement {r['gt_points']}x{r['map_points']}: {verdict}; "
+        lines.append(f"- agreement {r['gt_points']}x{r['map_points']}{'-room' if r['map_covers_room'] else ''}: {verdict}; "
                      f"max |metric diff| = {a['max_abs_metric_diff']:.2e}")
     m = machine()
     lines += ["", f"Machine: {m['nproc']} CPUs, {m.get('cpu', '?')}, {m.get('mem_total_gib', '?')} GiB RAM; "

@@ -15,6 +15,7 @@ use crate::formats::npy::{NpyArray, ReadLimits, read_npy_file, write_npy_file};
 use crate::formats::pcd::{PointCloud, read_pcd, write_pcd};
 use crate::formats::ply::{read_semantic_mesh, vertex_labels};
 use crate::formats::sequence::Sequence;
+use crate::label_set::unique_labels;
 
 /// Every `FRAME_STRIDE`-th frame is used (`--stride 5`).
 pub const FRAME_STRIDE: usize = 5;
@@ -41,8 +42,8 @@ impl GroundTruth {
     pub fn read(dir: &Path, classes: &ClassList) -> Result<Self> {
         let pcd = dir.join("pointcloud.pcd");
         let npy = dir.join("semantic.npy");
-        let cloud = read_pcd(&pcd)?;
-        let labels = read_npy_file(&npy, ReadLimits::default())?.into_i64_vec(&npy, "semantic")?;
+        let (cloud, labels) = rayon::join(|| read_pcd(&pcd), || read_npy_file(&npy, ReadLimits::default()));
+        let (cloud, labels) = (cloud?, labels?.into_i64_vec(&npy, "semantic")?);
         if labels.len() != cloud.points.len() {
             return Err(InputError::new(
                 &npy,
@@ -125,7 +126,7 @@ impl GroundTruth {
 
 /// Every ground-truth label must be a class of the release.
 fn check_labels(labels: &[i64], classes: &ClassList, file: &Path) -> Result<()> {
-    let unknown: std::collections::BTreeSet<i64> = labels.iter().copied().filter(|&l| l != -1 && !classes.contains(l)).collect();
+    let unknown: Vec<i64> = unique_labels(labels).into_iter().filter(|&l| l != -1 && !classes.contains(l)).collect();
     if unknown.is_empty() {
         Ok(())
     } else {

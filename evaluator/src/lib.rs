@@ -9,6 +9,7 @@
 pub mod error;
 pub mod formats;
 pub mod ground_truth;
+pub mod label_set;
 pub mod numeric;
 pub mod semseg;
 pub mod synthetic;

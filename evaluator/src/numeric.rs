@@ -89,9 +89,14 @@ pub fn python_repr(x: f64) -> String {
     } else {
         let (first, rest) = digits.split_at(1);
         let mantissa = if rest.is_empty() { first.to_string() } else { format!("{first}.{rest}") };
-        let exp_sign = if exponent < 0 { '-' } else { '+' };
-        format!("{sign}{mantissa}e{exp_sign}{:02}", exponent.abs())
+        format!("{sign}{mantissa}{}", c_exponent(exponent))
     }
+}
+
+/// An exponent as C's `printf` and Python write it: `e+05`, `e-12`, `e+123`.
+pub fn c_exponent(exponent: i32) -> String {
+    let sign = if exponent < 0 { '-' } else { '+' };
+    format!("e{sign}{:02}", exponent.unsigned_abs())
 }
 
 #[cfg(test)]

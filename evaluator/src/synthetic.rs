@@ -78,6 +78,10 @@ pub struct SceneSpec {
     pub feature_dim: usize,
     /// Seed of everything random.
     pub seed: u64,
+    /// Whether the map also covers the floor, walls and ceiling (every ground-truth
+    /// point then has a predicted point nearby; otherwise, as with many methods,
+    /// the room's shell is mostly missing from the map).
+    pub map_covers_room: bool,
 }
 
 /// A generated scene: ground truth, class list, map and text features.
@@ -102,7 +106,7 @@ pub fn generate(spec: SceneSpec) -> SyntheticScene {
     let classes = ClassList::new(entries).expect("unique synthetic ids");
     let ground_truth = scan(&mut rng, &blocks, spec.gt_points);
     let text = text_features(&mut rng, &classes, spec.feature_dim);
-    let map = map_of(&mut rng, &blocks, &text, spec.map_points);
+    let map = map_of(&mut rng, &blocks, &text, spec.map_points, spec.map_covers_room);
     SyntheticScene { classes, ground_truth, map, text }
 }
 
@@ -200,8 +204,19 @@ fn text_features(rng: &mut Rng, classes: &ClassList, dim: usize) -> TextFeatures
 
 /// Map objects: every block's surface plus floor patches, noisy, 80 % with a feature
 /// near their true class and 20 % near another class.
-fn map_of(rng: &mut Rng, blocks: &[Block], text: &TextFeatures, wanted: usize) -> PredictedMap {
+fn map_of(rng: &mut Rng, blocks: &[Block], text: &TextFeatures, wanted: usize, covers_room: bool) -> PredictedMap {
     let mut objects: Vec<Block> = blocks.to_vec();
+    if covers_room {
+        let [x, y, z] = ROOM;
+        objects.extend([
+            Block { min: [0.0, 0.0, 0.0], max: [x, 0.0, z], class: FLOOR },
+            Block { min: [0.0, y, 0.0], max: [x, y, z], class: CEILING },
+            Block { min: [0.0, 0.0, 0.0], max: [x, y, 0.0], class: WALL },
+            Block { min: [0.0, 0.0, z], max: [x, y, z], class: WALL },
+            Block { min: [0.0, 0.0, 0.0], max: [0.0, y, z], class: WALL },
+            Block { min: [x, 0.0, 0.0], max: [x, y, z], class: WALL },
+        ]);
+    }
     for _ in 0..blocks.len() / 4 + 1 {
         let x = rng.range(0.0, ROOM[0] as f64 - 2.0) as f32;
         let z = rng.range(0.0, ROOM[2] as f64 - 2.0) as f32;

@@ -339,3 +339,31 @@ mod tests {
         assert_eq!(vertex_labels(&mesh, &classes), vec![7, -1, 7, -1, -1]);
     }
 }
+
+/// Write `mesh` as `binary_little_endian` PLY with Replica's properties
+/// (float x, y, z; `list uchar int vertex_indices`; int `object_id`).
+pub fn write_semantic_mesh(path: &Path, mesh: &SemanticMesh) -> Result<()> {
+    use std::io::Write;
+    let faces = mesh.face_objects.len();
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nproperty int object_id\nend_header\n",
+        mesh.vertices.len()
+    )
+    .into_bytes();
+    for v in &mesh.vertices {
+        for c in v {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for face in 0..faces {
+        let indices = &mesh.face_vertices[mesh.face_offsets[face]..mesh.face_offsets[face + 1]];
+        let count = u8::try_from(indices.len()).map_err(|_| InputError::new(path, format!("face {face}"), "more than 255 vertices"))?;
+        out.push(count);
+        for &i in indices {
+            out.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+        out.extend_from_slice(&(mesh.face_objects[face] as i32).to_le_bytes());
+    }
+    let mut file = std::io::BufWriter::new(File::create(path).map_err(|e| InputError::io(path, &e))?);
+    file.write_all(&out).and_then(|_| file.flush()).map_err(|e| InputError::io(path, &e))
+}

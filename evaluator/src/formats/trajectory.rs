@@ -6,6 +6,7 @@ use std::path::Path;
 use nalgebra::Matrix4;
 
 use crate::error::{InputError, Result};
+use crate::numeric::c_exponent;
 
 /// Camera-to-world poses, one per frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,9 +70,7 @@ impl Trajectory {
 fn printf_e18(value: f64) -> String {
     let text = format!("{value:.18e}");
     let (mantissa, exponent) = text.split_once('e').expect("LowerExp has an exponent");
-    let exponent: i32 = exponent.parse().expect("integer exponent");
-    let sign = if exponent < 0 { '-' } else { '+' };
-    format!("{mantissa}e{sign}{:02}", exponent.abs())
+    format!("{mantissa}{}", c_exponent(exponent.parse().expect("integer exponent")))
 }
 
 #[cfg(test)]

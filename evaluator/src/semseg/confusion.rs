@@ -3,8 +3,13 @@
 
 use std::collections::{BTreeSet, HashMap};
 
+use rayon::prelude::*;
+
 /// The label of "no class from the vocabulary" (the last row and column).
 pub const UNMATCHED: i64 = -1;
+
+/// Points counted per parallel task (integer counts add up exactly in any order).
+const COUNT_CHUNK: usize = 1 << 20;
 
 /// A square matrix of point counts indexed by class label.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -37,13 +42,26 @@ impl ConfusionMatrix {
         let n = labels.len();
         let position: HashMap<i64, usize> = labels.iter().enumerate().map(|(i, &l)| (l, i)).collect();
         let lookup = DenseLookup::new(&position);
-        let mut counts = vec![0u64; n * n];
-        for (&g, &p) in ground_truth.iter().zip(predicted) {
-            // The -1 row is kept (it only arises from mesh ground truth), as the reference does.
-            let Some(row) = lookup.get(g) else { continue };
-            let col = lookup.get(p).unwrap_or(n - 1);
-            counts[row * n + col] += 1;
-        }
+        let counts = ground_truth
+            .par_chunks(COUNT_CHUNK)
+            .zip(predicted.par_chunks(COUNT_CHUNK))
+            .map(|(gt, pred)| {
+                let mut counts = vec![0u64; n * n];
+                for (&g, &p) in gt.iter().zip(pred) {
+                    // The -1 row is kept (it only arises from mesh ground truth), as the reference does.
+                    let Some(row) = lookup.get(g) else { continue };
+                    let col = lookup.get(p).unwrap_or(n - 1);
+                    counts[row * n + col] += 1;
+                }
+                counts
+            })
+            .reduce(
+                || vec![0u64; n * n],
+                |mut a, b| {
+                    a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                    a
+                },
+            );
         Self { labels, counts }
     }
 

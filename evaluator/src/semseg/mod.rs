@@ -14,10 +14,12 @@ pub mod report;
 
 use std::time::{Duration, Instant};
 
+use rayon::prelude::*;
+
 pub use confusion::ConfusionMatrix;
 pub use metrics::{ClassScore, SegmentationMetrics};
 pub use nearest::NearestIndex;
-pub use report::{MetricTriple, MetricsTable};
+pub use report::{LightingComparison, MetricTriple, MetricsTable};
 
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
@@ -33,8 +35,7 @@ pub struct Vocabulary {
 impl Vocabulary {
     /// Sorted unique ground-truth labels without 0 ("other") and -1 ("none").
     pub fn from_ground_truth(labels: &[i64]) -> Self {
-        let mut ids: Vec<i64> = labels.iter().copied().filter(|l| !metrics::EXCLUDED_LABELS.contains(l)).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
-        ids.shrink_to_fit();
+        let ids = crate::label_set::unique_labels(labels).into_iter().filter(|l| !metrics::EXCLUDED_LABELS.contains(l)).collect();
         Self { ids }
     }
 
@@ -103,7 +104,7 @@ pub fn score_scene(ground_truth: &GroundTruth, map: &PredictedMap, classes: &Cla
     timings.query = clock.elapsed();
 
     let clock = Instant::now();
-    let predicted: Vec<i64> = nearest.iter().map(|&i| point_labels[i as usize]).collect();
+    let predicted: Vec<i64> = nearest.par_iter().map(|&i| point_labels[i as usize]).collect();
     drop(nearest);
     let confusion = ConfusionMatrix::from_labels(&ground_truth.labels, &predicted, vocabulary.ids());
     let metrics = SegmentationMetrics::from_confusion(&confusion);

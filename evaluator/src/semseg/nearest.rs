@@ -3,24 +3,41 @@
 //! `knn_points` does (float32, `((dx² + dy²) + dz²)`, no fused multiply-add), with
 //! equal distances going to the lowest point index.
 //!
-//! The index is a balanced k-d tree with tight bounding boxes. Pruning is exact, not
-//! approximate: a box's lower bound is computed with the same float32 operations as a
-//! point's distance, and rounding is monotone, so no point inside a pruned box can
-//! have a smaller (or equal and lower-indexed) computed distance.
+//! The index is a balanced k-d tree (median splits on the widest axis) whose nodes
+//! also keep tight bounding boxes and the smallest point index below them. Pruning is
+//! exact, not approximate: every lower bound (distance to a split plane or to a box)
+//! is computed with the same float32 operations as a point's distance, and rounding
+//! is monotone, so no point behind a pruned bound can have a smaller computed
+//! distance, nor an equal one with a lower index.
 
 use rayon::prelude::*;
 
 /// Points per leaf at most.
-const LEAF_SIZE: usize = 12;
-/// Queries handled together by one thread (they share a warm start).
+const LEAF_SIZE: usize = 16;
+/// Queries handled in order by one thread (each warm-starts from its predecessor).
 const QUERY_CHUNK: usize = 4096;
+
+/// A node's bounding box and the smallest original index below it.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
+struct Node {
+    min: [f32; 3],
+    max: [f32; 3],
+    min_id: u32,
+}
+
+/// The split plane of an internal node: left points have `p[axis] <= pivot`, right
+/// points `>= pivot`. Kept apart from the boxes so the descent touches little memory.
+#[derive(Debug, Clone, Copy)]
+struct Split {
+    pivot: f32,
+    axis: u32,
+}
 
 /// A k-d tree over predicted points, answering exact nearest-point queries.
 pub struct NearestIndex {
-    /// Tree depth: leaves are at this level (the root is level 0).
+    /// Leaves are at this level (the root, node 1, is level 0; node i has children 2i, 2i+1).
     depth: u32,
-    /// Number of indexed points.
-    len: usize,
     /// Positions in tree order, structure of arrays.
     xs: Vec<f32>,
     ys: Vec<f32>,
@@ -29,12 +46,12 @@ pub struct NearestIndex {
     ids: Vec<u32>,
     /// Positions in original order (warm starts look points up by id).
     original: Vec<[f32; 3]>,
-    /// Start of each leaf's points in tree order, plus the end (leaves left to right).
+    /// Start of each leaf's points in tree order, then the end (leaves left to right).
     leaf_bounds: Vec<usize>,
-    /// Per node (heap numbering from 1): bounding box and smallest original index.
-    box_min: Vec<[f32; 3]>,
-    box_max: Vec<[f32; 3]>,
-    min_id: Vec<u32>,
+    /// Split of each internal node (index 0 unused).
+    splits: Vec<Split>,
+    /// Box of every node, heap-numbered from 1.
+    nodes: Vec<Node>,
 }
 
 /// Squared distance exactly as pytorch3d accumulates it in float32.
@@ -46,26 +63,24 @@ fn squared_distance(q: [f32; 3], x: f32, y: f32, z: f32) -> f32 {
     (dx * dx + dy * dy) + dz * dz
 }
 
-/// A lower bound of `squared_distance` from `q` to any point inside the box.
+/// A lower bound of `squared_distance` from `q` to any point inside the node's box.
+/// Per axis the gap is `min − q` below the box, `q − max` above it and 0 inside.
 #[inline(always)]
-fn box_bound(q: [f32; 3], min: [f32; 3], max: [f32; 3]) -> f32 {
-    let gap = |a: usize| {
-        if q[a] < min[a] {
-            min[a] - q[a]
-        } else if q[a] > max[a] {
-            q[a] - max[a]
-        } else {
-            0.0
-        }
-    };
+fn box_bound(q: [f32; 3], node: &Node) -> f32 {
+    let gap = |a: usize| (node.min[a] - q[a]).max(q[a] - node.max[a]).max(0.0);
     let (gx, gy, gz) = (gap(0), gap(1), gap(2));
     (gx * gx + gy * gy) + gz * gz
 }
 
 /// Whether candidate (distance, id) beats the current best under the tie rule.
 #[inline(always)]
-fn better(d: f32, id: u32, best_d: f32, best_id: u32) -> bool {
-    d < best_d || (d == best_d && id < best_id)
+fn better(d: f32, id: u32, best: (f32, u32)) -> bool {
+    d < best.0 || (d == best.0 && id < best.1)
+}
+
+/// The axis along which a box is widest (the split rule of the build).
+fn widest_axis(lo: [f32; 3], hi: [f32; 3]) -> usize {
+    (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).expect("three axes")
 }
 
 impl NearestIndex {
@@ -75,111 +90,107 @@ impl NearestIndex {
         assert!(points.len() < u32::MAX as usize, "too many points for 32-bit ids");
         let n = points.len();
         let mut depth = 0u32;
-        while (n >> depth) > LEAF_SIZE {
+        while n.div_ceil(1 << depth) > LEAF_SIZE {
             depth += 1;
         }
         let mut order: Vec<u32> = (0..n as u32).collect();
         split(points, &mut order, depth);
-        let xs = order.iter().map(|&i| points[i as usize][0]).collect();
-        let ys = order.iter().map(|&i| points[i as usize][1]).collect();
-        let zs = order.iter().map(|&i| points[i as usize][2]).collect();
-        let nodes = 1usize << (depth + 1);
+        let first_leaf = 1usize << depth;
         let mut index = Self {
             depth,
-            len: n,
-            xs,
-            ys,
-            zs,
+            xs: order.iter().map(|&i| points[i as usize][0]).collect(),
+            ys: order.iter().map(|&i| points[i as usize][1]).collect(),
+            zs: order.iter().map(|&i| points[i as usize][2]).collect(),
             ids: order,
             original: points.to_vec(),
-            leaf_bounds: Vec::new(),
-            box_min: vec![[f32::INFINITY; 3]; nodes],
-            box_max: vec![[f32::NEG_INFINITY; 3]; nodes],
-            min_id: vec![u32::MAX; nodes],
+            leaf_bounds: Vec::with_capacity(first_leaf + 1),
+            splits: vec![Split { pivot: 0.0, axis: 0 }; first_leaf],
+            nodes: vec![Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX }; 2 * first_leaf],
         };
-        index.fill_boxes();
+        index.fill_nodes(n);
         index
     }
 
-    /// The point range of node `node` at level `level`.
-    fn range(&self, node: usize, level: u32) -> (usize, usize) {
-        // Walk from the root following the bits of the heap index.
-        let (mut start, mut end) = (0usize, self.len);
-        for bit in (0..level).rev() {
-            let mid = start + (end - start) / 2;
-            if (node >> bit) & 1 == 0 {
-                end = mid;
-            } else {
-                start = mid;
-            }
-        }
-        (start, end)
-    }
-
-    fn fill_boxes(&mut self) {
+    /// Leaf ranges, boxes bottom-up, and the split plane the build used at each node.
+    fn fill_nodes(&mut self, n: usize) {
         let first_leaf = 1usize << self.depth;
-        self.leaf_bounds = (first_leaf..first_leaf * 2).map(|node| self.range(node, self.depth).0).collect();
-        self.leaf_bounds.push(self.len);
-        for node in first_leaf..first_leaf * 2 {
-            let (start, end) = (self.leaf_bounds[node - first_leaf], self.leaf_bounds[node - first_leaf + 1]);
-            let (mut lo, mut hi, mut min_id) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3], u32::MAX);
+        // Ranges follow the build's rule: a range splits at its middle position.
+        let mut ranges = vec![(0usize, n); 2 * first_leaf];
+        for node in 1..first_leaf {
+            let (start, end) = ranges[node];
+            let mid = start + (end - start) / 2;
+            ranges[2 * node] = (start, mid);
+            ranges[2 * node + 1] = (mid, end);
+        }
+        self.leaf_bounds = (first_leaf..2 * first_leaf).map(|node| ranges[node].0).collect();
+        self.leaf_bounds.push(n);
+        for node in first_leaf..2 * first_leaf {
+            let (start, end) = ranges[node];
+            let leaf = &mut self.nodes[node];
             for i in start..end {
                 let p = [self.xs[i], self.ys[i], self.zs[i]];
                 for a in 0..3 {
-                    lo[a] = lo[a].min(p[a]);
-                    hi[a] = hi[a].max(p[a]);
+                    leaf.min[a] = leaf.min[a].min(p[a]);
+                    leaf.max[a] = leaf.max[a].max(p[a]);
                 }
-                min_id = min_id.min(self.ids[i]);
+                leaf.min_id = leaf.min_id.min(self.ids[i]);
             }
-            self.box_min[node] = lo;
-            self.box_max[node] = hi;
-            self.min_id[node] = min_id;
         }
         for node in (1..first_leaf).rev() {
-            let (l, r) = (2 * node, 2 * node + 1);
-            for a in 0..3 {
-                self.box_min[node][a] = self.box_min[l][a].min(self.box_min[r][a]);
-                self.box_max[node][a] = self.box_max[l][a].max(self.box_max[r][a]);
+            let (l, r) = (self.nodes[2 * node], self.nodes[2 * node + 1]);
+            let min = std::array::from_fn(|a| l.min[a].min(r.min[a]));
+            let max = std::array::from_fn(|a| l.max[a].max(r.max[a]));
+            // The node's box is the box of its points, so this is the axis the build chose.
+            let axis = widest_axis(min, max);
+            // Left points are <= the median element, which is among the right points and
+            // the smallest of them along the axis (later splits move it, not its value).
+            self.splits[node] = Split { pivot: r.min[axis], axis: axis as u32 };
+            self.nodes[node] = Node { min, max, min_id: l.min_id.min(r.min_id) };
+        }
+    }
+
+    /// Improve `best` with every point of leaf `leaf` (0-based, left to right).
+    #[inline(always)]
+    fn scan_leaf(&self, q: [f32; 3], leaf: usize, best: &mut (f32, u32)) {
+        for i in self.leaf_bounds[leaf]..self.leaf_bounds[leaf + 1] {
+            let d = squared_distance(q, self.xs[i], self.ys[i], self.zs[i]);
+            if better(d, self.ids[i], *best) {
+                *best = (d, self.ids[i]);
             }
-            self.min_id[node] = self.min_id[l].min(self.min_id[r]);
+        }
+    }
+
+    /// Search the subtree of `node`, nearer child first.
+    fn search(&self, q: [f32; 3], node: usize, best: &mut (f32, u32)) {
+        let first_leaf = 1usize << self.depth;
+        if node >= first_leaf {
+            self.scan_leaf(q, node - first_leaf, best);
+            return;
+        }
+        let Split { pivot, axis } = self.splits[node];
+        let axis = axis as usize;
+        let (near, far, gap) = if q[axis] <= pivot { (2 * node, 2 * node + 1, pivot - q[axis]) } else { (2 * node + 1, 2 * node, q[axis] - pivot) };
+        // The near side holds q's own region: descending without a bound check is
+        // cheaper than the check, which almost always passes.
+        self.search(q, near, best);
+        // The far side lies beyond the split plane (a bound needing no memory beyond
+        // the split); only if that cannot rule it out is its box consulted.
+        let plane = gap * gap;
+        if plane > best.0 {
+            return;
+        }
+        let far_node = &self.nodes[far];
+        if better(plane, far_node.min_id, *best) && better(box_bound(q, far_node), far_node.min_id, *best) {
+            self.search(q, far, best);
         }
     }
 
     /// Index of the nearest point to `q`, starting from a known candidate `hint`.
     fn nearest_from(&self, q: [f32; 3], hint: u32) -> u32 {
         let h = self.original[hint as usize];
-        let (mut best_d, mut best_id) = (squared_distance(q, h[0], h[1], h[2]), hint);
-        let first_leaf = 1usize << self.depth;
-        // (node, lower bound) still to visit; the nearer child is visited first.
-        let mut stack = [(0usize, 0f32); 64];
-        let mut top = 1;
-        stack[0] = (1, box_bound(q, self.box_min[1], self.box_max[1]));
-        while top > 0 {
-            top -= 1;
-            let (node, bound) = stack[top];
-            if !better(bound, self.min_id[node], best_d, best_id) {
-                continue;
-            }
-            if node >= first_leaf {
-                let (start, end) = (self.leaf_bounds[node - first_leaf], self.leaf_bounds[node - first_leaf + 1]);
-                for i in start..end {
-                    let d = squared_distance(q, self.xs[i], self.ys[i], self.zs[i]);
-                    if better(d, self.ids[i], best_d, best_id) {
-                        best_d = d;
-                        best_id = self.ids[i];
-                    }
-                }
-                continue;
-            }
-            let (l, r) = (2 * node, 2 * node + 1);
-            let bl = box_bound(q, self.box_min[l], self.box_max[l]);
-            let br = box_bound(q, self.box_min[r], self.box_max[r]);
-            let (near, near_b, far, far_b) = if bl <= br { (l, bl, r, br) } else { (r, br, l, bl) };
-            stack[top] = (far, far_b);
-            stack[top + 1] = (near, near_b);
-            top += 2;
-        }
-        best_id
+        let mut best = (squared_distance(q, h[0], h[1], h[2]), hint);
+        self.search(q, 1, &mut best);
+        best.1
     }
 
     /// Index of the nearest indexed point to `q` (ties to the lowest index).
@@ -216,7 +227,7 @@ fn split(points: &[[f32; 3]], order: &mut [u32], depth: u32) {
             hi[a] = hi[a].max(p[a]);
         }
     }
-    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).expect("three axes");
+    let axis = widest_axis(lo, hi);
     let mid = order.len() / 2;
     order.select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
     let (left, right) = order.split_at_mut(mid);
@@ -233,7 +244,7 @@ pub fn nearest_brute_force(points: &[[f32; 3]], q: [f32; 3]) -> u32 {
     let mut best = (f32::INFINITY, u32::MAX);
     for (i, p) in points.iter().enumerate() {
         let d = squared_distance(q, p[0], p[1], p[2]);
-        if better(d, i as u32, best.0, best.1) {
+        if better(d, i as u32, best) {
             best = (d, i as u32);
         }
     }

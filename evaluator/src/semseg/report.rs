@@ -77,3 +77,45 @@ impl MetricsTable {
         out
     }
 }
+
+/// The tables of several lightings of one method, compared against a baseline lighting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightingComparison {
+    /// The baseline lighting's name.
+    pub baseline: String,
+    /// Every lighting (the baseline first, then by name) with its table.
+    pub lightings: Vec<(String, MetricsTable)>,
+}
+
+impl LightingComparison {
+    /// Compare `lightings` against the one named `baseline`; `None` when it is absent.
+    pub fn new(baseline: &str, mut lightings: Vec<(String, MetricsTable)>) -> Option<Self> {
+        lightings.sort_by(|(a, _), (b, _)| (a != baseline, a).cmp(&(b != baseline, b)));
+        (lightings.first()?.0 == baseline).then(|| Self { baseline: baseline.to_string(), lightings })
+    }
+
+    /// `lighting,aggregate,miou,fmiou,macc,miou_change,fmiou_change,macc_change`: for each
+    /// lighting the pooled `overall` and the `overall_mean` rows, with the relative change
+    /// against the baseline's same row.
+    pub fn to_csv(&self) -> String {
+        let cell = |v: f64| if v.is_nan() { String::new() } else { python_repr(v) };
+        let rows = |t: &MetricsTable| [("overall", MetricTriple::from(&t.overall)), ("overall_mean", t.overall_mean)];
+        let base = rows(&self.lightings[0].1);
+        let mut out = String::from("lighting,aggregate,miou,fmiou,macc,miou_change,fmiou_change,macc_change\n");
+        for (name, table) in &self.lightings {
+            for ((aggregate, value), (_, baseline)) in rows(table).into_iter().zip(base) {
+                let change = value.relative_change(&baseline);
+                out.push_str(&format!(
+                    "{name},{aggregate},{},{},{},{},{},{}\n",
+                    cell(value.miou),
+                    cell(value.fmiou),
+                    cell(value.macc),
+                    cell(change.miou),
+                    cell(change.fmiou),
+                    cell(change.macc)
+                ));
+            }
+        }
+        out
+    }
+}

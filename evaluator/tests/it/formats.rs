@@ -1,7 +1,7 @@
 //! Every reader accepts what the reference writes and rejects bad input with an
 //! error that names the file, the field and the expectation.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use osmab_evaluator::formats::camera::CameraParams;
 use osmab_evaluator::formats::classes::ClassList;
@@ -9,7 +9,7 @@ use osmab_evaluator::formats::map::{FeatureMatrix, MapSemantics, PredictedMap};
 use osmab_evaluator::formats::npy::{NpyArray, ReadLimits};
 use osmab_evaluator::formats::npz::write_npz;
 use osmab_evaluator::formats::pcd::{PointCloud, read_pcd, write_pcd};
-use osmab_evaluator::formats::ply::read_semantic_mesh;
+use osmab_evaluator::formats::ply::{SemanticMesh, read_semantic_mesh, write_semantic_mesh};
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::InputError;
@@ -226,6 +226,17 @@ fn semantic_meshes_are_read_in_ascii_and_binary() {
 
     std::fs::write(&binary, &bytes[..bytes.len() - 2]).unwrap();
     assert!(read_semantic_mesh(&binary).unwrap_err().message.contains("truncated"));
+
+    // What we write, we read back.
+    let mesh = SemanticMesh { vertices: vec![[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [6.0, 7.0, 8.0]], face_vertices: vec![0, 1, 2], face_offsets: vec![0, 3], face_objects: vec![9] };
+    let written = dir.path().join("written.ply");
+    write_semantic_mesh(&written, &mesh).unwrap();
+    assert_eq!(read_semantic_mesh(&written).unwrap(), mesh);
+
+    // A face pointing past the vertices is named.
+    let bad = dir.path().join("bad.ply");
+    write_semantic_mesh(&bad, &SemanticMesh { face_vertices: vec![0, 1, 7], ..mesh }).unwrap();
+    assert!(read_semantic_mesh(&bad).unwrap_err().message.contains("vertex index 7"));
 }
 
 #[test]
@@ -255,5 +266,4 @@ fn class_lists_reject_duplicates_and_accept_the_double_wrapped_variant() {
     assert_eq!(ClassList::read(&path).unwrap().name(3), Some("chair"));
     std::fs::write(&path, r#"{"classes": [{"name": "a", "id": 1}, {"name": "b", "id": 1}]}"#).unwrap();
     assert!(ClassList::read(&path).unwrap_err().message.contains("listed twice"));
-    let _ = PathBuf::new();
 }

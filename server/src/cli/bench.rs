@@ -27,6 +27,9 @@ pub enum BenchCommand {
         /// Random seed.
         #[arg(long, default_value_t = 7)]
         seed: u64,
+        /// Let the map cover the floor, walls and ceiling too (no far-away queries).
+        #[arg(long)]
+        map_covers_room: bool,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -39,13 +42,16 @@ pub enum BenchCommand {
         map_points: usize,
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// Let the map cover the floor, walls and ceiling too.
+        #[arg(long)]
+        map_covers_room: bool,
     },
 }
 
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
-        BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, out } => {
-            let scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed });
+        BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, map_covers_room, out } => {
+            let scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room });
             let gt_dir = out.join("gt");
             scene.ground_truth.write(&gt_dir)?;
             scene.classes.write(&gt_dir.join("embed_semseg_classes.json"))?;
@@ -54,8 +60,8 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             println!("{}: {gt_points} ground-truth points, {map_points} map points", out.display());
             Ok(())
         }
-        BenchCommand::Nearest { gt_points, map_points, repeat } => {
-            let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7 });
+        BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
+            let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
             println!("threads {}", rayon::current_num_threads());
             for run in 0..repeat {
                 let clock = Instant::now();

@@ -11,7 +11,7 @@ use osmab_evaluator::formats::map::{PredictedMap, TextFeatures};
 use osmab_evaluator::formats::npy::ReadLimits;
 use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::numeric::python_repr;
-use osmab_evaluator::semseg::{MetricsTable, SceneScore, score_scene};
+use osmab_evaluator::semseg::{LightingComparison, MetricsTable, SceneScore, score_scene};
 
 #[derive(Debug, Subcommand)]
 pub enum EvalCommand {
@@ -19,6 +19,14 @@ pub enum EvalCommand {
     Metrics {
         /// Directory holding one `<scene>.confusion.json` per scene.
         dir: PathBuf,
+    },
+    /// Compare lightings: DIR/<lighting>/*.confusion.json; pooled and mean metrics per lighting with their relative change against the baseline.
+    Lightings {
+        /// Directory holding one sub-directory of confusion matrices per lighting.
+        dir: PathBuf,
+        /// The lighting the others are compared with.
+        #[arg(long, default_value = "baseline")]
+        baseline: String,
     },
     /// Score one map against one ground-truth directory.
     Semseg(SemsegArgs),
@@ -49,6 +57,7 @@ pub struct SemsegArgs {
 pub fn run(cmd: EvalCommand) -> anyhow::Result<()> {
     match cmd {
         EvalCommand::Metrics { dir } => metrics(&dir),
+        EvalCommand::Lightings { dir, baseline } => lightings(&dir, &baseline),
         EvalCommand::Semseg(args) => semseg(&args),
     }
 }
@@ -56,6 +65,29 @@ pub fn run(cmd: EvalCommand) -> anyhow::Result<()> {
 const CONFUSION_SUFFIX: &str = ".confusion.json";
 
 fn metrics(dir: &Path) -> anyhow::Result<()> {
+    print!("{}", metrics_table(dir)?.to_csv());
+    Ok(())
+}
+
+fn lightings(dir: &Path, baseline: &str) -> anyhow::Result<()> {
+    let mut tables = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("{}: cannot read directory", dir.display()))? {
+        let path = entry?.path();
+        if path.is_dir() {
+            let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+            tables.push((name, metrics_table(&path)?));
+        }
+    }
+    let names: Vec<String> = tables.iter().map(|(n, _)| n.clone()).collect();
+    let Some(comparison) = LightingComparison::new(baseline, tables) else {
+        bail!("{}: no '{baseline}' lighting to compare with (found: {})", dir.display(), names.join(", "));
+    };
+    print!("{}", comparison.to_csv());
+    Ok(())
+}
+
+/// The metrics table of every `<scene>.confusion.json` in `dir`.
+fn metrics_table(dir: &Path) -> anyhow::Result<MetricsTable> {
     let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read directory", dir.display()))?;
     let mut scenes = Vec::new();
     for entry in entries {
@@ -68,8 +100,7 @@ fn metrics(dir: &Path) -> anyhow::Result<()> {
     if scenes.is_empty() {
         bail!("{}: no *{CONFUSION_SUFFIX} files found", dir.display());
     }
-    print!("{}", MetricsTable::from_scenes(scenes).to_csv());
-    Ok(())
+    Ok(MetricsTable::from_scenes(scenes))
 }
 
 fn semseg(args: &SemsegArgs) -> anyhow::Result<()> {

@@ -35,7 +35,7 @@ def random_pose(rng):
 
 def write_sequence(seq, frames, w, h, rng):
     (seq / "results").mkdir(parents=True)
-    fx = fy = (w / 2) / np.tan(np.radians(90) / 2)
+    fx = fy = float((w / 2) / np.tan(np.radians(90) / 2))
     cx, cy = (w - 1) / 2, (h - 1) / 2
     (seq / "camera_params.yaml").write_text(
         f"camera_params:\n  crop_edge: 0\n  cx: {cx!r}\n  cy: {cy!r}\n  fx: {fx!r}\n  fy: {fy!r}\n"

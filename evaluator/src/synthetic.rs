@@ -137,9 +137,12 @@ fn ray_box(origin: [f32; 3], dir: [f32; 3], b: &Block) -> Option<f32> {
     (near <= far && near > 1e-4).then_some(near)
 }
 
-/// Scan the room with a 1200×680 camera, keeping every 10th pixel, until enough points.
+/// Scan the room with a 1200×680 camera, keeping every 10th pixel (as the reference's
+/// down-sampling does), until enough points; small scenes keep fewer pixels a frame so
+/// that they still see the room from at least 8 viewpoints.
 fn scan(rng: &mut Rng, blocks: &[Block], wanted: usize) -> GroundTruth {
     let (w, h, f) = (1200usize, 680usize, 600.0f32);
+    let step = 10.max((w * h * 8).div_ceil(wanted.max(1)));
     let mut points = Vec::with_capacity(wanted);
     let mut labels = Vec::with_capacity(wanted);
     while points.len() < wanted {
@@ -153,7 +156,7 @@ fn scan(rng: &mut Rng, blocks: &[Block], wanted: usize) -> GroundTruth {
         let forward = [yaw.cos() * pitch.cos(), pitch.sin(), yaw.sin() * pitch.cos()];
         let right = [-yaw.sin(), 0.0, yaw.cos()];
         let up = [right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2], right[0] * forward[1] - right[1] * forward[0]];
-        for pixel in (0..w * h).step_by(10) {
+        for pixel in (0..w * h).step_by(step) {
             let (u, v) = ((pixel % w) as f32, (pixel / w) as f32);
             let (cx, cy) = ((u - 599.5) / f, (v - 339.5) / f);
             let dir: [f32; 3] = std::array::from_fn(|a| forward[a] + cx * right[a] - cy * up[a]);

@@ -1,6 +1,7 @@
 //! Point Cloud Data (`.pcd`) files as Open3D reads and writes them: `DATA binary`
 //! (what Open3D writes by default), `ascii` and `binary_compressed` are read;
-//! binary is written, with Open3D's exact header.
+//! binary is written, byte for byte as Open3D 0.20 writes it (`rgb` as `TYPE U`, the
+//! bytes B, G, R, 0; older Open3D wrote the same bytes as `TYPE F`, also read).
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Read, Write};
@@ -239,6 +240,7 @@ fn read_ascii(reader: &mut impl BufRead, header: &Header, path: &Path) -> Result
     let column_of = |name: &str| header.fields.iter().position(|f| f.name == name).map(|i| columns[i]);
     let (cx, cy, cz) = (column_of("x").expect("checked"), column_of("y").expect("checked"), column_of("z").expect("checked"));
     let rgb = column_of("rgb").or_else(|| column_of("rgba")).filter(|_| rgb_field(header).is_some());
+    let rgb_is_float = header.locate("rgb").or_else(|| header.locate("rgba")).is_some_and(|(_, f)| f.kind == 'F');
     let mut points = Vec::with_capacity(header.points.min(1 << 24));
     let mut colors = rgb.map(|_| Vec::new());
     let mut line = String::new();
@@ -262,8 +264,9 @@ fn read_ascii(reader: &mut impl BufRead, header: &Header, path: &Path) -> Result
         check_finite(p, index, path)?;
         points.push(p);
         if let (Some(c), Some(colors)) = (rgb, colors.as_mut()) {
-            let packed = values[c].parse::<f32>().map_err(|_| InputError::new(path, format!("point {index}"), "rgb is not a number"))?;
-            colors.push(unpack_rgb(packed.to_le_bytes()));
+            let bad = || InputError::new(path, format!("point {index}"), format!("rgb '{}' is not a packed colour", values[c]));
+            let bytes = if rgb_is_float { values[c].parse::<f32>().map_err(|_| bad())?.to_le_bytes() } else { values[c].parse::<u32>().map_err(|_| bad())?.to_le_bytes() };
+            colors.push(unpack_rgb(bytes));
         }
     }
     Ok(PointCloud { points, colors })
@@ -357,7 +360,7 @@ pub fn write_pcd(path: &Path, cloud: &PointCloud) -> Result<()> {
     let mut w = BufWriter::with_capacity(1 << 20, file);
     let n = cloud.points.len();
     let (fields, sizes, types, counts) = if cloud.colors.is_some() {
-        ("x y z rgb", "4 4 4 4", "F F F F", "1 1 1 1")
+        ("x y z rgb", "4 4 4 4", "F F F U", "1 1 1 1")
     } else {
         ("x y z", "4 4 4", "F F F", "1 1 1")
     };

@@ -44,8 +44,6 @@ pub struct NearestIndex {
     zs: Vec<f32>,
     /// Original index of each point in tree order.
     ids: Vec<u32>,
-    /// Positions in original order (warm starts look points up by id).
-    original: Vec<[f32; 3]>,
     /// Start of each leaf's points in tree order, then the end (leaves left to right).
     leaf_bounds: Vec<usize>,
     /// Split of each internal node (index 0 unused).
@@ -72,10 +70,18 @@ fn box_bound(q: [f32; 3], node: &Node) -> f32 {
     (gx * gx + gy * gy) + gz * gz
 }
 
+/// The best candidate so far: its distance, original index and position in tree order.
+#[derive(Debug, Clone, Copy)]
+struct Best {
+    distance: f32,
+    id: u32,
+    position: usize,
+}
+
 /// Whether candidate (distance, id) beats the current best under the tie rule.
 #[inline(always)]
-fn better(d: f32, id: u32, best: (f32, u32)) -> bool {
-    d < best.0 || (d == best.0 && id < best.1)
+fn better(d: f32, id: u32, best: &Best) -> bool {
+    d < best.distance || (d == best.distance && id < best.id)
 }
 
 /// The axis along which a box is widest (the split rule of the build).
@@ -102,7 +108,6 @@ impl NearestIndex {
             ys: order.iter().map(|&i| points[i as usize][1]).collect(),
             zs: order.iter().map(|&i| points[i as usize][2]).collect(),
             ids: order,
-            original: points.to_vec(),
             leaf_bounds: Vec::with_capacity(first_leaf + 1),
             splits: vec![Split { pivot: 0.0, axis: 0 }; first_leaf],
             nodes: vec![Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX }; 2 * first_leaf],
@@ -151,17 +156,17 @@ impl NearestIndex {
 
     /// Improve `best` with every point of leaf `leaf` (0-based, left to right).
     #[inline(always)]
-    fn scan_leaf(&self, q: [f32; 3], leaf: usize, best: &mut (f32, u32)) {
+    fn scan_leaf(&self, q: [f32; 3], leaf: usize, best: &mut Best) {
         for i in self.leaf_bounds[leaf]..self.leaf_bounds[leaf + 1] {
             let d = squared_distance(q, self.xs[i], self.ys[i], self.zs[i]);
-            if better(d, self.ids[i], *best) {
-                *best = (d, self.ids[i]);
+            if better(d, self.ids[i], best) {
+                *best = Best { distance: d, id: self.ids[i], position: i };
             }
         }
     }
 
     /// Search the subtree of `node`, nearer child first.
-    fn search(&self, q: [f32; 3], node: usize, best: &mut (f32, u32)) {
+    fn search(&self, q: [f32; 3], node: usize, best: &mut Best) {
         let first_leaf = 1usize << self.depth;
         if node >= first_leaf {
             self.scan_leaf(q, node - first_leaf, best);
@@ -176,26 +181,27 @@ impl NearestIndex {
         // The far side lies beyond the split plane (a bound needing no memory beyond
         // the split); only if that cannot rule it out is its box consulted.
         let plane = gap * gap;
-        if plane > best.0 {
+        if plane > best.distance {
             return;
         }
         let far_node = &self.nodes[far];
-        if better(plane, far_node.min_id, *best) && better(box_bound(q, far_node), far_node.min_id, *best) {
+        if better(plane, far_node.min_id, best) && better(box_bound(q, far_node), far_node.min_id, best) {
             self.search(q, far, best);
         }
     }
 
-    /// Index of the nearest point to `q`, starting from a known candidate `hint`.
-    fn nearest_from(&self, q: [f32; 3], hint: u32) -> u32 {
-        let h = self.original[hint as usize];
-        let mut best = (squared_distance(q, h[0], h[1], h[2]), hint);
+    /// The nearest point to `q`, starting from the candidate at tree position `hint`
+    /// (a neighbour's answer, whose coordinates are still in cache).
+    fn nearest_from(&self, q: [f32; 3], hint: usize) -> Best {
+        let distance = squared_distance(q, self.xs[hint], self.ys[hint], self.zs[hint]);
+        let mut best = Best { distance, id: self.ids[hint], position: hint };
         self.search(q, 1, &mut best);
-        best.1
+        best
     }
 
     /// Index of the nearest indexed point to `q` (ties to the lowest index).
     pub fn nearest(&self, q: [f32; 3]) -> u32 {
-        self.nearest_from(q, self.ids[0])
+        self.nearest_from(q, 0).id
     }
 
     /// The nearest indexed point of every query, in parallel. Consecutive queries
@@ -203,10 +209,11 @@ impl NearestIndex {
     pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
         let mut out = vec![0u32; queries.len()];
         out.par_chunks_mut(QUERY_CHUNK).zip(queries.par_chunks(QUERY_CHUNK)).for_each(|(answers, qs)| {
-            let mut hint = self.ids[0];
+            let mut hint = 0;
             for (answer, &q) in answers.iter_mut().zip(qs) {
-                hint = self.nearest_from(q, hint);
-                *answer = hint;
+                let best = self.nearest_from(q, hint);
+                hint = best.position;
+                *answer = best.id;
             }
         });
         out
@@ -241,12 +248,12 @@ fn split(points: &[[f32; 3]], order: &mut [u32], depth: u32) {
 
 /// The nearest point by exhaustive search (the specification the index must match).
 pub fn nearest_brute_force(points: &[[f32; 3]], q: [f32; 3]) -> u32 {
-    let mut best = (f32::INFINITY, u32::MAX);
+    let mut best = Best { distance: f32::INFINITY, id: u32::MAX, position: 0 };
     for (i, p) in points.iter().enumerate() {
         let d = squared_distance(q, p[0], p[1], p[2]);
-        if better(d, i as u32, best) {
-            best = (d, i as u32);
+        if better(d, i as u32, &best) {
+            best = Best { distance: d, id: i as u32, position: i };
         }
     }
-    best.1
+    best.id
 }

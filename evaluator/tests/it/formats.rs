@@ -116,7 +116,7 @@ fn pcd_binary_as_open3d_writes_it_round_trips() {
     let path = dir.path().join("pointcloud.pcd");
     write_pcd(&path, &cloud()).unwrap();
     let bytes = std::fs::read(&path).unwrap();
-    let header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA binary\n";
+    let header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA binary\n";
     assert!(bytes.starts_with(header.as_bytes()));
     assert_eq!(bytes.len(), header.len() + 2 * 16);
     // Colour bytes are B, G, R, 0 inside the rgb float.
@@ -134,6 +134,9 @@ fn pcd_ascii_and_compressed_are_read() {
         format!("VERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0.5 -1.25 3 {packed:e}\n0.001 2 -7.5 {:e}\n", f32::from_le_bytes([3, 2, 1, 0])),
     )
     .unwrap();
+    assert_eq!(read_pcd(&ascii).unwrap(), cloud());
+    // Open3D 0.20 writes rgb as an unsigned integer.
+    std::fs::write(&ascii, format!("FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nPOINTS 2\nDATA ascii\n0.5 -1.25 3 {}\n0.001 2 -7.5 {}\n", u32::from_le_bytes([10, 0, 255, 0]), u32::from_le_bytes([3, 2, 1, 0]))).unwrap();
     assert_eq!(read_pcd(&ascii).unwrap(), cloud());
 
     // binary_compressed with a literal-only LZF block holding x, y, z columns.

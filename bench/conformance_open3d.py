@@ -100,8 +100,19 @@ def main():
     ap.add_argument("--width", type=int, default=160)
     ap.add_argument("--height", type=int, default=120)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--write-fixture", type=Path,
+                    help="write the sequence and Open3D's ground truth to this directory (for the Rust tests) and stop")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
+    if args.write_fixture:
+        out = args.write_fixture
+        poses, intrinsic = write_sequence(out / "sequence", args.frames, args.width, args.height, rng)
+        reference(out / "sequence", poses, intrinsic, out / "open3d")
+        (out / "README.md").write_text(
+            "Written by `bench/conformance_open3d.py --write-fixture` with Open3D "
+            f"{o3d.__version__}: `sequence/` is a random HaDaGe-style sequence, `open3d/` the ground truth that "
+            "OSMa-Bench's run_slam.py procedure gives for it when run with Open3D itself.\n")
+        return
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         poses, intrinsic = write_sequence(tmp / "seq", args.frames, args.width, args.height, rng)

@@ -10,7 +10,7 @@ use serde::Deserialize;
 
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
-use crate::formats::image::{read_jpeg_rgb, read_png_gray16};
+use crate::formats::image::{GrayImage16, read_jpeg_rgb, read_png_gray16};
 use crate::formats::npy::{NpyArray, ReadLimits, read_npy_file, write_npy_file};
 use crate::formats::pcd::{PointCloud, read_pcd, write_pcd};
 use crate::formats::ply::{read_semantic_mesh, vertex_labels};
@@ -21,7 +21,8 @@ use crate::label_set::unique_labels;
 pub const FRAME_STRIDE: usize = 5;
 /// Every `POINT_STRIDE`-th point of the concatenated cloud is kept (`--downsample_rate 10`).
 pub const POINT_STRIDE: usize = 10;
-/// Frames decoded at once; bounds memory while keeping both cores busy.
+/// Frames decoded at once; bounds memory (only their images and the kept points are
+/// held) while keeping both cores busy.
 const FRAMES_PER_BATCH: usize = 8;
 
 /// Labelled ground-truth points of one scene.
@@ -95,32 +96,47 @@ impl GroundTruth {
     /// and moved to the world by its pose; all frames concatenated; every 10th point kept.
     pub fn build(sequence: &Sequence) -> Result<Self> {
         let classes = sequence.classes()?;
+        let camera = &sequence.camera;
+        if camera.crop_edge != 0 {
+            return Err(InputError::new(sequence.dir.join("camera_params.yaml"), "camera_params.crop_edge", format!("expected 0 (HaDaGe never crops), found {}", camera.crop_edge)));
+        }
+        let scale = camera.png_depth_scale as f32;
+        if !scale.is_normal() {
+            return Err(InputError::new(sequence.dir.join("camera_params.yaml"), "camera_params.png_depth_scale", "must be a normal float32 number (Open3D divides by it in float32)"));
+        }
         let frames: Vec<usize> = (0..sequence.len().saturating_sub(1)).step_by(FRAME_STRIDE).collect();
         if frames.is_empty() {
             return Err(InputError::new(&sequence.dir, "results", "a ground truth needs at least two frames (the last one is never used)"));
         }
-        let mut points = Vec::new();
-        let mut colors = Vec::new();
-        let mut labels = Vec::new();
-        let mut seen = 0usize; // points of the concatenated cloud so far
+        let mut cloud = FrameCloud::default();
+        let mut seen = 0usize; // points of the concatenated cloud before the current frame
         for batch in frames.chunks(FRAMES_PER_BATCH) {
-            let clouds: Vec<FrameCloud> = batch.par_iter().map(|&f| back_project(sequence, f)).collect::<Result<_>>()?;
-            for cloud in clouds {
-                // Keep global indices 0, 10, 20, ... of the concatenation.
-                let first = (POINT_STRIDE - seen % POINT_STRIDE) % POINT_STRIDE;
-                for i in (first..cloud.points.len()).step_by(POINT_STRIDE) {
-                    points.push(cloud.points[i]);
-                    colors.push(cloud.colors[i]);
-                    labels.push(cloud.labels[i]);
-                }
-                seen += cloud.points.len();
+            let depths: Vec<GrayImage16> = batch
+                .par_iter()
+                .map(|&f| read_png_gray16(&sequence.depth_frames[f], Some((camera.image_width, camera.image_height))))
+                .collect::<Result<_>>()?;
+            // Which of each frame's valid pixels survive the every-10th thinning.
+            let mut firsts = Vec::with_capacity(batch.len());
+            for depth in &depths {
+                firsts.push((POINT_STRIDE - seen % POINT_STRIDE) % POINT_STRIDE);
+                seen += depth.pixels.iter().filter(|&&d| d > 0).count();
+            }
+            let parts: Vec<FrameCloud> = batch
+                .par_iter()
+                .zip(depths.par_iter().zip(firsts.par_iter()))
+                .map(|(&f, (depth, &first))| back_project(sequence, f, depth, first))
+                .collect::<Result<_>>()?;
+            for part in parts {
+                cloud.points.extend(part.points);
+                cloud.colors.extend(part.colors);
+                cloud.labels.extend(part.labels);
             }
         }
-        if points.is_empty() {
+        if cloud.points.is_empty() {
             return Err(InputError::new(&sequence.dir, "results/depth*.png", "no pixel has a depth above 0"));
         }
-        check_labels(&labels, &classes, &sequence.dir.join("results"))?;
-        Ok(Self { source: sequence.dir.clone(), points, colors: Some(colors), labels })
+        check_labels(&cloud.labels, &classes, &sequence.dir.join("results"))?;
+        Ok(Self { source: sequence.dir.clone(), points: cloud.points, colors: Some(cloud.colors), labels: cloud.labels })
     }
 }
 
@@ -135,51 +151,47 @@ fn check_labels(labels: &[i64], classes: &ClassList, file: &Path) -> Result<()> 
     }
 }
 
-/// The full-resolution cloud of one frame.
+/// The kept points of one frame.
+#[derive(Default)]
 struct FrameCloud {
     points: Vec<[f32; 3]>,
     colors: Vec<[u8; 3]>,
     labels: Vec<i64>,
 }
 
-/// Back-project frame `index` with Open3D's arithmetic: depth as float32
+/// Back-project the kept pixels of frame `index` (its valid pixels number `first`,
+/// `first + 10`, ... in row-major order) with Open3D's arithmetic: depth as float32
 /// `png / png_depth_scale`, `x = (u − cx)·z/fx` and `y = (v − cy)·z/fy` in float64,
 /// then the camera-to-world pose applied in float64 and stored as float32.
-fn back_project(sequence: &Sequence, index: usize) -> Result<FrameCloud> {
+fn back_project(sequence: &Sequence, index: usize, depth: &GrayImage16, first: usize) -> Result<FrameCloud> {
     let camera = &sequence.camera;
-    let depth_path = &sequence.depth_frames[index];
-    let semantic_path = &sequence.semantic_frames[index];
-    let color_path = &sequence.color_frames[index];
-    let depth = read_png_gray16(depth_path)?;
-    let semantic = read_png_gray16(semantic_path)?;
-    let color = read_jpeg_rgb(color_path)?;
-    let (w, h) = (camera.image_width, camera.image_height);
-    for (path, (iw, ih)) in [(depth_path, (depth.width, depth.height)), (semantic_path, (semantic.width, semantic.height)), (color_path, (color.width, color.height))] {
-        if (iw, ih) != (w, h) {
-            return Err(InputError::new(path, "size", format!("expected {w}x{h} pixels (camera_params.yaml), found {iw}x{ih}")));
-        }
-    }
+    let size = Some((camera.image_width, camera.image_height));
+    let semantic = read_png_gray16(&sequence.semantic_frames[index], size)?;
+    let color = read_jpeg_rgb(&sequence.color_frames[index], size)?;
     let pose = &sequence.trajectory.poses[index];
     let m: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| pose[(r, c)]));
     let scale = camera.png_depth_scale as f32;
-    let valid = depth.pixels.iter().filter(|&&d| d > 0).count();
-    let mut cloud = FrameCloud { points: Vec::with_capacity(valid), colors: Vec::with_capacity(valid), labels: Vec::with_capacity(valid) };
-    for v in 0..h as usize {
-        for u in 0..w as usize {
-            let pixel = v * w as usize + u;
-            let z32 = depth.pixels[pixel] as f32 / scale;
-            if z32 <= 0.0 {
-                continue;
-            }
-            let z = z32 as f64;
-            let x = (u as f64 - camera.cx) * z / camera.fx;
-            let y = (v as f64 - camera.cy) * z / camera.fy;
-            let world = |r: usize| m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3];
-            let wh = world(3);
-            cloud.points.push([(world(0) / wh) as f32, (world(1) / wh) as f32, (world(2) / wh) as f32]);
-            cloud.colors.push([color.pixels[3 * pixel], color.pixels[3 * pixel + 1], color.pixels[3 * pixel + 2]]);
-            cloud.labels.push(semantic.pixels[pixel] as i64);
+    let w = camera.image_width as usize;
+    let mut cloud = FrameCloud::default();
+    let valid = depth.pixels.iter().enumerate().filter(|(_, d)| **d > 0).map(|(pixel, _)| pixel);
+    for pixel in valid.skip(first).step_by(POINT_STRIDE) {
+        let (u, v) = (pixel % w, pixel / w);
+        let z = (depth.pixels[pixel] as f32 / scale) as f64;
+        let x = (u as f64 - camera.cx) * z / camera.fx;
+        let y = (v as f64 - camera.cy) * z / camera.fy;
+        let world = |r: usize| m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3];
+        let wh = world(3);
+        let point = [(world(0) / wh) as f32, (world(1) / wh) as f32, (world(2) / wh) as f32];
+        if !point.iter().all(|c| c.is_finite()) {
+            return Err(InputError::new(
+                &sequence.depth_frames[index],
+                format!("pixel ({u}, {v})"),
+                "back-projects to a non-finite point; check fx, fy and the pose in traj.txt",
+            ));
         }
+        cloud.points.push(point);
+        cloud.colors.push([color.pixels[3 * pixel], color.pixels[3 * pixel + 1], color.pixels[3 * pixel + 2]]);
+        cloud.labels.push(semantic.pixels[pixel] as i64);
     }
     Ok(cloud)
 }

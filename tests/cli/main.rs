@@ -6,7 +6,9 @@ use std::process::{Command, Output};
 use osmab_evaluator::formats::camera::CameraParams;
 use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::image::{GrayImage16, RgbImage, write_jpeg_rgb, write_png_gray16};
-use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
+use osmab_evaluator::formats::map::{MapSemantics, PredictedMap, TextFeatures};
+use osmab_evaluator::formats::npy::ReadLimits;
+use osmab_evaluator::semseg::score_scene;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::ground_truth::GroundTruth;
@@ -98,10 +100,13 @@ fn eval_semseg_scores_a_map_and_writes_the_fixture_format() {
     let classes = ClassList::read(&dir.path().join("gt/embed_semseg_classes.json")).unwrap();
     let gt = GroundTruth::read(&dir.path().join("gt"), &classes).unwrap();
     assert_eq!(total, gt.labels.iter().filter(|&&l| l != 0).count() as u64, "every scored ground-truth point is counted once");
-    for metric in ["miou", "fmiou", "macc"] {
-        let v = result["metrics"][metric].as_f64().unwrap();
-        assert!((0.0..=1.0).contains(&v), "{metric} = {v}");
-    }
+    // The binary reports exactly what the library computes from the same files.
+    let map = PredictedMap::read(&dir.path().join("map.npz"), ReadLimits::default()).unwrap();
+    let text = TextFeatures::read(&dir.path().join("text_features.npz"), ReadLimits::default()).unwrap();
+    let score = score_scene(&gt, &map, &classes, Some(&text)).unwrap();
+    assert_eq!(result["labels"], serde_json::json!(score.confusion.labels()));
+    assert_eq!(result["metrics"], serde_json::json!({"miou": score.metrics.miou, "fmiou": score.metrics.fmiou, "macc": score.metrics.macc}));
+    assert!(score.metrics.miou > 0.0 && score.metrics.miou < 1.0, "a noisy map is neither perfect nor useless");
 }
 
 #[test]
@@ -140,14 +145,15 @@ fn eval_semseg_explains_what_is_missing() {
     assert!(err.contains("embed_semseg_classes.json") && err.contains("file not found"), "{err}");
 }
 
-/// A 9-frame sequence of 8×6 images in HaDaGe's layout.
+/// An 11-frame sequence of 8×6 images in HaDaGe's layout (the last frame, 10, lies on
+/// the stride and must still be left out).
 fn write_sequence(dir: &Path) {
     std::fs::create_dir_all(dir.join("results")).unwrap();
     CameraParams::from_hfov(8, 6, 90.0, 6553.5).write(&dir.join("camera_params.yaml")).unwrap();
     std::fs::write(dir.join("embed_semseg_classes.json"), r#"{"classes": [{"name": "other", "id": 0}, {"name": "chair", "id": 3}, {"name": "table", "id": 5}]}"#).unwrap();
-    let poses = (0..9).map(|f| nalgebra::Matrix4::new_translation(&nalgebra::Vector3::new(0.1 * f as f64, 1.0, 0.0))).collect();
+    let poses = (0..11).map(|f| nalgebra::Matrix4::new_translation(&nalgebra::Vector3::new(0.1 * f as f64, 1.0, 0.0))).collect();
     Trajectory { poses }.write(&dir.join("traj.txt")).unwrap();
-    for f in 0..9 {
+    for f in 0..11 {
         let depth = GrayImage16 { width: 8, height: 6, pixels: (0..48).map(|i| if i % 7 == 0 { 0 } else { 6553 + i as u16 }).collect() };
         write_png_gray16(&frame_path(dir, "depth", f), &depth).unwrap();
         let semantic = GrayImage16 { width: 8, height: 6, pixels: (0..48).map(|i| [0, 3, 5][i % 3]).collect() };
@@ -163,8 +169,8 @@ fn gt_build_writes_a_cloud_that_eval_semseg_reads() {
     write_sequence(&sequence);
     let gt_dir = dir.path().join("gt");
     let printed = stdout(&osmab(&["gt", "build", path(&sequence), "--out", path(&gt_dir)]));
-    // Frames 0 and 5 (the last, 8, is excluded), 41 valid pixels each, every 10th point.
-    assert!(printed.contains("9 points from 9 frames"), "{printed}");
+    // Frames 0 and 5 (frame 10 is the last and excluded), 41 valid pixels each, every 10th point.
+    assert!(printed.contains("9 points from 11 frames"), "{printed}");
     let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json")).unwrap();
     let gt = GroundTruth::read(&gt_dir, &classes).unwrap();
     assert_eq!(gt.points.len(), 9);

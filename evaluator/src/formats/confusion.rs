@@ -8,6 +8,9 @@ use serde::{Deserialize, Serialize};
 use crate::error::{InputError, Result};
 use crate::semseg::ConfusionMatrix;
 
+/// Largest total count accepted: 2^53, the largest integer float64 holds exactly.
+const MAX_TOTAL: u64 = 1 << 53;
+
 #[derive(Serialize, Deserialize)]
 struct ConfusionJson {
     labels: Vec<i64>,
@@ -25,10 +28,15 @@ pub fn read_confusion(path: &Path) -> Result<ConfusionMatrix> {
         return Err(InputError::new(path, "matrix", format!("expected {n} rows (one per label), found {}", json.matrix.len())));
     }
     let mut counts = Vec::with_capacity(n * n);
+    let mut total = 0u64;
     for (r, row) in json.matrix.iter().enumerate() {
         if row.len() != n {
             return Err(InputError::new(path, format!("matrix[{r}]"), format!("expected {n} columns (one per label), found {}", row.len())));
         }
+        // Every sum of counts must stay exact in float64, as it is in NumPy.
+        total = row.iter().try_fold(total, |t, &c| t.checked_add(c)).filter(|&t| t <= MAX_TOTAL).ok_or_else(|| {
+            InputError::new(path, format!("matrix[{r}]"), format!("counts add up to more than 2^53 points"))
+        })?;
         counts.extend_from_slice(row);
     }
     ConfusionMatrix::new(json.labels, counts).map_err(|m| InputError::new(path, "labels", m))

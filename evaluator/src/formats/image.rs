@@ -32,29 +32,39 @@ pub struct RgbImage {
     pub pixels: Vec<u8>,
 }
 
-/// Read a 16-bit (or 8-bit, widened) grayscale PNG.
-pub fn read_png_gray16(path: &Path) -> Result<GrayImage16> {
+/// Error unless an image's size is the expected one (checked before decoding).
+fn check_size(path: &Path, found: (u32, u32), expected: Option<(u32, u32)>) -> Result<()> {
+    let (width, height) = found;
+    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(InputError::new(path, "size", format!("image of {width}x{height} pixels is outside 1..={MAX_SIDE}")));
+    }
+    match expected {
+        Some((w, h)) if (w, h) != (width, height) => {
+            Err(InputError::new(path, "size", format!("expected {w}x{h} pixels (camera_params.yaml), found {width}x{height}")))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Read a 16-bit grayscale PNG, optionally requiring a size (checked before decoding).
+pub fn read_png_gray16(path: &Path, expected: Option<(u32, u32)>) -> Result<GrayImage16> {
     let file = File::open(path).map_err(|e| InputError::io(path, &e))?;
     let mut decoder = png::Decoder::new(BufReader::new(file));
     decoder.set_transformations(png::Transformations::IDENTITY);
     let mut reader = decoder.read_info().map_err(|e| InputError::new(path, "(png)", format!("not a readable PNG: {e}")))?;
     let info = reader.info();
     let (width, height) = (info.width, info.height);
-    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
-        return Err(InputError::new(path, "IHDR", format!("image of {width}x{height} pixels is outside 1..={MAX_SIDE}")));
-    }
+    check_size(path, (width, height), expected)?;
+    // 8-bit images are refused: Open3D would scale them by 1/255, which no HaDaGe file wants.
     let (color, depth) = (info.color_type, info.bit_depth);
-    if color != png::ColorType::Grayscale || !matches!(depth, png::BitDepth::Sixteen | png::BitDepth::Eight) {
+    if color != png::ColorType::Grayscale || depth != png::BitDepth::Sixteen {
         return Err(InputError::new(path, "IHDR", format!("expected a 16-bit grayscale PNG, found {color:?} with {depth:?} bits")));
     }
     let size = reader.output_buffer_size().ok_or_else(|| InputError::new(path, "IHDR", "image too large"))?;
     let mut buf = vec![0u8; size];
     let frame = reader.next_frame(&mut buf).map_err(|e| InputError::new(path, "IDAT", format!("image data is corrupt or truncated: {e}")))?;
     buf.truncate(frame.buffer_size());
-    let pixels = match depth {
-        png::BitDepth::Sixteen => buf.chunks_exact(2).map(|c| u16::from_be_bytes([c[0], c[1]])).collect(),
-        _ => buf.iter().map(|&b| b as u16).collect(),
-    };
+    let pixels = buf.chunks_exact(2).map(|c| u16::from_be_bytes([c[0], c[1]])).collect();
     Ok(GrayImage16 { width, height, pixels })
 }
 
@@ -72,18 +82,25 @@ pub fn write_png_gray16(path: &Path, image: &GrayImage16) -> Result<()> {
     writer.finish().map_err(err)
 }
 
-/// Read a JPEG as 8-bit RGB.
-pub fn read_jpeg_rgb(path: &Path) -> Result<RgbImage> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::io(path, &e))?;
-    let options = zune_jpeg::zune_core::options::DecoderOptions::default()
-        .jpeg_set_out_colorspace(zune_jpeg::zune_core::colorspace::ColorSpace::RGB)
-        .set_max_width(MAX_SIDE as usize)
-        .set_max_height(MAX_SIDE as usize);
-    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(std::io::Cursor::new(&bytes), options);
-    let pixels = decoder.decode().map_err(|e| InputError::new(path, "(jpeg)", format!("not a readable JPEG: {e}")))?;
-    let (width, height) = decoder.dimensions().map(|(w, h)| (w as u32, h as u32)).ok_or_else(|| InputError::new(path, "(jpeg)", "JPEG has no dimensions"))?;
+/// Read a JPEG as 8-bit RGB (grayscale JPEGs are expanded), optionally requiring a size
+/// (checked before decoding). jpeg-decoder follows libjpeg's integer IDCT closely: it
+/// is within a few levels of libjpeg-turbo (Open3D, Pillow), where others differ more.
+pub fn read_jpeg_rgb(path: &Path, expected: Option<(u32, u32)>) -> Result<RgbImage> {
+    let file = File::open(path).map_err(|e| InputError::io(path, &e))?;
+    let mut decoder = jpeg_decoder::Decoder::new(BufReader::new(file));
+    let unreadable = |e: jpeg_decoder::Error| InputError::new(path, "(jpeg)", format!("not a readable JPEG: {e}"));
+    decoder.read_info().map_err(unreadable)?;
+    let info = decoder.info().ok_or_else(|| InputError::new(path, "(jpeg)", "JPEG has no frame header"))?;
+    let (width, height) = (info.width as u32, info.height as u32);
+    check_size(path, (width, height), expected)?;
+    let raw = decoder.decode().map_err(unreadable)?;
+    let pixels = match info.pixel_format {
+        jpeg_decoder::PixelFormat::RGB24 => raw,
+        jpeg_decoder::PixelFormat::L8 => raw.iter().flat_map(|&v| [v, v, v]).collect(),
+        other => return Err(InputError::new(path, "(jpeg)", format!("expected an RGB or grayscale JPEG, found {other:?}"))),
+    };
     if pixels.len() != (width * height * 3) as usize {
-        return Err(InputError::new(path, "(jpeg)", "decoded JPEG is not 3-channel RGB"));
+        return Err(InputError::new(path, "(jpeg)", "decoded JPEG does not fill its frame"));
     }
     Ok(RgbImage { width, height, pixels })
 }

@@ -8,6 +8,10 @@ use super::npy::{NpyArray, ReadLimits};
 use super::npz::{NpzReader, write_npz};
 use crate::error::{InputError, Result};
 
+/// Largest feature dimension accepted (CLIP-style embeddings have 512–1536; the
+/// float64 re-check of near-ties in `semseg::labels` is sized for up to this).
+pub const MAX_FEATURE_DIM: usize = 8192;
+
 /// A dense row-major float32 matrix of feature vectors.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeatureMatrix {
@@ -26,10 +30,10 @@ impl FeatureMatrix {
     }
 
     fn from_array(array: NpyArray, file: &Path, field: &str) -> Result<Self> {
-        let (rows, dim, values) = array.into_f32_matrix(file, field, None)?;
-        if dim == 0 {
-            return Err(InputError::new(file, field, "feature vectors must have at least one dimension"));
+        if array.shape.len() == 2 && !(1..=MAX_FEATURE_DIM).contains(&array.shape[1]) {
+            return Err(InputError::new(file, field, format!("feature vectors must have 1..={MAX_FEATURE_DIM} dimensions, found {}", array.shape[1])));
         }
+        let (rows, dim, values) = array.into_f32_matrix(file, field, None)?;
         Ok(Self { rows, dim, values })
     }
 }
@@ -67,6 +71,9 @@ impl PredictedMap {
         let points: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         drop(flat);
         let semantics = if npz.contains("point_features") {
+            if let Some(other) = ["object_ids", "labels", "features"].into_iter().find(|k| npz.contains(k)) {
+                return Err(InputError::new(path, "point_features", format!("the map holds both 'point_features' and '{other}'; per-point and per-object maps are exclusive")));
+            }
             let features = FeatureMatrix::from_array(npz.array("point_features")?, path, "point_features")?;
             if features.rows != n {
                 return Err(InputError::new(path, "point_features", format!("expected one row per point ({n}), found {}", features.rows)));

@@ -21,11 +21,14 @@ const CHUNK_BYTES: usize = 1 << 20;
 pub struct ReadLimits {
     /// Largest array body in bytes.
     pub max_array_bytes: u64,
+    /// Largest sum of the array bodies read from one `.npz` archive.
+    pub max_archive_bytes: u64,
 }
 
 impl Default for ReadLimits {
+    /// Generous limits for local files; the service sets its own per submission.
     fn default() -> Self {
-        Self { max_array_bytes: 16 << 30 }
+        Self { max_array_bytes: 16 << 30, max_archive_bytes: 32 << 30 }
     }
 }
 
@@ -217,7 +220,16 @@ impl NpyArray {
         let dtype = self.dtype();
         let values: Vec<f32> = match self.data {
             NpyData::F32(v) => v,
-            NpyData::F64(v) => v.into_iter().map(|x| x as f32).collect(),
+            NpyData::F64(v) => {
+                if let Some(pos) = v.iter().position(|x| x.is_finite() && (x.abs() as f32).is_infinite()) {
+                    return Err(InputError::new(
+                        file,
+                        field,
+                        format!("row {}, column {} is {}, outside the float32 range", pos / width.max(1), pos % width.max(1), v[pos]),
+                    ));
+                }
+                v.into_iter().map(|x| x as f32).collect()
+            }
             _ => {
                 return Err(InputError::new(
                     file,

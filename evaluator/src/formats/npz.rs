@@ -16,6 +16,8 @@ pub struct NpzReader {
     path: PathBuf,
     archive: ZipArchive<BufReader<File>>,
     limits: ReadLimits,
+    /// Bytes of array bodies read so far (bounded by `limits.max_archive_bytes`).
+    read_bytes: u64,
 }
 
 impl NpzReader {
@@ -25,7 +27,7 @@ impl NpzReader {
         let archive = ZipArchive::new(BufReader::new(file)).map_err(|e| {
             InputError::new(path, "(archive)", format!("not a readable .npz (zip) archive: {e}"))
         })?;
-        Ok(Self { path: path.to_path_buf(), archive, limits })
+        Ok(Self { path: path.to_path_buf(), archive, limits, read_bytes: 0 })
     }
 
     /// Names of the arrays in the archive (member names without `.npy`), sorted.
@@ -68,8 +70,11 @@ impl NpzReader {
                 format!("member of {} bytes is larger than the limit of {} bytes", entry.size(), self.limits.max_array_bytes),
             ));
         }
-        let array = read_npy(&mut entry, &label, self.limits)?;
+        let remaining = self.limits.max_archive_bytes.saturating_sub(self.read_bytes);
+        let limits = ReadLimits { max_array_bytes: self.limits.max_array_bytes.min(remaining), ..self.limits };
+        let array = read_npy(&mut entry, &label, limits)?;
         ensure_at_end(&mut entry, &label)?;
+        self.read_bytes += (array.shape.iter().product::<usize>() * array.dtype().size()) as u64;
         Ok(array)
     }
 }

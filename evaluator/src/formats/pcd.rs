@@ -10,6 +10,9 @@ use std::path::Path;
 use crate::error::{InputError, Result};
 
 const MAX_HEADER_LINES: usize = 64;
+/// Largest `COUNT` of one field and largest record, in bytes.
+const MAX_FIELD_COUNT: usize = 4096;
+const MAX_RECORD_BYTES: usize = 65_536;
 const MAX_HEADER_LINE_BYTES: usize = 4096;
 const RECORDS_PER_CHUNK: usize = 1 << 16;
 
@@ -138,9 +141,13 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
                     .collect();
                 for f in &fields {
                     let valid = matches!((f.kind, f.size), ('F', 4 | 8) | ('I' | 'U', 1 | 2 | 4 | 8));
-                    if !valid || f.count == 0 {
-                        return Err(bad("TYPE", format!("field '{}' has unsupported type {}{} x {}", f.name, f.kind, f.size, f.count)));
+                    if !valid || f.count == 0 || f.count > MAX_FIELD_COUNT {
+                        return Err(bad("TYPE", format!("field '{}' has unsupported type {}{} x {} (counts 1..={MAX_FIELD_COUNT})", f.name, f.kind, f.size, f.count)));
                     }
+                }
+                let record: usize = fields.iter().map(|f| f.size * f.count).sum();
+                if record > MAX_RECORD_BYTES {
+                    return Err(bad("SIZE", format!("records of {record} bytes are larger than {MAX_RECORD_BYTES}")));
                 }
                 let points = match (points, width, height) {
                     (Some(p), _, _) => p,
@@ -203,7 +210,7 @@ fn read_binary(reader: &mut impl Read, header: &Header, path: &Path) -> Result<P
     let rgb = rgb_field(header);
     let mut points = Vec::with_capacity(header.points.min(1 << 24));
     let mut colors = rgb.map(|_| Vec::with_capacity(header.points.min(1 << 24)));
-    let mut buf = vec![0u8; record * RECORDS_PER_CHUNK];
+    let mut buf = vec![0u8; record * RECORDS_PER_CHUNK.min(header.points.max(1))];
     let mut remaining = header.points;
     while remaining > 0 {
         let take = remaining.min(RECORDS_PER_CHUNK);
@@ -282,7 +289,7 @@ fn read_compressed(reader: &mut impl Read, header: &Header, path: &Path) -> Resu
     if uncompressed != expected {
         return Err(InputError::new(path, "data", format!("compressed block unpacks to {uncompressed} bytes, but {} points of {record} bytes need {expected}", header.points)));
     }
-    let mut packed = Vec::with_capacity(compressed.min(1 << 30));
+    let mut packed = Vec::with_capacity(compressed.min(1 << 24));
     reader.take(compressed as u64).read_to_end(&mut packed).map_err(|e| InputError::io(path, &e))?;
     if packed.len() != compressed {
         return Err(InputError::new(path, "data", "file is truncated inside the compressed block"));
@@ -303,6 +310,7 @@ fn read_compressed(reader: &mut impl Read, header: &Header, path: &Path) -> Resu
     let rgb = rgb_field(header).and_then(|_| column("rgb").or_else(|| column("rgba")));
     let mut points = Vec::with_capacity(header.points);
     let mut colors = rgb.map(|_| Vec::with_capacity(header.points));
+    // `raw` has exactly points × record bytes, so the header's count is now backed by data.
     for i in 0..header.points {
         let p = [
             float_at(&raw[axes[0].0 + i * axes[0].1..], axes[0].1),
@@ -321,7 +329,8 @@ fn read_compressed(reader: &mut impl Read, header: &Header, path: &Path) -> Resu
 /// LZF decompression (the codec of PCL's `binary_compressed`).
 fn lzf_decompress(input: &[u8], output_len: usize) -> std::result::Result<Vec<u8>, String> {
     let corrupt = || "compressed block is corrupt".to_string();
-    let mut out = Vec::with_capacity(output_len);
+    // LZF expands at most ~90x: never reserve more than the input can produce.
+    let mut out = Vec::with_capacity(output_len.min(input.len().saturating_mul(96)));
     let mut i = 0;
     while i < input.len() {
         let ctrl = input[i] as usize;

@@ -169,6 +169,7 @@ pub fn read_semantic_mesh(path: &Path) -> Result<SemanticMesh> {
 fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<(Format, Vec<Element>)> {
     let bad = |m: String| InputError::new(path, "header", m);
     let mut lines = Vec::new();
+    let mut ended = false;
     for _ in 0..1024 {
         let mut line = String::new();
         if reader.by_ref().take(4096).read_line(&mut line).map_err(|e| InputError::io(path, &e))? == 0 {
@@ -176,9 +177,13 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<(Format, Vec<El
         }
         let line = line.trim().to_string();
         if line == "end_header" {
+            ended = true;
             break;
         }
         lines.push(line);
+    }
+    if !ended {
+        return Err(bad("no 'end_header' within the first 1024 header lines".into()));
     }
     if lines.first().map(String::as_str) != Some("ply") {
         return Err(bad("not a PLY file (first line must be 'ply')".into()));
@@ -217,6 +222,9 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<(Format, Vec<El
             ["comment", ..] | ["obj_info", ..] | [] => {}
             _ => return Err(bad(format!("unexpected header line '{line}'"))),
         }
+    }
+    if let Some(e) = elements.iter().find(|e| e.properties.is_empty() && e.count > 0) {
+        return Err(bad(format!("element '{}' has {} records but no properties", e.name, e.count)));
     }
     Ok((format.ok_or_else(|| bad("missing 'format' line".into()))?, elements))
 }

@@ -33,9 +33,13 @@ pub struct Vocabulary {
 }
 
 impl Vocabulary {
-    /// Sorted unique ground-truth labels without 0 ("other") and -1 ("none").
-    pub fn from_ground_truth(labels: &[i64]) -> Self {
-        let ids = crate::label_set::unique_labels(labels).into_iter().filter(|l| !metrics::EXCLUDED_LABELS.contains(l)).collect();
+    /// Sorted unique ground-truth labels that are classes of the release, without 0
+    /// ("other") and -1 ("none"): the reference's `(classes & present) - excluded`.
+    pub fn from_ground_truth(labels: &[i64], classes: &ClassList) -> Self {
+        let ids = crate::label_set::unique_labels(labels)
+            .into_iter()
+            .filter(|l| !metrics::EXCLUDED_LABELS.contains(l) && classes.contains(*l))
+            .collect();
         Self { ids }
     }
 
@@ -86,7 +90,13 @@ pub struct SceneScore {
 
 /// Score `map` against `ground_truth`.
 pub fn score_scene(ground_truth: &GroundTruth, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
-    let vocabulary = Vocabulary::from_ground_truth(&ground_truth.labels);
+    if let Some(i) = ground_truth.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(InputError::new(&ground_truth.source, "points", format!("point {i} has a non-finite coordinate")));
+    }
+    if map.points.len() >= u32::MAX as usize {
+        return Err(InputError::new(&map.source, "points", format!("{} points are more than the evaluator indexes (2^32 - 1)", map.points.len())));
+    }
+    let vocabulary = Vocabulary::from_ground_truth(&ground_truth.labels, classes);
     if vocabulary.is_empty() {
         return Err(InputError::new(&ground_truth.source, "labels", "the ground truth has no scored class (every point is class 0)"));
     }

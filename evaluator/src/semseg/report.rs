@@ -45,6 +45,12 @@ pub struct MetricsTable {
     pub overall: SegmentationMetrics,
 }
 
+/// A CSV field as pandas writes it: quoted (with doubled quotes) when it holds a
+/// comma, a quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text.to_string() }
+}
+
 /// The reference sorts `<scene>_conf_matrix.pkl` file names; sorting by that key keeps
 /// its row order (and so its summation order) for any scene names.
 fn reference_sort_key(scene: &str) -> String {
@@ -67,7 +73,7 @@ impl MetricsTable {
     /// repr, NaN as an empty field (pandas' default).
     pub fn to_csv(&self) -> String {
         let cell = |v: f64| if v.is_nan() { String::new() } else { python_repr(v) };
-        let line = |t: MetricTriple, name: &str| format!("{},{},{},{}\n", cell(t.miou), cell(t.fmiou), cell(t.macc), name);
+        let line = |t: MetricTriple, name: &str| format!("{},{},{},{}\n", cell(t.miou), cell(t.fmiou), cell(t.macc), csv_field(name));
         let mut out = String::from("miou,fmiou,macc,scene\n");
         for (name, metrics) in &self.scenes {
             out.push_str(&line(metrics.into(), name));
@@ -106,7 +112,8 @@ impl LightingComparison {
             for ((aggregate, value), (_, baseline)) in rows(table).into_iter().zip(base) {
                 let change = value.relative_change(&baseline);
                 out.push_str(&format!(
-                    "{name},{aggregate},{},{},{},{},{},{}\n",
+                    "{},{aggregate},{},{},{},{},{},{}\n",
+                    csv_field(name),
                     cell(value.miou),
                     cell(value.fmiou),
                     cell(value.macc),

@@ -71,6 +71,9 @@ fn malformed_maps_get_their_own_clear_error() {
         ("float labels", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("labels", NpyArray::from_f32_matrix(1, 1, vec![1.0]))], "labels", "1-D integer"),
         ("nan feature", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 2, vec![f32::INFINITY, 0.0]))], "features", "finite"),
         ("point features of wrong length", vec![("points", points(3)), ("point_features", NpyArray::from_f32_matrix(2, 4, vec![1.0; 8]))], "point_features", "one row per point (3), found 2"),
+        ("point features and objects", vec![("points", points(1)), ("point_features", NpyArray::from_f32_matrix(1, 1, vec![1.0])), ("object_ids", ids(vec![0]))], "point_features", "both"),
+        ("huge feature dimension", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 10_000, vec![1.0; 10_000]))], "features", "1..=8192 dimensions"),
+        ("float64 beyond float32", vec![("points", NpyArray { shape: vec![1, 3], data: osmab_evaluator::formats::npy::NpyData::F64(vec![0.0, 1e300, 0.0]) }), ("object_ids", ids(vec![0])), ("labels", ids(vec![1]))], "points", "outside the float32 range"),
     ];
     for (name, arrays, field, needle) in cases {
         let path = dir.path().join(format!("{}.npz", name.replace(' ', "_")));
@@ -92,7 +95,7 @@ fn truncated_and_foreign_archives_are_rejected() {
     let err = read_map(&path).unwrap_err();
     assert!(err.message.contains("not a readable .npz"), "{err}");
     std::fs::write(&path, b"PK\x03\x04 this is not really a zip").unwrap();
-    assert!(read_map(&path).is_err());
+    assert!(read_map(&path).unwrap_err().message.contains("not a readable .npz"));
     let err = read_map(&dir.path().join("absent.npz")).unwrap_err();
     assert_eq!(err.message, "file not found");
 }
@@ -102,8 +105,34 @@ fn arrays_larger_than_the_limit_are_refused_before_reading() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("big.npz");
     write_arrays(&path, &[("points", points(1000)), ("object_ids", NpyArray::from_i64(vec![0; 1000])), ("labels", NpyArray::from_i64(vec![1]))]);
-    let err = PredictedMap::read(&path, ReadLimits { max_array_bytes: 1000 }).unwrap_err();
+    let err = PredictedMap::read(&path, ReadLimits { max_array_bytes: 1000, ..ReadLimits::default() }).unwrap_err();
     assert!(err.message.contains("larger than the limit"), "{err}");
+}
+
+#[test]
+fn archive_bombs_are_refused_before_decompression() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bomb.npz");
+    // 40 MB of zeros deflate to a few tens of kilobytes.
+    let zeros = NpyArray::from_f32_matrix(10_000_000 / 3, 3, vec![0.0; 10_000_000 / 3 * 3]);
+    write_arrays(&path, &[("points", zeros)]);
+    assert!(std::fs::metadata(&path).unwrap().len() < 1 << 20);
+    let limits = ReadLimits { max_array_bytes: 1 << 20, max_archive_bytes: 2 << 20 };
+    let err = PredictedMap::read(&path, limits).unwrap_err();
+    assert!(err.message.contains("larger than the limit"), "{err}");
+    assert!(err.file.ends_with("points.npy"), "{err}");
+}
+
+#[test]
+fn the_archive_budget_covers_all_its_arrays_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("map.npz");
+    write_arrays(&path, &[("points", points(1000)), ("object_ids", NpyArray::from_i64(vec![0; 1000])), ("labels", NpyArray::from_i64(vec![1]))]);
+    // Each array fits on its own (12 kB and 8 kB), both together do not.
+    let limits = ReadLimits { max_array_bytes: 16_000, max_archive_bytes: 16_000 };
+    let err = PredictedMap::read(&path, limits).unwrap_err();
+    assert_eq!(err.field, "header.shape", "{err}");
+    assert!(err.file.ends_with("object_ids.npy"), "{err}");
 }
 
 fn cloud() -> PointCloud {
@@ -177,6 +206,43 @@ fn malformed_pcd_files_are_rejected() {
     for (text, needle) in cases {
         std::fs::write(&path, text).unwrap();
         let err = read_pcd(&path).unwrap_err();
+        assert!(err.to_string().contains(needle), "'{needle}' not in: {err}");
+    }
+}
+
+#[test]
+fn hostile_pcd_headers_are_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hostile.pcd");
+    let cases = [
+        // A million-wide padding field would need a 64 GB read buffer.
+        (&b"FIELDS x y z pad\nSIZE 4 4 4 1\nTYPE F F F U\nCOUNT 1 1 1 1000000\nPOINTS 1\nDATA binary\n"[..], "counts 1..=4096"),
+        (&b"FIELDS x y z a b c d e f g h i j k l m n o p q r s\nSIZE 4 4 4 8 8 8 8 8 8 8 8 8 8 8 8 8 8 8 8 8 8 8\nTYPE F F F F F F F F F F F F F F F F F F F F F F\nCOUNT 1 1 1 4096 4096 4096 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1 1\nPOINTS 1\nDATA binary\n"[..], "larger than 65536"),
+        // A compressed block claiming 4 GB from a few bytes.
+        (&b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 357913941\nDATA binary_compressed\n\x04\x00\x00\x00\xfc\xff\xff\xffabcd"[..], "corrupt"),
+        // Far more points declared than the file holds.
+        (&b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 4000000000\nDATA binary\n\x00\x00\x00\x00"[..], "truncated"),
+    ];
+    for (text, needle) in cases {
+        std::fs::write(&path, text).unwrap();
+        let err = read_pcd(&path).unwrap_err();
+        assert!(err.to_string().contains(needle), "'{needle}' not in: {err}");
+    }
+}
+
+#[test]
+fn hostile_ply_headers_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("hostile.ply");
+    let cases = [
+        ("ply\nformat binary_little_endian 1.0\nelement nothing 10000000000000\nend_header\n", "no properties"),
+        ("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"),
+        ("ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n", "unknown type"),
+        ("plx\nend_header\n", "not a PLY file"),
+    ];
+    for (text, needle) in cases {
+        std::fs::write(&path, text).unwrap();
+        let err = read_semantic_mesh(&path).unwrap_err();
         assert!(err.to_string().contains(needle), "'{needle}' not in: {err}");
     }
 }

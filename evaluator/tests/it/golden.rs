@@ -81,3 +81,20 @@ fn a_scene_without_scored_classes_is_nan_and_skipped_in_the_mean() {
     assert_eq!(table.overall_mean.macc, 0.5);
     assert!(table.to_csv().contains("\n,0.0,,b\n"), "NaN cells are empty, as pandas writes them:\n{}", table.to_csv());
 }
+
+#[test]
+fn scene_names_are_quoted_as_pandas_quotes_them() {
+    let m = ConfusionMatrix::new(vec![4, -1], vec![5, 5, 0, 0]).unwrap();
+    let table = MetricsTable::from_scenes(vec![("a,b".into(), m.clone()), ("say \"hi\"".into(), m)]);
+    let csv = table.to_csv();
+    assert!(csv.contains(",\"a,b\"\n") && csv.contains(",\"say \"\"hi\"\"\"\n"), "{csv}");
+}
+
+#[test]
+fn matrices_whose_counts_overflow_float64_exactness_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.confusion.json");
+    std::fs::write(&path, format!(r#"{{"labels": [1, -1], "matrix": [[{}, 1], [0, 0]]}}"#, 1u64 << 53)).unwrap();
+    let err = read_confusion(&path).unwrap_err();
+    assert!(err.message.contains("2^53"), "{err}");
+}

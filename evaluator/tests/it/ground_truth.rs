@@ -110,3 +110,61 @@ fn inconsistent_sequences_are_rejected() {
     let err = GroundTruth::build(&Sequence::open(dir.path()).unwrap()).unwrap_err();
     assert!(err.file.ends_with("semantic000000.png"), "{err}");
 }
+
+#[test]
+fn ground_truth_matches_open3d_bit_for_bit() {
+    // A sequence with random rigid poses and the ground truth Open3D itself built from it
+    // (bench/conformance_open3d.py --write-fixture).
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/open3d-gt");
+    let gt = GroundTruth::build(&Sequence::open(&fixture.join("sequence")).unwrap()).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    gt.write(out.path()).unwrap();
+    let ours = std::fs::read(out.path().join("semantic.npy")).unwrap();
+    assert_eq!(ours, std::fs::read(fixture.join("open3d/semantic.npy")).unwrap(), "semantic.npy is byte-identical");
+
+    let reference = osmab_evaluator::formats::pcd::read_pcd(&fixture.join("open3d/pointcloud.pcd")).unwrap();
+    assert_eq!(gt.points.len(), reference.points.len());
+    for (i, (a, b)) in gt.points.iter().zip(&reference.points).enumerate() {
+        assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "point {i}: {a:?} vs Open3D {b:?}");
+    }
+    let header = |bytes: &[u8]| bytes[..bytes.windows(12).position(|w| w == b"DATA binary\n").unwrap()].to_vec();
+    let theirs = std::fs::read(fixture.join("open3d/pointcloud.pcd")).unwrap();
+    assert_eq!(header(&std::fs::read(out.path().join("pointcloud.pcd")).unwrap()), header(&theirs), "Open3D's PCD header");
+    // Colours come from different JPEG decoders (libjpeg-turbo there); they are never scored.
+    let colors = gt.colors.unwrap();
+    let worst = colors.iter().zip(reference.colors.unwrap()).flat_map(|(a, b)| (0..3).map(move |c| a[c].abs_diff(b[c]))).max().unwrap();
+    assert!(worst <= 4, "colours within a few levels of libjpeg-turbo's, worst {worst}");
+}
+
+#[test]
+fn unsupported_camera_settings_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 6);
+    let yaml = dir.path().join("camera_params.yaml");
+    let text = std::fs::read_to_string(&yaml).unwrap().replace("crop_edge: 0", "crop_edge: 8");
+    std::fs::write(&yaml, text).unwrap();
+    let err = GroundTruth::build(&Sequence::open(dir.path()).unwrap()).unwrap_err();
+    assert_eq!(err.field, "camera_params.crop_edge");
+
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 6);
+    let yaml = dir.path().join("camera_params.yaml");
+    let text = std::fs::read_to_string(&yaml).unwrap().replace("png_depth_scale: 6553.5", "png_depth_scale: 1e-60");
+    std::fs::write(&yaml, text).unwrap();
+    let err = GroundTruth::build(&Sequence::open(dir.path()).unwrap()).unwrap_err();
+    assert_eq!(err.field, "camera_params.png_depth_scale");
+}
+
+#[test]
+fn eight_bit_depth_images_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), 6);
+    let path = frame_path(dir.path(), "depth", 0);
+    let file = std::fs::File::create(&path).unwrap();
+    let mut encoder = png::Encoder::new(file, W, H);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.write_header().unwrap().write_image_data(&vec![7u8; (W * H) as usize]).unwrap();
+    let err = GroundTruth::build(&Sequence::open(dir.path()).unwrap()).unwrap_err();
+    assert!(err.message.contains("expected a 16-bit grayscale PNG"), "{err}");
+}

@@ -49,13 +49,38 @@ fn equal_distances_go_to_the_lowest_point_index() {
 
 #[test]
 fn distances_are_float32_as_pytorch3d_computes_them() {
-    // In float64 the second point is nearer; in float32 ((dx² + dy²) + dz²) both round
-    // to the same distance, so the tie rule picks index 0, as the reference does.
-    let q = [0.0f32, 0.0, 0.0];
-    let a = [1.0f32, 0.0, 0.0];
-    let b = [0.99999997f32, 0.0, 0.0]; // the float32 just below 1.0
-    let d = |p: [f32; 3]| (p[0] * p[0] + p[1] * p[1]) + p[2] * p[2];
-    assert!(d(b) <= d(a));
-    let expected = if d(b) < d(a) { 1 } else { 0 };
-    assert_eq!(NearestIndex::build(&[a, b]).nearest(q), expected);
+    // |a|² = 1 + 2⁻²⁴ rounds to exactly 1.0 in float32, the same as |b|², so the two
+    // tie and the lower index (a) wins; in float64 b would be strictly nearer.
+    let a = [1.0f32, 2f32.powi(-12), 0.0];
+    let b = [1.0f32, 0.0, 0.0];
+    let q = [0.0f32; 3];
+    assert!(1.0f64 + 2f64.powi(-24) > 1.0, "float64 tells them apart");
+    assert_eq!(NearestIndex::build(&[a, b]).nearest(q), 0);
+    // The same tie deep inside a large tree: 5,000 far points around the pair.
+    let mut rng = Rng::new(9);
+    let mut points = random_points(&mut rng, 5000, 50.0, None).into_iter().map(|p| p.map(|c| c + 100.0)).collect::<Vec<_>>();
+    points.insert(1234, a);
+    points.insert(4321, b);
+    let index = NearestIndex::build(&points);
+    assert_eq!(index.nearest(q), 1234);
+    let ia = points.iter().position(|p| *p == a).unwrap() as u32;
+    assert_eq!(ia, 1234);
+}
+
+#[test]
+fn duplicate_points_spread_over_many_leaves_resolve_to_the_lowest_index() {
+    // 2,000 copies of one point among 3,000 others: the copies fill many leaves of the
+    // tree, and only the smallest index among them may be returned.
+    let mut rng = Rng::new(21);
+    let mut points = random_points(&mut rng, 3000, 5.0, None);
+    let copy = [0.5f32, 0.25, -0.75];
+    for k in 0..2000 {
+        points.insert(1 + k * 2, copy);
+    }
+    let index = NearestIndex::build(&points);
+    let first = points.iter().position(|p| *p == copy).unwrap() as u32;
+    for q in [copy, [0.5, 0.25, -0.70], [0.6, 0.3, -0.8]] {
+        assert_eq!(index.nearest(q), first, "query {q:?}");
+        assert_eq!(nearest_brute_force(&points, q), first);
+    }
 }

@@ -145,3 +145,25 @@ fn a_worse_map_never_scores_higher() {
     assert!(swapped.metrics.miou < perfect.metrics.miou);
     assert_eq!(swapped.metrics.miou, 0.0);
 }
+
+#[test]
+fn ground_truth_classes_outside_the_class_list_are_not_scored() {
+    // The reference's vocabulary is (classes & present) - {0}: a mesh object whose class
+    // is not in the list neither enters the vocabulary nor counts as a miss.
+    let mut gt = ground_truth();
+    gt.labels.iter_mut().filter(|l| **l == 2).for_each(|l| *l = 77);
+    let map = labelled_map(&gt, |l| if l == 1 { 1 } else { 0 }, vec![0, 1]);
+    let score = score_scene(&gt, &map, &classes(5), None).unwrap();
+    assert_eq!(score.confusion.labels(), &[1, -1]);
+    assert_eq!(score.confusion.total(), 300);
+    assert_eq!(score.metrics.miou, 1.0);
+}
+
+#[test]
+fn non_finite_ground_truth_is_an_error_not_a_panic() {
+    let mut gt = ground_truth();
+    gt.points[17] = [f32::NAN, 0.0, 0.0];
+    let map = labelled_map(&gt, |l| l as u32, vec![0, 1, 2]);
+    let err = score_scene(&gt, &map, &classes(5), None).unwrap_err();
+    assert!(err.message.contains("point 17"), "{err}");
+}

@@ -72,7 +72,7 @@ fn metrics(dir: &Path) -> anyhow::Result<()> {
 fn lightings(dir: &Path, baseline: &str) -> anyhow::Result<()> {
     let mut tables = Vec::new();
     for entry in std::fs::read_dir(dir).with_context(|| format!("{}: cannot read directory", dir.display()))? {
-        let path = entry?.path();
+        let path = entry.with_context(|| format!("{}: cannot list directory", dir.display()))?.path();
         if path.is_dir() {
             let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
             tables.push((name, metrics_table(&path)?));
@@ -91,7 +91,7 @@ fn metrics_table(dir: &Path) -> anyhow::Result<MetricsTable> {
     let entries = std::fs::read_dir(dir).with_context(|| format!("{}: cannot read directory", dir.display()))?;
     let mut scenes = Vec::new();
     for entry in entries {
-        let path = entry?.path();
+        let path = entry.with_context(|| format!("{}: cannot list directory", dir.display()))?.path();
         let Some(scene) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(CONFUSION_SUFFIX)) else {
             continue;
         };

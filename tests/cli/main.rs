@@ -145,6 +145,40 @@ fn eval_semseg_explains_what_is_missing() {
     assert!(err.contains("embed_semseg_classes.json") && err.contains("file not found"), "{err}");
 }
 
+#[test]
+fn eval_semseg_reads_a_replica_style_semantic_mesh() {
+    use osmab_evaluator::formats::ply::{SemanticMesh, write_semantic_mesh};
+    let dir = tempfile::tempdir().unwrap();
+    let gt = dir.path().join("replica");
+    std::fs::create_dir_all(&gt).unwrap();
+    // Two triangles of object 1 (class 3) and one of object 2 (class 5, far away).
+    let mesh = SemanticMesh {
+        vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [9.0, 9.0, 9.0], [9.5, 9.0, 9.0], [9.0, 9.5, 9.0]],
+        face_vertices: vec![0, 1, 2, 1, 3, 2, 4, 5, 6],
+        face_offsets: vec![0, 3, 6, 9],
+        face_objects: vec![1, 1, 2],
+    };
+    write_semantic_mesh(&gt.join("mesh_semantic.ply"), &mesh).unwrap();
+    std::fs::write(
+        gt.join("info_semantic.json"),
+        r#"{"classes": [{"id": 3, "name": "chair"}, {"id": 5, "name": "lamp"}], "objects": [{"id": 1, "class_id": 3}, {"id": 2, "class_id": 5}]}"#,
+    )
+    .unwrap();
+    // A map that calls everything a chair: chair recall 1, lamp recall 0.
+    let map = PredictedMap {
+        source: dir.path().join("map.npz"),
+        points: vec![[0.5, 0.5, 0.0], [9.2, 9.2, 9.0]],
+        semantics: MapSemantics::ObjectLabels { object_ids: vec![0, 0], labels: vec![3] },
+    };
+    map.write(&dir.path().join("map.npz"), false).unwrap();
+    let json = dir.path().join("out.json");
+    stdout(&osmab(&["eval", "semseg", "--gt", path(&gt), "--map", path(&dir.path().join("map.npz")), "--json", path(&json)]));
+    let result: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(result["labels"], serde_json::json!([3, 5, -1]));
+    assert_eq!(result["matrix"], serde_json::json!([[4, 0, 0], [3, 0, 0], [0, 0, 0]]));
+    assert_eq!(result["metrics"]["macc"], 0.5);
+}
+
 /// An 11-frame sequence of 8×6 images in HaDaGe's layout (the last frame, 10, lies on
 /// the stride and must still be left out).
 fn write_sequence(dir: &Path) {

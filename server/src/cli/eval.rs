@@ -34,7 +34,8 @@ pub enum EvalCommand {
 
 #[derive(Debug, Args)]
 pub struct SemsegArgs {
-    /// Ground-truth directory with pointcloud.pcd and semantic.npy.
+    /// Ground-truth directory: pointcloud.pcd + semantic.npy, or a Replica-style
+    /// mesh_semantic.ply + info_semantic.json.
     #[arg(long)]
     gt: PathBuf,
     /// The map (.npz: points, object_ids, labels | features, or point_features).
@@ -43,7 +44,8 @@ pub struct SemsegArgs {
     /// Class text features (.npz: class_ids, features); needed when the map carries features.
     #[arg(long)]
     text_features: Option<PathBuf>,
-    /// Class list; defaults to embed_semseg_classes.json beside the ground truth.
+    /// Class list; defaults to embed_semseg_classes.json beside the ground truth (or, for a
+    /// mesh, info_semantic.json).
     #[arg(long)]
     classes: Option<PathBuf>,
     /// Write labels, matrix and metrics as one JSON object to this file.
@@ -105,11 +107,20 @@ fn metrics_table(dir: &Path) -> anyhow::Result<MetricsTable> {
 
 fn semseg(args: &SemsegArgs) -> anyhow::Result<()> {
     let started = Instant::now();
-    let classes_path = args.classes.clone().unwrap_or_else(|| args.gt.join("embed_semseg_classes.json"));
+    let mesh = args.gt.join("mesh_semantic.ply");
+    let mesh_info = args.gt.join("info_semantic.json");
+    let is_mesh = !args.gt.join("pointcloud.pcd").exists() && mesh.exists();
+    let default_classes = args.gt.join("embed_semseg_classes.json");
+    let classes_path = match &args.classes {
+        Some(path) => path.clone(),
+        None if is_mesh && !default_classes.exists() => mesh_info.clone(),
+        None => default_classes,
+    };
     let classes = ClassList::read(&classes_path)?;
     let limits = ReadLimits::default();
+    let read_ground_truth = || if is_mesh { GroundTruth::read_mesh(&mesh, &mesh_info) } else { GroundTruth::read(&args.gt, &classes) };
     // The ground truth and the map are independent files: read them on both cores.
-    let (ground_truth, map) = rayon::join(|| GroundTruth::read(&args.gt, &classes), || PredictedMap::read(&args.map, limits));
+    let (ground_truth, map) = rayon::join(read_ground_truth, || PredictedMap::read(&args.map, limits));
     let (ground_truth, map) = (ground_truth?, map?);
     let text = args.text_features.as_deref().map(|p| TextFeatures::read(p, limits)).transpose()?;
     let load = started.elapsed();

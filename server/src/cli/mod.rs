@@ -3,6 +3,7 @@
 mod bench;
 mod eval;
 mod gt;
+mod scene;
 
 use clap::{Parser, Subcommand};
 
@@ -22,6 +23,9 @@ enum Command {
     /// Build ground truth from rendered sequences.
     #[command(subcommand)]
     Gt(gt::GtCommand),
+    /// Dataset pipeline: prompts, selection.
+    #[command(subcommand)]
+    Scene(scene::SceneCommand),
     /// Generate benchmark data and time the scorer.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -32,6 +36,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),
+        Command::Scene(cmd) => scene::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
     }
 }

@@ -1,0 +1,9 @@
+//! The OSMa-Bench++ dataset pipeline (product.md section 8): scene prompts with
+//! structured specifications, diverse selection, and (in later stages) synthesis,
+//! conversion, rendering and releases. Knows nothing of the HTTP service.
+
+pub mod embedding;
+pub mod openai;
+pub mod prompts;
+pub mod selection;
+pub mod spec;

@@ -1,0 +1,333 @@
+//! The built-in prompt writer: a seeded grammar over room plans. Each plan names an
+//! anchor piece of furniture, the furniture that may accompany it and where, and (for
+//! the manipuland regime) the small objects that may rest on, under or inside it. A
+//! prompt is drawn by choosing a plan, a subset of companions, counts, relations and
+//! sentence templates; the spec is built alongside the text, so they always agree.
+
+use osmab_evaluator::synthetic::Rng;
+
+use crate::spec::{ObjectKind, ObjectSpec, Regime, Relation, RelationKind, SceneSpec};
+
+/// Where a companion goes, relative to the anchor or the room.
+#[derive(Clone, Copy)]
+enum Place {
+    /// A relation to the anchor.
+    Anchor(RelationKind),
+    /// A relation to the room (against a wall, in a corner, ...).
+    Room(RelationKind),
+}
+
+struct Companion {
+    category: &'static str,
+    counts: (u32, u32),
+    places: &'static [Place],
+}
+
+struct RoomPlan {
+    room: &'static str,
+    anchor: &'static str,
+    anchor_counts: (u32, u32),
+    anchor_place: RelationKind,
+    companions: &'static [Companion],
+    /// Small objects for the manipuland regime: (category, relations to the anchor).
+    smalls: &'static [(&'static str, &'static [RelationKind])],
+}
+
+use Place::{Anchor as A, Room as R};
+use RelationKind::*;
+
+const ON_TOP: &[RelationKind] = &[On];
+const ON_OR_UNDER: &[RelationKind] = &[On, Under];
+const UNDER_ONLY: &[RelationKind] = &[Under];
+const INSIDE_OR_ON: &[RelationKind] = &[Inside, On];
+
+const PLANS: &[RoomPlan] = &[
+    RoomPlan {
+        room: "dining room",
+        anchor: "dining table",
+        anchor_counts: (1, 1),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "dining chair", counts: (4, 8), places: &[A(Around)] },
+            Companion { category: "sideboard", counts: (1, 1), places: &[R(AgainstWall), A(Behind)] },
+            Companion { category: "bench", counts: (1, 2), places: &[R(AlongWall), A(NextTo)] },
+            Companion { category: "cabinet", counts: (1, 2), places: &[R(InCorner), R(AgainstWall)] },
+            Companion { category: "console table", counts: (1, 1), places: &[R(AlongWall), A(Opposite)] },
+        ],
+        smalls: &[("plate", ON_TOP), ("bowl", ON_TOP), ("bottle", ON_TOP), ("mug", ON_TOP), ("box", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "living room",
+        anchor: "coffee table",
+        anchor_counts: (1, 1),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "sofa", counts: (1, 2), places: &[A(Facing), A(Behind)] },
+            Companion { category: "armchair", counts: (1, 2), places: &[A(NextTo), A(Facing), A(Around)] },
+            Companion { category: "tv stand", counts: (1, 1), places: &[R(AgainstWall), A(Opposite)] },
+            Companion { category: "bookshelf", counts: (1, 2), places: &[R(AlongWall), R(InCorner)] },
+            Companion { category: "console table", counts: (1, 1), places: &[R(AgainstWall), A(ParallelTo)] },
+        ],
+        smalls: &[("book", ON_OR_UNDER), ("mug", ON_TOP), ("bowl", ON_TOP), ("clock", ON_TOP), ("box", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "bedroom",
+        anchor: "bed",
+        anchor_counts: (1, 1),
+        anchor_place: AgainstWall,
+        companions: &[
+            Companion { category: "nightstand", counts: (1, 2), places: &[A(NextTo)] },
+            Companion { category: "wardrobe", counts: (1, 1), places: &[R(InCorner), A(Opposite)] },
+            Companion { category: "dresser", counts: (1, 1), places: &[A(Opposite), R(AlongWall)] },
+            Companion { category: "desk", counts: (1, 1), places: &[R(AgainstWall), A(Facing)] },
+            Companion { category: "bench", counts: (1, 1), places: &[A(InFrontOf)] },
+            Companion { category: "armchair", counts: (1, 1), places: &[R(InCorner), A(Near)] },
+        ],
+        smalls: &[("pillow", ON_TOP), ("blanket", ON_TOP), ("book", ON_TOP), ("suitcase", UNDER_ONLY), ("box", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "office",
+        anchor: "desk",
+        anchor_counts: (1, 2),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "office chair", counts: (1, 2), places: &[A(InFrontOf)] },
+            Companion { category: "filing cabinet", counts: (1, 2), places: &[A(NextTo), R(AgainstWall)] },
+            Companion { category: "bookshelf", counts: (1, 2), places: &[R(AlongWall), A(Behind)] },
+            Companion { category: "storage cabinet", counts: (1, 1), places: &[R(InCorner)] },
+            Companion { category: "armchair", counts: (1, 1), places: &[A(Opposite), R(InCorner)] },
+        ],
+        smalls: &[("laptop", ON_TOP), ("book", ON_TOP), ("mug", ON_TOP), ("box", ON_OR_UNDER), ("backpack", UNDER_ONLY), ("clock", ON_TOP)],
+    },
+    RoomPlan {
+        room: "meeting room",
+        anchor: "conference table",
+        anchor_counts: (1, 1),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "chair", counts: (4, 10), places: &[A(Around)] },
+            Companion { category: "credenza", counts: (1, 1), places: &[R(AgainstWall), A(Behind)] },
+            Companion { category: "cabinet", counts: (1, 2), places: &[R(InCorner)] },
+            Companion { category: "bench", counts: (1, 1), places: &[R(AlongWall), A(Opposite)] },
+        ],
+        smalls: &[("laptop", ON_TOP), ("bottle", ON_TOP), ("book", ON_TOP), ("box", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "kitchen",
+        anchor: "kitchen island",
+        anchor_counts: (1, 1),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "counter", counts: (1, 3), places: &[R(AlongWall), A(ParallelTo)] },
+            Companion { category: "chair", counts: (2, 4), places: &[A(NextTo), A(Around)] },
+            Companion { category: "cabinet", counts: (1, 2), places: &[R(AgainstWall), R(InCorner)] },
+            Companion { category: "dining table", counts: (1, 1), places: &[A(Near), A(Behind)] },
+        ],
+        smalls: &[("bowl", ON_TOP), ("plate", ON_TOP), ("mug", ON_TOP), ("bottle", ON_TOP), ("can", ON_TOP), ("bucket", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "workshop",
+        anchor: "workbench",
+        anchor_counts: (1, 2),
+        anchor_place: AgainstWall,
+        companions: &[
+            Companion { category: "storage rack", counts: (1, 3), places: &[R(AlongWall), A(NextTo)] },
+            Companion { category: "cabinet", counts: (1, 2), places: &[A(NextTo), R(InCorner)] },
+            Companion { category: "table", counts: (1, 1), places: &[R(CenterOfRoom), A(Opposite)] },
+            Companion { category: "chair", counts: (1, 2), places: &[A(InFrontOf)] },
+        ],
+        smalls: &[("bucket", UNDER_ONLY), ("box", INSIDE_OR_ON), ("can", ON_TOP), ("helmet", ON_TOP), ("bottle", ON_TOP)],
+    },
+    RoomPlan {
+        room: "reception area",
+        anchor: "coffee table",
+        anchor_counts: (1, 1),
+        anchor_place: CenterOfRoom,
+        companions: &[
+            Companion { category: "sofa", counts: (2, 2), places: &[A(Around), A(Facing)] },
+            Companion { category: "armchair", counts: (2, 4), places: &[A(Around), A(NextTo)] },
+            Companion { category: "reception desk", counts: (1, 1), places: &[R(AgainstWall), A(Opposite)] },
+            Companion { category: "bookshelf", counts: (1, 1), places: &[R(AlongWall)] },
+        ],
+        smalls: &[("book", ON_TOP), ("bowl", ON_TOP), ("clock", ON_TOP), ("backpack", UNDER_ONLY)],
+    },
+    RoomPlan {
+        room: "study",
+        anchor: "bookshelf",
+        anchor_counts: (2, 4),
+        anchor_place: AlongWall,
+        companions: &[
+            Companion { category: "desk", counts: (1, 1), places: &[R(CenterOfRoom), A(Opposite)] },
+            Companion { category: "chair", counts: (1, 2), places: &[A(InFrontOf), A(Near)] },
+            Companion { category: "armchair", counts: (1, 2), places: &[A(Facing), R(InCorner)] },
+            Companion { category: "coffee table", counts: (1, 1), places: &[A(Near), R(CenterOfRoom)] },
+        ],
+        smalls: &[("book", INSIDE_OR_ON), ("box", INSIDE_OR_ON), ("clock", ON_TOP)],
+    },
+    RoomPlan {
+        room: "laundry room",
+        anchor: "counter",
+        anchor_counts: (1, 2),
+        anchor_place: AlongWall,
+        companions: &[
+            Companion { category: "storage cabinet", counts: (1, 2), places: &[A(NextTo), R(InCorner)] },
+            Companion { category: "shelf", counts: (1, 2), places: &[R(AgainstWall), A(Opposite)] },
+            Companion { category: "bench", counts: (1, 1), places: &[R(CenterOfRoom), A(InFrontOf)] },
+            Companion { category: "table", counts: (1, 1), places: &[A(Near)] },
+        ],
+        smalls: &[("towel", INSIDE_OR_ON), ("bucket", UNDER_ONLY), ("bottle", ON_TOP), ("box", INSIDE_OR_ON)],
+    },
+];
+
+/// English plural of a category (`shelf` → `shelves`, `bench` → `benches`).
+pub fn plural(category: &str) -> String {
+    let (head, last) = match category.rsplit_once(' ') {
+        Some((h, l)) => (format!("{h} "), l),
+        None => (String::new(), category),
+    };
+    let last = if let Some(stem) = last.strip_suffix("shelf") {
+        format!("{stem}shelves")
+    } else if last.ends_with("ch") || last.ends_with("sh") || last.ends_with('x') || last.ends_with('s') {
+        format!("{last}es")
+    } else {
+        format!("{last}s")
+    };
+    format!("{head}{last}")
+}
+
+/// `n category` with the right number.
+fn counted(n: u32, category: &str) -> String {
+    if n == 1 { format!("1 {category}") } else { format!("{n} {}", plural(category)) }
+}
+
+fn pick<'a, T>(rng: &mut Rng, items: &'a [T]) -> &'a T {
+    &items[rng.below(items.len())]
+}
+
+fn count_in(rng: &mut Rng, (lo, hi): (u32, u32)) -> u32 {
+    lo + rng.below((hi - lo + 1) as usize) as u32
+}
+
+fn capitalise(s: &str) -> String {
+    let mut c = s.chars();
+    c.next().map(|f| f.to_uppercase().collect::<String>() + c.as_str()).unwrap_or_default()
+}
+
+/// The phrase placing something relative to `targets` (`around the dining table`);
+/// a target with several members is named in the plural.
+fn relation_phrase(kind: RelationKind, targets: &[String], count_of: impl Fn(&str) -> u32) -> String {
+    let the = |t: &String| if count_of(t) > 1 { format!("the {}", plural(t)) } else { format!("the {t}") };
+    match targets {
+        [] => kind.phrase().to_string(),
+        [t] => format!("{} {}", kind.phrase(), the(t)),
+        [a, b] => format!("{} {} and {}", kind.phrase(), the(a), the(b)),
+        _ => unreachable!("relations take at most two targets"),
+    }
+}
+
+/// "The sofas are facing ..." or "The sofa is facing ...".
+fn subject_is(category: &str, count: u32) -> String {
+    if count == 1 { format!("The {category} is") } else { format!("The {} are", plural(category)) }
+}
+
+/// Write one prompt of `regime` from `rng`.
+pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec) {
+    let plan = pick(rng, PLANS);
+    let anchor_count = count_in(rng, plan.anchor_counts);
+    let mut objects = vec![ObjectSpec { category: plan.anchor.into(), count: anchor_count, kind: ObjectKind::Furniture }];
+    let mut relations = vec![Relation { subject: plan.anchor.into(), kind: plan.anchor_place, targets: vec![] }];
+    // Companions in a random order, as many as the regime needs.
+    let mut order: Vec<usize> = (0..plan.companions.len()).collect();
+    for i in (1..order.len()).rev() {
+        order.swap(i, rng.below(i + 1));
+    }
+    let wanted = match regime {
+        Regime::Furniture => 3 + rng.below(plan.companions.len().min(5) - 2),
+        Regime::Manipuland => 1 + rng.below(2),
+    };
+    let mut clauses = vec![format!("{} {}", counted(anchor_count, plan.anchor), plan.anchor_place.phrase())];
+    for &c in order.iter().take(wanted.min(plan.companions.len())) {
+        let companion = &plan.companions[c];
+        let mut count = count_in(rng, companion.counts);
+        if regime == Regime::Manipuland {
+            count = count.min(2);
+        }
+        let (kind, targets) = match *pick(rng, companion.places) {
+            Place::Anchor(k) => (k, vec![plan.anchor.to_string()]),
+            Place::Room(k) => (k, vec![]),
+        };
+        clauses.push(format!("{} {}", counted(count, companion.category), relation_phrase(kind, &targets, |_| anchor_count)));
+        objects.push(ObjectSpec { category: companion.category.into(), count, kind: ObjectKind::Furniture });
+        relations.push(Relation { subject: companion.category.into(), kind, targets });
+    }
+    let openers = ["A {room} with", "The {room} contains", "This {room} has", "A furnished {room} holds", "The layout of the {room} has"];
+    let opener = pick(rng, &openers).replace("{room}", plan.room);
+    let (last, rest) = clauses.split_last().expect("anchor clause");
+    let mut sentences = vec![format!("{opener} {}, and {last}.", rest.join(", "))];
+
+    let furniture: Vec<ObjectSpec> = objects.clone();
+    if regime == Regime::Manipuland {
+        // The main target and at most one secondary group of small objects.
+        let (target, target_relations) = *pick(rng, plan.smalls);
+        let target_count = 1 + rng.below(2) as u32;
+        let target_relation = *pick(rng, target_relations);
+        let anchor_phrase = relation_phrase(target_relation, &[plan.anchor.to_string()], |_| anchor_count);
+        sentences.push(format!("{}, there {} {}.", capitalise(&anchor_phrase), if target_count == 1 { "is" } else { "are" }, counted(target_count, target)));
+        objects.push(ObjectSpec { category: target.into(), count: target_count, kind: ObjectKind::Manipuland });
+        relations.push(Relation { subject: target.into(), kind: target_relation, targets: vec![plan.anchor.into()] });
+        let others: Vec<&(&str, &[RelationKind])> = plan.smalls.iter().filter(|(c, r)| *c != target && r.contains(&On)).collect();
+        if !others.is_empty() && rng.unit() < 0.7 {
+            let (group, _) = **pick(rng, &others);
+            let n = 2 + rng.below(3) as u32;
+            let host = pick(rng, &furniture[..]).category.clone();
+            let host_is_surface = plan.anchor == host || !matches!(host.as_str(), "dining chair" | "chair" | "office chair" | "armchair");
+            let host = if host_is_surface { host } else { plan.anchor.to_string() };
+            let host_count = furniture.iter().find(|o| o.category == host).map_or(1, |o| o.count);
+            sentences.push(format!("{} {} {}.", capitalise(&counted(n, group)), if n == 1 { "rests" } else { "rest" }, relation_phrase(On, &[host.clone()], |_| host_count)));
+            objects.push(ObjectSpec { category: group.into(), count: n, kind: ObjectKind::Manipuland });
+            relations.push(Relation { subject: group.into(), kind: On, targets: vec![host] });
+        }
+        // One blocker relation between the target and a piece of furniture.
+        if let Some(blocker) = furniture.iter().skip(1).next() {
+            let kind = *pick(rng, &[Behind, InFrontOf, Near]);
+            sentences.push(format!("{} {}.", subject_is(target, target_count), relation_phrase(kind, &[blocker.category.clone()], |_| blocker.count)));
+            relations.push(Relation { subject: target.into(), kind, targets: vec![blocker.category.clone()] });
+        }
+    }
+
+    // Restate or add furniture relations without numbers (numbers only in the first
+    // sentence keep the stated totals exact), until the prompt has enough sentences.
+    let extra = match regime {
+        Regime::Furniture => 2 + rng.below(3),
+        Regime::Manipuland => usize::from(sentences.len() < 3),
+    };
+    for _ in 0..extra {
+        if furniture.len() < 2 {
+            break;
+        }
+        let a = rng.below(furniture.len());
+        let mut b = rng.below(furniture.len());
+        if a == b {
+            b = (b + 1) % furniture.len();
+        }
+        let (sa, sb) = (&furniture[a], &furniture[b]);
+        let kind = *pick(rng, &[Behind, InFrontOf, NextTo, Opposite, Facing, ParallelTo, Between]);
+        let targets = if kind == Between && furniture.len() >= 3 {
+            let c = (0..furniture.len()).find(|&i| i != a && i != b).expect("three pieces");
+            vec![sb.category.clone(), furniture[c].category.clone()]
+        } else if kind == Between {
+            continue;
+        } else {
+            vec![sb.category.clone()]
+        };
+        let relation = Relation { subject: sa.category.clone(), kind, targets: targets.clone() };
+        if relations.contains(&relation) {
+            continue;
+        }
+        let count_of = |c: &str| furniture.iter().find(|o| o.category == c).map_or(1, |o| o.count);
+        sentences.push(format!("{} {}.", subject_is(&sa.category, sa.count), relation_phrase(kind, &targets, count_of)));
+        relations.push(relation);
+    }
+    let spec = SceneSpec { regime, room: plan.room.into(), objects, relations };
+    (sentences.join(" "), spec)
+}

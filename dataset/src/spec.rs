@@ -1,0 +1,207 @@
+//! The machine-readable side of a scene prompt: the room, every object category with
+//! its exact count, and the spatial relations the prompt states. Prompt-grounded
+//! questions, synthesis and the quality report all read this, never the prose.
+
+use serde::{Deserialize, Serialize};
+
+/// The two prompt regimes of OSMa-Bench++.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Regime {
+    /// Furniture-scale objects only, room-scale layout.
+    Furniture,
+    /// Furniture anchors plus small objects on, under or inside them.
+    Manipuland,
+}
+
+impl Regime {
+    /// Both regimes, in report order.
+    pub const ALL: [Regime; 2] = [Regime::Furniture, Regime::Manipuland];
+
+    /// The regime's name as written in files (`furniture`, `manipuland`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Regime::Furniture => "furniture",
+            Regime::Manipuland => "manipuland",
+        }
+    }
+}
+
+impl std::str::FromStr for Regime {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "furniture" => Ok(Regime::Furniture),
+            "manipuland" => Ok(Regime::Manipuland),
+            other => Err(format!("unknown regime '{other}' (expected furniture or manipuland)")),
+        }
+    }
+}
+
+/// Whether an object stands on the floor or is a small object resting on furniture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObjectKind {
+    /// Floor-supported furniture.
+    Furniture,
+    /// A small object that rests on, under or inside furniture.
+    Manipuland,
+}
+
+/// One object category of a scene with its exact count.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ObjectSpec {
+    /// Category name, lower case, singular (`dining chair`).
+    pub category: String,
+    /// How many the prompt states.
+    pub count: u32,
+    /// Furniture or manipuland.
+    pub kind: ObjectKind,
+}
+
+/// A spatial relation the prompt states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RelationKind {
+    /// Resting on top of the target.
+    On,
+    /// Below the target (under a table, under a desk).
+    Under,
+    /// Within the target (inside a cabinet).
+    Inside,
+    /// Beside the target, touching distance.
+    NextTo,
+    /// Close to the target.
+    Near,
+    /// Between two targets.
+    Between,
+    /// Behind the target.
+    Behind,
+    /// In front of the target.
+    InFrontOf,
+    /// Arranged around the target.
+    Around,
+    /// Facing the target.
+    Facing,
+    /// On the opposite side of the room from the target.
+    Opposite,
+    /// Parallel to the target.
+    ParallelTo,
+    /// Against a wall (no target).
+    AgainstWall,
+    /// Along a wall (no target).
+    AlongWall,
+    /// In a corner of the room (no target).
+    InCorner,
+    /// In the centre of the room (no target).
+    CenterOfRoom,
+}
+
+impl RelationKind {
+    /// How many target categories the relation takes.
+    pub fn arity(self) -> usize {
+        match self {
+            RelationKind::Between => 2,
+            RelationKind::AgainstWall | RelationKind::AlongWall | RelationKind::InCorner | RelationKind::CenterOfRoom => 0,
+            _ => 1,
+        }
+    }
+
+    /// The phrase the prompts use for it.
+    pub fn phrase(self) -> &'static str {
+        match self {
+            RelationKind::On => "on",
+            RelationKind::Under => "under",
+            RelationKind::Inside => "inside",
+            RelationKind::NextTo => "next to",
+            RelationKind::Near => "near",
+            RelationKind::Between => "between",
+            RelationKind::Behind => "behind",
+            RelationKind::InFrontOf => "in front of",
+            RelationKind::Around => "around",
+            RelationKind::Facing => "facing",
+            RelationKind::Opposite => "opposite",
+            RelationKind::ParallelTo => "parallel to",
+            RelationKind::AgainstWall => "against the wall",
+            RelationKind::AlongWall => "along the wall",
+            RelationKind::InCorner => "in the corner of the room",
+            RelationKind::CenterOfRoom => "in the center of the room",
+        }
+    }
+
+    /// Whether the relation means the subject is supported by the target.
+    pub fn is_support(self) -> bool {
+        matches!(self, RelationKind::On | RelationKind::Inside)
+    }
+}
+
+/// "`subject` is `kind` `targets`" (e.g. chair around table, box under desk).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Relation {
+    /// Category of the object the relation is about.
+    pub subject: String,
+    /// The relation.
+    pub kind: RelationKind,
+    /// Categories it relates to (none, one, or two for `between`).
+    #[serde(default)]
+    pub targets: Vec<String>,
+}
+
+/// The structured specification of one scene.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SceneSpec {
+    /// Regime the scene belongs to.
+    pub regime: Regime,
+    /// Room type (`dining room`).
+    pub room: String,
+    /// Object categories with counts, each category once.
+    pub objects: Vec<ObjectSpec>,
+    /// Stated relations between categories.
+    pub relations: Vec<Relation>,
+}
+
+impl SceneSpec {
+    /// The spec of category `category`.
+    pub fn object(&self, category: &str) -> Option<&ObjectSpec> {
+        self.objects.iter().find(|o| o.category == category)
+    }
+
+    /// All objects together.
+    pub fn total_objects(&self) -> u32 {
+        self.objects.iter().map(|o| o.count).sum()
+    }
+
+    /// Problems that make the spec unusable: repeated or empty categories, zero counts,
+    /// relations about unknown categories or with the wrong number of targets.
+    pub fn problems(&self) -> Vec<String> {
+        let mut problems = Vec::new();
+        if self.room.trim().is_empty() {
+            problems.push("room is empty".to_string());
+        }
+        if self.objects.is_empty() {
+            problems.push("no objects".to_string());
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            if o.category.trim().is_empty() {
+                problems.push(format!("objects[{i}].category is empty"));
+            }
+            if o.count == 0 {
+                problems.push(format!("objects[{i}] ({}) has count 0", o.category));
+            }
+            if self.objects[..i].iter().any(|p| p.category == o.category) {
+                problems.push(format!("category '{}' is listed twice", o.category));
+            }
+        }
+        for (i, r) in self.relations.iter().enumerate() {
+            for name in std::iter::once(&r.subject).chain(&r.targets) {
+                if self.object(name).is_none() {
+                    problems.push(format!("relations[{i}] names '{name}', which is not one of the objects"));
+                }
+            }
+            if r.targets.len() != r.kind.arity() {
+                problems.push(format!("relations[{i}] ({}) needs {} target(s), has {}", r.kind.phrase(), r.kind.arity(), r.targets.len()));
+            }
+        }
+        problems
+    }
+}

@@ -1,0 +1,6 @@
+//! The dataset pipeline's specification, as tests.
+
+mod fake_service;
+mod prompts;
+mod selection;
+mod service;

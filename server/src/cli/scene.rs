@@ -1,0 +1,175 @@
+//! `osmab scene …`: the first stages of the dataset pipeline.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+use osmab_dataset::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
+use osmab_dataset::openai::{ServiceClient, ServiceConfig};
+use osmab_dataset::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
+use osmab_dataset::selection::{NEAR_DUPLICATE_COSINE, SelectionReport, select};
+use osmab_dataset::spec::Regime;
+
+#[derive(Debug, Subcommand)]
+pub enum SceneCommand {
+    /// Write a pool of scene prompts with their structured specs (filtered as OSMa-Bench++ does).
+    Prompts(PromptsArgs),
+    /// Remove near-duplicates and select a diverse subset per regime.
+    Select(SelectArgs),
+}
+
+/// An OpenAI-compatible service; the API key comes from OSMAB_OPENAI_API_KEY.
+#[derive(Debug, Args)]
+pub struct ServiceArgs {
+    /// Base URL including the version, e.g. http://127.0.0.1:8000/v1 (unset: built-in backend).
+    #[arg(long)]
+    url: Option<String>,
+    /// Model name.
+    #[arg(long, default_value = "gpt-4.1-mini")]
+    model: String,
+    /// Request timeout in seconds.
+    #[arg(long, default_value_t = 120.0)]
+    timeout: f64,
+    /// Retries after a failed request.
+    #[arg(long, default_value_t = 4)]
+    retries: u32,
+}
+
+impl ServiceArgs {
+    fn client(&self) -> anyhow::Result<Option<ServiceClient>> {
+        let Some(url) = &self.url else { return Ok(None) };
+        let mut config = ServiceConfig::new(url.clone(), self.model.clone());
+        config.api_key = std::env::var("OSMAB_OPENAI_API_KEY").ok().filter(|k| !k.is_empty());
+        config.timeout_secs = self.timeout;
+        config.max_retries = self.retries;
+        Ok(Some(ServiceClient::new(config)?))
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct PromptsArgs {
+    /// furniture or manipuland.
+    #[arg(long)]
+    regime: Regime,
+    /// Prompts to keep.
+    #[arg(long, default_value_t = 300)]
+    count: usize,
+    /// Seed of the built-in grammar.
+    #[arg(long, default_value_t = 42)]
+    seed: u64,
+    /// Prompts asked of the LLM per request.
+    #[arg(long, default_value_t = 12)]
+    batch: usize,
+    /// LLM requests at most.
+    #[arg(long, default_value_t = 80)]
+    max_requests: usize,
+    #[command(flatten)]
+    llm: ServiceArgs,
+    /// Output JSON (accepted and rejected prompts with reasons).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct SelectArgs {
+    /// Prompt pools written by `osmab scene prompts`.
+    #[arg(required = true)]
+    pools: Vec<PathBuf>,
+    /// Furniture scenes to select.
+    #[arg(long, default_value_t = 24)]
+    furniture: usize,
+    /// Manipuland scenes to select.
+    #[arg(long, default_value_t = 16)]
+    manipuland: usize,
+    /// Cosine similarity at or above which a later prompt is a near-duplicate.
+    #[arg(long, default_value_t = NEAR_DUPLICATE_COSINE)]
+    threshold: f32,
+    #[command(flatten)]
+    embeddings: ServiceArgs,
+    /// Output directory: selection.json, final_prompts.json, final_prompts.csv.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
+    match cmd {
+        SceneCommand::Prompts(args) => prompts(&args),
+        SceneCommand::Select(args) => selection(&args),
+    }
+}
+
+fn prompts(args: &PromptsArgs) -> anyhow::Result<()> {
+    let pool = match args.llm.client()? {
+        Some(client) => llm_pool(&client, args.regime, args.count, args.batch, args.max_requests)?,
+        None => grammar_pool(args.regime, args.count, args.seed),
+    };
+    write_json(&args.out, &pool)?;
+    let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
+    for r in pool.rejected.iter().flat_map(|r| &r.reasons) {
+        *reasons.entry(serde_json::to_value(r)?.as_str().unwrap_or("?").to_string()).or_default() += 1;
+    }
+    println!("{}: {} {} prompts accepted, {} rejected {:?}", args.out.display(), pool.accepted.len(), args.regime.name(), pool.rejected.len(), reasons);
+    if pool.accepted.len() < args.count {
+        eprintln!("warning: {} of the {} prompts asked for were written", pool.accepted.len(), args.count);
+    }
+    Ok(())
+}
+
+fn selection(args: &SelectArgs) -> anyhow::Result<()> {
+    let mut by_regime: BTreeMap<Regime, Vec<ScenePrompt>> = BTreeMap::new();
+    for path in &args.pools {
+        let text = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+        let pool: PromptPool = serde_json::from_slice(&text).with_context(|| format!("{}: not a prompt pool written by `osmab scene prompts`", path.display()))?;
+        by_regime.entry(pool.regime).or_default().extend(pool.accepted);
+    }
+    let embedder: Box<dyn Embedder> = match args.embeddings.client()? {
+        Some(client) => Box::new(ServiceEmbedder { client, batch: 64 }),
+        None => Box::new(HashingEmbedder::default()),
+    };
+    let mut reports: BTreeMap<&str, SelectionReport> = BTreeMap::new();
+    let mut final_prompts = Vec::new();
+    for regime in Regime::ALL {
+        let target = match regime {
+            Regime::Furniture => args.furniture,
+            Regime::Manipuland => args.manipuland,
+        };
+        let prompts = by_regime.remove(&regime).unwrap_or_default();
+        if prompts.is_empty() {
+            if target > 0 {
+                bail!("no {} prompts among the pools, but {target} are to be selected", regime.name());
+            }
+            continue;
+        }
+        let texts: Vec<String> = prompts.iter().map(|p| p.text.clone()).collect();
+        let ids: Vec<String> = prompts.iter().map(|p| p.id.clone()).collect();
+        let report = select(&ids, &embedder.embed(&texts)?, target, args.threshold);
+        for s in &report.selected {
+            final_prompts.push(prompts.iter().find(|p| p.id == s.id).expect("selected from the pool").clone());
+        }
+        println!(
+            "{}: {} candidates, {} near-duplicates removed, {} selected{}",
+            regime.name(),
+            report.candidates,
+            report.near_duplicates.len(),
+            report.selected.len(),
+            if report.shortfall > 0 { format!(" ({} short)", report.shortfall) } else { String::new() }
+        );
+        reports.insert(regime.name(), report);
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create", args.out.display()))?;
+    write_json(&args.out.join("selection.json"), &serde_json::json!({"embedder": embedder.name(), "regimes": reports}))?;
+    write_json(&args.out.join("final_prompts.json"), &final_prompts)?;
+    // SceneSmith's experiment.csv_path format: scene_index,prompt.
+    let mut csv = String::from("scene_index,prompt\n");
+    for (i, p) in final_prompts.iter().enumerate() {
+        csv.push_str(&format!("{i},\"{}\"\n", p.text.replace('"', "\"\"")));
+    }
+    std::fs::write(args.out.join("final_prompts.csv"), csv).with_context(|| format!("{}: cannot write", args.out.display()))?;
+    Ok(())
+}
+
+fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("{}: cannot write", path.display()))
+}

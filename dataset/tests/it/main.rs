@@ -1,5 +1,6 @@
 //! The dataset pipeline's specification, as tests.
 
+mod convert;
 mod fake_service;
 mod prompts;
 mod selection;

@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
+use osmab_dataset::convert::scene::load_scene;
 use osmab_dataset::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
 use osmab_dataset::openai::{ServiceClient, ServiceConfig};
 use osmab_dataset::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
@@ -17,6 +19,14 @@ pub enum SceneCommand {
     Prompts(PromptsArgs),
     /// Remove near-duplicates and select a diverse subset per regime.
     Select(SelectArgs),
+    /// Convert a Drake/SceneSmith scene into a Habitat-style scene.
+    Convert {
+        /// The scene directory (package.xml, combined_house/house.dmd.yaml, ...).
+        scene: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// An OpenAI-compatible service; the API key comes from OSMAB_OPENAI_API_KEY.
@@ -96,6 +106,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
     match cmd {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
+        SceneCommand::Convert { scene, out } => convert(&scene, &out),
     }
 }
 
@@ -166,6 +177,19 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
         csv.push_str(&format!("{i},\"{}\"\n", p.text.replace('"', "\"\"")));
     }
     std::fs::write(args.out.join("final_prompts.csv"), csv).with_context(|| format!("{}: cannot write", args.out.display()))?;
+    Ok(())
+}
+
+fn convert(scene: &Path, out: &Path) -> anyhow::Result<()> {
+    let loaded = load_scene(scene)?;
+    let report = write_habitat_scene(&loaded, out, &ConvertOptions::default())?;
+    println!("{}: {} objects, {:.0}% of the floor navigable", out.display(), report.objects.len(), 100.0 * report.navigable_fraction);
+    for name in &report.unknown_names {
+        eprintln!("warning: '{name}' matches no class of the lexicon; classified as 'other'");
+    }
+    for problem in &report.texture_fallbacks {
+        eprintln!("warning: {problem}; the base colour is used instead");
+    }
     Ok(())
 }
 

@@ -1,0 +1,450 @@
+//! Writing a loaded Drake scene as a Habitat-style scene: dataset, stage, object and
+//! scene-instance configs with the frame change of scene-pipeline.md §4.2, copied
+//! assets, generated primitive meshes, an instance-level semantic lexicon with class
+//! names, a navigable-area map, lighting layouts for the four conditions, and a
+//! report of everything that needed attention.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use osmab_evaluator::{InputError, Result};
+use serde::Serialize;
+use serde_json::{Value, json};
+
+use super::gltf::read_gltf;
+use super::lexicon::{class_id, classes, normalise_name};
+use super::primitives::{box_mesh, cylinder_mesh, mtl, sphere_mesh};
+use super::scene::{DrakeScene, PlacedModel};
+use super::sdf::Geometry;
+use super::transform::{Pose, drake_to_habitat, point_to_habitat, wxyz};
+
+/// Settings of the adaptation layer.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConvertOptions {
+    /// Agent radius for the navigable map (OSMa-Bench++: 0.15 m).
+    pub agent_radius: f64,
+    /// Agent height: obstacles lower than the floor plus this block the way.
+    pub agent_height: f64,
+    /// Cell size of the navigable map.
+    pub cell_size: f64,
+    /// Height above the stage of the semantic floor copy (v2's `FLOOR_Y_OFFSET`).
+    pub floor_offset: f64,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        Self { agent_radius: 0.15, agent_height: 1.5, cell_size: 0.05, floor_offset: 0.002 }
+    }
+}
+
+/// One object instance of the converted scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConvertedObject {
+    /// Instance semantic id (1, 2, ...), what semantic images hold.
+    pub instance_id: i64,
+    /// Canonical class and its id in the release lexicon.
+    pub class: String,
+    pub class_id: i64,
+    /// Model instance name in the directives.
+    pub model: String,
+    /// The free-text name it was classified from.
+    pub name: String,
+    pub description: String,
+    /// World-space bounds in Habitat axes (y up).
+    pub bbox_min: [f64; 3],
+    pub bbox_max: [f64; 3],
+}
+
+/// What the conversion did and what needs attention.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ConversionReport {
+    pub scene: String,
+    pub objects: Vec<ConvertedObject>,
+    /// Names that matched no class (classified as "other"); never silently dropped.
+    pub unknown_names: Vec<String>,
+    /// Models with no `house_state.json` entry (classified from their instance name).
+    pub models_without_metadata: Vec<String>,
+    /// Textures that could not be used; those visuals fall back to the base colour.
+    pub texture_fallbacks: Vec<String>,
+    /// glTF meshes without normals (generated when rendering).
+    pub generated_normals: Vec<String>,
+    /// Fraction of the floor the agent can stand on.
+    pub navigable_fraction: f64,
+}
+
+struct Writer<'a> {
+    out: &'a Path,
+    options: &'a ConvertOptions,
+    scene: &'a DrakeScene,
+    report: ConversionReport,
+    templates: Vec<(String, Value)>,
+    instances: Vec<Value>,
+    /// Footprints of obstacles in Habitat (x, z) with their height span.
+    obstacles: Vec<([f64; 3], [f64; 3])>,
+    floor: Option<([f64; 3], [f64; 3])>,
+}
+
+fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
+    }
+    let text = serde_json::to_string_pretty(value).expect("serialisable");
+    std::fs::write(path, text + "\n").map_err(|e| InputError::io(path, &e))
+}
+
+fn copy_file(from: &Path, to: &Path) -> Result<()> {
+    if let Some(dir) = to.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
+    }
+    std::fs::copy(from, to).map(|_| ()).map_err(|e| InputError::new(from, "(copy)", format!("cannot copy to {}: {e}", to.display())))
+}
+
+/// Habitat bounds of Drake-frame points under `pose`.
+fn habitat_bounds(points: impl Iterator<Item = Vector3<f64>>, pose: &Pose) -> ([f64; 3], [f64; 3]) {
+    points.fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
+        let h = point_to_habitat(pose.transform_point(&Point3::from(p)).coords);
+        (std::array::from_fn(|a| lo[a].min(h[a])), std::array::from_fn(|a| hi[a].max(h[a])))
+    })
+}
+
+fn corners(lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = Vector3<f64>> {
+    (0..8).map(move |i| Vector3::new(if i & 1 == 0 { lo[0] } else { hi[0] }, if i & 2 == 0 { lo[1] } else { hi[1] }, if i & 4 == 0 { lo[2] } else { hi[2] }))
+}
+
+impl Writer<'_> {
+    /// Class of a model (and of a room-geometry visual by its name).
+    fn classify(&mut self, model: &PlacedModel, visual_name: &str) -> (String, String, String) {
+        let (name, description) = match &model.info {
+            Some(info) => (info.name.clone(), info.description.clone()),
+            None if model.model.name == "room_geometry" || model.name.starts_with("room_geometry") => (visual_name.trim_end_matches("_visual").to_string(), String::new()),
+            None => {
+                self.report.models_without_metadata.push(model.name.clone());
+                // `<room>_<object>_<n>`: drop the room prefix.
+                let stem = model.name.split_once('_').map_or(model.name.as_str(), |(_, rest)| rest);
+                (stem.to_string(), String::new())
+            }
+        };
+        let room_part = ["floor", "wall", "ceiling", "door", "window"].into_iter().find(|p| name.to_lowercase().contains(p));
+        let class = room_part.or_else(|| normalise_name(&name));
+        match class {
+            Some(c) => (c.to_string(), name, description),
+            None => {
+                self.report.unknown_names.push(format!("{} ({})", name, model.name));
+                ("other".to_string(), name, description)
+            }
+        }
+    }
+
+    fn add_model(&mut self, model: &PlacedModel) -> Result<()> {
+        let c = drake_to_habitat();
+        let q_c = UnitQuaternion::from_rotation_matrix(&c);
+        let room_geometry = model.model.name == "room_geometry";
+        // Room geometry: one instance per visual (floor, each wall); else one per model.
+        let groups: Vec<Vec<usize>> = if room_geometry { (0..model.visuals().count()).map(|i| vec![i]).collect() } else { vec![(0..model.visuals().count()).collect()] };
+        let visuals: Vec<_> = model.visuals().collect();
+        for group in groups {
+            let first = visuals[group[0]].0;
+            let (class, name, description) = self.classify(model, &first.name);
+            let instance_id = self.report.objects.len() as i64 + 1;
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for &v in &group {
+                let (visual, world) = visuals[v];
+                let handle = format!("{}__{}__{}", self.scene.name, model.name, visual.name);
+                let (render_asset, rotation, scale, local_bounds, textured) = match &visual.geometry {
+                    Geometry::Mesh { path, scale } => {
+                        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+                        let target = PathBuf::from("assets").join(&model.name).join(path.file_name().expect("a mesh file"));
+                        copy_mesh(path, &self.out.join(&target), &ext)?;
+                        match ext.as_str() {
+                            "gltf" | "glb" => {
+                                let asset = read_gltf(path)?;
+                                if asset.generated_normals {
+                                    self.report.generated_normals.push(path.strip_prefix(&self.scene.root).unwrap_or(path).display().to_string());
+                                }
+                                for m in asset.materials.iter().filter_map(|m| m.texture_problem.as_ref()) {
+                                    self.report.texture_fallbacks.push(m.clone());
+                                }
+                                let textured = asset.materials.iter().any(|m| m.texture.is_some());
+                                // Drake turns glTF (Y-up) into Z-up by Rx(+90°): p_D = S·Rx90·p_gltf.
+                                let (glo, ghi) = asset.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
+                                let lo_d = [glo[0] as f64 * scale[0], -(ghi[2] as f64) * scale[1], glo[1] as f64 * scale[2]];
+                                let hi_d = [ghi[0] as f64 * scale[0], -(glo[2] as f64) * scale[1], ghi[1] as f64 * scale[2]];
+                                (target, q_c * world.rotation * q_c.inverse(), [scale[0], scale[2], scale[1]], (lo_d, hi_d), textured)
+                            }
+                            "obj" => {
+                                let bounds = obj_bounds(path)?;
+                                let lo_d = std::array::from_fn(|a| bounds.0[a] * scale[a]);
+                                let hi_d = std::array::from_fn(|a| bounds.1[a] * scale[a]);
+                                (target, q_c * world.rotation, *scale, (lo_d, hi_d), false)
+                            }
+                            other => return Err(InputError::new(path, "(mesh)", format!("unsupported mesh format '.{other}' (expected .gltf, .glb or .obj)"))),
+                        }
+                    }
+                    primitive => {
+                        let mesh = match primitive {
+                            Geometry::Box { size } => box_mesh(*size),
+                            Geometry::Cylinder { radius, length } => cylinder_mesh(*radius, *length, 32),
+                            Geometry::Sphere { radius } => sphere_mesh(*radius, 16, 32),
+                            Geometry::Mesh { .. } => unreachable!("handled above"),
+                        };
+                        let stem = format!("{}__{}", model.name, visual.name);
+                        let target = PathBuf::from("assets/primitives").join(format!("{stem}.obj"));
+                        let rgb = visual.diffuse.map(|d| [d[0], d[1], d[2]]).unwrap_or(default_colour(&class));
+                        let dir = self.out.join("assets/primitives");
+                        std::fs::create_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
+                        std::fs::write(dir.join(format!("{stem}.mtl")), mtl(&stem, rgb)).map_err(|e| InputError::io(&dir, &e))?;
+                        std::fs::write(self.out.join(&target), mesh.to_obj(&format!("{stem}.mtl"), &stem)).map_err(|e| InputError::io(&dir, &e))?;
+                        (target, q_c * world.rotation, [1.0; 3], mesh.bounds(), false)
+                    }
+                };
+                let (vlo, vhi) = habitat_bounds(corners(local_bounds.0, local_bounds.1), &world);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(vlo[a]);
+                    hi[a] = hi[a].max(vhi[a]);
+                }
+                let is_floor = class == "floor";
+                if is_floor {
+                    self.floor = Some(match self.floor {
+                        Some((flo, fhi)) => (std::array::from_fn(|a| flo[a].min(vlo[a])), std::array::from_fn(|a| fhi[a].max(vhi[a]))),
+                        None => (vlo, vhi),
+                    });
+                } else if class != "ceiling" {
+                    self.obstacles.push((vlo, vhi));
+                }
+                let template = json!({
+                    "render_asset": format!("../{}", render_asset.display()),
+                    "up": [0.0, 1.0, 0.0],
+                    "front": [0.0, 0.0, -1.0],
+                    "semantic_id": instance_id,
+                    "shader_type": if textured { "material" } else { "phong" },
+                    "is_collidable": !is_floor,
+                    "units_to_meters": 1.0,
+                    "user_defined": {"class": class, "class_id": class_id(&class).unwrap_or(0), "model": model.name, "visual": visual.name},
+                });
+                self.templates.push((handle.clone(), template));
+                let mut translation = point_to_habitat(world.translation.vector);
+                if is_floor {
+                    translation[1] += self.options.floor_offset;
+                }
+                let q = wxyz(&rotation);
+                self.instances.push(json!({
+                    "template_name": handle,
+                    "translation": translation,
+                    "rotation": q,
+                    "non_uniform_scale": scale,
+                    "motion_type": "STATIC",
+                    "translation_origin": "asset_local",
+                }));
+            }
+            self.report.objects.push(ConvertedObject { instance_id, class_id: class_id(&class).unwrap_or(0), class, model: model.name.clone(), name, description, bbox_min: lo, bbox_max: hi });
+        }
+        Ok(())
+    }
+}
+
+fn default_colour(class: &str) -> [f64; 3] {
+    match class {
+        "floor" => [0.55, 0.45, 0.35],
+        "wall" => [0.85, 0.84, 0.80],
+        "ceiling" => [0.95, 0.95, 0.95],
+        _ => [0.6, 0.6, 0.6],
+    }
+}
+
+/// Copy a mesh and the files it references (glTF buffers and images, OBJ materials).
+fn copy_mesh(from: &Path, to: &Path, ext: &str) -> Result<()> {
+    copy_file(from, to)?;
+    let dir = from.parent().unwrap_or(Path::new("."));
+    let out_dir = to.parent().expect("a file has a folder");
+    let mut referenced: Vec<String> = Vec::new();
+    if ext == "gltf" {
+        let json: Value = serde_json::from_slice(&std::fs::read(from).map_err(|e| InputError::io(from, &e))?).map_err(|e| InputError::new(from, "(json)", e.to_string()))?;
+        for key in ["buffers", "images"] {
+            referenced.extend(json[key].as_array().into_iter().flatten().filter_map(|b| b["uri"].as_str()).filter(|u| !u.starts_with("data:")).map(str::to_string));
+        }
+    } else if ext == "obj" {
+        let text = std::fs::read_to_string(from).map_err(|e| InputError::io(from, &e))?;
+        for line in text.lines() {
+            if let Some(m) = line.strip_prefix("mtllib ") {
+                let mtl = m.trim().to_string();
+                if let Ok(mtl_text) = std::fs::read_to_string(dir.join(&mtl)) {
+                    referenced.extend(mtl_text.lines().filter_map(|l| l.trim().strip_prefix("map_Kd ").or_else(|| l.trim().strip_prefix("map_Ka "))).map(|t| t.trim().to_string()));
+                }
+                referenced.push(mtl);
+            }
+        }
+    }
+    for rel in referenced {
+        let source = super::sdf::normalize(&dir.join(&rel));
+        if !source.starts_with(super::sdf::normalize(dir)) {
+            return Err(InputError::new(from, "(uri)", format!("'{rel}' points outside the asset's folder")));
+        }
+        if source.exists() {
+            copy_file(&source, &out_dir.join(&rel))?;
+        }
+    }
+    Ok(())
+}
+
+/// Bounds of an OBJ's vertices.
+fn obj_bounds(path: &Path) -> Result<([f64; 3], [f64; 3])> {
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
+    let mut b = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for (i, line) in text.lines().enumerate() {
+        if let Some(rest) = line.strip_prefix("v ") {
+            let v: Vec<f64> = rest.split_whitespace().take(3).filter_map(|w| w.parse().ok()).collect();
+            if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+                return Err(InputError::new(path, format!("line {}", i + 1), "a vertex needs 3 finite numbers"));
+            }
+            for a in 0..3 {
+                b.0[a] = b.0[a].min(v[a]);
+                b.1[a] = b.1[a].max(v[a]);
+            }
+        }
+    }
+    if b.0[0].is_infinite() {
+        return Err(InputError::new(path, "v", "the OBJ has no vertices"));
+    }
+    Ok(b)
+}
+
+/// The navigable-area map: floor cells not covered by an obstacle dilated by the agent radius.
+fn navigable_map(floor: ([f64; 3], [f64; 3]), obstacles: &[([f64; 3], [f64; 3])], options: &ConvertOptions) -> (usize, usize, Vec<u8>) {
+    let (lo, hi) = floor;
+    let width = (((hi[0] - lo[0]) / options.cell_size).ceil() as usize).max(1);
+    let height = (((hi[2] - lo[2]) / options.cell_size).ceil() as usize).max(1);
+    let floor_top = hi[1];
+    let mut cells = vec![255u8; width * height];
+    for (olo, ohi) in obstacles {
+        // Only what the agent's body meets: above the floor, below its height.
+        if ohi[1] <= floor_top + 0.02 || olo[1] >= floor_top + options.agent_height {
+            continue;
+        }
+        let r = options.agent_radius;
+        let (x0, x1) = (((olo[0] - r - lo[0]) / options.cell_size).floor(), ((ohi[0] + r - lo[0]) / options.cell_size).ceil());
+        let (z0, z1) = (((olo[2] - r - lo[2]) / options.cell_size).floor(), ((ohi[2] + r - lo[2]) / options.cell_size).ceil());
+        for z in (z0.max(0.0) as usize)..(z1.max(0.0) as usize).min(height) {
+            for x in (x0.max(0.0) as usize)..(x1.max(0.0) as usize).min(width) {
+                cells[z * width + x] = 0;
+            }
+        }
+    }
+    (width, height, cells)
+}
+
+fn write_png8(path: &Path, width: usize, height: usize, data: &[u8]) -> Result<()> {
+    let file = std::fs::File::create(path).map_err(|e| InputError::io(path, &e))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    let err = |e: png::EncodingError| InputError::new(path, "(png)", e.to_string());
+    let mut w = encoder.write_header().map_err(err)?;
+    w.write_image_data(data).map_err(err)?;
+    w.finish().map_err(err)
+}
+
+/// The four lighting conditions as HaDaGe light settings, laid out for this room:
+/// ceiling lights on a grid (baseline), one camera light (camera), the same ceiling
+/// lights on only for the first navigation goal (dynamic_lights), none (no_lights).
+fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'static str, Value> {
+    let (lo, hi) = floor;
+    let nx = ((hi[0] - lo[0]) / 2.5).ceil().max(1.0) as usize;
+    let nz = ((hi[2] - lo[2]) / 2.5).ceil().max(1.0) as usize;
+    let y = hi[1] + ceiling_height - 0.3;
+    let ceiling = |life: Value| -> Value {
+        let mut lights = serde_json::Map::new();
+        for i in 0..nx {
+            for k in 0..nz {
+                let x = lo[0] + (hi[0] - lo[0]) * (i as f64 + 0.5) / nx as f64;
+                let z = lo[2] + (hi[2] - lo[2]) * (k as f64 + 0.5) / nz as f64;
+                lights.insert(
+                    (lights.len()).to_string(),
+                    json!({"type": "point", "position": [x, y, z], "intensity": 0.6, "color": [1.0, 0.96, 0.9], "life_intervals": life.clone()}),
+                );
+            }
+        }
+        json!({"lights": lights})
+    };
+    BTreeMap::from([
+        ("baseline", ceiling(json!([[null, null]]))),
+        ("camera", json!({"lights": {"0": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 5.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}})),
+        ("dynamic_lights", ceiling(json!([[null, 1]]))),
+        ("no_lights", json!({"lights": {}})),
+    ])
+}
+
+/// Convert `scene` into `out`.
+pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOptions) -> Result<ConversionReport> {
+    std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
+    let mut w = Writer { out, options, scene, report: ConversionReport { scene: scene.name.clone(), ..Default::default() }, templates: Vec::new(), instances: Vec::new(), obstacles: Vec::new(), floor: None };
+    for model in &scene.models {
+        w.add_model(model)?;
+    }
+    let name = &scene.name;
+    for (handle, template) in &w.templates {
+        write_json(&out.join("objects").join(format!("{handle}.object_config.json")), template)?;
+    }
+    let floor = w.floor.or_else(|| {
+        // No floor visual: the footprint of everything, at height 0.
+        let lo = w.report.objects.iter().fold([f64::INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].min(o.bbox_min[a])));
+        let hi = w.report.objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
+        lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
+    }).ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
+    // The stage is the floor (for navigation meshes); the floor is also a semantic object.
+    let floor_handle = w.templates.iter().find(|(_, t)| t["user_defined"]["class"] == "floor").map(|(h, t)| (h.clone(), t["render_asset"].clone()));
+    let stage = json!({
+        "render_asset": floor_handle.as_ref().map(|(_, a)| a.clone()).unwrap_or(Value::Null),
+        "up": [0.0, 1.0, 0.0],
+        "front": [0.0, 0.0, -1.0],
+        "units_to_meters": 1.0,
+        "shader_type": "phong",
+    });
+    write_json(&out.join("stages").join(format!("{name}.stage_config.json")), &stage)?;
+    let scene_instance = json!({
+        "stage_instance": {"template_name": name, "translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+        "default_lighting": format!("{name}.baseline"),
+        "translation_origin": "asset_local",
+        "semantic_scene_instance": name,
+        "object_instances": w.instances,
+    });
+    write_json(&out.join("scenes").join(format!("{name}.scene_instance.json")), &scene_instance)?;
+    write_json(
+        &out.join(format!("{name}.scene_dataset_config.json")),
+        &json!({
+            "stages": {"paths": {".json": ["stages/"]}},
+            "objects": {"paths": {".json": ["objects/"]}},
+            "light_setups": {"default_attributes": {"positive_intensity_scale": 2.5, "negative_intensity_scale": 0.1}, "paths": {".json": ["lighting/"]}},
+            "scene_instances": {"paths": {".json": ["scenes/"]}},
+            "semantic_scene_descriptor_instances": {name.clone(): format!("semantics/{name}.lexicon.json")},
+        }),
+    )?;
+    // Instance ids with their class names: HaDaGe's remap_classes collapses them to classes.
+    let mut lexicon = vec![json!({"name": "other", "id": 0})];
+    lexicon.extend(w.report.objects.iter().map(|o| json!({"name": o.class, "id": o.instance_id})));
+    write_json(&out.join("semantics").join(format!("{name}.lexicon.json")), &json!({"classes": lexicon}))?;
+    write_json(&out.join("semantics/classes.json"), &json!({"classes": classes()}))?;
+    let ceiling_height = scene.wall_height.unwrap_or_else(|| w.obstacles.iter().map(|(_, hi)| hi[1]).fold(2.5f64, f64::max));
+    for (condition, lights) in lighting(floor, ceiling_height) {
+        write_json(&out.join("lighting").join(format!("{name}.{condition}.json")), &lights)?;
+    }
+    let (width, height, cells) = navigable_map(floor, &w.obstacles, options);
+    let nav_dir = out.join("navigation");
+    std::fs::create_dir_all(&nav_dir).map_err(|e| InputError::io(&nav_dir, &e))?;
+    write_png8(&nav_dir.join(format!("{name}.navigable.png")), width, height, &cells)?;
+    let navigable = cells.iter().filter(|&&c| c == 255).count() as f64 / cells.len() as f64;
+    w.report.navigable_fraction = navigable;
+    write_json(
+        &nav_dir.join(format!("{name}.navigable.json")),
+        &json!({"origin_xz": [floor.0[0], floor.0[2]], "floor_height": floor.1[1], "cell_size": options.cell_size, "width": width, "height": height,
+                "agent_radius": options.agent_radius, "agent_height": options.agent_height, "navigable_fraction": navigable,
+                "png": format!("{name}.navigable.png"), "rows": "z increasing", "columns": "x increasing", "values": "255 navigable, 0 blocked"}),
+    )?;
+    if let Some(prompt) = &scene.prompt {
+        write_json(&out.join("prompt.json"), &json!({"prompt": prompt}))?;
+    }
+    w.report.unknown_names.sort();
+    w.report.unknown_names.dedup();
+    write_json(&out.join("conversion_report.json"), &w.report)?;
+    Ok(w.report)
+}

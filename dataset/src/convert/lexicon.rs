@@ -1,0 +1,145 @@
+//! The release's class lexicon and the semantic normalisation of free-text object
+//! names to it ("King Bed" → bed, "Coffee Mug" → mug, "Swivel Office Chair" → office
+//! chair). Names that match nothing are reported, never silently dropped.
+
+use serde::{Deserialize, Serialize};
+
+/// Canonical classes in id order (id = position; 0 is "other"), each with synonyms.
+pub const CLASSES: &[(&str, &[&str])] = &[
+    ("other", &[]),
+    ("floor", &["ground", "floor plane", "rug", "carpet"]),
+    ("wall", &["exterior wall", "partition"]),
+    ("ceiling", &[]),
+    ("door", &["doorway"]),
+    ("window", &["window frame"]),
+    ("bed", &["king bed", "queen bed", "double bed", "single bed", "bunk bed", "twin bed"]),
+    ("nightstand", &["bedside table", "night stand", "night table"]),
+    ("wardrobe", &["closet", "armoire"]),
+    ("dresser", &["chest of drawers", "drawer chest"]),
+    ("desk", &["work desk", "writing desk", "computer desk", "reception desk", "standing desk"]),
+    ("chair", &["side chair", "stool", "bar stool"]),
+    ("dining chair", &[]),
+    ("office chair", &["swivel chair", "desk chair", "task chair"]),
+    ("armchair", &["lounge chair", "accent chair", "recliner"]),
+    ("sofa", &["couch", "loveseat", "sectional"]),
+    ("bench", &[]),
+    ("table", &["side table", "end table", "work table"]),
+    ("dining table", &["kitchen table"]),
+    ("coffee table", &[]),
+    ("console table", &[]),
+    ("conference table", &["meeting table"]),
+    ("cabinet", &["cupboard"]),
+    ("filing cabinet", &["file cabinet"]),
+    ("storage cabinet", &["locker"]),
+    ("bookshelf", &["bookcase", "book shelf"]),
+    ("shelf", &["shelving unit", "shelves"]),
+    ("storage rack", &["rack", "metal shelf"]),
+    ("sideboard", &["buffet"]),
+    ("credenza", &[]),
+    ("counter", &["countertop", "kitchen counter"]),
+    ("kitchen island", &["island"]),
+    ("workbench", &["work bench"]),
+    ("tv stand", &["tv cabinet", "media console"]),
+    ("mug", &["coffee mug", "cup", "tea cup"]),
+    ("book", &[]),
+    ("laptop", &["notebook computer"]),
+    ("plate", &["dish"]),
+    ("bowl", &[]),
+    ("bottle", &["water bottle", "wine bottle"]),
+    ("can", &["tin can", "oil can", "soda can"]),
+    ("box", &["cardboard box", "storage box", "crate"]),
+    ("bucket", &["pail"]),
+    ("towel", &[]),
+    ("pillow", &["cushion"]),
+    ("blanket", &["throw"]),
+    ("backpack", &["rucksack"]),
+    ("suitcase", &["luggage"]),
+    ("helmet", &[]),
+    ("clock", &["alarm clock", "wall clock"]),
+    ("printer", &["printer scanner"]),
+    ("monitor", &["computer monitor", "screen", "display"]),
+    ("lamp", &["floor lamp", "table lamp", "desk lamp"]),
+    ("plant", &["potted plant", "houseplant"]),
+    ("vase", &[]),
+    ("television", &["tv"]),
+];
+
+/// The lexicon entry of a class.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassEntry {
+    pub name: String,
+    pub id: i64,
+}
+
+/// Every class as `{"name", "id"}`.
+pub fn classes() -> Vec<ClassEntry> {
+    CLASSES.iter().enumerate().map(|(id, (name, _))| ClassEntry { name: (*name).into(), id: id as i64 }).collect()
+}
+
+/// The id of canonical class `name`.
+pub fn class_id(name: &str) -> Option<i64> {
+    CLASSES.iter().position(|(n, _)| *n == name).map(|i| i as i64)
+}
+
+/// Lower case, punctuation and underscores as spaces, the last word singular.
+fn normalise(name: &str) -> Vec<String> {
+    let mut words: Vec<String> = name.to_lowercase().split(|c: char| !c.is_alphanumeric()).filter(|w| !w.is_empty()).map(str::to_string).collect();
+    // Trailing numbers and hashes (chair 2, desk_0) are not part of the category.
+    while words.last().is_some_and(|w| w.chars().all(|c| c.is_ascii_digit())) {
+        words.pop();
+    }
+    if let Some(last) = words.last_mut() {
+        let singular = if let Some(stem) = last.strip_suffix("shelves") {
+            format!("{stem}shelf")
+        } else if last.ends_with("ches") || last.ends_with("shes") || last.ends_with("xes") || last.ends_with("sses") {
+            last[..last.len() - 2].to_string()
+        } else if last.ends_with('s') && !last.ends_with("ss") && last.len() > 3 {
+            last[..last.len() - 1].to_string()
+        } else {
+            last.clone()
+        };
+        *last = singular;
+    }
+    words
+}
+
+fn lookup(phrase: &str) -> Option<&'static str> {
+    CLASSES.iter().find(|(name, synonyms)| *name == phrase || synonyms.contains(&phrase)).map(|(name, _)| *name)
+}
+
+/// The canonical class of a free-text object name: the whole name, then ever shorter
+/// endings of it ("swivel office chair" → "office chair"), as a class or a synonym.
+pub fn normalise_name(name: &str) -> Option<&'static str> {
+    let words = normalise(name);
+    (0..words.len()).find_map(|start| lookup(&words[start..].join(" ")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn free_text_names_find_their_class() {
+        for (name, class) in [
+            ("King Bed", "bed"),
+            ("Work Desk", "desk"),
+            ("Office Chair", "office chair"),
+            ("Swivel Office Chair", "office chair"),
+            ("Coffee Mug", "mug"),
+            ("dining_chair_3", "dining chair"),
+            ("Bookshelves", "bookshelf"),
+            ("Boxes", "box"),
+            ("Printer", "printer"),
+        ] {
+            assert_eq!(normalise_name(name), Some(class), "{name}");
+        }
+        assert_eq!(normalise_name("Grand Piano"), None);
+    }
+
+    #[test]
+    fn ids_are_positions_and_fit_sixteen_bits() {
+        assert_eq!(class_id("other"), Some(0));
+        assert_eq!(classes().len(), CLASSES.len());
+        assert!(CLASSES.len() < 65_536);
+    }
+}

@@ -8,3 +8,4 @@ pub mod openai;
 pub mod prompts;
 pub mod selection;
 pub mod spec;
+pub mod synthesis;

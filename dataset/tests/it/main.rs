@@ -5,3 +5,4 @@ mod fake_service;
 mod prompts;
 mod selection;
 mod service;
+mod synthesis;

@@ -19,6 +19,21 @@ pub enum SceneCommand {
     Prompts(PromptsArgs),
     /// Remove near-duplicates and select a diverse subset per regime.
     Select(SelectArgs),
+    /// Synthesize scenes in SceneSmith's format from selected prompts (built-in or an external command).
+    Synthesize {
+        /// final_prompts.json written by `osmab scene select`.
+        #[arg(long)]
+        prompts: PathBuf,
+        /// Seed of the placement and asset sizes.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// An external synthesizer, as separate arguments after `--`: {prompt}, {prompt_file} and {out} are filled in.
+        #[arg(last = true)]
+        command: Vec<String>,
+        /// Output directory: scene_000, scene_001, ...
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Convert a Drake/SceneSmith scene into a Habitat-style scene.
     Convert {
         /// The scene directory (package.xml, combined_house/house.dmd.yaml, ...).
@@ -107,6 +122,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
+        SceneCommand::Synthesize { prompts, seed, command, out } => synthesize_all(&prompts, seed, &command, &out),
     }
 }
 
@@ -178,6 +194,24 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
     }
     std::fs::write(args.out.join("final_prompts.csv"), csv).with_context(|| format!("{}: cannot write", args.out.display()))?;
     Ok(())
+}
+
+fn synthesize_all(prompts_file: &Path, seed: u64, command: &[String], out: &Path) -> anyhow::Result<()> {
+    let text = std::fs::read(prompts_file).with_context(|| format!("{}: cannot read", prompts_file.display()))?;
+    let prompts: Vec<ScenePrompt> = serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
+    let mut report = Vec::new();
+    for (i, prompt) in prompts.iter().enumerate() {
+        let dir = out.join(format!("scene_{i:03}"));
+        let unmet = if command.is_empty() {
+            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir)?
+        } else {
+            osmab_dataset::synthesis::external::run_external(command, &prompt.text, &dir)?;
+            Vec::new()
+        };
+        println!("{}: {} ({} unmet relations)", dir.display(), prompt.id, unmet.len());
+        report.push(serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "unmet": unmet}));
+    }
+    write_json(&out.join("synthesis_report.json"), &report)
 }
 
 fn convert(scene: &Path, out: &Path) -> anyhow::Result<()> {

@@ -1,0 +1,303 @@
+//! Placing a scene spec's objects in a room: furniture on the floor by its relations
+//! (centre, walls, corners, around, next to, in front of, behind, facing, opposite,
+//! parallel, near, between) without interpenetration, small objects on, inside or
+//! under their hosts' support surfaces. Whatever cannot be satisfied is recorded.
+
+use osmab_evaluator::synthetic::Rng;
+use serde::Serialize;
+
+use super::library::{Asset, make_asset};
+use crate::spec::{ObjectKind, RelationKind, SceneSpec};
+
+/// A placed object, in the room frame (Drake axes, z up, floor at z = 0).
+#[derive(Debug, Clone)]
+pub struct PlacedObject {
+    /// `<category_with_underscores>_<n>`, unique in the scene.
+    pub object_id: String,
+    pub category: String,
+    pub kind: ObjectKind,
+    pub asset: Asset,
+    /// Position of the object frame (bottom centre).
+    pub position: [f64; 3],
+    /// Rotation about z, a multiple of 90° for furniture.
+    pub yaw_deg: f64,
+    /// The object it rests on, in or under.
+    pub host: Option<String>,
+}
+
+impl PlacedObject {
+    /// The footprint in the room: min and max x, y.
+    pub fn footprint(&self) -> ([f64; 2], [f64; 2]) {
+        let (w, d) = (self.asset.size[0], self.asset.size[1]);
+        let quarter = ((self.yaw_deg / 90.0).round() as i64).rem_euclid(2) == 1;
+        let (hw, hd) = if quarter { (d / 2.0, w / 2.0) } else { (w / 2.0, d / 2.0) };
+        ([self.position[0] - hw, self.position[1] - hd], [self.position[0] + hw, self.position[1] + hd])
+    }
+
+    /// Unit vector of the object's front (+y turned by the yaw).
+    pub fn front(&self) -> [f64; 2] {
+        let a = self.yaw_deg.to_radians();
+        [-a.sin(), a.cos()]
+    }
+}
+
+/// The room and everything in it.
+#[derive(Debug, Clone, Serialize)]
+pub struct Layout {
+    /// Room extent along x and y; walls at ±width/2, ±depth/2.
+    pub width: f64,
+    pub depth: f64,
+    pub wall_height: f64,
+    #[serde(skip)]
+    pub objects: Vec<PlacedObject>,
+    /// Relations of the spec that the placement could not honour.
+    pub unmet: Vec<String>,
+}
+
+const GAP: f64 = 0.08;
+const TRIES: usize = 200;
+
+fn overlaps(a: ([f64; 2], [f64; 2]), b: ([f64; 2], [f64; 2])) -> bool {
+    a.0[0] < b.1[0] - 1e-6 && b.0[0] < a.1[0] - 1e-6 && a.0[1] < b.1[1] - 1e-6 && b.0[1] < a.1[1] - 1e-6
+}
+
+/// Yaw (degrees, multiple of 90) whose front points most along `dir`.
+fn yaw_towards(dir: [f64; 2]) -> f64 {
+    let angle = (-dir[0]).atan2(dir[1]).to_degrees();
+    (angle / 90.0).round() * 90.0
+}
+
+struct Placer<'a> {
+    spec: &'a SceneSpec,
+    rng: Rng,
+    width: f64,
+    depth: f64,
+    placed: Vec<PlacedObject>,
+    unmet: Vec<String>,
+}
+
+impl Placer<'_> {
+    fn inside_room(&self, fp: ([f64; 2], [f64; 2])) -> bool {
+        fp.0[0] >= -self.width / 2.0 + 0.06 && fp.1[0] <= self.width / 2.0 - 0.06 && fp.0[1] >= -self.depth / 2.0 + 0.06 && fp.1[1] <= self.depth / 2.0 - 0.06
+    }
+
+    fn free(&self, candidate: &PlacedObject) -> bool {
+        let fp = candidate.footprint();
+        let grown = ([fp.0[0] - GAP, fp.0[1] - GAP], [fp.1[0] + GAP, fp.1[1] + GAP]);
+        self.inside_room(fp) && self.placed.iter().filter(|o| o.kind == ObjectKind::Furniture).all(|o| !overlaps(grown, o.footprint()))
+    }
+
+    fn instances(&self, category: &str) -> Vec<usize> {
+        self.placed.iter().enumerate().filter(|(_, o)| o.category == category).map(|(i, _)| i).collect()
+    }
+
+    /// A candidate pose for instance `k` of `count` under `kind` relative to `targets`.
+    fn propose(&mut self, asset: &Asset, kind: RelationKind, targets: &[usize], k: usize, count: usize, attempt: usize) -> ([f64; 2], f64) {
+        let (w, d) = (self.width / 2.0, self.depth / 2.0);
+        let jitter = (attempt as f64 * 0.07).min(2.5);
+        let rand = |rng: &mut Rng, r: f64| rng.range(-r, r);
+        match (kind, targets) {
+            (RelationKind::CenterOfRoom, _) => ([rand(&mut self.rng, jitter), rand(&mut self.rng, jitter)], 0.0),
+            (RelationKind::AgainstWall | RelationKind::AlongWall | RelationKind::InCorner, _) => {
+                let wall = (k + attempt + self.rng.below(4)) % 4;
+                let along = if kind == RelationKind::InCorner { (if self.rng.unit() < 0.5 { -1.0 } else { 1.0 }) * 10.0 } else { self.rng.range(-1.0, 1.0) };
+                let off = asset.size[1] / 2.0 + 0.07;
+                let (half_len, inward): (f64, [f64; 2]) = match wall {
+                    0 => (w, [0.0, 1.0]),
+                    1 => (w, [0.0, -1.0]),
+                    2 => (d, [1.0, 0.0]),
+                    _ => (d, [-1.0, 0.0]),
+                };
+                let reach = (half_len - asset.size[0] / 2.0 - 0.07).max(0.0);
+                let t = (along * reach).clamp(-reach, reach);
+                let pos = match wall {
+                    0 => [t, -d + off],
+                    1 => [t, d - off],
+                    2 => [-w + off, t],
+                    _ => [w - off, t],
+                };
+                (pos, yaw_towards(inward))
+            }
+            (_, [target, rest @ ..]) => {
+                let t = &self.placed[*target];
+                let (tc, tf) = ([t.position[0], t.position[1]], t.front());
+                let (tfp_lo, tfp_hi) = t.footprint();
+                let half = [(tfp_hi[0] - tfp_lo[0]) / 2.0, (tfp_hi[1] - tfp_lo[1]) / 2.0];
+                let side = [tf[1], -tf[0]];
+                let reach_front = (half[0] * tf[0].abs() + half[1] * tf[1].abs()) + asset.size[1] / 2.0 + 0.1 + jitter * 0.3;
+                let reach_side = (half[0] * side[0].abs() + half[1] * side[1].abs()) + asset.size[0] / 2.0 + 0.1 + jitter * 0.3;
+                let along = |v: [f64; 2], s: f64| [tc[0] + v[0] * s, tc[1] + v[1] * s];
+                let yaw_to_target = |p: [f64; 2]| yaw_towards([tc[0] - p[0], tc[1] - p[1]]);
+                match kind {
+                    RelationKind::Around => {
+                        // Around the target's four sides, in turn.
+                        let dirs = [tf, [-tf[0], -tf[1]], side, [-side[0], -side[1]]];
+                        let dir = dirs[(k + attempt) % 4];
+                        let lateral = [dir[1], -dir[0]];
+                        let span = (half[0] * lateral[0].abs() + half[1] * lateral[1].abs()) * 0.8;
+                        let per_side = count.div_ceil(4).max(1);
+                        let slot = (k / 4) as f64 - (per_side as f64 - 1.0) / 2.0;
+                        let offset = if per_side > 1 { slot * (2.0 * span / per_side as f64) } else { 0.0 } + rand(&mut self.rng, jitter * 0.2);
+                        let reach = (half[0] * dir[0].abs() + half[1] * dir[1].abs()) + asset.size[1] / 2.0 + 0.05 + jitter * 0.2;
+                        let p = [tc[0] + dir[0] * reach + lateral[0] * offset, tc[1] + dir[1] * reach + lateral[1] * offset];
+                        (p, yaw_to_target(p))
+                    }
+                    RelationKind::InFrontOf | RelationKind::Facing => {
+                        let extra = if kind == RelationKind::Facing { 0.8 } else { 0.0 };
+                        let p = along(tf, reach_front + extra);
+                        let p = [p[0] + side[0] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1), p[1] + side[1] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1)];
+                        (p, yaw_to_target(p))
+                    }
+                    RelationKind::Behind => (along([-tf[0], -tf[1]], reach_front), t.yaw_deg),
+                    RelationKind::NextTo | RelationKind::ParallelTo => {
+                        let sign = if (k + attempt) % 2 == 0 { 1.0 } else { -1.0 };
+                        let step = reach_side + (k / 2) as f64 * (asset.size[0] + 0.1);
+                        (along([side[0] * sign, side[1] * sign], step), t.yaw_deg)
+                    }
+                    RelationKind::Opposite => {
+                        let p = [-tc[0] * 0.9 + rand(&mut self.rng, jitter), -tc[1] * 0.9 + rand(&mut self.rng, jitter)];
+                        (p, yaw_to_target(p))
+                    }
+                    RelationKind::Near => {
+                        let a = self.rng.range(0.0, std::f64::consts::TAU);
+                        let r = reach_front.max(reach_side) + 0.2 + jitter * 0.3;
+                        let p = along([a.cos(), a.sin()], r);
+                        (p, yaw_to_target(p))
+                    }
+                    RelationKind::Between => {
+                        let other = rest.first().map_or(tc, |&o| [self.placed[o].position[0], self.placed[o].position[1]]);
+                        let p = [(tc[0] + other[0]) / 2.0 + rand(&mut self.rng, jitter * 0.3), (tc[1] + other[1]) / 2.0 + rand(&mut self.rng, jitter * 0.3)];
+                        (p, yaw_towards([tc[0] - p[0], tc[1] - p[1]]))
+                    }
+                    _ => ([rand(&mut self.rng, w), rand(&mut self.rng, d)], 0.0),
+                }
+            }
+            _ => ([rand(&mut self.rng, w), rand(&mut self.rng, d)], 0.0),
+        }
+    }
+
+    fn place_furniture(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
+        let relation = self.spec.relations.iter().find(|r| r.subject == category).cloned();
+        for k in 0..count as usize {
+            let asset = make_asset(category, asset_seed).unwrap_or_else(|| make_asset("cabinet", asset_seed).expect("cabinets exist"));
+            let object_id = format!("{}_{}", category.replace(' ', "_"), self.placed.len());
+            let (kind, targets) = match &relation {
+                Some(r) => {
+                    let targets: Vec<usize> = r.targets.iter().filter_map(|t| self.instances(t).first().copied()).collect();
+                    (r.kind, if targets.len() == r.targets.len() { targets } else { vec![] })
+                }
+                None => (RelationKind::Near, vec![]),
+            };
+            let mut chosen = None;
+            for attempt in 0..TRIES {
+                let (p, yaw) = self.propose(&asset, kind, &targets, k, count as usize, attempt);
+                let candidate = PlacedObject { object_id: object_id.clone(), category: category.into(), kind: ObjectKind::Furniture, asset: asset.clone(), position: [p[0], p[1], 0.0], yaw_deg: yaw, host: None };
+                if self.free(&candidate) {
+                    chosen = Some(candidate);
+                    break;
+                }
+            }
+            let placed = chosen.unwrap_or_else(|| {
+                self.unmet.push(format!("{object_id}: {} could not be honoured; placed where there was room", kind.phrase()));
+                self.anywhere(&object_id, category, &asset)
+            });
+            self.placed.push(placed);
+        }
+    }
+
+    /// Any free floor spot (the room grows if there is none).
+    fn anywhere(&mut self, object_id: &str, category: &str, asset: &Asset) -> PlacedObject {
+        loop {
+            for _ in 0..TRIES {
+                let p = [self.rng.range(-self.width / 2.0, self.width / 2.0), self.rng.range(-self.depth / 2.0, self.depth / 2.0)];
+                let yaw = 90.0 * self.rng.below(4) as f64;
+                let c = PlacedObject { object_id: object_id.into(), category: category.into(), kind: ObjectKind::Furniture, asset: asset.clone(), position: [p[0], p[1], 0.0], yaw_deg: yaw, host: None };
+                if self.free(&c) {
+                    return c;
+                }
+            }
+            self.width += 0.5;
+            self.depth += 0.5;
+        }
+    }
+
+    fn place_small(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
+        let relation = self.spec.relations.iter().find(|r| r.subject == category && matches!(r.kind, RelationKind::On | RelationKind::Inside | RelationKind::Under)).cloned();
+        for _ in 0..count {
+            let asset = make_asset(category, asset_seed).unwrap_or_else(|| make_asset("box", asset_seed).expect("boxes exist"));
+            let object_id = format!("{}_{}", category.replace(' ', "_"), self.placed.len());
+            let host = relation.as_ref().and_then(|r| r.targets.first()).and_then(|t| self.instances(t).first().copied());
+            let kind = relation.as_ref().map_or(RelationKind::On, |r| r.kind);
+            let placed = host.and_then(|h| self.on_host(&object_id, category, &asset, h, kind));
+            let placed = placed.unwrap_or_else(|| {
+                self.unmet.push(format!("{object_id}: no room {} its host; placed on the floor", kind.phrase()));
+                let mut o = self.anywhere(&object_id, category, &asset);
+                o.kind = ObjectKind::Manipuland;
+                o
+            });
+            self.placed.push(placed);
+        }
+    }
+
+    /// A spot on a support surface of host `h` (or on the floor under it).
+    fn on_host(&mut self, object_id: &str, category: &str, asset: &Asset, h: usize, kind: RelationKind) -> Option<PlacedObject> {
+        let host = self.placed[h].clone();
+        let surfaces: Vec<(f64, [f64; 2], [f64; 2])> = match kind {
+            RelationKind::Under if host.asset.clearance > asset.size[2] + 0.02 => {
+                let (w, d) = (host.asset.size[0] / 2.0 - 0.08, host.asset.size[1] / 2.0 - 0.08);
+                vec![(0.0, [-w, -d], [w, d])]
+            }
+            RelationKind::Under => return None,
+            _ => {
+                let inside = kind == RelationKind::Inside;
+                let mut s: Vec<_> = host.asset.supports.iter().filter(|s| s.inside == inside || host.asset.supports.iter().all(|t| t.inside != inside)).map(|s| (s.height, s.min, s.max)).collect();
+                s.sort_by(|a, b| a.0.total_cmp(&b.0));
+                s
+            }
+        };
+        let a = host.yaw_deg.to_radians();
+        let (c, s) = (a.cos(), a.sin());
+        for (height, lo, hi) in surfaces {
+            let (hw, hd) = (asset.size[0] / 2.0, asset.size[1] / 2.0);
+            if hi[0] - lo[0] < 2.0 * hw || hi[1] - lo[1] < 2.0 * hd {
+                continue;
+            }
+            for _ in 0..TRIES {
+                let local = [self.rng.range(lo[0] + hw, hi[0] - hw), self.rng.range(lo[1] + hd, hi[1] - hd)];
+                let p = [host.position[0] + c * local[0] - s * local[1], host.position[1] + s * local[0] + c * local[1], height];
+                let candidate = PlacedObject { object_id: object_id.into(), category: category.into(), kind: ObjectKind::Manipuland, asset: asset.clone(), position: p, yaw_deg: host.yaw_deg, host: Some(host.object_id.clone()) };
+                let fp = candidate.footprint();
+                let clash = self.placed.iter().filter(|o| o.kind == ObjectKind::Manipuland && (o.position[2] - height).abs() < 0.05).any(|o| overlaps(fp, o.footprint()));
+                if !clash {
+                    return Some(candidate);
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Place `spec` in a room sized for it.
+pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
+    let mut asset_rng = Rng::new(seed ^ 0xA55E_7);
+    // Room area: about four times the furniture's footprint, at least 3.5 m a side.
+    let footprint: f64 = spec
+        .objects
+        .iter()
+        .filter(|o| o.kind == ObjectKind::Furniture)
+        .map(|o| make_asset(&o.category, &mut asset_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
+        .sum();
+    let mut rng = Rng::new(seed);
+    let area = (footprint * 4.0).max(12.0);
+    let aspect = rng.range(0.8, 1.3);
+    let width = ((area * aspect).sqrt() * 10.0).round() / 10.0;
+    let depth = ((area / aspect).sqrt() * 10.0).round() / 10.0;
+    let mut placer = Placer { spec, rng, width: width.max(3.5), depth: depth.max(3.5), placed: Vec::new(), unmet: Vec::new() };
+    for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Furniture) {
+        placer.place_furniture(&o.category, o.count, &mut asset_rng);
+    }
+    for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Manipuland) {
+        placer.place_small(&o.category, o.count, &mut asset_rng);
+    }
+    Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: placer.unmet }
+}

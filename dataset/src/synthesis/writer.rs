@@ -1,0 +1,118 @@
+//! Writing a placed layout exactly as SceneSmith writes a scene: `package.xml`, the
+//! room geometry SDF, one SDF 1.7 + glTF per object under `room_main/generated_assets`,
+//! `combined_house/house.dmd.yaml` (model directives with `!AngleAxis` rotations and
+//! `package://scene/` paths) and `combined_house/house_state.json`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use osmab_evaluator::numeric::python_repr;
+use osmab_evaluator::{InputError, Result};
+use serde_json::json;
+
+use super::export::write_asset_gltf;
+use super::placement::Layout;
+use crate::spec::{ObjectKind, SceneSpec};
+
+fn write(path: &Path, text: impl AsRef<[u8]>) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
+    }
+    std::fs::write(path, text).map_err(|e| InputError::io(path, &e))
+}
+
+fn num(v: f64) -> String {
+    python_repr((v * 1e6).round() / 1e6 + 0.0)
+}
+
+fn triple(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
+}
+
+fn title(category: &str) -> String {
+    category.split(' ').map(|w| w[..1].to_uppercase() + &w[1..]).collect::<Vec<_>>().join(" ")
+}
+
+/// The room's floor and four walls as SceneSmith's room-geometry SDF (boxes).
+fn room_sdf(layout: &Layout) -> String {
+    let (w, d, h, t) = (layout.width, layout.depth, layout.wall_height, 0.1);
+    let mut visuals = vec![("floor", [0.0, 0.0, -0.05], [w, d, 0.1])];
+    visuals.push(("left_wall", [-w / 2.0, 0.0, h / 2.0], [t, d, h]));
+    visuals.push(("right_wall", [w / 2.0, 0.0, h / 2.0], [t, d, h]));
+    visuals.push(("back_wall", [0.0, -d / 2.0, h / 2.0], [w, t, h]));
+    visuals.push(("front_wall", [0.0, d / 2.0, h / 2.0], [w, t, h]));
+    let mut out = String::from("<sdf xmlns:drake=\"drake.mit.edu\" version=\"1.7\">\n  <model name=\"room_geometry\">\n    <link name=\"room_geometry_body_link\">\n");
+    for (name, c, s) in visuals {
+        for kind in ["visual", "collision"] {
+            let _ = write!(
+                out,
+                "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          <box>\n            <size>{} {} {}</size>\n          </box>\n        </geometry>\n        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
+                num(s[0]), num(s[1]), num(s[2]), num(c[0]), num(c[1]), num(c[2])
+            );
+        }
+    }
+    out.push_str("    </link>\n    <static>true</static>\n  </model>\n</sdf>\n");
+    out
+}
+
+fn object_sdf(name: &str, stem: &str) -> String {
+    format!(
+        "<?xml version='1.0' encoding='utf-8'?>\n<sdf version=\"1.7\">\n  <model name=\"{name}\">\n    <link name=\"base_link\">\n      <visual name=\"visual\">\n        <geometry>\n          <mesh>\n            <uri>{stem}.gltf</uri>\n          </mesh>\n        </geometry>\n      </visual>\n    </link>\n  </model>\n</sdf>\n"
+    )
+}
+
+/// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`.
+pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout) -> Result<()> {
+    write(&dir.join("package.xml"), "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n")?;
+    write(&dir.join("room_geometry/room_geometry_main.sdf"), room_sdf(layout))?;
+    let mut dmd = String::from("directives:\n- add_frame:\n    name: house_frame\n    X_PF:\n      base_frame: world\n      translation: [0.0, 0.0, 0.0]\n- add_frame:\n    name: room_main_frame\n    X_PF:\n      base_frame: house_frame\n      translation: [0.0, 0.0, 0.0]\n- add_model:\n    name: room_geometry_main\n    file: package://scene/room_geometry/room_geometry_main.sdf\n- add_weld:\n    parent: room_main_frame\n    child: room_geometry_main::room_geometry_body_link\n");
+    let mut objects = serde_json::Map::new();
+    for o in &layout.objects {
+        let agent = if o.kind == ObjectKind::Furniture { "furniture" } else { "manipuland" };
+        let stem = o.category.replace(' ', "_");
+        let rel_dir = format!("room_main/generated_assets/{agent}/sdf/{}", o.object_id);
+        write_asset_gltf(&o.asset, &dir.join(&rel_dir), &stem)?;
+        write(&dir.join(&rel_dir).join(format!("{stem}.sdf")), object_sdf(&stem, &stem))?;
+        let _ = write!(
+            dmd,
+            "- add_model:\n    name: main_{}\n    file: package://scene/{rel_dir}/{stem}.sdf\n    default_free_body_pose:\n      base_link:\n        base_frame: room_main_frame\n        translation: {}\n        rotation: !AngleAxis\n          angle_deg: {}\n          axis: [0.0, 0.0, 1.0]\n",
+            o.object_id,
+            triple(o.position),
+            num(o.yaw_deg)
+        );
+        let half = o.yaw_deg.to_radians() / 2.0;
+        let s = o.asset.size;
+        objects.insert(
+            o.object_id.clone(),
+            json!({
+                "object_id": o.object_id,
+                "object_type": agent,
+                "name": title(&o.category),
+                "description": o.asset.description,
+                "transform": {"translation": o.position.map(|v| (v * 1e6).round() / 1e6 + 0.0), "rotation_wxyz": [half.cos(), 0.0, 0.0, half.sin()]},
+                "geometry_path": format!("{rel_dir}/{stem}.gltf"),
+                "sdf_path": format!("{rel_dir}/{stem}.sdf"),
+                "image_path": null,
+                "support_surfaces": o.asset.supports.iter().map(|s| json!({"height": s.height, "min": s.min, "max": s.max, "inside": s.inside})).collect::<Vec<_>>(),
+                "placement_info": o.host.as_ref().map(|h| json!({"parent_object": h})),
+                "metadata": {"asset_source": "procedural", "category": o.category},
+                "bbox_min": [-s[0] / 2.0, -s[1] / 2.0, 0.0],
+                "bbox_max": [s[0] / 2.0, s[1] / 2.0, s[2]],
+                "immutable": false,
+                "scale_factor": 1.0,
+            }),
+        );
+    }
+    write(&dir.join("combined_house/house.dmd.yaml"), dmd)?;
+    let state = json!({
+        "layout": {
+            "house_prompt": prompt,
+            "rooms": [{"id": "main", "type": spec.room, "prompt": prompt, "width": layout.width, "depth": layout.depth, "position": [-layout.width / 2.0, -layout.depth / 2.0]}],
+            "wall_height": layout.wall_height,
+        },
+        "rooms": {"main": {"room_id": "main", "text_description": prompt, "objects": objects}},
+        "spec": spec,
+        "placement": {"unmet": layout.unmet},
+    });
+    write(&dir.join("combined_house/house_state.json"), serde_json::to_string_pretty(&state).expect("serialisable") + "\n")
+}

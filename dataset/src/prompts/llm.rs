@@ -5,7 +5,7 @@
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::{PromptPool, RejectedPrompt, ScenePrompt, filters::Rejection, judge};
+use super::{PromptJudge, PromptPool, RejectedPrompt, ScenePrompt, filters::Rejection};
 use crate::openai::{ServiceClient, ServiceError};
 use crate::spec::{Regime, SceneSpec};
 
@@ -59,6 +59,7 @@ struct SpecWithoutRegime {
 /// as they come; `max_requests` bounds the calls.
 pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usize, max_requests: usize) -> Result<PromptPool, ServiceError> {
     let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
+    let mut judge = PromptJudge::new(regime);
     let mut next = 0usize;
     for request in 0..max_requests {
         if pool.accepted.len() >= count {
@@ -85,9 +86,12 @@ pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usi
                 Err(problem) => pool.rejected.push(RejectedPrompt { id, text, reasons: vec![Rejection::SpecMismatch], details: vec![problem] }),
             }
         }
-        let mut judged = judge(regime, pool.accepted.drain(..).chain(candidates));
-        pool.accepted = judged.accepted;
-        pool.rejected.append(&mut judged.rejected);
+        for candidate in candidates {
+            match judge.judge(candidate) {
+                Ok(p) => pool.accepted.push(p),
+                Err(r) => pool.rejected.push(r),
+            }
+        }
     }
     pool.accepted.truncate(count);
     Ok(pool)

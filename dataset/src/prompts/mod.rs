@@ -66,47 +66,63 @@ pub fn spec_mismatches(text: &str, spec: &SceneSpec) -> Vec<String> {
     problems
 }
 
-/// Judge candidate prompts in order: rule filters, spec agreement, exact duplicates.
-pub fn judge(regime: Regime, candidates: impl IntoIterator<Item = ScenePrompt>) -> PromptPool {
-    let rules = FilterRules::for_regime(regime);
-    let mut seen = HashSet::new();
-    let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
-    for prompt in candidates {
-        let mut reasons = rejections(&prompt.text, &rules);
-        let details = if prompt.spec.regime == regime { spec_mismatches(&prompt.text, &prompt.spec) } else { vec![format!("spec regime is {}", prompt.spec.regime.name())] };
+/// Judges prompts one at a time: rule filters, spec agreement, and exact duplicates
+/// of any prompt it accepted before.
+pub struct PromptJudge {
+    regime: Regime,
+    rules: FilterRules,
+    seen: HashSet<String>,
+}
+
+impl PromptJudge {
+    /// A judge for `regime` that has seen nothing yet.
+    pub fn new(regime: Regime) -> Self {
+        Self { regime, rules: FilterRules::for_regime(regime), seen: HashSet::new() }
+    }
+
+    /// Accept `prompt`, or say why not.
+    pub fn judge(&mut self, prompt: ScenePrompt) -> Result<ScenePrompt, RejectedPrompt> {
+        let mut reasons = rejections(&prompt.text, &self.rules);
+        let details = if prompt.spec.regime == self.regime { spec_mismatches(&prompt.text, &prompt.spec) } else { vec![format!("spec regime is {}", prompt.spec.regime.name())] };
         if !details.is_empty() {
             reasons.push(Rejection::SpecMismatch);
         }
-        if reasons.is_empty() && !seen.insert(dedup_key(&prompt.text)) {
+        if reasons.is_empty() && !self.seen.insert(dedup_key(&prompt.text)) {
             reasons.push(Rejection::ExactDuplicate);
         }
-        if reasons.is_empty() {
-            pool.accepted.push(prompt);
-        } else {
-            pool.rejected.push(RejectedPrompt { id: prompt.id, text: prompt.text, reasons, details });
+        if reasons.is_empty() { Ok(prompt) } else { Err(RejectedPrompt { id: prompt.id, text: prompt.text, reasons, details }) }
+    }
+}
+
+/// Judge candidate prompts in order: rule filters, spec agreement, exact duplicates.
+pub fn judge(regime: Regime, candidates: impl IntoIterator<Item = ScenePrompt>) -> PromptPool {
+    let mut judge = PromptJudge::new(regime);
+    let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
+    for prompt in candidates {
+        match judge.judge(prompt) {
+            Ok(p) => pool.accepted.push(p),
+            Err(r) => pool.rejected.push(r),
         }
     }
     pool
 }
 
 /// Write `count` prompts of `regime` with the built-in grammar from `seed`, keeping
-/// those that pass (`attempts` bounds the tries).
+/// those that pass (at most `20 × count + 100` tries).
 pub fn grammar_pool(regime: Regime, count: usize, seed: u64) -> PromptPool {
     let mut rng = osmab_evaluator::synthetic::Rng::new(seed ^ (regime as u64 + 1).wrapping_mul(0x51_7C_C1_B7_27_22_0A_95));
+    let mut judge = PromptJudge::new(regime);
     let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
     let attempts = count * 20 + 100;
-    let mut next = 0;
-    while pool.accepted.len() < count && next < attempts {
-        let batch: Vec<ScenePrompt> = (0..count - pool.accepted.len())
-            .map(|_| {
-                let (text, spec) = grammar::write_prompt(regime, &mut rng);
-                next += 1;
-                ScenePrompt { id: format!("{}-{next:04}", regime.name()), source: "grammar".into(), text, spec }
-            })
-            .collect();
-        let mut judged = judge(regime, pool.accepted.drain(..).chain(batch));
-        pool.rejected.append(&mut judged.rejected);
-        pool.accepted = judged.accepted;
+    for next in 1..=attempts {
+        if pool.accepted.len() == count {
+            break;
+        }
+        let (text, spec) = grammar::write_prompt(regime, &mut rng);
+        match judge.judge(ScenePrompt { id: format!("{}-{next:04}", regime.name()), source: "grammar".into(), text, spec }) {
+            Ok(p) => pool.accepted.push(p),
+            Err(r) => pool.rejected.push(r),
+        }
     }
     pool
 }

@@ -34,6 +34,24 @@ pub enum BenchCommand {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Time the scene pipeline: prompt pool, selection, synthesis and conversion per scene.
+    Scenes {
+        /// Furniture prompts in the pool.
+        #[arg(long, default_value_t = 250)]
+        furniture_pool: usize,
+        /// Manipuland prompts in the pool.
+        #[arg(long, default_value_t = 100)]
+        manipuland_pool: usize,
+        /// Scenes selected: furniture.
+        #[arg(long, default_value_t = 24)]
+        furniture: usize,
+        /// Scenes selected: manipuland.
+        #[arg(long, default_value_t = 16)]
+        manipuland: usize,
+        /// A SceneSmith scene to convert as well (e.g. ../shared/fixtures/scenesmith/scene_000).
+        #[arg(long)]
+        scenesmith: Option<PathBuf>,
+    },
     /// Time index build and queries of the nearest-neighbour association in-process.
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
@@ -60,6 +78,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             println!("{}: {gt_points} ground-truth points, {map_points} map points", out.display());
             Ok(())
         }
+        BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref()),
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
             let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
             println!("threads {}", rayon::current_num_threads());
@@ -82,4 +101,62 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manipuland: usize, scenesmith: Option<&std::path::Path>) -> anyhow::Result<()> {
+    use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
+    use osmab_dataset::convert::scene::load_scene;
+    use osmab_dataset::embedding::{Embedder, HashingEmbedder};
+    use osmab_dataset::prompts::grammar_pool;
+    use osmab_dataset::selection::{NEAR_DUPLICATE_COSINE, select};
+    use osmab_dataset::spec::Regime;
+
+    let clock = Instant::now();
+    let pools = [(Regime::Furniture, grammar_pool(Regime::Furniture, furniture_pool, 42), furniture), (Regime::Manipuland, grammar_pool(Regime::Manipuland, manipuland_pool, 42), manipuland)];
+    let prompt_time = clock.elapsed().as_secs_f64();
+    let written: usize = pools.iter().map(|(_, p, _)| p.accepted.len() + p.rejected.len()).sum();
+    let accepted: usize = pools.iter().map(|(_, p, _)| p.accepted.len()).sum();
+
+    let clock = Instant::now();
+    let mut selected = Vec::new();
+    for (_, pool, target) in &pools {
+        let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
+        let ids: Vec<String> = pool.accepted.iter().map(|p| p.id.clone()).collect();
+        let report = select(&ids, &HashingEmbedder::default().embed(&texts)?, *target, NEAR_DUPLICATE_COSINE);
+        selected.extend(report.selected.iter().map(|s| pool.accepted.iter().find(|p| p.id == s.id).expect("from the pool").clone()));
+    }
+    let select_time = clock.elapsed().as_secs_f64();
+
+    let work = std::env::temp_dir().join(format!("osmab-bench-scenes-{}", std::process::id()));
+    let (mut synth_times, mut convert_times) = (Vec::new(), Vec::new());
+    for (i, prompt) in selected.iter().enumerate() {
+        let dir = work.join(format!("scene_{i:03}"));
+        let clock = Instant::now();
+        osmab_dataset::synthesis::synthesize(prompt, i as u64, &dir)?;
+        synth_times.push(clock.elapsed().as_secs_f64());
+        let clock = Instant::now();
+        write_habitat_scene(&load_scene(&dir)?, &work.join(format!("habitat_{i:03}")), &ConvertOptions::default())?;
+        convert_times.push(clock.elapsed().as_secs_f64());
+    }
+    let scenesmith_time = match scenesmith {
+        Some(dir) => {
+            let clock = Instant::now();
+            write_habitat_scene(&load_scene(dir)?, &work.join("scenesmith"), &ConvertOptions::default())?;
+            Some(clock.elapsed().as_secs_f64())
+        }
+        None => None,
+    };
+    let _ = std::fs::remove_dir_all(&work);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    println!("| stage | measure | value |");
+    println!("|---|---|---:|");
+    println!("| prompts (grammar + filters) | {written} written, {accepted} kept, in {prompt_time:.3} s | {:.0} prompts/s |", written as f64 / prompt_time);
+    println!("| selection (embed + dedup + farthest-first) | {} of {accepted} selected | {select_time:.3} s |", selected.len());
+    println!("| synthesis | mean / max per scene over {} scenes | {:.1} / {:.1} ms |", synth_times.len(), 1e3 * mean(&synth_times), 1e3 * max(&synth_times));
+    println!("| conversion | mean / max per scene over {} scenes | {:.1} / {:.1} ms |", convert_times.len(), 1e3 * mean(&convert_times), 1e3 * max(&convert_times));
+    if let Some(t) = scenesmith_time {
+        println!("| conversion of the SceneSmith scene | real assets (5 glTF, 7 MB) | {:.1} ms |", 1e3 * t);
+    }
+    Ok(())
 }

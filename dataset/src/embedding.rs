@@ -87,9 +87,12 @@ impl Embedder for ServiceEmbedder {
     }
 
     fn embed(&self, texts: &[String]) -> Result<Vec<Vec<f32>>, ServiceError> {
-        let mut out = Vec::with_capacity(texts.len());
+        let mut out: Vec<Vec<f32>> = Vec::with_capacity(texts.len());
         for chunk in texts.chunks(self.batch.max(1)) {
             for v in self.client.embeddings(chunk)? {
+                if out.first().is_some_and(|first| first.len() != v.len()) {
+                    return Err(ServiceError::BadResponse { url: "embeddings".into(), what: format!("embeddings of {} and {} dimensions in one run", out[0].len(), v.len()) });
+                }
                 out.push(normalize(v.iter().map(|&x| x as f64).collect()));
             }
         }

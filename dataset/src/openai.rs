@@ -91,8 +91,11 @@ impl ServiceClient {
         if !(config.base_url.starts_with("http://") || config.base_url.starts_with("https://")) {
             return Err(ServiceError::Config(format!("base_url '{}' must start with http:// or https://", config.base_url)));
         }
-        if !(config.timeout_secs.is_finite() && config.timeout_secs > 0.0) {
-            return Err(ServiceError::Config("timeout_secs must be positive".into()));
+        if !(config.timeout_secs.is_finite() && config.timeout_secs > 0.0 && config.timeout_secs <= 86_400.0) {
+            return Err(ServiceError::Config("timeout_secs must be in (0, 86400]".into()));
+        }
+        if !(config.initial_backoff_secs.is_finite() && (0.0..=60.0).contains(&config.initial_backoff_secs)) {
+            return Err(ServiceError::Config("initial_backoff_secs must be in [0, 60]".into()));
         }
         let http = reqwest::blocking::Client::builder()
             .timeout(Duration::from_secs_f64(config.timeout_secs))
@@ -138,6 +141,7 @@ impl ServiceClient {
                         .get(reqwest::header::RETRY_AFTER)
                         .and_then(|v| v.to_str().ok())
                         .and_then(|v| v.trim().parse::<f64>().ok())
+                        .filter(|s| s.is_finite())
                         .map(|s| Duration::from_secs_f64(s.clamp(0.0, 60.0)));
                     let text = response.text().unwrap_or_default();
                     if !retryable || last {

@@ -147,6 +147,11 @@ pub struct Relation {
     pub targets: Vec<String>,
 }
 
+/// Longest category name accepted.
+pub const MAX_CATEGORY_LEN: usize = 40;
+/// Most objects of one category in a scene.
+pub const MAX_COUNT: u32 = 30;
+
 /// The structured specification of one scene.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SceneSpec {
@@ -166,6 +171,18 @@ impl SceneSpec {
         self.objects.iter().find(|o| o.category == category)
     }
 
+    /// The spec with only each subject's first (primary) relation: what placement
+    /// follows when the other relations are already known to hold.
+    pub fn primary_only(&self) -> SceneSpec {
+        let mut relations: Vec<Relation> = Vec::new();
+        for r in &self.relations {
+            if !relations.iter().any(|p| p.subject == r.subject) {
+                relations.push(r.clone());
+            }
+        }
+        SceneSpec { relations, ..self.clone() }
+    }
+
     /// All objects together.
     pub fn total_objects(&self) -> u32 {
         self.objects.iter().map(|o| o.count).sum()
@@ -178,15 +195,20 @@ impl SceneSpec {
         if self.room.trim().is_empty() {
             problems.push("room is empty".to_string());
         }
-        if self.objects.is_empty() {
-            problems.push("no objects".to_string());
+        if self.objects.is_empty() || self.objects.len() > 40 {
+            problems.push(format!("{} object categories; expected 1..=40", self.objects.len()));
+        }
+        if self.relations.len() > 100 {
+            problems.push(format!("{} relations; expected at most 100", self.relations.len()));
         }
         for (i, o) in self.objects.iter().enumerate() {
-            if o.category.trim().is_empty() {
-                problems.push(format!("objects[{i}].category is empty"));
+            // Categories become file names, XML and YAML: keep them plain.
+            let plain = o.category.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == ' ' || c == '-');
+            if o.category.trim().is_empty() || o.category.len() > MAX_CATEGORY_LEN || !plain || o.category.contains("  ") || o.category != o.category.trim() {
+                problems.push(format!("objects[{i}].category '{}' must be 1..={MAX_CATEGORY_LEN} lower-case letters, digits, single spaces or hyphens", o.category));
             }
-            if o.count == 0 {
-                problems.push(format!("objects[{i}] ({}) has count 0", o.category));
+            if o.count == 0 || o.count > MAX_COUNT {
+                problems.push(format!("objects[{i}] ({}) has count {}; expected 1..={MAX_COUNT}", o.category, o.count));
             }
             if self.objects[..i].iter().any(|p| p.category == o.category) {
                 problems.push(format!("category '{}' is listed twice", o.category));

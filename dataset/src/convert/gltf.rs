@@ -13,6 +13,8 @@ use serde_json::Value;
 
 /// Most vertices or indices accepted from one accessor.
 const MAX_ELEMENTS: usize = 50_000_000;
+/// Largest texture side decoded (an 8k texture is already generous for an object).
+const MAX_TEXTURE_SIDE: u32 = 8192;
 
 /// A decoded RGBA8 texture.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,13 +97,21 @@ pub fn read_gltf(path: &Path) -> Result<GltfAsset> {
     let roots: Vec<usize> = source.json["scenes"][scene]["nodes"].as_array().map(|a| a.iter().filter_map(|n| n.as_u64().map(|n| n as usize)).collect()).unwrap_or_else(|| {
         // No scene: every node that is nobody's child.
         let nodes = source.json["nodes"].as_array().map_or(0, Vec::len);
-        let children: Vec<u64> = source.json["nodes"].as_array().into_iter().flatten().flat_map(|n| n["children"].as_array().into_iter().flatten().filter_map(Value::as_u64)).collect();
+        let children: std::collections::HashSet<u64> = source.json["nodes"].as_array().into_iter().flatten().flat_map(|n| n["children"].as_array().into_iter().flatten().filter_map(Value::as_u64)).collect();
         (0..nodes).filter(|i| !children.contains(&(*i as u64))).collect()
     });
     let mut stack: Vec<(usize, Matrix4<f64>, usize)> = roots.into_iter().map(|n| (n, Matrix4::identity(), 0)).collect();
+    let node_count = source.json["nodes"].as_array().map_or(0, Vec::len);
+    let mut visited = vec![false; node_count];
     while let Some((node_index, parent, depth)) = stack.pop() {
         if depth > 64 {
             return Err(InputError::new(path, "nodes", "the node hierarchy is deeper than 64 (or cyclic)"));
+        }
+        // glTF nodes form a forest: a node reached twice is a malformed (or hostile) file.
+        match visited.get_mut(node_index) {
+            Some(seen) if *seen => return Err(InputError::new(path, format!("nodes[{node_index}]"), "the node is reached twice; glTF nodes must form a tree")),
+            Some(seen) => *seen = true,
+            None => return Err(InputError::new(path, format!("nodes[{node_index}]"), "no such node")),
         }
         let node = &source.json["nodes"][node_index];
         if node.is_null() {
@@ -203,12 +213,21 @@ fn accessor(source: &Source, index: usize, width: usize, path: &Path, field: &st
     };
     let view = &source.json["bufferViews"][a["bufferView"].as_u64().ok_or_else(|| bad("sparse or view-less accessors are not supported".into()))? as usize];
     let buffer = source.buffers.get(view["buffer"].as_u64().unwrap_or(u64::MAX) as usize).ok_or_else(|| bad("its buffer does not exist".into()))?;
-    let start = view["byteOffset"].as_u64().unwrap_or(0) as usize + a["byteOffset"].as_u64().unwrap_or(0) as usize;
     let element = size * components;
-    let stride = view["byteStride"].as_u64().map_or(element, |s| s as usize).max(element);
-    let end = if count == 0 { start } else { start + stride * (count - 1) + element };
-    let view_end = view["byteOffset"].as_u64().unwrap_or(0) as usize + view["byteLength"].as_u64().unwrap_or(0) as usize;
-    if end > buffer.len() || end > view_end {
+    let stride = match view["byteStride"].as_u64() {
+        None => element,
+        Some(s) if (4..=252).contains(&s) && s % 4 == 0 && s as usize >= element => s as usize,
+        Some(s) => return Err(bad(format!("byteStride {s} is not a multiple of 4 in 4..=252 covering an element"))),
+    };
+    let (view_offset, view_length) = (view["byteOffset"].as_u64().unwrap_or(0), view["byteLength"].as_u64().unwrap_or(0));
+    let start = view_offset.checked_add(a["byteOffset"].as_u64().unwrap_or(0));
+    let end = start.and_then(|s| if count == 0 { Some(s) } else { (stride as u64).checked_mul(count as u64 - 1).and_then(|x| x.checked_add(s)).and_then(|x| x.checked_add(element as u64)) });
+    let view_end = view_offset.checked_add(view_length);
+    let (Some(start), Some(end), Some(view_end)) = (start, end, view_end) else {
+        return Err(bad("offsets overflow".into()));
+    };
+    let (start, end) = (start as usize, end as usize);
+    if end > buffer.len() || end as u64 > view_end {
         return Err(bad(format!("reads bytes {start}..{end}, past the end of its buffer view")));
     }
     let mut out = Vec::with_capacity(count * components);
@@ -313,7 +332,7 @@ fn load_texture(source: &Source, texture: usize, dir: &Path, path: &Path, field:
         let v = &source.json["bufferViews"][view as usize];
         let buffer = source.buffers.get(v["buffer"].as_u64().unwrap_or(u64::MAX) as usize).ok_or_else(|| InputError::new(path, field, "image buffer missing"))?;
         let start = v["byteOffset"].as_u64().unwrap_or(0) as usize;
-        let end = start + v["byteLength"].as_u64().unwrap_or(0) as usize;
+        let end = start.saturating_add(v["byteLength"].as_u64().unwrap_or(0) as usize);
         buffer.get(start..end).ok_or_else(|| InputError::new(path, field, "image bytes past the end of the buffer"))?.to_vec()
     } else if let Some(uri) = image["uri"].as_str() {
         load_uri(uri, dir, path, field)?
@@ -330,7 +349,7 @@ pub fn decode_image(bytes: &[u8]) -> std::result::Result<Texture, String> {
         decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
         let mut reader = decoder.read_info().map_err(|e| format!("unreadable PNG: {e}"))?;
         let (w, h) = (reader.info().width, reader.info().height);
-        if w > 16384 || h > 16384 {
+        if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE {
             return Err(format!("a {w}x{h} texture is too large"));
         }
         let mut buf = vec![0; reader.output_buffer_size().ok_or("texture too large")?];
@@ -346,8 +365,13 @@ pub fn decode_image(bytes: &[u8]) -> std::result::Result<Texture, String> {
         Ok(Texture { width: w, height: h, rgba })
     } else if bytes.starts_with(&[0xFF, 0xD8]) {
         let mut decoder = jpeg_decoder::Decoder::new(std::io::Cursor::new(bytes));
-        let pixels = decoder.decode().map_err(|e| format!("corrupt JPEG: {e}"))?;
+        decoder.read_info().map_err(|e| format!("corrupt JPEG: {e}"))?;
         let info = decoder.info().ok_or("JPEG without header")?;
+        if info.width as u32 > MAX_TEXTURE_SIDE || info.height as u32 > MAX_TEXTURE_SIDE {
+            return Err(format!("a {}x{} texture is too large", info.width, info.height));
+        }
+        decoder.set_max_decoding_buffer_size(MAX_TEXTURE_SIDE as usize * MAX_TEXTURE_SIDE as usize * 4);
+        let pixels = decoder.decode().map_err(|e| format!("corrupt JPEG: {e}"))?;
         let rgba = match info.pixel_format {
             jpeg_decoder::PixelFormat::RGB24 => pixels.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
             jpeg_decoder::PixelFormat::L8 => pixels.iter().flat_map(|&g| [g, g, g, 255]).collect(),

@@ -28,13 +28,13 @@ pub struct ConvertOptions {
     pub agent_height: f64,
     /// Cell size of the navigable map.
     pub cell_size: f64,
-    /// Height above the stage of the semantic floor copy (v2's `FLOOR_Y_OFFSET`).
-    pub floor_offset: f64,
+    /// Largest room side accepted, in metres (bounds the navigable map and the lights).
+    pub max_room_side: f64,
 }
 
 impl Default for ConvertOptions {
     fn default() -> Self {
-        Self { agent_radius: 0.15, agent_height: 1.5, cell_size: 0.05, floor_offset: 0.002 }
+        Self { agent_radius: 0.15, agent_height: 1.5, cell_size: 0.05, max_room_side: 200.0 }
     }
 }
 
@@ -65,6 +65,8 @@ pub struct ConversionReport {
     pub unknown_names: Vec<String>,
     /// Models with no `house_state.json` entry (classified from their instance name).
     pub models_without_metadata: Vec<String>,
+    /// Models with nothing to draw (skipped).
+    pub models_without_visuals: Vec<String>,
     /// Textures that could not be used; those visuals fall back to the base colour.
     pub texture_fallbacks: Vec<String>,
     /// glTF meshes without normals (generated when rendering).
@@ -125,7 +127,10 @@ impl Writer<'_> {
                 (stem.to_string(), String::new())
             }
         };
-        let room_part = ["floor", "wall", "ceiling", "door", "window"].into_iter().find(|p| name.to_lowercase().contains(p));
+        // Room geometry visuals are named for what they are (floor_visual, north_wall_visual);
+        // only there does "floor" or "wall" in a name decide the class ("Floor Lamp" is a lamp).
+        let is_room = model.model.name == "room_geometry" || model.name.starts_with("room_geometry");
+        let room_part = ["floor", "wall", "ceiling", "door", "window"].into_iter().find(|p| is_room && name.to_lowercase().contains(p));
         let class = room_part.or_else(|| normalise_name(&name));
         match class {
             Some(c) => (c.to_string(), name, description),
@@ -143,6 +148,10 @@ impl Writer<'_> {
         // Room geometry: one instance per visual (floor, each wall); else one per model.
         let groups: Vec<Vec<usize>> = if room_geometry { (0..model.visuals().count()).map(|i| vec![i]).collect() } else { vec![(0..model.visuals().count()).collect()] };
         let visuals: Vec<_> = model.visuals().collect();
+        if visuals.is_empty() {
+            self.report.models_without_visuals.push(model.name.clone());
+            return Ok(());
+        }
         for group in groups {
             let first = visuals[group[0]].0;
             let (class, name, description) = self.classify(model, &first.name);
@@ -154,16 +163,22 @@ impl Writer<'_> {
                 let (render_asset, rotation, scale, local_bounds, textured) = match &visual.geometry {
                     Geometry::Mesh { path, scale } => {
                         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-                        let target = PathBuf::from("assets").join(&model.name).join(path.file_name().expect("a mesh file"));
-                        copy_mesh(path, &self.out.join(&target), &ext)?;
+                        // One folder per visual: SceneSmith names every wall `wall.gltf`.
+                        let target = PathBuf::from("assets").join(&model.name).join(&visual.name).join(path.file_name().expect("a mesh file"));
+                        let relative = path.strip_prefix(&self.scene.root).unwrap_or(path).display().to_string();
                         match ext.as_str() {
                             "gltf" | "glb" => {
                                 let asset = read_gltf(path)?;
+                                let broken: Vec<usize> = asset.materials.iter().enumerate().filter(|(_, m)| m.texture_problem.is_some()).map(|(i, _)| i).collect();
+                                copy_mesh(path, &self.out.join(&target), &ext, &broken)?;
                                 if asset.generated_normals {
-                                    self.report.generated_normals.push(path.strip_prefix(&self.scene.root).unwrap_or(path).display().to_string());
+                                    self.report.generated_normals.push(relative.clone());
                                 }
-                                for m in asset.materials.iter().filter_map(|m| m.texture_problem.as_ref()) {
-                                    self.report.texture_fallbacks.push(m.clone());
+                                for m in &asset.materials {
+                                    if let Some(problem) = &m.texture_problem {
+                                        let problem = problem.replace(&format!("{}/", self.scene.root.display()), "");
+                                        self.report.texture_fallbacks.push(format!("{relative}: material '{}': {problem}", m.name));
+                                    }
                                 }
                                 let textured = asset.materials.iter().any(|m| m.texture.is_some());
                                 // Drake turns glTF (Y-up) into Z-up by Rx(+90°): p_D = S·Rx90·p_gltf.
@@ -174,6 +189,7 @@ impl Writer<'_> {
                             }
                             "obj" => {
                                 let bounds = obj_bounds(path)?;
+                                copy_mesh(path, &self.out.join(&target), &ext, &[])?;
                                 let lo_d = std::array::from_fn(|a| bounds.0[a] * scale[a]);
                                 let hi_d = std::array::from_fn(|a| bounds.1[a] * scale[a]);
                                 (target, q_c * world.rotation, *scale, (lo_d, hi_d), false)
@@ -204,6 +220,9 @@ impl Writer<'_> {
                     hi[a] = hi[a].max(vhi[a]);
                 }
                 let is_floor = class == "floor";
+                if (0..3).any(|a| vhi[a] - vlo[a] > self.options.max_room_side) {
+                    return Err(InputError::new(&model.file, &visual.name, format!("the visual spans more than {} m", self.options.max_room_side)));
+                }
                 if is_floor {
                     self.floor = Some(match self.floor {
                         Some((flo, fhi)) => (std::array::from_fn(|a| flo[a].min(vlo[a])), std::array::from_fn(|a| fhi[a].max(vhi[a]))),
@@ -218,15 +237,12 @@ impl Writer<'_> {
                     "front": [0.0, 0.0, -1.0],
                     "semantic_id": instance_id,
                     "shader_type": if textured { "material" } else { "phong" },
-                    "is_collidable": !is_floor,
+                    "is_collidable": true,
                     "units_to_meters": 1.0,
                     "user_defined": {"class": class, "class_id": class_id(&class).unwrap_or(0), "model": model.name, "visual": visual.name},
                 });
                 self.templates.push((handle.clone(), template));
-                let mut translation = point_to_habitat(world.translation.vector);
-                if is_floor {
-                    translation[1] += self.options.floor_offset;
-                }
+                let translation = point_to_habitat(world.translation.vector);
                 let q = wxyz(&rotation);
                 self.instances.push(json!({
                     "template_name": handle,
@@ -252,18 +268,31 @@ fn default_colour(class: &str) -> [f64; 3] {
     }
 }
 
-/// Copy a mesh and the files it references (glTF buffers and images, OBJ materials).
-fn copy_mesh(from: &Path, to: &Path, ext: &str) -> Result<()> {
-    copy_file(from, to)?;
+/// Copy a (parsed, valid) mesh and the files it references (glTF buffers and images,
+/// OBJ materials). Materials listed in `broken_textures` lose their base-colour
+/// texture in the copy, so every renderer falls back to the base colour.
+fn copy_mesh(from: &Path, to: &Path, ext: &str, broken_textures: &[usize]) -> Result<()> {
     let dir = from.parent().unwrap_or(Path::new("."));
     let out_dir = to.parent().expect("a file has a folder");
     let mut referenced: Vec<String> = Vec::new();
     if ext == "gltf" {
-        let json: Value = serde_json::from_slice(&std::fs::read(from).map_err(|e| InputError::io(from, &e))?).map_err(|e| InputError::new(from, "(json)", e.to_string()))?;
+        let mut json: Value = serde_json::from_slice(&std::fs::read(from).map_err(|e| InputError::io(from, &e))?).map_err(|e| InputError::new(from, "(json)", e.to_string()))?;
         for key in ["buffers", "images"] {
-            referenced.extend(json[key].as_array().into_iter().flatten().filter_map(|b| b["uri"].as_str()).filter(|u| !u.starts_with("data:")).map(str::to_string));
+            referenced.extend(json[key].as_array().into_iter().flatten().filter_map(|b| b["uri"].as_str()).filter(|u| !u.starts_with("data:")).map(|u| u.replace("%20", " ")));
         }
-    } else if ext == "obj" {
+        for &m in broken_textures {
+            if let Some(pbr) = json["materials"][m]["pbrMetallicRoughness"].as_object_mut() {
+                pbr.remove("baseColorTexture");
+            }
+        }
+        if let Some(dir) = to.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
+        }
+        std::fs::write(to, serde_json::to_string(&json).expect("serialisable")).map_err(|e| InputError::io(to, &e))?;
+    } else {
+        copy_file(from, to)?;
+    }
+    if ext == "obj" {
         let text = std::fs::read_to_string(from).map_err(|e| InputError::io(from, &e))?;
         for line in text.lines() {
             if let Some(m) = line.strip_prefix("mtllib ") {
@@ -280,9 +309,14 @@ fn copy_mesh(from: &Path, to: &Path, ext: &str) -> Result<()> {
         if !source.starts_with(super::sdf::normalize(dir)) {
             return Err(InputError::new(from, "(uri)", format!("'{rel}' points outside the asset's folder")));
         }
-        if source.exists() {
-            copy_file(&source, &out_dir.join(&rel))?;
+        if !source.is_file() {
+            // A broken texture was reported (and dropped) already; anything else is needed.
+            if ext == "gltf" && !broken_textures.is_empty() && !rel.ends_with(".bin") {
+                continue;
+            }
+            return Err(InputError::new(from, "(uri)", format!("references '{rel}', which does not exist")));
         }
+        copy_file(&source, &out_dir.join(&rel))?;
     }
     Ok(())
 }
@@ -344,13 +378,27 @@ fn write_png8(path: &Path, width: usize, height: usize, data: &[u8]) -> Result<(
     w.finish().map_err(err)
 }
 
+/// A HaDaGe light-settings file as a Habitat lighting config (`camera` lights become
+/// point lights attached to the camera; life intervals do not exist there).
+fn habitat_lighting(hadage: &Value) -> Value {
+    let mut lights = serde_json::Map::new();
+    for (id, light) in hadage["lights"].as_object().into_iter().flatten() {
+        let camera = light["type"] == "camera";
+        lights.insert(
+            id.clone(),
+            json!({"type": "point", "position": light["position"], "intensity": light["intensity"], "color": light["color"], "position_model": if camera { "camera" } else { "global" }}),
+        );
+    }
+    json!({"lights": lights})
+}
+
 /// The four lighting conditions as HaDaGe light settings, laid out for this room:
 /// ceiling lights on a grid (baseline), one camera light (camera), the same ceiling
 /// lights on only for the first navigation goal (dynamic_lights), none (no_lights).
 fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'static str, Value> {
     let (lo, hi) = floor;
-    let nx = ((hi[0] - lo[0]) / 2.5).ceil().max(1.0) as usize;
-    let nz = ((hi[2] - lo[2]) / 2.5).ceil().max(1.0) as usize;
+    let nx = ((hi[0] - lo[0]) / 2.5).ceil().clamp(1.0, 64.0) as usize;
+    let nz = ((hi[2] - lo[2]) / 2.5).ceil().clamp(1.0, 64.0) as usize;
     let y = hi[1] + ceiling_height - 0.3;
     let ceiling = |life: Value| -> Value {
         let mut lights = serde_json::Map::new();
@@ -391,18 +439,11 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
         let hi = w.report.objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
         lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
     }).ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
-    // The stage is the floor (for navigation meshes); the floor is also a semantic object.
-    let floor_handle = w.templates.iter().find(|(_, t)| t["user_defined"]["class"] == "floor").map(|(h, t)| (h.clone(), t["render_asset"].clone()));
-    let stage = json!({
-        "render_asset": floor_handle.as_ref().map(|(_, a)| a.clone()).unwrap_or(Value::Null),
-        "up": [0.0, 1.0, 0.0],
-        "front": [0.0, 0.0, -1.0],
-        "units_to_meters": 1.0,
-        "shader_type": "phong",
-    });
-    write_json(&out.join("stages").join(format!("{name}.stage_config.json")), &stage)?;
+    // No stage: the floor, walls and furniture are all collidable static objects with
+    // their own poses and semantic ids (navmeshes include static objects), so nothing
+    // needs the reference adapter's duplicate floor.
     let scene_instance = json!({
-        "stage_instance": {"template_name": name, "translation": [0.0, 0.0, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+        "stage_instance": {"template_name": "NONE"},
         "default_lighting": format!("{name}.baseline"),
         "translation_origin": "asset_local",
         "semantic_scene_instance": name,
@@ -412,10 +453,9 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
     write_json(
         &out.join(format!("{name}.scene_dataset_config.json")),
         &json!({
-            "stages": {"paths": {".json": ["stages/"]}},
-            "objects": {"paths": {".json": ["objects/"]}},
-            "light_setups": {"default_attributes": {"positive_intensity_scale": 2.5, "negative_intensity_scale": 0.1}, "paths": {".json": ["lighting/"]}},
-            "scene_instances": {"paths": {".json": ["scenes/"]}},
+            "objects": {"paths": {".object_config.json": ["objects/"]}},
+            "light_setups": {"default_attributes": {"positive_intensity_scale": 2.5, "negative_intensity_scale": 0.1}, "paths": {".lighting_config.json": ["lighting/"]}},
+            "scene_instances": {"paths": {".scene_instance.json": ["scenes/"]}},
             "semantic_scene_descriptor_instances": {name.clone(): format!("semantics/{name}.lexicon.json")},
         }),
     )?;
@@ -425,8 +465,12 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
     write_json(&out.join("semantics").join(format!("{name}.lexicon.json")), &json!({"classes": lexicon}))?;
     write_json(&out.join("semantics/classes.json"), &json!({"classes": classes()}))?;
     let ceiling_height = scene.wall_height.unwrap_or_else(|| w.obstacles.iter().map(|(_, hi)| hi[1]).fold(2.5f64, f64::max));
+    if (0..3).step_by(2).any(|a| floor.1[a] - floor.0[a] > options.max_room_side) {
+        return Err(InputError::new(&scene.root, "floor", format!("the floor spans more than {} m", options.max_room_side)));
+    }
     for (condition, lights) in lighting(floor, ceiling_height) {
-        write_json(&out.join("lighting").join(format!("{name}.{condition}.json")), &lights)?;
+        write_json(&out.join("lighting").join(format!("{name}.{condition}.lighting_config.json")), &habitat_lighting(&lights))?;
+        write_json(&out.join("lighting_hadage").join(format!("light_settings_{name}_{condition}.json")), &lights)?;
     }
     let (width, height, cells) = navigable_map(floor, &w.obstacles, options);
     let nav_dir = out.join("navigation");

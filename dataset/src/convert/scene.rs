@@ -95,6 +95,9 @@ pub fn load_scene(root: &Path) -> Result<DrakeScene> {
                 if !sdf.exists() {
                     return Err(InputError::new(&dmd, format!("directives[{i}].add_model.file"), format!("'{file}' resolves to {}, which does not exist", sdf.display())));
                 }
+                if models.iter().any(|(n, _, _)| n == name) {
+                    return Err(InputError::new(&dmd, format!("directives[{i}].add_model.name"), format!("model '{name}' is added twice")));
+                }
                 let model = read_sdf(&sdf, &resolver)?;
                 if let Some((body, pose)) = free_body {
                     if model.link(body).is_none() {
@@ -113,6 +116,9 @@ pub fn load_scene(root: &Path) -> Result<DrakeScene> {
         }
     }
     let by_name: HashMap<&str, &Model> = models.iter().map(|(n, _, m)| (n.as_str(), m)).collect();
+    if let Some(unknown) = attachments.keys().find(|m| !by_name.contains_key(m.as_str())) {
+        return Err(InputError::new(&dmd, "directives", format!("a weld attaches model '{unknown}', which no add_model adds")));
+    }
     let resolver = FrameResolver { dmd: &dmd, frames: &frames, attachments: &attachments, models: &by_name };
     let (objects, prompt, wall_height) = read_house_state(&dmd_dir.join("house_state.json"))?;
     let mut placed = Vec::new();
@@ -126,11 +132,20 @@ pub fn load_scene(root: &Path) -> Result<DrakeScene> {
 }
 
 /// SceneSmith names model instances `<room>_<object_id>` (or with the name-based
-/// formula `<room>_<name_lower>_<suffix>`).
+/// formula `<room>_<name_lower>_<suffix>`); members of stacks, filled containers and
+/// piles add `_s<4>_<i>`, `_f<4>_<i>` or `_p<4>_<i>` and belong to that object.
 fn model_name_matches(model: &str, info: &ObjectInfo) -> bool {
     let suffix: String = info.object_id.rsplit('_').next().unwrap_or("").chars().take(8).collect();
     let by_name = format!("{}_{}_{suffix}", info.room, info.name.to_lowercase().replace(' ', "_"));
-    model == format!("{}_{}", info.room, info.object_id) || model == by_name
+    let by_id = format!("{}_{}", info.room, info.object_id);
+    let member_of = |base: &str| {
+        model.strip_prefix(base).and_then(|rest| rest.strip_prefix('_')).is_some_and(|rest| {
+            let mut parts = rest.splitn(2, '_');
+            let (tag, index) = (parts.next().unwrap_or(""), parts.next().unwrap_or(""));
+            tag.len() == 5 && matches!(tag.as_bytes()[0], b's' | b'f' | b'p') && !index.is_empty() && index.chars().all(|c| c.is_ascii_digit())
+        })
+    };
+    model == by_id || model == by_name || member_of(&by_id) || member_of(&by_name)
 }
 
 type HouseState = (Vec<ObjectInfo>, Option<String>, Option<f64>);
@@ -199,10 +214,13 @@ impl FrameResolver<'_> {
             return Err(self.cycle(visiting, model));
         }
         visiting.push(key);
+        let attached_world = self.frame_pose(parent, visiting)? * pose;
+        visiting.pop();
+        if link == "__model__" {
+            return Ok(attached_world);
+        }
         let m = self.models.get(model).ok_or_else(|| InputError::new(self.dmd, "directives", format!("a weld names unknown model '{model}'")))?;
         let l = m.link(link).ok_or_else(|| InputError::new(self.dmd, "directives", format!("model '{model}' has no link '{link}'")))?;
-        let link_world = self.frame_pose(parent, visiting)? * pose;
-        visiting.pop();
-        Ok(link_world * l.pose_in_model.inverse())
+        Ok(attached_world * l.pose_in_model.inverse())
     }
 }

@@ -83,7 +83,13 @@ impl UriResolver<'_> {
             base_dir.join(uri)
         };
         let resolved = normalize(&joined);
-        if resolved.starts_with(normalize(self.root)) { Ok(resolved) } else { Err(format!("'{uri}' points outside the scene directory")) }
+        // Lexically inside, and (when it exists) really inside: symlinks cannot lead out.
+        let inside = resolved.starts_with(normalize(self.root))
+            && match (std::fs::canonicalize(&resolved), std::fs::canonicalize(self.root)) {
+                (Ok(real), Ok(root)) => real.starts_with(root),
+                _ => true,
+            };
+        if inside { Ok(resolved) } else { Err(format!("'{uri}' points outside the scene directory")) }
     }
 }
 

@@ -120,6 +120,8 @@ pub enum Rejection {
     SpecMismatch,
     /// Same text (case and spacing aside) as an earlier prompt.
     ExactDuplicate,
+    /// The built-in layout could not place the scene the prompt describes.
+    UnplaceableLayout,
 }
 
 /// Words of a text, lower case (letters, digits, apostrophes and hyphens).
@@ -145,7 +147,7 @@ pub fn phrase_hits(words_of_text: &[String], list: &[&'static str]) -> Vec<&'sta
 
 /// The explicit Arabic numerals of a text, in order.
 pub fn explicit_numbers(text: &str) -> Vec<u64> {
-    words(text).iter().filter(|w| w.chars().all(|c| c.is_ascii_digit())).filter_map(|w| w.parse().ok()).collect()
+    words(text).iter().filter(|w| w.chars().all(|c| c.is_ascii_digit())).map(|w| w.parse().unwrap_or(u64::MAX)).collect()
 }
 
 /// Sentences: pieces between `.`, `!` and `?` that hold text.
@@ -179,7 +181,7 @@ pub fn analyze(text: &str, rules: &FilterRules) -> PromptAnalysis {
 pub fn rejections(text: &str, rules: &FilterRules) -> Vec<Rejection> {
     let w = words(text);
     let a = analyze(text, rules);
-    let total: u64 = a.explicit_numbers.iter().sum();
+    let total: u64 = a.explicit_numbers.iter().fold(0u64, |t, &n| t.saturating_add(n));
     let mut out = Vec::new();
     let mut check = |broken: bool, r: Rejection| {
         if broken {

@@ -7,6 +7,8 @@
 use osmab_evaluator::synthetic::Rng;
 
 use crate::spec::{ObjectKind, ObjectSpec, Regime, Relation, RelationKind, SceneSpec};
+use crate::synthesis::placement::{Layout, place};
+use crate::synthesis::relations::satisfied_by;
 
 /// Where a companion goes, relative to the anchor or the room.
 #[derive(Clone, Copy)]
@@ -83,7 +85,7 @@ const PLANS: &[RoomPlan] = &[
             Companion { category: "bench", counts: (1, 1), places: &[A(InFrontOf)] },
             Companion { category: "armchair", counts: (1, 1), places: &[R(InCorner), A(Near)] },
         ],
-        smalls: &[("pillow", ON_TOP), ("blanket", ON_TOP), ("book", ON_TOP), ("suitcase", UNDER_ONLY), ("box", UNDER_ONLY)],
+        smalls: &[("pillow", ON_TOP), ("blanket", ON_TOP), ("book", ON_TOP), ("towel", ON_TOP)],
     },
     RoomPlan {
         room: "office",
@@ -123,7 +125,7 @@ const PLANS: &[RoomPlan] = &[
             Companion { category: "cabinet", counts: (1, 2), places: &[R(AgainstWall), R(InCorner)] },
             Companion { category: "dining table", counts: (1, 1), places: &[A(Near), A(Behind)] },
         ],
-        smalls: &[("bowl", ON_TOP), ("plate", ON_TOP), ("mug", ON_TOP), ("bottle", ON_TOP), ("can", ON_TOP), ("bucket", UNDER_ONLY)],
+        smalls: &[("bowl", ON_TOP), ("plate", ON_TOP), ("mug", ON_TOP), ("bottle", ON_TOP), ("can", ON_TOP)],
     },
     RoomPlan {
         room: "workshop",
@@ -149,7 +151,7 @@ const PLANS: &[RoomPlan] = &[
             Companion { category: "reception desk", counts: (1, 1), places: &[R(AgainstWall), A(Opposite)] },
             Companion { category: "bookshelf", counts: (1, 1), places: &[R(AlongWall)] },
         ],
-        smalls: &[("book", ON_TOP), ("bowl", ON_TOP), ("clock", ON_TOP), ("backpack", UNDER_ONLY)],
+        smalls: &[("book", ON_OR_UNDER), ("bowl", ON_TOP), ("clock", ON_TOP), ("box", UNDER_ONLY)],
     },
     RoomPlan {
         room: "study",
@@ -175,7 +177,7 @@ const PLANS: &[RoomPlan] = &[
             Companion { category: "bench", counts: (1, 1), places: &[R(CenterOfRoom), A(InFrontOf)] },
             Companion { category: "table", counts: (1, 1), places: &[A(Near)] },
         ],
-        smalls: &[("towel", INSIDE_OR_ON), ("bucket", UNDER_ONLY), ("bottle", ON_TOP), ("box", INSIDE_OR_ON)],
+        smalls: &[("towel", INSIDE_OR_ON), ("bottle", ON_TOP), ("box", INSIDE_OR_ON), ("bucket", ON_TOP)],
     },
 ];
 
@@ -230,8 +232,25 @@ fn subject_is(category: &str, count: u32) -> String {
     if count == 1 { format!("The {category} is") } else { format!("The {} are", plural(category)) }
 }
 
-/// Write one prompt of `regime` from `rng`.
-pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec) {
+/// Relations of `subject` to other furniture that hold in `layout` for every instance.
+fn true_relations(layout: &Layout, spec: &SceneSpec, subject: &str, kinds: &[RelationKind], furniture: &[ObjectSpec]) -> Vec<Relation> {
+    let room = [layout.width, layout.depth];
+    let mut found = Vec::new();
+    for target in furniture.iter().filter(|f| f.category != subject) {
+        for &kind in kinds {
+            let r = Relation { subject: subject.into(), kind, targets: vec![target.category.clone()] };
+            let instances: Vec<_> = layout.objects.iter().filter(|o| o.category == subject).collect();
+            if !spec.relations.contains(&r) && !instances.is_empty() && instances.iter().all(|s| satisfied_by(&r, s, &layout.objects, room, true)) {
+                found.push(r);
+            }
+        }
+    }
+    found
+}
+
+/// Write one prompt of `regime` from `rng`: its text, its spec, the seed of the layout
+/// it describes, and the relations that layout fails (a prompt with any is not used).
+pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec, u64, Vec<String>) {
     let plan = pick(rng, PLANS);
     let anchor_count = count_in(rng, plan.anchor_counts);
     let mut objects = vec![ObjectSpec { category: plan.anchor.into(), count: anchor_count, kind: ObjectKind::Furniture }];
@@ -263,7 +282,8 @@ pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec) {
     let openers = ["A {room} with", "The {room} contains", "This {room} has", "A furnished {room} holds", "The layout of the {room} has"];
     let opener = pick(rng, &openers).replace("{room}", plan.room);
     let (last, rest) = clauses.split_last().expect("anchor clause");
-    let mut sentences = vec![format!("{opener} {}, and {last}.", rest.join(", "))];
+    let list = if rest.len() == 1 { format!("{} and {last}", rest[0]) } else { format!("{}, and {last}", rest.join(", ")) };
+    let mut sentences = vec![format!("{opener} {list}.")];
 
     let furniture: Vec<ObjectSpec> = objects.clone();
     if regime == Regime::Manipuland {
@@ -287,47 +307,47 @@ pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec) {
             objects.push(ObjectSpec { category: group.into(), count: n, kind: ObjectKind::Manipuland });
             relations.push(Relation { subject: group.into(), kind: On, targets: vec![host] });
         }
-        // One blocker relation between the target and a piece of furniture.
-        if let Some(blocker) = furniture.iter().skip(1).next() {
-            let kind = *pick(rng, &[Behind, InFrontOf, Near]);
-            sentences.push(format!("{} {}.", subject_is(target, target_count), relation_phrase(kind, &[blocker.category.clone()], |_| blocker.count)));
-            relations.push(Relation { subject: target.into(), kind, targets: vec![blocker.category.clone()] });
-        }
     }
 
-    // Restate or add furniture relations without numbers (numbers only in the first
-    // sentence keep the stated totals exact), until the prompt has enough sentences.
+    // Place what the first sentences say, then describe relations that hold in that
+    // layout: the prompt states only what its scene will show.
+    let layout_seed = rng.next_u64();
+    let primary = SceneSpec { regime, room: plan.room.into(), objects: objects.clone(), relations: relations.clone() };
+    let layout = place(&primary, layout_seed);
+    let mut spec = primary;
+    if regime == Regime::Manipuland {
+        let target = spec.objects.iter().find(|o| o.kind == ObjectKind::Manipuland).map(|o| (o.category.clone(), o.count));
+        if let Some((target, target_count)) = target {
+            let found = true_relations(&layout, &spec, &target, &[InFrontOf, Behind, NextTo, Near], &furniture);
+            // Prefer the strong relations the filter asks for (in front of, behind).
+            let strong: Vec<&Relation> = found.iter().filter(|r| matches!(r.kind, InFrontOf | Behind)).collect();
+            let choice = if strong.is_empty() { found.first() } else { Some(*pick(rng, &strong)) };
+            if let Some(r) = choice.cloned() {
+                let count = furniture.iter().find(|f| f.category == r.targets[0]).map_or(1, |f| f.count);
+                sentences.push(format!("{} {}.", subject_is(&target, target_count), relation_phrase(r.kind, &r.targets, |_| count)));
+                spec.relations.push(r);
+            }
+        }
+    }
     let extra = match regime {
         Regime::Furniture => 2 + rng.below(3),
         Regime::Manipuland => usize::from(sentences.len() < 3),
     };
+    let mut candidates: Vec<Relation> = Vec::new();
+    for f in furniture.iter().filter(|f| f.category != plan.anchor) {
+        candidates.extend(true_relations(&layout, &spec, &f.category, &[Behind, InFrontOf, NextTo, Opposite, Facing, ParallelTo], &furniture));
+    }
     for _ in 0..extra {
-        if furniture.len() < 2 {
+        if candidates.is_empty() {
             break;
         }
-        let a = rng.below(furniture.len());
-        let mut b = rng.below(furniture.len());
-        if a == b {
-            b = (b + 1) % furniture.len();
-        }
-        let (sa, sb) = (&furniture[a], &furniture[b]);
-        let kind = *pick(rng, &[Behind, InFrontOf, NextTo, Opposite, Facing, ParallelTo, Between]);
-        let targets = if kind == Between && furniture.len() >= 3 {
-            let c = (0..furniture.len()).find(|&i| i != a && i != b).expect("three pieces");
-            vec![sb.category.clone(), furniture[c].category.clone()]
-        } else if kind == Between {
-            continue;
-        } else {
-            vec![sb.category.clone()]
-        };
-        let relation = Relation { subject: sa.category.clone(), kind, targets: targets.clone() };
-        if relations.contains(&relation) {
-            continue;
-        }
+        let r = candidates.swap_remove(rng.below(candidates.len()));
+        candidates.retain(|c| c.subject != r.subject || c.kind != r.kind);
         let count_of = |c: &str| furniture.iter().find(|o| o.category == c).map_or(1, |o| o.count);
-        sentences.push(format!("{} {}.", subject_is(&sa.category, sa.count), relation_phrase(kind, &targets, count_of)));
-        relations.push(relation);
+        let subject_count = count_of(&r.subject);
+        sentences.push(format!("{} {}.", subject_is(&r.subject, subject_count), relation_phrase(r.kind, &r.targets, count_of)));
+        spec.relations.push(r);
     }
-    let spec = SceneSpec { regime, room: plan.room.into(), objects, relations };
-    (sentences.join(" "), spec)
+    let unmet = crate::synthesis::relations::unmet_relations(&spec, &layout);
+    (sentences.join(" "), spec, layout_seed, unmet)
 }

@@ -82,7 +82,7 @@ pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usi
             let id = format!("{}-{next:04}", regime.name());
             let text = item["prompt"].as_str().unwrap_or_default().to_string();
             match parse_spec(&item["spec"], regime) {
-                Ok(spec) => candidates.push(ScenePrompt { id, source: format!("llm:{}", client.model()), text, spec }),
+                Ok(spec) => candidates.push(ScenePrompt { id, source: format!("llm:{}", client.model()), text, spec, layout_seed: None }),
                 Err(problem) => pool.rejected.push(RejectedPrompt { id, text, reasons: vec![Rejection::SpecMismatch], details: vec![problem] }),
             }
         }

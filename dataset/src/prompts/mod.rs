@@ -24,6 +24,11 @@ pub struct ScenePrompt {
     pub text: String,
     /// What the paragraph says, machine-readable.
     pub spec: SceneSpec,
+    /// For grammar prompts: the seed of the layout the prompt describes. Placing the
+    /// spec's primary relations with it reproduces that layout, so every stated
+    /// relation holds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout_seed: Option<u64>,
 }
 
 /// A prompt that did not make it, and why.
@@ -118,8 +123,13 @@ pub fn grammar_pool(regime: Regime, count: usize, seed: u64) -> PromptPool {
         if pool.accepted.len() == count {
             break;
         }
-        let (text, spec) = grammar::write_prompt(regime, &mut rng);
-        match judge.judge(ScenePrompt { id: format!("{}-{next:04}", regime.name()), source: "grammar".into(), text, spec }) {
+        let (text, spec, layout_seed, unmet) = grammar::write_prompt(regime, &mut rng);
+        let id = format!("{}-{next:04}", regime.name());
+        if !unmet.is_empty() {
+            pool.rejected.push(RejectedPrompt { id, text, reasons: vec![Rejection::UnplaceableLayout], details: unmet });
+            continue;
+        }
+        match judge.judge(ScenePrompt { id, source: "grammar".into(), text, spec, layout_seed: Some(layout_seed) }) {
             Ok(p) => pool.accepted.push(p),
             Err(r) => pool.rejected.push(r),
         }

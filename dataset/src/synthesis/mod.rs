@@ -6,6 +6,7 @@ pub mod export;
 pub mod external;
 pub mod library;
 pub mod placement;
+pub mod relations;
 pub mod writer;
 
 use std::path::Path;
@@ -14,10 +15,20 @@ use osmab_evaluator::Result;
 
 use crate::prompts::ScenePrompt;
 
-/// Synthesize `prompt` into the SceneSmith scene directory `dir`; returns the relations
-/// the placement could not honour.
+/// Synthesize `prompt` into the SceneSmith scene directory `dir`; returns the spec's
+/// relations the scene does not satisfy.
 pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path) -> Result<Vec<String>> {
-    let layout = placement::place(&prompt.spec, seed);
+    let problems = prompt.spec.problems();
+    if !problems.is_empty() {
+        return Err(osmab_evaluator::InputError::new(&prompt.id, "spec", problems.join("; ")));
+    }
+    // A grammar prompt describes a layout it placed: reproduce it from the primary
+    // relations and its seed. Other prompts are placed honouring every relation.
+    let mut layout = match prompt.layout_seed {
+        Some(layout_seed) => placement::place(&prompt.spec.primary_only(), layout_seed),
+        None => placement::place(&prompt.spec, seed),
+    };
+    layout.unmet = relations::unmet_relations(&prompt.spec, &layout);
     writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout)?;
     Ok(layout.unmet)
 }

@@ -50,8 +50,11 @@ pub struct Layout {
     pub wall_height: f64,
     #[serde(skip)]
     pub objects: Vec<PlacedObject>,
-    /// Relations of the spec that the placement could not honour.
+    /// Relations of the spec that the finished layout does not satisfy (checked
+    /// geometrically after placement, every relation of the spec).
     pub unmet: Vec<String>,
+    /// What the placement had to improvise (stand-in assets, fallbacks).
+    pub notes: Vec<String>,
 }
 
 const GAP: f64 = 0.08;
@@ -73,7 +76,9 @@ struct Placer<'a> {
     width: f64,
     depth: f64,
     placed: Vec<PlacedObject>,
-    unmet: Vec<String>,
+    notes: Vec<String>,
+    /// Set when some object found no room: the placement restarts in a larger room.
+    crowded: bool,
 }
 
 impl Placer<'_> {
@@ -85,6 +90,12 @@ impl Placer<'_> {
         let fp = candidate.footprint();
         let grown = ([fp.0[0] - GAP, fp.0[1] - GAP], [fp.1[0] + GAP, fp.1[1] + GAP]);
         self.inside_room(fp) && self.placed.iter().filter(|o| o.kind == ObjectKind::Furniture).all(|o| !overlaps(grown, o.footprint()))
+    }
+
+    /// Whether `candidate` satisfies every relation of its category after the first.
+    fn honours_others(&self, candidate: &PlacedObject) -> bool {
+        let room = [self.width, self.depth];
+        self.spec.relations.iter().filter(|r| r.subject == candidate.category).skip(1).all(|r| super::relations::satisfied_by(r, candidate, &self.placed, room, false))
     }
 
     fn instances(&self, category: &str) -> Vec<usize> {
@@ -179,7 +190,12 @@ impl Placer<'_> {
     fn place_furniture(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
         let relation = self.spec.relations.iter().find(|r| r.subject == category).cloned();
         for k in 0..count as usize {
-            let asset = make_asset(category, asset_seed).unwrap_or_else(|| make_asset("cabinet", asset_seed).expect("cabinets exist"));
+            let asset = make_asset(category, asset_seed).unwrap_or_else(|| {
+                self.notes.push(format!("no procedural asset for '{category}'; a cabinet stands in"));
+                let mut a = make_asset("cabinet", asset_seed).expect("cabinets exist");
+                a.category = category.into();
+                a
+            });
             let object_id = format!("{}_{}", category.replace(' ', "_"), self.placed.len());
             let (kind, targets) = match &relation {
                 Some(r) => {
@@ -188,17 +204,24 @@ impl Placer<'_> {
                 }
                 None => (RelationKind::Near, vec![]),
             };
+            // The first free pose that also honours the subject's other relations (to
+            // objects already placed); else the first free pose.
             let mut chosen = None;
+            let mut fallback = None;
             for attempt in 0..TRIES {
                 let (p, yaw) = self.propose(&asset, kind, &targets, k, count as usize, attempt);
                 let candidate = PlacedObject { object_id: object_id.clone(), category: category.into(), kind: ObjectKind::Furniture, asset: asset.clone(), position: [p[0], p[1], 0.0], yaw_deg: yaw, host: None };
                 if self.free(&candidate) {
-                    chosen = Some(candidate);
-                    break;
+                    if self.honours_others(&candidate) {
+                        chosen = Some(candidate);
+                        break;
+                    }
+                    fallback.get_or_insert(candidate);
                 }
             }
+            let chosen = chosen.or(fallback);
             let placed = chosen.unwrap_or_else(|| {
-                self.unmet.push(format!("{object_id}: {} could not be honoured; placed where there was room", kind.phrase()));
+                self.notes.push(format!("{object_id}: {} could not be honoured; placed where there was room", kind.phrase()));
                 self.anywhere(&object_id, category, &asset)
             });
             self.placed.push(placed);
@@ -216,6 +239,9 @@ impl Placer<'_> {
                     return c;
                 }
             }
+            // No room at all: grow, and let `place` start over in the bigger room so
+            // nothing placed earlier loses its wall.
+            self.crowded = true;
             self.width += 0.5;
             self.depth += 0.5;
         }
@@ -224,13 +250,18 @@ impl Placer<'_> {
     fn place_small(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
         let relation = self.spec.relations.iter().find(|r| r.subject == category && matches!(r.kind, RelationKind::On | RelationKind::Inside | RelationKind::Under)).cloned();
         for _ in 0..count {
-            let asset = make_asset(category, asset_seed).unwrap_or_else(|| make_asset("box", asset_seed).expect("boxes exist"));
+            let asset = make_asset(category, asset_seed).unwrap_or_else(|| {
+                self.notes.push(format!("no procedural asset for '{category}'; a box stands in"));
+                let mut a = make_asset("box", asset_seed).expect("boxes exist");
+                a.category = category.into();
+                a
+            });
             let object_id = format!("{}_{}", category.replace(' ', "_"), self.placed.len());
             let host = relation.as_ref().and_then(|r| r.targets.first()).and_then(|t| self.instances(t).first().copied());
             let kind = relation.as_ref().map_or(RelationKind::On, |r| r.kind);
             let placed = host.and_then(|h| self.on_host(&object_id, category, &asset, h, kind));
             let placed = placed.unwrap_or_else(|| {
-                self.unmet.push(format!("{object_id}: no room {} its host; placed on the floor", kind.phrase()));
+                self.notes.push(format!("{object_id}: no room {} its host; placed on the floor", kind.phrase()));
                 let mut o = self.anywhere(&object_id, category, &asset);
                 o.kind = ObjectKind::Manipuland;
                 o
@@ -242,15 +273,18 @@ impl Placer<'_> {
     /// A spot on a support surface of host `h` (or on the floor under it).
     fn on_host(&mut self, object_id: &str, category: &str, asset: &Asset, h: usize, kind: RelationKind) -> Option<PlacedObject> {
         let host = self.placed[h].clone();
-        let surfaces: Vec<(f64, [f64; 2], [f64; 2])> = match kind {
-            RelationKind::Under if host.asset.clearance > asset.size[2] + 0.02 => {
-                let (w, d) = (host.asset.size[0] / 2.0 - 0.08, host.asset.size[1] / 2.0 - 0.08);
-                vec![(0.0, [-w, -d], [w, d])]
-            }
-            RelationKind::Under => return None,
+        let surfaces: Vec<(f64, [f64; 2], [f64; 2])> = match (kind, host.asset.under) {
+            (RelationKind::Under, Some((lo, hi))) if host.asset.clearance > asset.size[2] + 0.02 => vec![(0.0, lo, hi)],
+            (RelationKind::Under, _) => return None,
             _ => {
                 let inside = kind == RelationKind::Inside;
-                let mut s: Vec<_> = host.asset.supports.iter().filter(|s| s.inside == inside || host.asset.supports.iter().all(|t| t.inside != inside)).map(|s| (s.height, s.min, s.max)).collect();
+                let mut s: Vec<_> = host
+                    .asset
+                    .supports
+                    .iter()
+                    .filter(|s| s.inside == inside && s.clear_height >= asset.size[2] + 0.01)
+                    .map(|s| (s.height, s.min, s.max))
+                    .collect();
                 s.sort_by(|a, b| a.0.total_cmp(&b.0));
                 s
             }
@@ -262,6 +296,7 @@ impl Placer<'_> {
             if hi[0] - lo[0] < 2.0 * hw || hi[1] - lo[1] < 2.0 * hd {
                 continue;
             }
+            let mut fallback = None;
             for _ in 0..TRIES {
                 let local = [self.rng.range(lo[0] + hw, hi[0] - hw), self.rng.range(lo[1] + hd, hi[1] - hd)];
                 let p = [host.position[0] + c * local[0] - s * local[1], host.position[1] + s * local[0] + c * local[1], height];
@@ -269,35 +304,70 @@ impl Placer<'_> {
                 let fp = candidate.footprint();
                 let clash = self.placed.iter().filter(|o| o.kind == ObjectKind::Manipuland && (o.position[2] - height).abs() < 0.05).any(|o| overlaps(fp, o.footprint()));
                 if !clash {
-                    return Some(candidate);
+                    if self.honours_others(&candidate) {
+                        return Some(candidate);
+                    }
+                    fallback.get_or_insert(candidate);
                 }
+            }
+            if fallback.is_some() {
+                return fallback;
             }
         }
         None
     }
 }
 
-/// Place `spec` in a room sized for it.
+/// Furniture categories in an order where the targets of a category's relations come
+/// before it: first considering all its relations, then only its first (primary) one,
+/// then spec order (for cycles).
+fn placement_order(spec: &SceneSpec) -> Vec<(String, u32)> {
+    let furniture: Vec<(String, u32)> = spec.objects.iter().filter(|o| o.kind == ObjectKind::Furniture).map(|o| (o.category.clone(), o.count)).collect();
+    let mut order: Vec<(String, u32)> = Vec::new();
+    let mut pending = furniture.clone();
+    let placed_before = |order: &[(String, u32)], c: &str, t: &str| t == c || order.iter().any(|(o, _)| o == t) || !furniture.iter().any(|(f, _)| f == t);
+    while !pending.is_empty() {
+        let all = pending.iter().position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)));
+        let primary = || pending.iter().position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).take(1).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)));
+        let next = all.or_else(primary).unwrap_or(0);
+        order.push(pending.remove(next));
+    }
+    order
+}
+
+/// Place `spec` in a room sized for it (starting over in a larger room when it is
+/// too crowded), then check every relation of the spec against the result.
 pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
-    let mut asset_rng = Rng::new(seed ^ 0xA55E_7);
+    let sizing_rng = Rng::new(seed ^ 0xA55E_7);
     // Room area: about four times the furniture's footprint, at least 3.5 m a side.
     let footprint: f64 = spec
         .objects
         .iter()
         .filter(|o| o.kind == ObjectKind::Furniture)
-        .map(|o| make_asset(&o.category, &mut asset_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
+        .map(|o| make_asset(&o.category, &mut sizing_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
         .sum();
     let mut rng = Rng::new(seed);
     let area = (footprint * 4.0).max(12.0);
     let aspect = rng.range(0.8, 1.3);
-    let width = ((area * aspect).sqrt() * 10.0).round() / 10.0;
-    let depth = ((area / aspect).sqrt() * 10.0).round() / 10.0;
-    let mut placer = Placer { spec, rng, width: width.max(3.5), depth: depth.max(3.5), placed: Vec::new(), unmet: Vec::new() };
-    for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Furniture) {
-        placer.place_furniture(&o.category, o.count, &mut asset_rng);
+    let (mut width, mut depth) = ((((area * aspect).sqrt() * 10.0).round() / 10.0).max(3.5), (((area / aspect).sqrt() * 10.0).round() / 10.0).max(3.5));
+    let order = placement_order(spec);
+    for attempt in 0.. {
+        let mut asset_rng = Rng::new(seed ^ 0xA55E_7);
+        let mut placer = Placer { spec, rng: rng.clone(), width, depth, placed: Vec::new(), notes: Vec::new(), crowded: false };
+        for (category, count) in &order {
+            placer.place_furniture(category, *count, &mut asset_rng);
+        }
+        if placer.crowded && attempt < 8 {
+            width = placer.width;
+            depth = placer.depth;
+            continue;
+        }
+        for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Manipuland) {
+            placer.place_small(&o.category, o.count, &mut asset_rng);
+        }
+        let mut layout = Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: Vec::new(), notes: placer.notes };
+        layout.unmet = super::relations::unmet_relations(spec, &layout);
+        return layout;
     }
-    for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Manipuland) {
-        placer.place_small(&o.category, o.count, &mut asset_rng);
-    }
-    Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: placer.unmet }
+    unreachable!("the loop returns")
 }

@@ -30,7 +30,14 @@ fn triple(v: [f64; 3]) -> String {
 }
 
 fn title(category: &str) -> String {
-    category.split(' ').map(|w| w[..1].to_uppercase() + &w[1..]).collect::<Vec<_>>().join(" ")
+    category
+        .split(' ')
+        .map(|w| {
+            let mut c = w.chars();
+            c.next().map(|f| f.to_uppercase().collect::<String>() + c.as_str()).unwrap_or_default()
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// The room's floor and four walls as SceneSmith's room-geometry SDF (boxes).
@@ -112,7 +119,7 @@ pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout
         },
         "rooms": {"main": {"room_id": "main", "text_description": prompt, "objects": objects}},
         "spec": spec,
-        "placement": {"unmet": layout.unmet},
+        "placement": {"unmet": layout.unmet, "notes": layout.notes},
     });
     write(&dir.join("combined_house/house_state.json"), serde_json::to_string_pretty(&state).expect("serialisable") + "\n")
 }

@@ -54,8 +54,30 @@ fn scene_000_converts_with_every_object_classified_and_placed() {
         }
     }
 
-    // Instances carry the frame change; templates carry instance semantic ids with classes.
+    // What Habitat does with the written instances: translation · rotation · scale on the
+    // glTF asset as it is. Each furniture box must come out where house_state says.
     let instance = json(&out.path().join("scenes/scene_000.scene_instance.json"));
+    for object in report.objects.iter().filter(|o| o.model.starts_with("main_")) {
+        let placed = instance["object_instances"].as_array().unwrap().iter().find(|i| i["template_name"].as_str().unwrap().contains(&object.model)).unwrap();
+        let template = json(&out.path().join("objects").join(format!("{}.object_config.json", placed["template_name"].as_str().unwrap())));
+        let asset = read_gltf(&out.path().join("objects").join(template["render_asset"].as_str().unwrap())).unwrap();
+        let (lo, hi) = asset.bounds().unwrap();
+        let v = |k: &str| -> Vec<f64> { placed[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+        let (t, q, s) = (v("translation"), v("rotation"), v("non_uniform_scale"));
+        let rotation = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+        let (mut wlo, mut whi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for i in 0..8 {
+            let c = |k: usize| if i >> k & 1 == 0 { lo[k] as f64 } else { hi[k] as f64 };
+            let p = rotation * nalgebra::Vector3::new(c(0) * s[0], c(1) * s[1], c(2) * s[2]) + nalgebra::Vector3::new(t[0], t[1], t[2]);
+            for a in 0..3 {
+                wlo[a] = wlo[a].min(p[a]);
+                whi[a] = whi[a].max(p[a]);
+            }
+        }
+        for a in 0..3 {
+            assert!((wlo[a] - object.bbox_min[a]).abs() < 1e-3 && (whi[a] - object.bbox_max[a]).abs() < 1e-3, "{}: Habitat puts it at {wlo:?}..{whi:?}, expected {:?}..{:?}", object.model, object.bbox_min, object.bbox_max);
+        }
+    }
     let bed = instance["object_instances"].as_array().unwrap().iter().find(|i| i["template_name"].as_str().unwrap().contains("king_bed")).unwrap();
     assert_eq!(bed["translation"], serde_json::json!([-0.8, 0.0, -1.2]));
     let lexicon = json(&out.path().join("semantics/scene_000.lexicon.json"));
@@ -64,7 +86,7 @@ fn scene_000_converts_with_every_object_classified_and_placed() {
     assert!(lexicon["classes"].as_array().unwrap().iter().any(|c| c["id"] == id && c["name"] == "bed"));
     assert_eq!(template["up"], serde_json::json!([0.0, 1.0, 0.0]));
     // The copied asset loads, with normals generated (SceneSmith's glTF has none).
-    let asset = read_gltf(&out.path().join("assets/main_king_bed_0/king_bed.gltf")).unwrap();
+    let asset = read_gltf(&out.path().join("assets/main_king_bed_0/visual/king_bed.gltf")).unwrap();
     assert!(asset.generated_normals);
     let mesh = &asset.meshes[0];
     assert_eq!(mesh.normals.len(), mesh.positions.len());
@@ -72,8 +94,17 @@ fn scene_000_converts_with_every_object_classified_and_placed() {
     assert!(asset.materials[0].texture.is_some(), "the texture in a buffer view decodes");
     assert_eq!(report.generated_normals.len(), 5);
     for condition in ["baseline", "camera", "dynamic_lights", "no_lights"] {
-        assert!(out.path().join(format!("lighting/scene_000.{condition}.json")).exists());
+        let habitat = json(&out.path().join(format!("lighting/scene_000.{condition}.lighting_config.json")));
+        let hadage = json(&out.path().join(format!("lighting_hadage/light_settings_scene_000_{condition}.json")));
+        assert_eq!(habitat["lights"].as_object().unwrap().len(), hadage["lights"].as_object().unwrap().len(), "{condition}");
     }
+    let baseline = json(&out.path().join("lighting_hadage/light_settings_scene_000_baseline.json"));
+    for light in baseline["lights"].as_object().unwrap().values() {
+        let p = &light["position"];
+        // Inside the 5 x 5 m room, under its 2 m walls.
+        assert!(p[0].as_f64().unwrap().abs() < 2.5 && p[2].as_f64().unwrap().abs() < 2.5 && p[1].as_f64().unwrap() < 2.0, "{light}");
+    }
+    assert_eq!(instance["stage_instance"]["template_name"], "NONE");
 }
 
 #[test]

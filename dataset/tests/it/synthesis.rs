@@ -85,13 +85,40 @@ fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 #[test]
 fn the_same_seed_synthesizes_byte_identical_scenes() {
-    let prompt = grammar_pool(Regime::Furniture, 1, 3).accepted.remove(0);
+    // A prompt from elsewhere (no layout of its own): the seed decides the layout.
+    let mut prompt = grammar_pool(Regime::Furniture, 1, 3).accepted.remove(0);
+    prompt.layout_seed = None;
     let (a, b, c) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     synthesize(&prompt, 7, a.path()).unwrap();
     synthesize(&prompt, 7, b.path()).unwrap();
     synthesize(&prompt, 8, c.path()).unwrap();
     assert_eq!(tree(a.path()), tree(b.path()));
     assert_ne!(tree(a.path()), tree(c.path()));
+}
+
+#[test]
+fn grammar_prompts_get_the_layout_they_describe() {
+    for regime in Regime::ALL {
+        for prompt in grammar_pool(regime, 12, 21).accepted {
+            let dir = tempfile::tempdir().unwrap();
+            let unmet = synthesize(&prompt, 99, dir.path()).unwrap();
+            assert_eq!(unmet, Vec::<String>::new(), "{}", prompt.text);
+        }
+    }
+}
+
+#[test]
+fn relations_a_layout_fails_are_reported() {
+    // Swap the subject of a "next to" relation for something placed far away.
+    let mut prompt = grammar_pool(Regime::Furniture, 1, 4).accepted.remove(0);
+    prompt.layout_seed = None;
+    let anchor = prompt.spec.objects[0].category.clone();
+    prompt.spec.relations.push(osmab_dataset::spec::Relation { subject: anchor.clone(), kind: osmab_dataset::spec::RelationKind::InCorner, targets: vec![] });
+    let dir = tempfile::tempdir().unwrap();
+    let unmet = synthesize(&prompt, 1, dir.path()).unwrap();
+    let state: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("combined_house/house_state.json")).unwrap()).unwrap();
+    assert_eq!(state["placement"]["unmet"], serde_json::json!(unmet));
+    assert!(unmet.iter().any(|u| u.contains(&anchor)), "{unmet:?}");
 }
 
 #[test]

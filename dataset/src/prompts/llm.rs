@@ -56,8 +56,9 @@ struct SpecWithoutRegime {
 }
 
 /// Ask the model for `count` prompts of `regime` in batches of `batch`, judging them
-/// as they come; `max_requests` bounds the calls.
-pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usize, max_requests: usize) -> Result<PromptPool, ServiceError> {
+/// as they come; `max_requests` bounds the calls. When the service fails, the error
+/// comes with the pool gathered so far.
+pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usize, max_requests: usize) -> Result<PromptPool, (PromptPool, ServiceError)> {
     let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
     let mut judge = PromptJudge::new(regime);
     let mut next = 0usize;
@@ -66,7 +67,10 @@ pub fn llm_pool(client: &ServiceClient, regime: Regime, count: usize, batch: usi
             break;
         }
         let room = ROOM_HINTS[request % ROOM_HINTS.len()];
-        let reply = client.chat_json(&system_prompt(regime), &user_prompt(batch, room), 0.9)?;
+        let reply = match client.chat_json(&system_prompt(regime), &user_prompt(batch, room), 0.9) {
+            Ok(reply) => reply,
+            Err(err) => return Err((pool, err)),
+        };
         let items = reply["prompts"].as_array().cloned().unwrap_or_default();
         if items.is_empty() {
             pool.rejected.push(RejectedPrompt {

@@ -166,6 +166,7 @@ const MODEL: &str = "- add_model:\n    name: main_crate_0\n    file: package://s
 
 fn load_error(directives: &str, uri: &str) -> String {
     let scene = tiny_scene(directives, uri);
+    std::fs::write(scene.path().join("assets/crate.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     load_scene(scene.path()).unwrap_err().to_string()
 }
 
@@ -209,4 +210,67 @@ fn a_broken_texture_falls_back_to_the_base_colour_and_is_reported() {
     std::fs::remove_file(dir.path().join("gltf_buffer_1.bin")).unwrap();
     let err = read_gltf(&gltf).unwrap_err();
     assert!(err.to_string().contains("gltf_buffer_1.bin"), "{err}");
+}
+
+#[test]
+fn hostile_gltf_files_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("evil.gltf");
+    let base = serde_json::json!({"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "meshes": [], "buffers": [], "bufferViews": [], "accessors": []});
+    // Node 0 lists node 1 twice: a DAG that would be walked exponentially often.
+    let mut shared = base.clone();
+    shared["nodes"] = serde_json::json!([{"children": [1, 1]}, {"children": []}]);
+    std::fs::write(&path, shared.to_string()).unwrap();
+    assert!(read_gltf(&path).unwrap_err().message.contains("reached twice"));
+    // An accessor whose stride would read far past its buffer.
+    let mut strided = base.clone();
+    strided["buffers"] = serde_json::json!([{"uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAA", "byteLength": 12}]);
+    strided["bufferViews"] = serde_json::json!([{"buffer": 0, "byteLength": 12, "byteStride": 4000}]);
+    strided["accessors"] = serde_json::json!([{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}]);
+    strided["meshes"] = serde_json::json!([{"primitives": [{"attributes": {"POSITION": 0}}]}]);
+    strided["nodes"] = serde_json::json!([{"mesh": 0}]);
+    std::fs::write(&path, strided.to_string()).unwrap();
+    assert!(read_gltf(&path).unwrap_err().message.contains("byteStride"));
+    // A buffer that claims to live outside the asset's folder.
+    let mut escape = base;
+    escape["buffers"] = serde_json::json!([{"uri": "../../../../etc/passwd", "byteLength": 1}]);
+    escape["nodes"] = serde_json::json!([]);
+    std::fs::write(&path, escape.to_string()).unwrap();
+    assert!(read_gltf(&path).unwrap_err().message.contains("beside the glTF"));
+}
+
+#[test]
+fn scenes_with_unusual_models_are_handled_or_refused_clearly() {
+    // A weld to a model that was never added.
+    let weld = format!("directives:\n{MODEL}- add_weld:\n    parent: world\n    child: main_ghost_0::base_link\n");
+    assert!(load_error(&weld, "crate.obj").contains("no add_model adds"));
+    // The same model added twice.
+    assert!(load_error(&format!("directives:\n{MODEL}{MODEL}"), "crate.obj").contains("added twice"));
+
+    // A model without visuals is skipped and reported; a "Floor Lamp" is a lamp.
+    let scene = tiny_scene(&format!("directives:\n{MODEL}"), "crate.obj");
+    std::fs::write(scene.path().join("assets/crate.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(
+        scene.path().join("combined_house/house_state.json"),
+        r#"{"rooms": {"main": {"objects": {"crate_0": {"name": "Floor Lamp", "description": "A tall lamp.", "object_type": "furniture"}}}}}"#,
+    )
+    .unwrap();
+    let loaded = load_scene(scene.path()).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let report = write_habitat_scene(&loaded, out.path(), &ConvertOptions::default()).unwrap();
+    assert_eq!(report.objects[0].class, "lamp");
+
+    std::fs::write(scene.path().join("assets/crate.sdf"), r#"<sdf version="1.7"><model name="crate"><link name="base_link"/></model></sdf>"#).unwrap();
+    let report = write_habitat_scene(&load_scene(scene.path()).unwrap(), tempfile::tempdir().unwrap().path(), &ConvertOptions::default());
+    let err = report.map(|r| r.models_without_visuals).map_err(|e| e.to_string());
+    // Nothing left to draw: no floor either, so the conversion says so.
+    assert!(err.as_ref().is_err_and(|e| e.contains("no visuals")) || err.as_ref().is_ok_and(|m| m == &vec!["main_crate_0".to_string()]), "{err:?}");
+
+    // Links whose poses refer to each other in a circle.
+    std::fs::write(
+        scene.path().join("assets/crate.sdf"),
+        r#"<sdf version="1.7"><model name="crate"><link name="a"><pose relative_to="b">0 0 0 0 0 0</pose></link><link name="b"><pose relative_to="a">0 0 0 0 0 0</pose></link></model></sdf>"#,
+    )
+    .unwrap();
+    assert!(load_scene(scene.path()).unwrap_err().message.contains("cycle"));
 }

@@ -46,8 +46,20 @@ impl FakeService {
         let received = Arc::new(Mutex::new(Vec::new()));
         let log = received.clone();
         let handle = std::thread::spawn(move || {
+            // Give up after 20 s without a client, so a test whose code stops calling
+            // fails on its assertions instead of hanging here.
+            listener.set_nonblocking(true).unwrap();
             for reply in replies {
-                let (stream, _) = listener.accept().unwrap();
+                let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+                let stream = loop {
+                    match listener.accept() {
+                        Ok((stream, _)) => break Some(stream),
+                        Err(_) if std::time::Instant::now() < deadline => std::thread::sleep(std::time::Duration::from_millis(5)),
+                        Err(_) => break None,
+                    }
+                };
+                let Some(stream) = stream else { return };
+                stream.set_nonblocking(false).unwrap();
                 let mut reader = BufReader::new(stream.try_clone().unwrap());
                 let mut request_line = String::new();
                 reader.read_line(&mut request_line).unwrap();

@@ -40,7 +40,7 @@ fn llm_prompts_are_judged_like_the_grammars() {
         {"prompt": "A room with some chairs."},
     ]});
     let server = FakeService::start(vec![Reply::chat(&reply.to_string())]);
-    let pool = llm_pool(&client(&server.base_url), Regime::Furniture, 1, 3, 1).unwrap();
+    let pool = llm_pool(&client(&server.base_url), Regime::Furniture, 1, 3, 1).map_err(|(_, e)| e).unwrap();
     let received = server.finish();
     assert_eq!(pool.accepted.len(), 1);
     assert_eq!(pool.accepted[0].text, GOOD);

@@ -128,7 +128,11 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
 
 fn prompts(args: &PromptsArgs) -> anyhow::Result<()> {
     let pool = match args.llm.client()? {
-        Some(client) => llm_pool(&client, args.regime, args.count, args.batch, args.max_requests)?,
+        Some(client) => llm_pool(&client, args.regime, args.count, args.batch, args.max_requests).map_err(|(partial, err)| {
+            // Keep what was accepted before the service failed.
+            let _ = write_json(&args.out, &partial);
+            anyhow::anyhow!("{err} ({} prompts accepted before the failure are in {})", partial.accepted.len(), args.out.display())
+        })?,
         None => grammar_pool(args.regime, args.count, args.seed),
     };
     write_json(&args.out, &pool)?;
@@ -169,10 +173,12 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
             continue;
         }
         let texts: Vec<String> = prompts.iter().map(|p| p.text.clone()).collect();
-        let ids: Vec<String> = prompts.iter().map(|p| p.id.clone()).collect();
-        let report = select(&ids, &embedder.embed(&texts)?, target, args.threshold);
+        // Ids repeat across pools of one regime: select by position, report by a unique key.
+        let keys: Vec<String> = prompts.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect();
+        let report = select(&keys, &embedder.embed(&texts)?, target, args.threshold);
         for s in &report.selected {
-            final_prompts.push(prompts.iter().find(|p| p.id == s.id).expect("selected from the pool").clone());
+            let index: usize = s.id.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
+            final_prompts.push(prompts[index].clone());
         }
         println!(
             "{}: {} candidates, {} near-duplicates removed, {} selected{}",
@@ -200,18 +206,32 @@ fn synthesize_all(prompts_file: &Path, seed: u64, command: &[String], out: &Path
     let text = std::fs::read(prompts_file).with_context(|| format!("{}: cannot read", prompts_file.display()))?;
     let prompts: Vec<ScenePrompt> = serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
     let mut report = Vec::new();
+    let mut failures = 0;
     for (i, prompt) in prompts.iter().enumerate() {
         let dir = out.join(format!("scene_{i:03}"));
-        let unmet = if command.is_empty() {
-            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir)?
+        let result = if command.is_empty() {
+            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir)
         } else {
-            osmab_dataset::synthesis::external::run_external(command, &prompt.text, &dir)?;
-            Vec::new()
+            osmab_dataset::synthesis::external::run_external(command, &prompt.text, &dir, std::time::Duration::from_secs(24 * 3600)).map(|()| Vec::new())
         };
-        println!("{}: {} ({} unmet relations)", dir.display(), prompt.id, unmet.len());
-        report.push(serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "unmet": unmet}));
+        // One failed scene does not lose the others; the report says which failed.
+        match result {
+            Ok(unmet) => {
+                println!("{}: {} ({} unmet relations)", dir.display(), prompt.id, unmet.len());
+                report.push(serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "unmet": unmet}));
+            }
+            Err(err) => {
+                failures += 1;
+                eprintln!("error: {}: {err}", dir.display());
+                report.push(serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "error": err.to_string()}));
+            }
+        }
     }
-    write_json(&out.join("synthesis_report.json"), &report)
+    write_json(&out.join("synthesis_report.json"), &report)?;
+    if failures > 0 {
+        bail!("{failures} of {} scenes failed; see {}", prompts.len(), out.join("synthesis_report.json").display());
+    }
+    Ok(())
 }
 
 fn convert(scene: &Path, out: &Path) -> anyhow::Result<()> {

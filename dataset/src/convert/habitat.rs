@@ -425,6 +425,14 @@ fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'stat
 /// Convert `scene` into `out`.
 pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOptions) -> Result<ConversionReport> {
     std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
+    // A second conversion into the same folder must not leave the first one's files
+    // behind (Habitat globs objects/ and scenes/); only our own folders are cleared.
+    for generated in ["assets", "objects", "scenes", "semantics", "lighting", "lighting_hadage", "navigation", "stages"] {
+        let dir = out.join(generated);
+        if dir.is_dir() {
+            std::fs::remove_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
+        }
+    }
     let mut w = Writer { out, options, scene, report: ConversionReport { scene: scene.name.clone(), ..Default::default() }, templates: Vec::new(), instances: Vec::new(), obstacles: Vec::new(), floor: None };
     for model in &scene.models {
         w.add_model(model)?;

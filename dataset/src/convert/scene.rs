@@ -160,7 +160,9 @@ fn read_house_state(path: &Path) -> Result<HouseState> {
     for (room, entry) in json["rooms"].as_object().into_iter().flatten() {
         for (object_id, o) in entry["objects"].as_object().into_iter().flatten() {
             let text = |k: &str| o[k].as_str().unwrap_or_default().to_string();
-            objects.push(ObjectInfo { room: room.clone(), object_id: object_id.clone(), name: text("name"), description: text("description"), object_type: text("object_type") });
+            // A category given by the synthesizer (osmab's) names the class better than prose.
+            let name = o["metadata"]["category"].as_str().map(str::to_string).unwrap_or_else(|| text("name"));
+            objects.push(ObjectInfo { room: room.clone(), object_id: object_id.clone(), name, description: text("description"), object_type: text("object_type") });
         }
     }
     let prompt = json["layout"]["house_prompt"].as_str().map(str::to_string);

@@ -15,9 +15,9 @@ use osmab_evaluator::Result;
 
 use crate::prompts::ScenePrompt;
 
-/// Synthesize `prompt` into the SceneSmith scene directory `dir`; returns the spec's
-/// relations the scene does not satisfy.
-pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path) -> Result<Vec<String>> {
+/// Synthesize `prompt` into the SceneSmith scene directory `dir` (with a ceiling when
+/// `ceiling`); returns the spec's relations the scene does not satisfy.
+pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool) -> Result<Vec<String>> {
     let problems = prompt.spec.problems();
     if !problems.is_empty() {
         return Err(osmab_evaluator::InputError::new(&prompt.id, "spec", problems.join("; ")));
@@ -29,6 +29,6 @@ pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path) -> Result<Vec<Str
         None => placement::place(&prompt.spec, seed),
     };
     layout.unmet = relations::unmet_relations(&prompt.spec, &layout);
-    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout)?;
+    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout, ceiling)?;
     Ok(layout.unmet)
 }

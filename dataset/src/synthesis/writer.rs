@@ -40,10 +40,14 @@ fn title(category: &str) -> String {
         .join(" ")
 }
 
-/// The room's floor and four walls as SceneSmith's room-geometry SDF (boxes).
-fn room_sdf(layout: &Layout) -> String {
+/// The room's floor, four walls and (optionally) ceiling as SceneSmith's room-geometry
+/// SDF (boxes). SceneSmith itself writes no ceiling.
+fn room_sdf(layout: &Layout, ceiling: bool) -> String {
     let (w, d, h, t) = (layout.width, layout.depth, layout.wall_height, 0.1);
     let mut visuals = vec![("floor", [0.0, 0.0, -0.05], [w, d, 0.1])];
+    if ceiling {
+        visuals.push(("ceiling", [0.0, 0.0, h + 0.05], [w, d, 0.1]));
+    }
     visuals.push(("left_wall", [-w / 2.0, 0.0, h / 2.0], [t, d, h]));
     visuals.push(("right_wall", [w / 2.0, 0.0, h / 2.0], [t, d, h]));
     visuals.push(("back_wall", [0.0, -d / 2.0, h / 2.0], [w, t, h]));
@@ -62,24 +66,46 @@ fn room_sdf(layout: &Layout) -> String {
     out
 }
 
-fn object_sdf(name: &str, stem: &str) -> String {
+/// An object's SDF as SceneSmith writes it: inertial, the glTF visual and a collision
+/// (here the asset's bounding box; SceneSmith uses convex pieces).
+fn object_sdf(name: &str, stem: &str, size: [f64; 3], mass: f64) -> String {
+    let [w, d, h] = size;
+    let (ixx, iyy, izz) = (mass * (d * d + h * h) / 12.0, mass * (w * w + h * h) / 12.0, mass * (w * w + d * d) / 12.0);
     format!(
-        "<?xml version='1.0' encoding='utf-8'?>\n<sdf version=\"1.7\">\n  <model name=\"{name}\">\n    <link name=\"base_link\">\n      <visual name=\"visual\">\n        <geometry>\n          <mesh>\n            <uri>{stem}.gltf</uri>\n          </mesh>\n        </geometry>\n      </visual>\n    </link>\n  </model>\n</sdf>\n"
+        "<?xml version='1.0' encoding='utf-8'?>\n<sdf version=\"1.7\">\n  <model name=\"{name}\">\n    <link name=\"base_link\">\n      <inertial>\n        <mass>{mass:.6}</mass>\n        <pose>0 0 {cz:.6} 0 0 0</pose>\n        <inertia>\n          <ixx>{ixx:.6}</ixx>\n          <iyy>{iyy:.6}</iyy>\n          <izz>{izz:.6}</izz>\n          <ixy>0</ixy>\n          <ixz>0</ixz>\n          <iyz>0</iyz>\n        </inertia>\n      </inertial>\n      <visual name=\"visual\">\n        <geometry>\n          <mesh>\n            <uri>{stem}.gltf</uri>\n          </mesh>\n        </geometry>\n      </visual>\n      <collision name=\"collision_0\">\n        <pose>0 0 {cz:.6} 0 0 0</pose>\n        <geometry>\n          <box>\n            <size>{w:.6} {d:.6} {h:.6}</size>\n          </box>\n        </geometry>\n      </collision>\n    </link>\n  </model>\n</sdf>\n",
+        cz = h / 2.0
     )
 }
 
+/// A plausible mass: a fraction of the bounding box filled with wood-like material.
+fn mass_of(size: [f64; 3]) -> f64 {
+    (size[0] * size[1] * size[2] * 600.0 * 0.2).clamp(0.05, 200.0)
+}
+
 /// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`.
-pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout) -> Result<()> {
+pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout, ceiling: bool) -> Result<()> {
     write(&dir.join("package.xml"), "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n")?;
-    write(&dir.join("room_geometry/room_geometry_main.sdf"), room_sdf(layout))?;
+    write(&dir.join("room_geometry/room_geometry_main.sdf"), room_sdf(layout, ceiling))?;
     let mut dmd = String::from("directives:\n- add_frame:\n    name: house_frame\n    X_PF:\n      base_frame: world\n      translation: [0.0, 0.0, 0.0]\n- add_frame:\n    name: room_main_frame\n    X_PF:\n      base_frame: house_frame\n      translation: [0.0, 0.0, 0.0]\n- add_model:\n    name: room_geometry_main\n    file: package://scene/room_geometry/room_geometry_main.sdf\n- add_weld:\n    parent: room_main_frame\n    child: room_geometry_main::room_geometry_body_link\n");
+    // SceneSmith also writes the variant with the furniture welded in place.
+    let mut welded = dmd.clone();
     let mut objects = serde_json::Map::new();
     for o in &layout.objects {
         let agent = if o.kind == ObjectKind::Furniture { "furniture" } else { "manipuland" };
         let stem = o.category.replace(' ', "_");
         let rel_dir = format!("room_main/generated_assets/{agent}/sdf/{}", o.object_id);
         write_asset_gltf(&o.asset, &dir.join(&rel_dir), &stem)?;
-        write(&dir.join(&rel_dir).join(format!("{stem}.sdf")), object_sdf(&stem, &stem))?;
+        write(&dir.join(&rel_dir).join(format!("{stem}.sdf")), object_sdf(&stem, &stem, o.asset.size, mass_of(o.asset.size)))?;
+        if o.kind == ObjectKind::Furniture {
+            let _ = write!(
+                welded,
+                "- add_model:\n    name: main_{}\n    file: package://scene/{rel_dir}/{stem}.sdf\n- add_weld:\n    parent: room_main_frame\n    child: main_{}::base_link\n    X_PC:\n      translation: {}\n      rotation: !AngleAxis\n        angle_deg: {}\n        axis: [0.0, 0.0, 1.0]\n",
+                o.object_id,
+                o.object_id,
+                triple(o.position),
+                num(o.yaw_deg)
+            );
+        }
         let _ = write!(
             dmd,
             "- add_model:\n    name: main_{}\n    file: package://scene/{rel_dir}/{stem}.sdf\n    default_free_body_pose:\n      base_link:\n        base_frame: room_main_frame\n        translation: {}\n        rotation: !AngleAxis\n          angle_deg: {}\n          axis: [0.0, 0.0, 1.0]\n",
@@ -111,6 +137,7 @@ pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout
         );
     }
     write(&dir.join("combined_house/house.dmd.yaml"), dmd)?;
+    write(&dir.join("combined_house/house_furniture_welded.dmd.yaml"), welded)?;
     let state = json!({
         "layout": {
             "house_prompt": prompt,

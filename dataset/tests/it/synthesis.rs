@@ -20,7 +20,7 @@ fn synthesized_scenes_round_trip_through_the_converter_with_their_spec_intact() 
     for regime in Regime::ALL {
         for prompt in grammar_pool(regime, 6, 5).accepted {
             let dir = tempfile::tempdir().unwrap();
-            synthesize(&prompt, 1, &dir.path().join("scene")).unwrap();
+            synthesize(&prompt, 1, &dir.path().join("scene"), false).unwrap();
             let scene = load_scene(&dir.path().join("scene")).unwrap();
             let report = write_habitat_scene(&scene, &dir.path().join("habitat"), &ConvertOptions::default()).unwrap();
             assert!(report.unknown_names.is_empty(), "{:?}", report.unknown_names);
@@ -89,9 +89,9 @@ fn the_same_seed_synthesizes_byte_identical_scenes() {
     let mut prompt = grammar_pool(Regime::Furniture, 1, 3).accepted.remove(0);
     prompt.layout_seed = None;
     let (a, b, c) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    synthesize(&prompt, 7, a.path()).unwrap();
-    synthesize(&prompt, 7, b.path()).unwrap();
-    synthesize(&prompt, 8, c.path()).unwrap();
+    synthesize(&prompt, 7, a.path(), false).unwrap();
+    synthesize(&prompt, 7, b.path(), false).unwrap();
+    synthesize(&prompt, 8, c.path(), false).unwrap();
     assert_eq!(tree(a.path()), tree(b.path()));
     assert_ne!(tree(a.path()), tree(c.path()));
 }
@@ -101,7 +101,7 @@ fn grammar_prompts_get_the_layout_they_describe() {
     for regime in Regime::ALL {
         for prompt in grammar_pool(regime, 12, 21).accepted {
             let dir = tempfile::tempdir().unwrap();
-            let unmet = synthesize(&prompt, 99, dir.path()).unwrap();
+            let unmet = synthesize(&prompt, 99, dir.path(), false).unwrap();
             assert_eq!(unmet, Vec::<String>::new(), "{}", prompt.text);
         }
     }
@@ -115,7 +115,7 @@ fn relations_a_layout_fails_are_reported() {
     let anchor = prompt.spec.objects[0].category.clone();
     prompt.spec.relations.push(osmab_dataset::spec::Relation { subject: anchor.clone(), kind: osmab_dataset::spec::RelationKind::InCorner, targets: vec![] });
     let dir = tempfile::tempdir().unwrap();
-    let unmet = synthesize(&prompt, 1, dir.path()).unwrap();
+    let unmet = synthesize(&prompt, 1, dir.path(), false).unwrap();
     let state: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("combined_house/house_state.json")).unwrap()).unwrap();
     assert_eq!(state["placement"]["unmet"], serde_json::json!(unmet));
     assert!(unmet.iter().any(|u| u.contains(&anchor)), "{unmet:?}");

@@ -132,7 +132,7 @@ fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manip
     for (i, prompt) in selected.iter().enumerate() {
         let dir = work.join(format!("scene_{i:03}"));
         let clock = Instant::now();
-        osmab_dataset::synthesis::synthesize(prompt, i as u64, &dir)?;
+        osmab_dataset::synthesis::synthesize(prompt, i as u64, &dir, false)?;
         synth_times.push(clock.elapsed().as_secs_f64());
         let clock = Instant::now();
         write_habitat_scene(&load_scene(&dir)?, &work.join(format!("habitat_{i:03}")), &ConvertOptions::default())?;

@@ -24,9 +24,12 @@ pub enum SceneCommand {
         /// final_prompts.json written by `osmab scene select`.
         #[arg(long)]
         prompts: PathBuf,
-        /// Seed of the placement and asset sizes.
+        /// Seed of the placement and asset sizes (prompts from the grammar carry their own layout).
         #[arg(long, default_value_t = 0)]
         seed: u64,
+        /// Give the rooms a ceiling (SceneSmith's have none).
+        #[arg(long)]
+        ceiling: bool,
         /// An external synthesizer, as separate arguments after `--`: {prompt}, {prompt_file} and {out} are filled in.
         #[arg(last = true)]
         command: Vec<String>,
@@ -122,7 +125,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
-        SceneCommand::Synthesize { prompts, seed, command, out } => synthesize_all(&prompts, seed, &command, &out),
+        SceneCommand::Synthesize { prompts, seed, ceiling, command, out } => synthesize_all(&prompts, seed, ceiling, &command, &out),
     }
 }
 
@@ -202,7 +205,7 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn synthesize_all(prompts_file: &Path, seed: u64, command: &[String], out: &Path) -> anyhow::Result<()> {
+fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[String], out: &Path) -> anyhow::Result<()> {
     let text = std::fs::read(prompts_file).with_context(|| format!("{}: cannot read", prompts_file.display()))?;
     let prompts: Vec<ScenePrompt> = serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
     let mut report = Vec::new();
@@ -210,7 +213,7 @@ fn synthesize_all(prompts_file: &Path, seed: u64, command: &[String], out: &Path
     for (i, prompt) in prompts.iter().enumerate() {
         let dir = out.join(format!("scene_{i:03}"));
         let result = if command.is_empty() {
-            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir)
+            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir, ceiling)
         } else {
             osmab_dataset::synthesis::external::run_external(command, &prompt.text, &dir, std::time::Duration::from_secs(24 * 3600)).map(|()| Vec::new())
         };

@@ -7,5 +7,6 @@ pub mod embedding;
 pub mod openai;
 pub mod prompts;
 pub mod selection;
+pub mod render;
 pub mod spec;
 pub mod synthesis;

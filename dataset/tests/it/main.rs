@@ -3,6 +3,7 @@
 mod convert;
 mod fake_service;
 mod prompts;
+mod render;
 mod selection;
 mod service;
 mod synthesis;

@@ -1,0 +1,168 @@
+//! The renderable world: triangles in Habitat world coordinates (y up) with a
+//! material and a semantic class each, loaded from a converted Habitat-style scene.
+
+use std::path::Path;
+
+use nalgebra::{Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
+use osmab_evaluator::{InputError, Result};
+use serde_json::Value;
+
+use crate::convert::gltf::{Texture, read_gltf};
+
+/// How a surface is coloured.
+#[derive(Debug, Clone)]
+pub struct Surface {
+    /// Base colour (linear 0..1).
+    pub color: [f32; 3],
+    /// Base-colour texture, sampled with the vertices' UVs.
+    pub texture: Option<std::sync::Arc<Texture>>,
+}
+
+/// One triangle.
+#[derive(Debug, Clone, Copy)]
+pub struct Triangle {
+    pub positions: [[f32; 3]; 3],
+    pub normals: [[f32; 3]; 3],
+    pub uvs: [[f32; 2]; 3],
+    /// Index into `World::surfaces`.
+    pub surface: u32,
+    /// Class id written to semantic images.
+    pub class_id: u16,
+}
+
+/// Everything a camera can see.
+#[derive(Debug, Clone, Default)]
+pub struct World {
+    pub triangles: Vec<Triangle>,
+    pub surfaces: Vec<Surface>,
+}
+
+fn floats(v: &Value, n: usize) -> Option<Vec<f64>> {
+    v.as_array().filter(|a| a.len() == n).and_then(|a| a.iter().map(Value::as_f64).collect())
+}
+
+/// A small OBJ reader for the converter's primitives (and simple OBJ assets): `v`,
+/// `vn`, `vt`, `f` (triangles or fans) and the first material's `Kd`.
+fn read_obj(path: &Path) -> Result<(Vec<[f32; 3]>, Vec<u32>, [f32; 3])> {
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
+    let (mut positions, mut indices, mut color) = (Vec::new(), Vec::new(), [0.7f32, 0.7, 0.7]);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let v: Vec<f32> = words.take(3).filter_map(|w| w.parse().ok()).collect();
+                if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+                    return Err(InputError::new(path, format!("line {}", i + 1), "a vertex needs 3 finite numbers"));
+                }
+                positions.push([v[0], v[1], v[2]]);
+            }
+            Some("f") => {
+                let ids: Vec<u32> = words
+                    .map(|w| w.split('/').next().unwrap_or("").parse::<i64>().ok().map(|k| if k < 0 { positions.len() as i64 + k } else { k - 1 }))
+                    .map(|k| k.filter(|&k| k >= 0 && (k as usize) < positions.len()).map(|k| k as u32))
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| InputError::new(path, format!("line {}", i + 1), "a face names a vertex that does not exist"))?;
+                for k in 1..ids.len().saturating_sub(1) {
+                    indices.extend([ids[0], ids[k], ids[k + 1]]);
+                }
+            }
+            Some("mtllib") => {
+                if let Some(name) = words.next()
+                    && let Ok(mtl) = std::fs::read_to_string(path.with_file_name(name))
+                    && let Some(kd) = mtl.lines().find_map(|l| l.trim().strip_prefix("Kd "))
+                {
+                    let c: Vec<f32> = kd.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+                    if c.len() == 3 {
+                        color = [c[0], c[1], c[2]];
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok((positions, indices, color))
+}
+
+impl World {
+    /// Load the converted scene in `dir` (written by `convert::habitat`), with the class
+    /// of every object from its template's `user_defined.class_id`.
+    pub fn load_habitat_scene(dir: &Path, scene: &str) -> Result<World> {
+        let instance_path = dir.join("scenes").join(format!("{scene}.scene_instance.json"));
+        let text = std::fs::read(&instance_path).map_err(|e| InputError::io(&instance_path, &e))?;
+        let instance: Value = serde_json::from_slice(&text).map_err(|e| InputError::new(&instance_path, "(json)", e.to_string()))?;
+        let mut world = World::default();
+        let mut texture_cache: Vec<(String, Option<std::sync::Arc<Texture>>)> = Vec::new();
+        for (i, object) in instance["object_instances"].as_array().into_iter().flatten().enumerate() {
+            let field = format!("object_instances[{i}]");
+            let handle = object["template_name"].as_str().ok_or_else(|| InputError::new(&instance_path, &field, "missing template_name"))?;
+            let template_path = dir.join("objects").join(format!("{handle}.object_config.json"));
+            let template: Value = serde_json::from_slice(&std::fs::read(&template_path).map_err(|e| InputError::io(&template_path, &e))?)
+                .map_err(|e| InputError::new(&template_path, "(json)", e.to_string()))?;
+            let asset = dir.join("objects").join(template["render_asset"].as_str().ok_or_else(|| InputError::new(&template_path, "render_asset", "missing"))?);
+            let class_id = template["user_defined"]["class_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16;
+            let (t, q, s) = (
+                floats(&object["translation"], 3).unwrap_or(vec![0.0; 3]),
+                floats(&object["rotation"], 4).unwrap_or(vec![1.0, 0.0, 0.0, 0.0]),
+                floats(&object["non_uniform_scale"], 3).unwrap_or(vec![1.0; 3]),
+            );
+            let rotation = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
+            let transform = Matrix4::new_translation(&Vector3::new(t[0], t[1], t[2])) * rotation.to_homogeneous() * Matrix4::new_nonuniform_scaling(&Vector3::new(s[0], s[1], s[2]));
+            let normal_matrix = transform.fixed_view::<3, 3>(0, 0).try_inverse().map(|m| m.transpose()).unwrap_or_else(nalgebra::Matrix3::identity);
+            let place = |p: [f32; 3]| {
+                let w = transform.transform_point(&Point3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+                [w.x as f32, w.y as f32, w.z as f32]
+            };
+            let turn = |n: [f32; 3]| {
+                let w = (normal_matrix * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64)).normalize();
+                [w.x as f32, w.y as f32, w.z as f32]
+            };
+            let ext = asset.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+            if ext == "obj" {
+                let (positions, indices, color) = read_obj(&asset)?;
+                let surface = world.surfaces.len() as u32;
+                world.surfaces.push(Surface { color, texture: None });
+                for tri in indices.chunks_exact(3) {
+                    // Flat faces: the face normal, so boxes keep sharp edges.
+                    let p = [tri[0], tri[1], tri[2]].map(|k| place(positions[k as usize]));
+                    let e1 = Vector3::new(p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
+                    let e2 = Vector3::new(p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
+                    let n = e1.cross(&e2);
+                    let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
+                    world.triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs: [[0.0; 2]; 3], surface, class_id });
+                }
+            } else {
+                let gltf = read_gltf(&asset)?;
+                let base = world.surfaces.len() as u32;
+                for (m, material) in gltf.materials.iter().enumerate() {
+                    let key = format!("{}#{m}", asset.display());
+                    let texture = match texture_cache.iter().find(|(k, _)| *k == key) {
+                        Some((_, t)) => t.clone(),
+                        None => {
+                            let t = material.texture.clone().map(std::sync::Arc::new);
+                            texture_cache.push((key, t.clone()));
+                            t
+                        }
+                    };
+                    let c = material.base_color;
+                    world.surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
+                }
+                let fallback = world.surfaces.len() as u32;
+                world.surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
+                for mesh in &gltf.meshes {
+                    let surface = mesh.material.filter(|&m| m < gltf.materials.len()).map_or(fallback, |m| base + m as u32);
+                    for tri in mesh.indices.chunks_exact(3) {
+                        let k = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                        world.triangles.push(Triangle {
+                            positions: k.map(|k| place(mesh.positions[k])),
+                            normals: k.map(|k| turn(mesh.normals[k])),
+                            uvs: k.map(|k| mesh.uvs.as_ref().map_or([0.0; 2], |uv| uv[k])),
+                            surface,
+                            class_id,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(world)
+    }
+}

@@ -1,0 +1,291 @@
+//! A CPU rasteriser for RGB, planar depth and semantic images from one pinhole camera:
+//! near-plane clipping, perspective-correct interpolation, a depth buffer, then a
+//! deferred shading pass; rows are split into bands rendered on all cores, into
+//! buffers allocated once per frame size.
+
+use nalgebra::{Matrix4, Vector3};
+use rayon::prelude::*;
+
+use super::mesh::{Triangle, World};
+
+/// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
+/// `c = (size − 1)/2` implies) and a camera-to-world pose in OpenCV axes
+/// (x right, y down, z forward) in the Habitat world.
+#[derive(Debug, Clone)]
+pub struct Camera {
+    pub width: u32,
+    pub height: u32,
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    pub pose: Matrix4<f64>,
+}
+
+/// A light as Habitat applies it: colour already scaled by intensity (×2.5, or ×0.1
+/// for negative, darkening lights); attenuated by 1/(1 + d²) as Magnum's PhongGL does
+/// for an unbounded range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// World position, or offset from the camera for camera lights.
+    pub position: [f32; 3],
+    pub color: [f32; 3],
+    pub attached_to_camera: bool,
+}
+
+/// No lights: albedo as it is (Habitat's flat shading); lights: Phong diffuse with
+/// ambient 0.4.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shading {
+    Flat,
+    Lit(Vec<Light>),
+}
+
+/// Habitat's hard-coded ambient term of its Phong shading.
+pub const AMBIENT: f32 = 0.4;
+/// Nothing nearer than this is drawn.
+const NEAR: f32 = 0.01;
+/// Rows per parallel band.
+const BAND: usize = 16;
+
+/// The images of one frame, reused from frame to frame.
+#[derive(Debug, Clone, Default)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// RGB, 3 bytes a pixel.
+    pub rgb: Vec<u8>,
+    /// Planar depth in metres (camera z); 0 where nothing is hit.
+    pub depth: Vec<f32>,
+    /// Class ids; 0 where nothing is hit.
+    pub semantic: Vec<u16>,
+    /// Per pixel: index of the visible (clipped) triangle and its weights.
+    hit: Vec<u32>,
+    weights: Vec<[f32; 2]>,
+}
+
+impl Frame {
+    fn resize(&mut self, width: u32, height: u32) {
+        let n = (width * height) as usize;
+        self.width = width;
+        self.height = height;
+        self.rgb.resize(n * 3, 0);
+        self.depth.resize(n, 0.0);
+        self.semantic.resize(n, 0);
+        self.hit.resize(n, u32::MAX);
+        self.weights.resize(n, [0.0; 2]);
+    }
+}
+
+/// A triangle after clipping and projection: screen x, y and 1/z per vertex, plus the
+/// source triangle and each vertex's barycentric coordinates in it.
+#[derive(Debug, Clone, Copy)]
+struct ScreenTriangle {
+    xy: [[f32; 2]; 3],
+    inv_z: [f32; 3],
+    /// Barycentric coordinates (in the source triangle) of each vertex.
+    bary: [[f32; 3]; 3],
+    source: u32,
+}
+
+fn to_camera(m: &Matrix4<f64>, p: [f32; 3]) -> [f32; 3] {
+    let v = m * nalgebra::Vector4::new(p[0] as f64, p[1] as f64, p[2] as f64, 1.0);
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Clip a camera-space triangle against the near plane and project it.
+fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut Vec<ScreenTriangle>) {
+    let inside = cam.map(|p| p[2] >= NEAR);
+    if !inside.iter().any(|&i| i) {
+        return;
+    }
+    let corners = [[1.0f32, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    // Sutherland–Hodgman against z = NEAR, carrying barycentric coordinates.
+    let mut poly: Vec<([f32; 3], [f32; 3])> = Vec::with_capacity(4);
+    for i in 0..3 {
+        let (a, b) = ((cam[i], corners[i]), (cam[(i + 1) % 3], corners[(i + 1) % 3]));
+        let (ia, ib) = (inside[i], inside[(i + 1) % 3]);
+        if ia {
+            poly.push(a);
+        }
+        if ia != ib {
+            let t = (NEAR - a.0[2]) / (b.0[2] - a.0[2]);
+            let lerp = |x: [f32; 3], y: [f32; 3]| [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1]), x[2] + t * (y[2] - x[2])];
+            poly.push((lerp(a.0, b.0), lerp(a.1, b.1)));
+        }
+    }
+    let project = |p: [f32; 3]| [(camera.fx as f32) * p[0] / p[2] + camera.cx as f32, (camera.fy as f32) * p[1] / p[2] + camera.cy as f32];
+    for k in 1..poly.len().saturating_sub(1) {
+        let v = [poly[0], poly[k], poly[k + 1]];
+        out.push(ScreenTriangle { xy: v.map(|(p, _)| project(p)), inv_z: v.map(|(p, _)| 1.0 / p[2]), bary: v.map(|(_, b)| b), source });
+    }
+}
+
+/// Render `world` seen by `camera` into `frame`.
+pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
+    frame.resize(camera.width, camera.height);
+    let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
+    let mut screen = Vec::with_capacity(world.triangles.len());
+    let clipped: Vec<Vec<ScreenTriangle>> = world
+        .triangles
+        .par_chunks(8192)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let mut out = Vec::with_capacity(chunk.len());
+            for (i, t) in chunk.iter().enumerate() {
+                let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
+                clip_and_project(&cam, camera, (c * 8192 + i) as u32, &mut out);
+            }
+            out
+        })
+        .collect();
+    for part in clipped {
+        screen.extend(part);
+    }
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let (wf, hf) = (w as f32, h as f32);
+    // Visibility: a depth buffer per band of rows.
+    frame
+        .depth
+        .par_chunks_mut(w * BAND)
+        .zip(frame.hit.par_chunks_mut(w * BAND))
+        .zip(frame.weights.par_chunks_mut(w * BAND))
+        .enumerate()
+        .for_each(|(band, ((depth, hit), weights))| {
+            depth.fill(f32::INFINITY);
+            hit.fill(u32::MAX);
+            let y0 = band * BAND;
+            let y1 = (y0 + BAND).min(h);
+            for (index, t) in screen.iter().enumerate() {
+                let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
+                let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
+                if ymax < y0 as f32 - 0.5 || ymin > y1 as f32 - 0.5 || ymax < -0.5 || ymin > hf {
+                    continue;
+                }
+                let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
+                let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
+                if xmax < -0.5 || xmin > wf {
+                    continue;
+                }
+                let [a, b, c] = t.xy;
+                let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+                if area.abs() < 1e-12 {
+                    continue;
+                }
+                let px0 = (xmin.ceil().max(0.0)) as usize;
+                let px1 = (xmax.floor().min(wf - 1.0)).max(-1.0) as isize;
+                let py0 = (ymin.ceil().max(y0 as f32)) as usize;
+                let py1 = (ymax.floor().min(y1 as f32 - 1.0)) as isize;
+                if px1 < px0 as isize || py1 < py0 as isize {
+                    continue;
+                }
+                let inv_area = 1.0 / area;
+                for py in py0..=py1 as usize {
+                    let y = py as f32;
+                    for px in px0..=px1 as usize {
+                        let x = px as f32;
+                        // Screen-space barycentrics (either winding: both faces are drawn).
+                        let l0 = ((b[0] - x) * (c[1] - y) - (b[1] - y) * (c[0] - x)) * inv_area;
+                        let l1 = ((c[0] - x) * (a[1] - y) - (c[1] - y) * (a[0] - x)) * inv_area;
+                        let l2 = 1.0 - l0 - l1;
+                        if l0 < 0.0 || l1 < 0.0 || l2 < 0.0 {
+                            continue;
+                        }
+                        let inv_z = l0 * t.inv_z[0] + l1 * t.inv_z[1] + l2 * t.inv_z[2];
+                        let z = 1.0 / inv_z;
+                        let i = (py - y0) * w + px;
+                        if z < depth[i] {
+                            depth[i] = z;
+                            hit[i] = index as u32;
+                            // Perspective-correct weights of vertices 1 and 2.
+                            weights[i] = [l1 * t.inv_z[1] * z, l2 * t.inv_z[2] * z];
+                        }
+                    }
+                }
+            }
+        });
+    // Shading, per pixel, from what is visible.
+    let pose = camera.pose;
+    let camera_origin = [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32];
+    let lights: Vec<Light> = match shading {
+        Shading::Flat => Vec::new(),
+        Shading::Lit(lights) => lights
+            .iter()
+            .map(|l| {
+                if l.attached_to_camera {
+                    let p = pose * nalgebra::Vector4::new(l.position[0] as f64, l.position[1] as f64, l.position[2] as f64, 1.0);
+                    Light { position: [p.x as f32, p.y as f32, p.z as f32], ..*l }
+                } else {
+                    *l
+                }
+            })
+            .collect(),
+    };
+    let lit = matches!(shading, Shading::Lit(_));
+    frame
+        .rgb
+        .par_chunks_mut(w * 3)
+        .zip(frame.semantic.par_chunks_mut(w))
+        .zip(frame.depth.par_chunks_mut(w))
+        .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
+        .enumerate()
+        .for_each(|(py, (((rgb, semantic), depth), (hit, weights)))| {
+            for px in 0..w {
+                if hit[px] == u32::MAX {
+                    rgb[3 * px..3 * px + 3].fill(0);
+                    semantic[px] = 0;
+                    depth[px] = 0.0;
+                    continue;
+                }
+                let st = &screen[hit[px] as usize];
+                let tri: &Triangle = &world.triangles[st.source as usize];
+                let [w1, w2] = weights[px];
+                let w0 = 1.0 - w1 - w2;
+                // Barycentrics in the source triangle.
+                let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
+                semantic[px] = tri.class_id;
+                let surface = &world.surfaces[tri.surface as usize];
+                let mut albedo = surface.color;
+                if let Some(tex) = &surface.texture {
+                    let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
+                    let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
+                    let (tw, th) = (tex.width as usize, tex.height as usize);
+                    let tx = (((u - u.floor()) * tw as f32) as usize).min(tw - 1);
+                    let ty = (((v - v.floor()) * th as f32) as usize).min(th - 1);
+                    let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
+                    albedo = [albedo[0] * t[0] as f32 / 255.0, albedo[1] * t[1] as f32 / 255.0, albedo[2] * t[2] as f32 / 255.0];
+                }
+                let color = if lit {
+                    let z = depth[px];
+                    let cam = Vector3::new((px as f64 - camera.cx) / camera.fx * z as f64, (py as f64 - camera.cy) / camera.fy * z as f64, z as f64);
+                    let p = pose.transform_point(&cam.into());
+                    let mut n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
+                    n = n.map(|c| c / len);
+                    // Two-sided: the side that faces the camera.
+                    let to_camera = [camera_origin[0] - p.x as f32, camera_origin[1] - p.y as f32, camera_origin[2] - p.z as f32];
+                    if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 {
+                        n = n.map(|c| -c);
+                    }
+                    let mut light = [AMBIENT; 3];
+                    for l in &lights {
+                        let d = [l.position[0] - p.x as f32, l.position[1] - p.y as f32, l.position[2] - p.z as f32];
+                        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                        let dist = d2.sqrt().max(1e-6);
+                        let lambert = ((n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / dist).max(0.0);
+                        // Magnum PhongGL's point-light attenuation with infinite range.
+                        let attenuation = 1.0 / (1.0 + d2);
+                        for k in 0..3 {
+                            light[k] += lambert * attenuation * l.color[k];
+                        }
+                    }
+                    std::array::from_fn(|k| albedo[k] * light[k].max(0.0))
+                } else {
+                    albedo
+                };
+                for k in 0..3 {
+                    rgb[3 * px + k] = (color[k].clamp(0.0, 1.0) * 255.0).round() as u8;
+                }
+            }
+        });
+}

@@ -1,0 +1,122 @@
+//! The CPU renderer: depth, semantics and shading of known geometry.
+
+use nalgebra::Matrix4;
+use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
+use osmab_dataset::convert::scene::load_scene;
+use osmab_dataset::render::mesh::{Surface, Triangle, World};
+use osmab_dataset::render::raster::{AMBIENT, Camera, Frame, Light, Shading, render};
+
+const QUANTUM: f32 = 1.0 / 6553.5;
+
+fn camera(pose: Matrix4<f64>) -> Camera {
+    Camera { width: 160, height: 120, fx: 80.0, fy: 80.0, cx: 79.5, cy: 59.5, pose }
+}
+
+/// Two triangles making the rectangle [x0, x1] × [y0, y1] at depth z (camera = world).
+fn quad(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, surface: u32, class_id: u16) -> [Triangle; 2] {
+    let n = [[0.0, 0.0, -1.0]; 3];
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface, class_id };
+    [tri([[x0, y0, z], [x1, y0, z], [x1, y1, z]]), tri([[x0, y0, z], [x1, y1, z], [x0, y1, z]])]
+}
+
+fn world(triangles: Vec<Triangle>) -> World {
+    World { triangles, surfaces: vec![Surface { color: [0.5, 0.25, 1.0], texture: None }, Surface { color: [0.2, 0.8, 0.4], texture: None }] }
+}
+
+#[test]
+fn a_plane_facing_the_camera_has_its_depth_everywhere() {
+    let w = world(quad(-10.0, 10.0, -10.0, 10.0, 2.0, 0, 7).to_vec());
+    let mut frame = Frame::default();
+    render(&w, &camera(Matrix4::identity()), &Shading::Flat, &mut frame);
+    assert!(frame.depth.iter().all(|&z| (z - 2.0).abs() < QUANTUM), "planar depth, not ray length");
+    assert!(frame.semantic.iter().all(|&s| s == 7));
+}
+
+#[test]
+fn a_tilted_plane_has_the_planar_depth_of_each_pixel() {
+    // The plane z = 3 + 0.5 x, seen by the identity camera: at pixel u, x = (u − cx)/fx · z.
+    let (x0, x1) = (-3.0f32, 7.0f32);
+    let z = |x: f32| 3.0 + 0.5 * x;
+    let n = [[0.0, 0.0, -1.0]; 3];
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 1 };
+    let w = world(vec![tri([[x0, -6.0, z(x0)], [x1, -6.0, z(x1)], [x1, 6.0, z(x1)]]), tri([[x0, -6.0, z(x0)], [x1, 6.0, z(x1)], [x0, 6.0, z(x0)]])]);
+    let mut frame = Frame::default();
+    let cam = camera(Matrix4::identity());
+    render(&w, &cam, &Shading::Flat, &mut frame);
+    for (i, &d) in frame.depth.iter().enumerate() {
+        let u = (i % 160) as f64;
+        // Solve z = 3 + 0.5 · (u − cx)/fx · z.
+        let expected = 3.0 / (1.0 - 0.5 * (u - cam.cx) / cam.fx);
+        assert!((d as f64 - expected).abs() < QUANTUM as f64, "pixel {i}: {d} vs {expected}");
+    }
+}
+
+#[test]
+fn a_box_in_front_of_a_wall_covers_exactly_its_projection() {
+    let mut triangles = quad(-10.0, 10.0, -10.0, 10.0, 4.0, 0, 2).to_vec();
+    triangles.extend(quad(-0.5, 0.5, -0.25, 0.25, 1.0, 1, 9));
+    let w = world(triangles);
+    let mut frame = Frame::default();
+    render(&w, &camera(Matrix4::identity()), &Shading::Flat, &mut frame);
+    for v in 0..120 {
+        for u in 0..160 {
+            let (x, y) = ((u as f32 - 79.5) / 80.0, (v as f32 - 59.5) / 80.0);
+            let inside = x.abs() < 0.5 - 1e-3 && y.abs() < 0.25 - 1e-3;
+            let outside = x.abs() > 0.5 + 1e-3 || y.abs() > 0.25 + 1e-3;
+            let i = v * 160 + u;
+            if inside {
+                assert_eq!(frame.semantic[i], 9, "pixel ({u}, {v})");
+                assert!((frame.depth[i] - 1.0).abs() < QUANTUM, "pixel ({u}, {v})");
+            } else if outside {
+                assert_eq!(frame.semantic[i], 2, "pixel ({u}, {v})");
+                assert!((frame.depth[i] - 4.0).abs() < QUANTUM);
+            }
+        }
+    }
+    // Nothing behind the camera or outside the scene is drawn: depth 0, class 0.
+    let empty = world(quad(-1.0, 1.0, -1.0, 1.0, -2.0, 0, 5).to_vec());
+    render(&empty, &camera(Matrix4::identity()), &Shading::Flat, &mut frame);
+    assert!(frame.depth.iter().all(|&d| d == 0.0) && frame.semantic.iter().all(|&s| s == 0));
+}
+
+#[test]
+fn flat_shading_is_the_albedo_and_lights_follow_habitats_model() {
+    let w = world(quad(-10.0, 10.0, -10.0, 10.0, 2.0, 0, 1).to_vec());
+    let mut frame = Frame::default();
+    let cam = camera(Matrix4::identity());
+    render(&w, &cam, &Shading::Flat, &mut frame);
+    let centre = 3 * (60 * 160 + 80);
+    assert_eq!(&frame.rgb[centre..centre + 3], &[128, 64, 255]);
+    // A light behind the plane adds nothing: ambient 0.4 only.
+    render(&w, &cam, &Shading::Lit(vec![Light { position: [0.0, 0.0, 10.0], color: [1.0; 3], attached_to_camera: false }]), &mut frame);
+    let ambient = [0.5 * AMBIENT, 0.25 * AMBIENT, 1.0 * AMBIENT].map(|c| (c * 255.0).round() as u8);
+    assert_eq!(&frame.rgb[centre..centre + 3], &ambient);
+    // A camera light straight on, 2 m away: ambient + diffuse attenuated by 1/(1 + d²).
+    render(&w, &cam, &Shading::Lit(vec![Light { position: [0.0; 3], color: [2.5; 3], attached_to_camera: true }]), &mut frame);
+    // The centre pixel is a hair off the optical axis: the diffuse term is cos(0.00625 rad).
+    let lit = [0.5 * 0.9, 0.25 * 0.9, 1.0f32 * 0.9].map(|c| c.min(1.0) * 255.0);
+    for k in 0..3 {
+        assert!((frame.rgb[centre + k] as f32 - lit[k]).abs() <= 1.0, "{:?} vs {lit:?}", &frame.rgb[centre..centre + 3]);
+    }
+    // A negative (darkening) light takes away from the ambient.
+    render(&w, &cam, &Shading::Lit(vec![Light { position: [0.0; 3], color: [-0.035; 3], attached_to_camera: true }]), &mut frame);
+    assert!(frame.rgb[centre] < ambient[0]);
+}
+
+#[test]
+fn a_converted_scene_renders_from_inside_the_room() {
+    let out = tempfile::tempdir().unwrap();
+    let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/fixtures/scenesmith/scene_000");
+    let report = write_habitat_scene(&load_scene(&fixture).unwrap(), out.path(), &ConvertOptions::default()).unwrap();
+    let w = World::load_habitat_scene(out.path(), "scene_000").unwrap();
+    assert!(w.triangles.len() > 100_000, "real assets: {} triangles", w.triangles.len());
+    // Stand at the room centre, 1 m up, looking at the bed (Habitat −z, OpenCV axes).
+    let pose = Matrix4::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.5, 0.0, 0.0, 0.0, 1.0);
+    let mut frame = Frame::default();
+    render(&w, &camera(pose), &Shading::Flat, &mut frame);
+    let hit = frame.depth.iter().filter(|&&d| d > 0.0).count();
+    assert!(hit as f64 > 0.6 * frame.depth.len() as f64, "walls and floor fill most of the view: {hit}");
+    assert!(frame.depth.iter().all(|&d| d < 8.0));
+    let bed = report.objects.iter().find(|o| o.class == "bed").unwrap().class_id as u16;
+    assert!(frame.semantic.contains(&bed), "the bed is in view");
+}

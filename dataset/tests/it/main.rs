@@ -5,5 +5,6 @@ mod fake_service;
 mod prompts;
 mod render;
 mod selection;
+mod sequences;
 mod service;
 mod synthesis;

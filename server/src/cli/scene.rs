@@ -37,6 +37,36 @@ pub enum SceneCommand {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Render RGB-D + semantic sequences of a converted scene under the four lightings (HaDaGe layout).
+    Render {
+        /// A directory written by `osmab scene convert`.
+        habitat: PathBuf,
+        /// Output root: <lighting>/<scene>/results/...
+        #[arg(long)]
+        out: PathBuf,
+        /// Lightings to render, comma-separated.
+        #[arg(long, default_value = "baseline,camera,dynamic_lights,no_lights")]
+        lightings: String,
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        #[arg(long, default_value_t = 680)]
+        height: u32,
+        /// Horizontal field of view, degrees.
+        #[arg(long, default_value_t = 90.0)]
+        hfov: f64,
+        /// Camera height above the floor, metres.
+        #[arg(long, default_value_t = 1.0)]
+        sensor_height: f64,
+        /// Navigation goals after the start.
+        #[arg(long, default_value_t = 5)]
+        goals: usize,
+        /// Seed of start and goals.
+        #[arg(long, default_value_t = 73)]
+        seed: u64,
+        /// Frames at most.
+        #[arg(long, default_value_t = 20_000)]
+        max_frames: usize,
+    },
     /// Convert a Drake/SceneSmith scene into a Habitat-style scene.
     Convert {
         /// The scene directory (package.xml, combined_house/house.dmd.yaml, ...).
@@ -125,6 +155,19 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
+        SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, goals, seed, max_frames } => {
+            let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, ..Default::default() };
+            let motion = osmab_dataset::render::trajectory::MotionSettings { goals, seed, max_frames, ..Default::default() };
+            let lightings: Vec<&str> = lightings.split(',').map(str::trim).filter(|l| !l.is_empty()).collect();
+            if let Some(bad) = lightings.iter().find(|l| !osmab_dataset::render::LIGHTINGS.contains(l)) {
+                bail!("unknown lighting '{bad}' (expected some of {})", osmab_dataset::render::LIGHTINGS.join(", "));
+            }
+            let scene = scene_name(&habitat)?;
+            for (lighting, summary) in osmab_dataset::render::render_scene(&habitat, &scene, &lightings, &sensor, &motion, &out)? {
+                println!("{}: {} frames", out.join(&lighting).join(&scene).display(), summary.frames);
+            }
+            Ok(())
+        }
         SceneCommand::Synthesize { prompts, seed, ceiling, command, out } => synthesize_all(&prompts, seed, ceiling, &command, &out),
     }
 }
@@ -235,6 +278,20 @@ fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[Stri
         bail!("{failures} of {} scenes failed; see {}", prompts.len(), out.join("synthesis_report.json").display());
     }
     Ok(())
+}
+
+/// The scene of a converted directory (its single `scenes/*.scene_instance.json`).
+fn scene_name(habitat: &Path) -> anyhow::Result<String> {
+    let dir = habitat.join("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .with_context(|| format!("{}: not a converted scene (no scenes/ folder)", habitat.display()))?
+        .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix(".scene_instance.json").map(str::to_string))
+        .collect();
+    names.sort();
+    match names.as_slice() {
+        [one] => Ok(one.clone()),
+        _ => bail!("{}: expected exactly one scene instance, found {}", dir.display(), names.len()),
+    }
 }
 
 fn convert(scene: &Path, out: &Path) -> anyhow::Result<()> {

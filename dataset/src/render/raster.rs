@@ -3,7 +3,7 @@
 //! deferred shading pass; rows are split into bands rendered on all cores, into
 //! buffers allocated once per frame size.
 
-use nalgebra::{Matrix4, Vector3};
+use nalgebra::Matrix4;
 use rayon::prelude::*;
 
 use super::mesh::{Triangle, World};
@@ -144,29 +144,42 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
     }
     let (w, h) = (camera.width as usize, camera.height as usize);
     let (wf, hf) = (w as f32, h as f32);
+    // Bin triangles by the bands of rows they touch, so each band visits only its own.
+    let bands = h.div_ceil(BAND);
+    let mut binned: Vec<Vec<u32>> = vec![Vec::new(); bands];
+    for (index, t) in screen.iter().enumerate() {
+        let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
+        let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
+        let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
+        let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
+        if ymax < 0.0 || ymin > hf - 1.0 || xmax < 0.0 || xmin > wf - 1.0 || !(ymin.is_finite() && ymax.is_finite()) {
+            continue;
+        }
+        let first = (ymin.ceil().max(0.0) as usize) / BAND;
+        let last = ((ymax.floor().min(hf - 1.0)) as usize) / BAND;
+        for band in binned.iter_mut().take(last + 1).skip(first) {
+            band.push(index as u32);
+        }
+    }
     // Visibility: a depth buffer per band of rows.
     frame
         .depth
         .par_chunks_mut(w * BAND)
         .zip(frame.hit.par_chunks_mut(w * BAND))
         .zip(frame.weights.par_chunks_mut(w * BAND))
+        .zip(binned.par_iter())
         .enumerate()
-        .for_each(|(band, ((depth, hit), weights))| {
+        .for_each(|(band, (((depth, hit), weights), triangles))| {
             depth.fill(f32::INFINITY);
             hit.fill(u32::MAX);
             let y0 = band * BAND;
             let y1 = (y0 + BAND).min(h);
-            for (index, t) in screen.iter().enumerate() {
+            for &index in triangles {
+                let t = &screen[index as usize];
                 let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
                 let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
-                if ymax < y0 as f32 - 0.5 || ymin > y1 as f32 - 0.5 || ymax < -0.5 || ymin > hf {
-                    continue;
-                }
                 let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
                 let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
-                if xmax < -0.5 || xmin > wf {
-                    continue;
-                }
                 let [a, b, c] = t.xy;
                 let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
                 if area.abs() < 1e-12 {
@@ -196,7 +209,7 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                         let i = (py - y0) * w + px;
                         if z < depth[i] {
                             depth[i] = z;
-                            hit[i] = index as u32;
+                            hit[i] = index;
                             // Perspective-correct weights of vertices 1 and 2.
                             weights[i] = [l1 * t.inv_z[1] * z, l2 * t.inv_z[2] * z];
                         }
@@ -222,6 +235,13 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
             .collect(),
     };
     let lit = matches!(shading, Shading::Lit(_));
+    let r: [[f32; 4]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32));
+    let (cx, cy, inv_fx, inv_fy) = (camera.cx as f32, camera.cy as f32, 1.0 / camera.fx as f32, 1.0 / camera.fy as f32);
+    struct Point {
+        x: f32,
+        y: f32,
+        z: f32,
+    }
     frame
         .rgb
         .par_chunks_mut(w * 3)
@@ -257,19 +277,23 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                 }
                 let color = if lit {
                     let z = depth[px];
-                    let cam = Vector3::new((px as f64 - camera.cx) / camera.fx * z as f64, (py as f64 - camera.cy) / camera.fy * z as f64, z as f64);
-                    let p = pose.transform_point(&cam.into());
+                    let cam = [(px as f32 - cx) * inv_fx * z, (py as f32 - cy) * inv_fy * z, z];
+                    let p = Point {
+                        x: r[0][0] * cam[0] + r[0][1] * cam[1] + r[0][2] * cam[2] + r[0][3],
+                        y: r[1][0] * cam[0] + r[1][1] * cam[1] + r[1][2] * cam[2] + r[1][3],
+                        z: r[2][0] * cam[0] + r[2][1] * cam[1] + r[2][2] * cam[2] + r[2][3],
+                    };
                     let mut n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
                     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
                     n = n.map(|c| c / len);
                     // Two-sided: the side that faces the camera.
-                    let to_camera = [camera_origin[0] - p.x as f32, camera_origin[1] - p.y as f32, camera_origin[2] - p.z as f32];
+                    let to_camera = [camera_origin[0] - p.x, camera_origin[1] - p.y, camera_origin[2] - p.z];
                     if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 {
                         n = n.map(|c| -c);
                     }
                     let mut light = [AMBIENT; 3];
                     for l in &lights {
-                        let d = [l.position[0] - p.x as f32, l.position[1] - p.y as f32, l.position[2] - p.z as f32];
+                        let d = [l.position[0] - p.x, l.position[1] - p.y, l.position[2] - p.z];
                         let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                         let dist = d2.sqrt().max(1e-6);
                         let lambert = ((n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / dist).max(0.0);
@@ -284,7 +308,8 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                     albedo
                 };
                 for k in 0..3 {
-                    rgb[3 * px + k] = (color[k].clamp(0.0, 1.0) * 255.0).round() as u8;
+                    // Round half up without libm's roundf (not inlined on baseline x86-64).
+                    rgb[3 * px + k] = (color[k].clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
                 }
             }
         });

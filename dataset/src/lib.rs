@@ -7,6 +7,7 @@ pub mod embedding;
 pub mod openai;
 pub mod prompts;
 pub mod selection;
+pub mod release;
 pub mod render;
 pub mod spec;
 pub mod synthesis;

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use osmab_evaluator::{InputError, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::gltf::read_gltf;
@@ -39,7 +39,7 @@ impl Default for ConvertOptions {
 }
 
 /// One object instance of the converted scene.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ConvertedObject {
     /// Instance semantic id (1, 2, ...), what semantic images hold.
     pub instance_id: i64,
@@ -57,7 +57,7 @@ pub struct ConvertedObject {
 }
 
 /// What the conversion did and what needs attention.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct ConversionReport {
     pub scene: String,
     pub objects: Vec<ConvertedObject>,

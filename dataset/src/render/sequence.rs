@@ -75,7 +75,7 @@ pub fn lights_for_goal(settings: &Value, goal: usize) -> Vec<Light> {
 }
 
 /// What a rendered sequence holds.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SequenceSummary {
     pub frames: usize,
     /// Pixels of each class over all frames.

@@ -3,6 +3,7 @@
 mod convert;
 mod fake_service;
 mod prompts;
+mod release;
 mod render;
 mod selection;
 mod sequences;

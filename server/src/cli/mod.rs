@@ -3,6 +3,7 @@
 mod bench;
 mod eval;
 mod gt;
+mod release;
 mod scene;
 
 use clap::{Parser, Subcommand};
@@ -23,7 +24,10 @@ enum Command {
     /// Build ground truth from rendered sequences.
     #[command(subcommand)]
     Gt(gt::GtCommand),
-    /// Dataset pipeline: prompts, selection.
+    /// Build and verify releases.
+    #[command(subcommand)]
+    Release(release::ReleaseCommand),
+    /// Dataset pipeline: prompts, selection, synthesis, conversion, rendering.
     #[command(subcommand)]
     Scene(scene::SceneCommand),
     /// Generate benchmark data and time the scorer.
@@ -37,6 +41,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),
         Command::Scene(cmd) => scene::run(cmd),
+        Command::Release(cmd) => release::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
     }
 }

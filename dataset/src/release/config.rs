@@ -1,0 +1,110 @@
+//! The release build configuration (`configs/release-*.toml`).
+
+use std::path::Path;
+
+use osmab_evaluator::{InputError, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::openai::ServiceConfig;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PromptsConfig {
+    pub furniture_pool: usize,
+    pub manipuland_pool: usize,
+    /// An OpenAI-compatible LLM; the built-in grammar when absent.
+    #[serde(default)]
+    pub llm: Option<ServiceConfig>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionConfig {
+    pub furniture: usize,
+    pub manipuland: usize,
+    #[serde(default = "default_threshold")]
+    pub threshold: f32,
+    /// An OpenAI-compatible embeddings service; the built-in embedding when absent.
+    #[serde(default)]
+    pub embeddings: Option<ServiceConfig>,
+}
+
+fn default_threshold() -> f32 {
+    crate::selection::NEAR_DUPLICATE_COSINE
+}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SynthesisConfig {
+    #[serde(default)]
+    pub ceiling: bool,
+    /// An external synthesizer (SceneSmith); the built-in one when empty.
+    #[serde(default)]
+    pub command: Vec<String>,
+    #[serde(default = "default_synthesis_timeout")]
+    pub timeout_secs: u64,
+}
+
+fn default_synthesis_timeout() -> u64 {
+    24 * 3600
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderConfig {
+    pub width: u32,
+    pub height: u32,
+    #[serde(default = "default_hfov")]
+    pub hfov: f64,
+    #[serde(default = "default_sensor_height")]
+    pub sensor_height: f64,
+    /// Navigation goals per furniture and per manipuland scene (OSMa-Bench++: 5 and 10).
+    pub goals_furniture: usize,
+    pub goals_manipuland: usize,
+    pub max_frames: usize,
+    pub lightings: Vec<String>,
+}
+
+fn default_hfov() -> f64 {
+    90.0
+}
+fn default_sensor_height() -> f64 {
+    1.0
+}
+
+/// Everything a release build needs; the same config gives the same release.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReleaseConfig {
+    pub version: String,
+    /// The release date written in the manifest (fixed, so rebuilds are identical).
+    pub created: String,
+    pub seed: u64,
+    pub prompts: PromptsConfig,
+    pub selection: SelectionConfig,
+    #[serde(default)]
+    pub synthesis: SynthesisConfig,
+    pub render: RenderConfig,
+}
+
+impl ReleaseConfig {
+    /// Read and check a config file.
+    pub fn read(path: &Path) -> Result<(Self, String)> {
+        let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
+        let config: ReleaseConfig = toml::from_str(&text).map_err(|e| InputError::new(path, "(toml)", e.to_string()))?;
+        let bad = |field: &str, m: &str| Err(InputError::new(path, field, m.to_string()));
+        if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
+            return bad("version", "expected letters, digits, '.', '_' or '-'");
+        }
+        if !(16..=8192).contains(&config.render.width) || !(16..=8192).contains(&config.render.height) {
+            return bad("render.width", "image sides must be 16..=8192");
+        }
+        if config.render.lightings.is_empty() {
+            return bad("render.lightings", "at least one lighting");
+        }
+        if let Some(l) = config.render.lightings.iter().find(|l| !crate::render::LIGHTINGS.contains(&l.as_str())) {
+            return bad("render.lightings", &format!("unknown lighting '{l}' (expected some of {})", crate::render::LIGHTINGS.join(", ")));
+        }
+        Ok((config, text))
+    }
+}

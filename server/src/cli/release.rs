@@ -1,0 +1,42 @@
+//! `osmab release build` and `osmab release verify`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Subcommand;
+use osmab_dataset::release::{build_release, verify_release};
+
+#[derive(Debug, Subcommand)]
+pub enum ReleaseCommand {
+    /// Run the whole pipeline (prompts → selection → synthesis → conversion → rendering → ground truth) into a release.
+    Build {
+        /// The release configuration (see configs/release-demo.toml).
+        #[arg(long)]
+        config: PathBuf,
+        /// Output directory; a build interrupted earlier resumes where it stopped.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Check every file of a release against its manifest.
+    Verify {
+        /// The release directory.
+        dir: PathBuf,
+    },
+}
+
+pub fn run(cmd: ReleaseCommand) -> anyhow::Result<()> {
+    match cmd {
+        ReleaseCommand::Build { config, out } => {
+            let started = Instant::now();
+            let progress = |message: &str| eprintln!("[{:>7.1}s] {message}", started.elapsed().as_secs_f64());
+            build_release(&config, &out, &progress)?;
+            println!("{}: release built in {:.1} s", out.display(), started.elapsed().as_secs_f64());
+            Ok(())
+        }
+        ReleaseCommand::Verify { dir } => {
+            let n = verify_release(&dir)?;
+            println!("{}: {n} files match the manifest", dir.display());
+            Ok(())
+        }
+    }
+}

@@ -85,3 +85,31 @@ fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume(
     assert_eq!(resumed["digest"], first["digest"], "the rebuilt stage is identical");
     assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
 }
+
+#[test]
+fn baselines_are_submissions_that_rank_below_the_oracle() {
+    use osmab_dataset::baselines::{BASELINES, write_baseline};
+    use osmab_evaluator::formats::npy::ReadLimits;
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), "rel");
+    let rel = dir.path().join("rel");
+    let gt_dir = rel.join(GROUND_TRUTH).join("scene_000");
+    let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json")).unwrap();
+    let gt = GroundTruth::read(&gt_dir, &classes).unwrap();
+    let mut scores = Vec::new();
+    for name in BASELINES {
+        let out = dir.path().join(name);
+        assert_eq!(write_baseline(name, &rel, &out).unwrap(), 4, "2 scenes × 2 lightings");
+        let submission: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("submission.json")).unwrap()).unwrap();
+        assert_eq!((submission["format"].as_str(), submission["release"].as_str()), (Some("osmab-submission/1"), Some("test-1")));
+        let graph: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("graphs/no_lights/scene_000.json")).unwrap()).unwrap();
+        assert!(!graph["objects"].as_array().unwrap().is_empty());
+        let map = PredictedMap::read(&out.join("maps/baseline/scene_000.npz"), ReadLimits::default()).unwrap();
+        scores.push((name, score_scene(&gt, &map, &classes, None).unwrap().metrics.miou));
+    }
+    assert_eq!(scores[0], ("oracle", 1.0));
+    for (name, miou) in &scores[1..] {
+        assert!(*miou < 1.0 && *miou > 0.0, "{name}: {miou}");
+    }
+    assert!(write_baseline("telepathy", &rel, &dir.path().join("x")).is_err());
+}

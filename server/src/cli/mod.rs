@@ -1,5 +1,6 @@
 //! The subcommands of `osmab`.
 
+mod baseline;
 mod bench;
 mod eval;
 mod gt;
@@ -24,6 +25,8 @@ enum Command {
     /// Build ground truth from rendered sequences.
     #[command(subcommand)]
     Gt(gt::GtCommand),
+    /// Write a reference submission from a release's ground truth (oracle or a degraded variant).
+    Baseline(baseline::BaselineArgs),
     /// Build and verify releases.
     #[command(subcommand)]
     Release(release::ReleaseCommand),
@@ -42,6 +45,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Gt(cmd) => gt::run(cmd),
         Command::Scene(cmd) => scene::run(cmd),
         Command::Release(cmd) => release::run(cmd),
+        Command::Baseline(args) => baseline::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     }
 }

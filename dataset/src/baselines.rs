@@ -1,0 +1,176 @@
+//! Reference submissions made from a release's ground truth, so the leaderboard shows
+//! meaningful differences before any team submits: the oracle (scores 1.0) and
+//! degraded variants (small objects dropped, neighbouring objects merged, label noise,
+//! pose drift), each in the submission format of product.md section 5.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use osmab_evaluator::formats::classes::ClassList;
+use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
+use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::synthetic::Rng;
+use osmab_evaluator::{InputError, Result};
+use serde_json::{Value, json};
+
+use crate::release::GROUND_TRUTH;
+
+/// The baselines, by name.
+pub const BASELINES: [&str; 5] = ["oracle", "drop-small", "merge", "label-noise", "pose-drift"];
+
+/// Objects of a map: points grouped by class and 2 m cell (an instance-like split).
+struct Objects {
+    object_ids: Vec<u32>,
+    labels: Vec<i64>,
+}
+
+fn objects_of(points: &[[f32; 3]], labels: &[i64]) -> Objects {
+    let mut index: BTreeMap<(i64, i32, i32), u32> = BTreeMap::new();
+    let mut object_ids = Vec::with_capacity(points.len());
+    for (p, &l) in points.iter().zip(labels) {
+        let key = (l, (p[0] / 2.0).floor() as i32, (p[2] / 2.0).floor() as i32);
+        let next = index.len() as u32;
+        object_ids.push(*index.entry(key).or_insert(next));
+    }
+    let mut object_labels = vec![0; index.len()];
+    for ((l, _, _), id) in &index {
+        object_labels[*id as usize] = *l;
+    }
+    Objects { object_ids, labels: object_labels }
+}
+
+/// The map of baseline `name` for one scene's ground truth.
+fn baseline_map(name: &str, gt: &GroundTruth, seed: u64) -> Result<PredictedMap> {
+    let mut rng = Rng::new(seed);
+    let mut points = gt.points.clone();
+    let mut labels = gt.labels.clone();
+    match name {
+        "oracle" => {}
+        "drop-small" => {
+            // Classes with under 2 % of the points vanish from the map.
+            let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
+            for &l in &labels {
+                *counts.entry(l).or_default() += 1;
+            }
+            let small: Vec<i64> = counts.iter().filter(|(_, c)| (**c as f64) < 0.02 * labels.len() as f64).map(|(l, _)| *l).collect();
+            let keep: Vec<bool> = labels.iter().map(|l| !small.contains(l)).collect();
+            if keep.iter().all(|k| !k) {
+                return Err(InputError::new(&gt.source, "labels", "every class is small; nothing would be left"));
+            }
+            points = points.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect();
+            labels = labels.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+        }
+        "merge" => {
+            // The smaller half of the classes (at least one, never the largest) take the label
+            // of the class whose centroid is nearest.
+            let mut sums: BTreeMap<i64, ([f64; 3], usize)> = BTreeMap::new();
+            for (p, &l) in points.iter().zip(&labels) {
+                let e = sums.entry(l).or_insert(([0.0; 3], 0));
+                for a in 0..3 {
+                    e.0[a] += p[a] as f64;
+                }
+                e.1 += 1;
+            }
+            let centroids: Vec<(i64, [f64; 3], usize)> = sums.iter().map(|(&l, (s, n))| (l, s.map(|v| v / *n as f64), *n)).collect();
+            let mut by_size: Vec<&(i64, [f64; 3], usize)> = centroids.iter().collect();
+            by_size.sort_by_key(|c| (c.2, c.0));
+            let merging: Vec<i64> = by_size.iter().take((centroids.len().saturating_sub(1) / 2).max(1).min(centroids.len().saturating_sub(1))).map(|c| c.0).collect();
+            let merged: BTreeMap<i64, i64> = centroids
+                .iter()
+                .filter(|c| merging.contains(&c.0))
+                .filter_map(|c| {
+                    centroids.iter().filter(|o| o.0 != c.0).min_by(|a, b| {
+                        let d = |o: &[f64; 3]| (0..3).map(|k| (o[k] - c.1[k]).powi(2)).sum::<f64>();
+                        d(&a.1).total_cmp(&d(&b.1))
+                    }).map(|o| (c.0, o.0))
+                })
+                .collect();
+            for l in &mut labels {
+                if let Some(&m) = merged.get(l) {
+                    *l = m;
+                }
+            }
+        }
+        "label-noise" => {
+            let objects = objects_of(&points, &labels);
+            let vocabulary: Vec<i64> = objects.labels.iter().copied().collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+            // Every fourth object (from a seeded phase) takes the next class of the scene.
+            let phase = rng.below(4);
+            let next = |l: i64| vocabulary[(vocabulary.iter().position(|&v| v == l).unwrap_or(0) + 1) % vocabulary.len()];
+            let noisy: Vec<i64> = objects.labels.iter().enumerate().map(|(i, &l)| if i % 4 == phase { next(l) } else { l }).collect();
+            return Ok(PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy } });
+        }
+        "pose-drift" => {
+            // A 1.5° yaw and 8 cm shift of the whole map: geometry near boundaries mislabels.
+            let (s, c) = 1.5f64.to_radians().sin_cos();
+            for p in &mut points {
+                let (x, z) = (p[0] as f64, p[2] as f64);
+                p[0] = (c * x + s * z + 0.08) as f32;
+                p[2] = (-s * x + c * z + 0.03) as f32;
+            }
+        }
+        other => return Err(InputError::new("(baseline)", "name", format!("unknown baseline '{other}' (expected one of {})", BASELINES.join(", ")))),
+    }
+    let objects = objects_of(&points, &labels);
+    Ok(PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: objects.labels } })
+}
+
+/// The scene graph of a map: one node per object with its class name and box.
+fn scene_graph(map: &PredictedMap, classes: &ClassList) -> Value {
+    let MapSemantics::ObjectLabels { object_ids, labels } = &map.semantics else { return json!({"objects": []}) };
+    let mut boxes = vec![([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]); labels.len()];
+    for (p, &o) in map.points.iter().zip(object_ids) {
+        let b = &mut boxes[o as usize];
+        for a in 0..3 {
+            b.0[a] = b.0[a].min(p[a]);
+            b.1[a] = b.1[a].max(p[a]);
+        }
+    }
+    let objects: Vec<Value> = labels
+        .iter()
+        .zip(&boxes)
+        .enumerate()
+        .filter(|(_, (_, b))| b.0[0].is_finite())
+        .map(|(i, (&l, (lo, hi)))| {
+            let round = |v: f32| (v as f64 * 1000.0).round() / 1000.0;
+            json!({"id": i, "label": classes.name(l).unwrap_or("other"), "bbox_center": (0..3).map(|a| round((lo[a] + hi[a]) / 2.0)).collect::<Vec<_>>(), "bbox_extent": (0..3).map(|a| round(hi[a] - lo[a])).collect::<Vec<_>>()})
+        })
+        .collect();
+    json!({"objects": objects})
+}
+
+/// Write baseline `name` for the release in `release` as a submission directory.
+pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
+    let manifest_path = release.join("manifest.json");
+    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path).map_err(|e| InputError::io(&manifest_path, &e))?).map_err(|e| InputError::new(&manifest_path, "(json)", e.to_string()))?;
+    let version = manifest["version"].as_str().ok_or_else(|| InputError::new(&manifest_path, "version", "missing"))?;
+    let description = match name {
+        "oracle" => "The ground truth itself: every ground-truth point labelled with its class (scores 1.0).",
+        "drop-small" => "The ground truth without classes under 2% of the points (small objects missed).",
+        "merge" => "The ground truth with about half the classes merged into their nearest neighbour class.",
+        "label-noise" => "The ground truth split into objects, every fourth given another class of the scene.",
+        _ => "The ground truth moved by a 1.5 degree, 8 cm pose drift.",
+    };
+    std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
+    let submission = json!({"format": "osmab-submission/1", "release": version, "method": {"name": format!("baseline-{name}"), "description": description}});
+    std::fs::write(out.join("submission.json"), serde_json::to_string_pretty(&submission).expect("json") + "\n").map_err(|e| InputError::io(out, &e))?;
+    let lightings: Vec<&str> = manifest["lightings"].as_array().into_iter().flatten().filter_map(Value::as_str).collect();
+    let mut written = 0;
+    for (i, scene) in manifest["scenes"].as_array().into_iter().flatten().filter_map(|s| s["id"].as_str()).enumerate() {
+        let gt_dir = release.join(GROUND_TRUTH).join(scene);
+        let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
+        let gt = GroundTruth::read(&gt_dir, &classes)?;
+        let map = baseline_map(name, &gt, 1000 + i as u64)?;
+        let graph = scene_graph(&map, &classes);
+        for lighting in &lightings {
+            let map_path = out.join("maps").join(lighting).join(format!("{scene}.npz"));
+            std::fs::create_dir_all(map_path.parent().expect("nested")).map_err(|e| InputError::io(&map_path, &e))?;
+            map.write(&map_path, true)?;
+            let graph_path = out.join("graphs").join(lighting).join(format!("{scene}.json"));
+            std::fs::create_dir_all(graph_path.parent().expect("nested")).map_err(|e| InputError::io(&graph_path, &e))?;
+            std::fs::write(&graph_path, serde_json::to_string(&graph).expect("json")).map_err(|e| InputError::io(&graph_path, &e))?;
+            written += 1;
+        }
+    }
+    Ok(written)
+}

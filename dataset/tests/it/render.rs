@@ -120,3 +120,63 @@ fn a_converted_scene_renders_from_inside_the_room() {
     let bed = report.objects.iter().find(|o| o.class == "bed").unwrap().class_id as u16;
     assert!(frame.semantic.contains(&bed), "the bed is in view");
 }
+
+#[test]
+fn a_box_seen_at_an_angle_has_the_ray_cast_depth() {
+    // A 1 m cube centred 4 m ahead, turned 30° about the vertical; camera at the origin.
+    let (c, s) = (30f32.to_radians().cos(), 30f32.to_radians().sin());
+    let corner = |x: f32, y: f32, z: f32| [c * x + s * z, y, -s * x + c * z + 4.0];
+    let mut triangles = Vec::new();
+    let faces: [[(f32, f32, f32); 4]; 6] = [
+        [(-0.5, -0.5, -0.5), (0.5, -0.5, -0.5), (0.5, 0.5, -0.5), (-0.5, 0.5, -0.5)],
+        [(-0.5, -0.5, 0.5), (0.5, -0.5, 0.5), (0.5, 0.5, 0.5), (-0.5, 0.5, 0.5)],
+        [(-0.5, -0.5, -0.5), (-0.5, 0.5, -0.5), (-0.5, 0.5, 0.5), (-0.5, -0.5, 0.5)],
+        [(0.5, -0.5, -0.5), (0.5, 0.5, -0.5), (0.5, 0.5, 0.5), (0.5, -0.5, 0.5)],
+        [(-0.5, -0.5, -0.5), (0.5, -0.5, -0.5), (0.5, -0.5, 0.5), (-0.5, -0.5, 0.5)],
+        [(-0.5, 0.5, -0.5), (0.5, 0.5, -0.5), (0.5, 0.5, 0.5), (-0.5, 0.5, 0.5)],
+    ];
+    for f in faces {
+        let p = f.map(|(x, y, z)| corner(x, y, z));
+        let n = [[0.0, 0.0, -1.0]; 3];
+        triangles.push(Triangle { positions: [p[0], p[1], p[2]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 });
+        triangles.push(Triangle { positions: [p[0], p[2], p[3]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 });
+    }
+    let w = world(triangles);
+    let mut frame = Frame::default();
+    let cam = camera(Matrix4::identity());
+    render(&w, &cam, &Shading::Flat, &mut frame);
+    // Ray-cast each pixel against the cube in its own frame (slab test).
+    let mut checked = 0;
+    for v in 0..120 {
+        for u in 0..160 {
+            let d = [((u as f64) - cam.cx) / cam.fx, ((v as f64) - cam.cy) / cam.fy, 1.0];
+            // Into the cube frame: undo the translation and the 30° turn.
+            let (cd, sd) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+            let to_local = |p: [f64; 3]| [cd * p[0] - sd * p[2], p[1], sd * p[0] + cd * p[2]];
+            let o = to_local([0.0, 0.0, -4.0]);
+            let dir = to_local(d);
+            let (mut near, mut far) = (f64::NEG_INFINITY, f64::INFINITY);
+            for a in 0..3 {
+                let (t0, t1) = ((-0.5 - o[a]) / dir[a], (0.5 - o[a]) / dir[a]);
+                near = near.max(t0.min(t1));
+                far = far.min(t0.max(t1));
+            }
+            if near < far {
+                // Stay away from the face's edges, where a pixel may go either way: the hit
+                // point's distance to the nearest edge of the face it lies on.
+                let edge = (0..3).map(|a| 0.5 - (o[a] + near * dir[a]).abs()).filter(|m| *m > 1e-6).fold(f64::INFINITY, f64::min);
+                if edge > 0.02 {
+                    let i = v * 160 + u;
+                    assert_eq!(frame.semantic[i], 3);
+                    // Planar depth is the ray parameter here (the ray's z component is 1).
+                    assert!((frame.depth[i] as f64 - near).abs() < QUANTUM as f64, "pixel ({u}, {v}): {} vs {near}", frame.depth[i]);
+                    checked += 1;
+                }
+            } else if frame.semantic[v * 160 + u] == 3 {
+                // A miss may only be drawn right at the silhouette.
+                assert!(far - near > -0.02, "pixel ({u}, {v}) drawn outside the cube");
+            }
+        }
+    }
+    assert!(checked > 300, "{checked} pixels checked");
+}

@@ -67,6 +67,18 @@ pub enum BenchCommand {
         #[arg(long)]
         save: Option<PathBuf>,
     },
+    /// Estimate a release's build time from a measured sample of its scenes.
+    ReleaseEstimate {
+        /// The release configuration (e.g. configs/release-full.toml).
+        #[arg(long)]
+        config: PathBuf,
+        /// Scenes to sample.
+        #[arg(long, default_value_t = 3)]
+        sample: usize,
+        /// Frames rendered per sampled scene to time rendering and writing.
+        #[arg(long, default_value_t = 40)]
+        timed_frames: usize,
+    },
     /// Time index build and queries of the nearest-neighbour association in-process.
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
@@ -93,6 +105,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             println!("{}: {gt_points} ground-truth points, {map_points} map points", out.display());
             Ok(())
         }
+        BenchCommand::ReleaseEstimate { config, sample, timed_frames } => release_estimate(&config, sample, timed_frames),
         BenchCommand::Render { scenesmith, frames, lit, save } => render_frames(&scenesmith, frames, lit, save.as_deref()),
         BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref()),
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
@@ -228,5 +241,67 @@ fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: O
         encoder.write_header()?.write_image_data(&frame.rgb)?;
     }
     let _ = std::fs::remove_dir_all(&work);
+    Ok(())
+}
+
+fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: usize) -> anyhow::Result<()> {
+    use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
+    use osmab_dataset::convert::scene::load_scene;
+    use osmab_dataset::embedding::{Embedder, HashingEmbedder};
+    use osmab_dataset::prompts::grammar_pool;
+    use osmab_dataset::release::config::ReleaseConfig;
+    use osmab_dataset::render::sequence::SensorSettings;
+    use osmab_dataset::render::trajectory::{MotionSettings, NavGrid, trajectory};
+    use osmab_dataset::selection::select;
+    use osmab_dataset::spec::Regime;
+
+    let (config, _) = ReleaseConfig::read(config_path)?;
+    let clock = Instant::now();
+    let mut chosen = Vec::new();
+    for (regime, pool_size, target) in [(Regime::Furniture, config.prompts.furniture_pool, config.selection.furniture), (Regime::Manipuland, config.prompts.manipuland_pool, config.selection.manipuland)] {
+        let pool = grammar_pool(regime, pool_size, config.seed);
+        let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
+        let keys: Vec<String> = (0..texts.len()).map(|i| i.to_string()).collect();
+        let report = select(&keys, &HashingEmbedder::default().embed(&texts)?, target, config.selection.threshold);
+        chosen.extend(report.selected.iter().map(|s| pool.accepted[s.id.parse::<usize>().expect("index")].clone()));
+    }
+    let prompt_time = clock.elapsed().as_secs_f64();
+    let total_scenes = chosen.len();
+    // Sample scenes spread over both regimes.
+    let picks: Vec<usize> = (0..sample.min(total_scenes)).map(|k| k * total_scenes / sample.min(total_scenes).max(1)).collect();
+    let work = std::env::temp_dir().join(format!("osmab-release-estimate-{}", std::process::id()));
+    let sensor = SensorSettings { width: config.render.width, height: config.render.height, hfov: config.render.hfov, sensor_height: config.render.sensor_height, ..Default::default() };
+    let (mut scene_seconds, mut frames_total, mut per_frame) = (0.0, 0usize, Vec::new());
+    println!("| sampled scene | regime | synthesis + conversion s | frames per lighting | s per frame (render + write) |");
+    println!("|---|---|---:|---:|---:|");
+    for &i in &picks {
+        let prompt = &chosen[i];
+        let name = format!("scene_{i:03}");
+        let clock = Instant::now();
+        osmab_dataset::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &work.join("ss").join(&name), config.synthesis.ceiling)?;
+        let mut loaded = load_scene(&work.join("ss").join(&name))?;
+        loaded.name = name.clone();
+        write_habitat_scene(&loaded, &work.join("hab").join(&name), &ConvertOptions::default())?;
+        let prepare = clock.elapsed().as_secs_f64();
+        let goals = if prompt.spec.regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
+        let motion = MotionSettings { goals, seed: config.seed.wrapping_add(i as u64), max_frames: config.render.max_frames, ..Default::default() };
+        let frames = trajectory(&NavGrid::read(&work.join("hab").join(&name), &name)?, &motion).len();
+        let timed = MotionSettings { max_frames: timed_frames.min(frames.max(1)), ..motion };
+        let clock = Instant::now();
+        let rendered = osmab_dataset::render::render_scene(&work.join("hab").join(&name), &name, &["baseline"], &sensor, &timed, &work.join("seq"))?;
+        let seconds = clock.elapsed().as_secs_f64() / rendered[0].1.frames.max(1) as f64;
+        println!("| {name} | {} | {prepare:.2} | {frames} | {seconds:.4} |", prompt.spec.regime.name());
+        scene_seconds += prepare;
+        frames_total += frames;
+        per_frame.push(seconds);
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    let n = picks.len().max(1) as f64;
+    let mean_frames = frames_total as f64 / n;
+    let mean_per_frame = per_frame.iter().sum::<f64>() / n;
+    let lightings = config.render.lightings.len() as f64;
+    let estimate = prompt_time + total_scenes as f64 * (scene_seconds / n + mean_frames * lightings * mean_per_frame * 1.02);
+    println!();
+    println!("{total_scenes} scenes × {} lightings × {mean_frames:.0} frames on average at {:.4} s a frame, plus prompts/selection ({prompt_time:.1} s) and synthesis/conversion: about {:.0} min ({:.1} h) on this machine (ground truth adds ~2 %).", lightings, mean_per_frame, estimate / 60.0, estimate / 3600.0);
     Ok(())
 }

@@ -1,9 +1,11 @@
 //! `osmab release build` and `osmab release verify`.
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Subcommand;
+use indicatif::{ProgressBar, ProgressStyle};
 use osmab_dataset::release::{build_release, verify_release};
 
 #[derive(Debug, Subcommand)]
@@ -28,8 +30,22 @@ pub fn run(cmd: ReleaseCommand) -> anyhow::Result<()> {
     match cmd {
         ReleaseCommand::Build { config, out } => {
             let started = Instant::now();
-            let progress = |message: &str| eprintln!("[{:>7.1}s] {message}", started.elapsed().as_secs_f64());
-            build_release(&config, &out, &progress)?;
+            // A live spinner on a terminal; plain timed lines in logs and CI.
+            let spinner = std::io::stderr().is_terminal().then(|| {
+                let bar = ProgressBar::new_spinner();
+                bar.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}").expect("valid template"));
+                bar.enable_steady_tick(std::time::Duration::from_millis(120));
+                bar
+            });
+            let progress = |message: &str| match &spinner {
+                Some(bar) => bar.set_message(message.to_string()),
+                None => eprintln!("[{:>7.1}s] {message}", started.elapsed().as_secs_f64()),
+            };
+            let result = build_release(&config, &out, &progress);
+            if let Some(bar) = &spinner {
+                bar.finish_and_clear();
+            }
+            result?;
             println!("{}: release built in {:.1} s", out.display(), started.elapsed().as_secs_f64());
             Ok(())
         }

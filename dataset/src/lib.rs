@@ -4,6 +4,7 @@
 
 pub mod baselines;
 pub mod convert;
+pub mod external;
 pub mod embedding;
 pub mod openai;
 pub mod prompts;

@@ -63,6 +63,17 @@ pub struct RenderConfig {
     pub goals_manipuland: usize,
     pub max_frames: usize,
     pub lightings: Vec<String>,
+    /// An external renderer (HaDaGe) run per scene and lighting; the built-in one when
+    /// empty. Placeholders: {scene_dir} (the converted scene), {scene}, {lighting},
+    /// {out} (the sequence directory to write), {width}, {height}, {goals}, {seed}.
+    #[serde(default)]
+    pub command: Vec<String>,
+    #[serde(default = "default_render_timeout")]
+    pub timeout_secs: u64,
+}
+
+fn default_render_timeout() -> u64 {
+    24 * 3600
 }
 
 fn default_hfov() -> f64 {

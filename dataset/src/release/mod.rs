@@ -166,8 +166,25 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             let summary_path = work.join("rendered").join(lighting).join(format!("{scene}.json"));
             staged(&work.join("rendered").join(lighting).join(format!("{scene}.done")), Some(&sequence_dir), || {
                 progress(&format!("{scene}: rendering {lighting}"));
-                let rendered = crate::render::render_scene(&habitat, &scene, &[lighting], &sensor, &motion, &out.join("sequences"))?;
-                write_json(&summary_path, &rendered[0].1)
+                if config.render.command.is_empty() {
+                    let rendered = crate::render::render_scene(&habitat, &scene, &[lighting], &sensor, &motion, &out.join("sequences"))?;
+                    return write_json(&summary_path, &rendered[0].1);
+                }
+                let substitutions = [
+                    ("scene_dir", habitat.display().to_string()),
+                    ("scene", scene.clone()),
+                    ("lighting", lighting.to_string()),
+                    ("out", sequence_dir.display().to_string()),
+                    ("width", sensor.width.to_string()),
+                    ("height", sensor.height.to_string()),
+                    ("goals", motion.goals.to_string()),
+                    ("seed", motion.seed.to_string()),
+                ];
+                std::fs::create_dir_all(&sequence_dir).map_err(|e| InputError::io(&sequence_dir, &e))?;
+                let log = work.join("rendered").join(lighting).join(format!("{scene}.log"));
+                crate::external::run_command(&config.render.command, &substitutions, &log, std::time::Duration::from_secs(config.render.timeout_secs))?;
+                // Whatever rendered it, it must be a sequence the evaluator reads.
+                write_json(&summary_path, &summarize_sequence(&sequence_dir)?)
             })?;
             let summary: SequenceSummary = read_json(&summary_path)?;
             let sheet = out.join("quality/contact_sheets").join(lighting).join(format!("{scene}.png"));
@@ -238,6 +255,19 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("manifest.json"), &manifest)?;
     progress(&format!("release {}: {} scenes, {full} full matches, {} files, digest {}", config.version, quality.len(), files.len(), manifest["digest"].as_str().unwrap_or("")));
     Ok(manifest)
+}
+
+/// Frames and class pixels of a sequence on disk (one rendered by an external tool).
+pub fn summarize_sequence(dir: &Path) -> Result<SequenceSummary> {
+    let sequence = Sequence::open(dir)?;
+    let mut summary = SequenceSummary { frames: sequence.len(), ..Default::default() };
+    let size = Some((sequence.camera.image_width, sequence.camera.image_height));
+    for path in &sequence.semantic_frames {
+        for &c in &osmab_evaluator::formats::image::read_png_gray16(path, size)?.pixels {
+            *summary.class_pixels.entry(c).or_default() += 1;
+        }
+    }
+    Ok(summary)
 }
 
 /// Check a built release: every manifest entry's size and SHA-256, and the digest.

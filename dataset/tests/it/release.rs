@@ -113,3 +113,22 @@ fn baselines_are_submissions_that_rank_below_the_oracle() {
     }
     assert!(write_baseline("telepathy", &rel, &dir.path().join("x")).is_err());
 }
+
+#[test]
+fn an_external_renderer_can_replace_the_built_in_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let built_in = build(dir.path(), "built-in");
+    // "HaDaGe" here copies the sequences the built-in renderer wrote: the release must be the same.
+    let source = dir.path().join("built-in/sequences");
+    let config = TINY.to_string()
+        + &format!("command = [\"cp\", \"-r\", \"{}/{{lighting}}/{{scene}}/.\", \"{{out}}\"]\n", source.display());
+    let path = dir.path().join("external.toml");
+    std::fs::write(&path, config.replace("[render]\n", "[render]\n")).unwrap();
+    let external = build_release(&path, &dir.path().join("external"), &|_| {}).unwrap();
+    assert_eq!(external["digest"], built_in["digest"]);
+    // A renderer that writes nothing usable is named.
+    let broken = TINY.to_string() + "command = [\"true\"]\n";
+    std::fs::write(&path, broken).unwrap();
+    let err = build_release(&path, &dir.path().join("broken"), &|_| {}).unwrap_err();
+    assert!(err.to_string().contains("camera_params.yaml"), "{err}");
+}

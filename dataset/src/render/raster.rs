@@ -294,13 +294,16 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                     let mut light = [AMBIENT; 3];
                     for l in &lights {
                         let d = [l.position[0] - p.x, l.position[1] - p.y, l.position[2] - p.z];
+                        let facing = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+                        if facing <= 0.0 {
+                            continue; // the light is behind the surface
+                        }
+                        // Lambert (n·d / |d|) times Magnum PhongGL's attenuation 1/(1 + |d|²)
+                        // for an unbounded range, with one division.
                         let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                        let dist = d2.sqrt().max(1e-6);
-                        let lambert = ((n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / dist).max(0.0);
-                        // Magnum PhongGL's point-light attenuation with infinite range.
-                        let attenuation = 1.0 / (1.0 + d2);
+                        let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
                         for k in 0..3 {
-                            light[k] += lambert * attenuation * l.color[k];
+                            light[k] += factor * l.color[k];
                         }
                     }
                     std::array::from_fn(|k| albedo[k] * light[k].max(0.0))

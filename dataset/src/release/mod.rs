@@ -47,11 +47,23 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_slice(&bytes).map_err(|e| InputError::new(path, "(json)", e.to_string()))
 }
 
-/// Run `stage` unless its marker says it finished; a directory without a marker is
-/// a partial output and is removed first.
+/// The fingerprint of a stage's output directory: the digest of its files.
+fn fingerprint(output: Option<&Path>) -> Result<String> {
+    match output {
+        Some(dir) if dir.is_dir() => Ok(digest(&list_files(dir, &[])?)),
+        _ => Ok("done".into()),
+    }
+}
+
+/// Run `stage` unless its marker says it finished and its output is still what the
+/// marker recorded; a partial output (no marker) or a changed one (corrupted, edited)
+/// is removed and built again.
 fn staged(marker: &Path, output: Option<&Path>, stage: impl FnOnce() -> Result<()>) -> Result<bool> {
-    if marker.exists() {
-        return Ok(false);
+    if let Ok(recorded) = std::fs::read_to_string(marker) {
+        if recorded.trim() == fingerprint(output)? {
+            return Ok(false);
+        }
+        std::fs::remove_file(marker).map_err(|e| InputError::io(marker, &e))?;
     }
     if let Some(dir) = output.filter(|d| d.exists()) {
         std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
@@ -60,7 +72,7 @@ fn staged(marker: &Path, output: Option<&Path>, stage: impl FnOnce() -> Result<(
     if let Some(parent) = marker.parent() {
         std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
     }
-    std::fs::write(marker, b"done\n").map_err(|e| InputError::io(marker, &e))?;
+    std::fs::write(marker, fingerprint(output)? + "\n").map_err(|e| InputError::io(marker, &e))?;
     Ok(true)
 }
 
@@ -240,7 +252,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("classes.json"), &classes_json)?;
     let full = quality.iter().filter(|q| q.full_match).count();
     write_json(&out.join("quality/quality_report.json"), &json!({"scenes": quality.len(), "full_match": full, "per_scene": quality}))?;
-    let gt_files = list_files(&out.join(GROUND_TRUTH), &[])?;
+    let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
     let manifest = json!({

@@ -84,6 +84,15 @@ fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume(
     let resumed = build(dir.path(), "b");
     assert_eq!(resumed["digest"], first["digest"], "the rebuilt stage is identical");
     assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
+
+    // Corrupt a finished stage's output (its marker still there): it is noticed and rebuilt.
+    std::fs::write(b.join("sequences/baseline/scene_000/results/semantic000002.png"), b"garbage").unwrap();
+    std::fs::write(b.join(GROUND_TRUTH).join("scene_001/semantic.npy"), b"garbage").unwrap();
+    let repaired = build(dir.path(), "b");
+    assert_eq!(repaired["digest"], first["digest"]);
+    assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
+    let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
+    assert_eq!(gt_manifest("a"), gt_manifest("b"), "the ground truth is rebuilt too");
 }
 
 #[test]

@@ -2,6 +2,8 @@
 //! for rendering): a configured argument list (no shell) with `{name}` placeholders,
 //! run with a timeout, its output logged to a file rather than kept in memory.
 
+use std::io::{Read, Seek, SeekFrom};
+use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -24,6 +26,8 @@ pub fn run_command(command: &[String], substitutions: &[(&str, String)], log: &P
         .stdin(Stdio::null())
         .stdout(file.try_clone().map_err(|e| InputError::io(log, &e))?)
         .stderr(file)
+        // Its own process group, so a timeout stops the tool's children too.
+        .process_group(0)
         .spawn()
         .map_err(|e| InputError::new("(config)", "command", format!("cannot run '{program}': {e}")))?;
     let started = Instant::now();
@@ -32,6 +36,7 @@ pub fn run_command(command: &[String], substitutions: &[(&str, String)], log: &P
             break status;
         }
         if started.elapsed() > timeout {
+            let _ = Command::new("kill").args(["-KILL", "--", &format!("-{}", child.id())]).stderr(Stdio::null()).status();
             let _ = child.kill();
             let _ = child.wait();
             return Err(InputError::new(log, "command", format!("'{program}' ran longer than {} s and was stopped", timeout.as_secs())));
@@ -39,9 +44,19 @@ pub fn run_command(command: &[String], substitutions: &[(&str, String)], log: &P
         std::thread::sleep(Duration::from_millis(50));
     };
     if !status.success() {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
+        let text = log_tail(log, 16 * 1024);
         let tail: Vec<&str> = text.lines().rev().take(5).collect::<Vec<_>>().into_iter().rev().collect();
         return Err(InputError::new(log, "command", format!("'{program}' failed with {status}: {}", tail.join("\n"))));
     }
     Ok(())
+}
+
+/// The last `bytes` of a log (a failing tool may have written gigabytes).
+fn log_tail(log: &Path, bytes: u64) -> String {
+    let Ok(mut file) = std::fs::File::open(log) else { return String::new() };
+    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let _ = file.seek(SeekFrom::Start(size.saturating_sub(bytes)));
+    let mut tail = Vec::new();
+    let _ = file.take(bytes).read_to_end(&mut tail);
+    String::from_utf8_lossy(&tail).into_owned()
 }

@@ -83,6 +83,11 @@ fn default_sensor_height() -> f64 {
     1.0
 }
 
+/// The environment variable holding the LLM's API key for release builds.
+pub const LLM_KEY_VARIABLE: &str = "OSMAB_LLM_API_KEY";
+/// The environment variable holding the embeddings service's API key for release builds.
+pub const EMBEDDINGS_KEY_VARIABLE: &str = "OSMAB_EMBEDDINGS_API_KEY";
+
 /// Everything a release build needs; the same config gives the same release.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -102,19 +107,29 @@ impl ReleaseConfig {
     /// Read and check a config file.
     pub fn read(path: &Path) -> Result<(Self, String)> {
         let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
-        let config: ReleaseConfig = toml::from_str(&text).map_err(|e| InputError::new(path, "(toml)", e.to_string()))?;
+        let mut config: ReleaseConfig = toml::from_str(&text).map_err(|e| InputError::new(path, "(toml)", e.to_string()))?;
         let bad = |field: &str, m: &str| Err(InputError::new(path, field, m.to_string()));
         if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
             return bad("version", "expected letters, digits, '.', '_' or '-'");
         }
-        if !(16..=8192).contains(&config.render.width) || !(16..=8192).contains(&config.render.height) {
-            return bad("render.width", "image sides must be 16..=8192");
+        let sensor = crate::render::sequence::SensorSettings { width: config.render.width, height: config.render.height, hfov: config.render.hfov, sensor_height: config.render.sensor_height, ..Default::default() };
+        if let Some((field, expectation)) = sensor.problem() {
+            return bad(&format!("render.{field}"), expectation);
         }
         if config.render.lightings.is_empty() {
             return bad("render.lightings", "at least one lighting");
         }
         if let Some(l) = config.render.lightings.iter().find(|l| !crate::render::LIGHTINGS.contains(&l.as_str())) {
             return bad("render.lightings", &format!("unknown lighting '{l}' (expected some of {})", crate::render::LIGHTINGS.join(", ")));
+        }
+        // The config text is published in the manifest: secrets come from the environment.
+        for (field, service, variable) in [("prompts.llm.api_key", &mut config.prompts.llm, LLM_KEY_VARIABLE), ("selection.embeddings.api_key", &mut config.selection.embeddings, EMBEDDINGS_KEY_VARIABLE)] {
+            if let Some(service) = service {
+                if service.api_key.is_some() {
+                    return bad(field, &format!("no secrets in a release config (its text is published in the manifest); set {variable} instead"));
+                }
+                service.api_key = std::env::var(variable).ok().filter(|k| !k.is_empty());
+            }
         }
         Ok((config, text))
     }

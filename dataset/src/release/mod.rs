@@ -47,33 +47,55 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_slice(&bytes).map_err(|e| InputError::new(path, "(json)", e.to_string()))
 }
 
-/// The fingerprint of a stage's output directory: the digest of its files.
-fn fingerprint(output: Option<&Path>) -> Result<String> {
-    match output {
-        Some(dir) if dir.is_dir() => Ok(digest(&list_files(dir, &[])?)),
-        _ => Ok("done".into()),
+/// The fingerprint of a stage's output (a directory or one file): the digest of its files.
+fn fingerprint(output: &Path) -> Result<String> {
+    if output.is_dir() {
+        Ok(digest(&list_files(output, &[])?))
+    } else if output.is_file() {
+        manifest::hash_file(output).map(|(_, sha256)| sha256)
+    } else {
+        Ok("missing".into())
     }
 }
 
-/// Run `stage` unless its marker says it finished and its output is still what the
-/// marker recorded; a partial output (no marker) or a changed one (corrupted, edited)
-/// is removed and built again.
-fn staged(marker: &Path, output: Option<&Path>, stage: impl FnOnce() -> Result<()>) -> Result<bool> {
+/// A stage marker: what the stage was built from and the fingerprint of what it wrote.
+fn marker_text(inputs: &str, output: &Path) -> Result<String> {
+    Ok(format!("inputs {inputs}\noutput {}\n", fingerprint(output)?))
+}
+
+/// Run `stage` unless its marker says it finished from the same `inputs` and its output
+/// is still what the marker recorded; a partial output (no marker), a changed one
+/// (corrupted, edited) or one built from other inputs is removed and built again.
+fn staged(marker: &Path, inputs: &str, output: &Path, stage: impl FnOnce() -> Result<()>) -> Result<bool> {
     if let Ok(recorded) = std::fs::read_to_string(marker) {
-        if recorded.trim() == fingerprint(output)? {
+        if recorded == marker_text(inputs, output)? {
             return Ok(false);
         }
         std::fs::remove_file(marker).map_err(|e| InputError::io(marker, &e))?;
     }
-    if let Some(dir) = output.filter(|d| d.exists()) {
-        std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
+    if output.is_dir() {
+        std::fs::remove_dir_all(output).map_err(|e| InputError::io(output, &e))?;
+    } else if output.exists() {
+        std::fs::remove_file(output).map_err(|e| InputError::io(output, &e))?;
     }
     stage()?;
     if let Some(parent) = marker.parent() {
         std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
     }
-    std::fs::write(marker, fingerprint(output)? + "\n").map_err(|e| InputError::io(marker, &e))?;
+    std::fs::write(marker, marker_text(inputs, output)?).map_err(|e| InputError::io(marker, &e))?;
     Ok(true)
+}
+
+/// The digest of everything in a config that shapes the release's content (not its
+/// name, date or secrets): a stage built from another config is rebuilt.
+fn inputs_digest(config: &ReleaseConfig) -> String {
+    let mut content = config.clone();
+    content.version.clear();
+    content.created.clear();
+    for service in [&mut content.prompts.llm, &mut content.selection.embeddings].into_iter().flatten() {
+        service.api_key = None;
+    }
+    manifest::hex(&<sha2::Sha256 as sha2::Digest>::digest(serde_json::to_vec(&content).expect("serialisable")))
 }
 
 /// What one scene of the release holds and how well it matches its prompt.
@@ -95,13 +117,14 @@ pub struct SceneQuality {
 pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Value> {
     let (config, config_text) = ReleaseConfig::read(config_path)?;
     let work = out.join(WORK);
+    let inputs = inputs_digest(&config);
     std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
 
     // 1. Prompt pools.
     let mut pools: Vec<PromptPool> = Vec::new();
     for (regime, count) in [(Regime::Furniture, config.prompts.furniture_pool), (Regime::Manipuland, config.prompts.manipuland_pool)] {
         let path = work.join(format!("prompts/{}.json", regime.name()));
-        staged(&work.join(format!("prompts/{}.done", regime.name())), None, || {
+        staged(&work.join(format!("prompts/{}.done", regime.name())), &inputs, &path, || {
             progress(&format!("prompts: writing {count} {} prompts", regime.name()));
             let pool = match &config.prompts.llm {
                 Some(llm) => {
@@ -117,7 +140,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
 
     // 2. Selection.
     let selected_path = work.join("selection/final_prompts.json");
-    staged(&work.join("selection/.done"), None, || {
+    staged(&work.join("selection/.done"), &inputs, &selected_path, || {
         progress("selection: removing near-duplicates, choosing diverse scenes");
         let embedder: Box<dyn Embedder> = match &config.selection.embeddings {
             Some(e) => Box::new(ServiceEmbedder { client: ServiceClient::new(e.clone()).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?, batch: 64 }),
@@ -152,7 +175,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         let scene = format!("scene_{i:03}");
         let scenesmith = work.join("scenesmith").join(&scene);
         let unmet_path = work.join("scenesmith").join(format!("{scene}.unmet.json"));
-        staged(&work.join("scenesmith").join(format!("{scene}.done")), Some(&scenesmith), || {
+        staged(&work.join("scenesmith").join(format!("{scene}.done")), &inputs, &scenesmith, || {
             progress(&format!("{scene}: synthesis ({})", prompt.id));
             let unmet = if config.synthesis.command.is_empty() {
                 crate::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &scenesmith, config.synthesis.ceiling)?
@@ -163,7 +186,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             write_json(&unmet_path, &unmet)
         })?;
         let habitat = work.join("habitat").join(&scene);
-        staged(&work.join("habitat").join(format!("{scene}.done")), Some(&habitat), || {
+        staged(&work.join("habitat").join(format!("{scene}.done")), &inputs, &habitat, || {
             progress(&format!("{scene}: conversion"));
             let mut loaded = load_scene(&scenesmith)?;
             loaded.name = scene.clone();
@@ -176,7 +199,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         for lighting in &lightings {
             let sequence_dir = out.join("sequences").join(lighting).join(&scene);
             let summary_path = work.join("rendered").join(lighting).join(format!("{scene}.json"));
-            staged(&work.join("rendered").join(lighting).join(format!("{scene}.done")), Some(&sequence_dir), || {
+            staged(&work.join("rendered").join(lighting).join(format!("{scene}.done")), &inputs, &sequence_dir, || {
                 progress(&format!("{scene}: rendering {lighting}"));
                 if config.render.command.is_empty() {
                     let rendered = crate::render::render_scene(&habitat, &scene, &[lighting], &sensor, &motion, &out.join("sequences"))?;
@@ -207,7 +230,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         }
         let gt_dir = out.join(GROUND_TRUTH).join(&scene);
         let gt_source = out.join("sequences").join(if lightings.contains(&"baseline") { "baseline" } else { lightings[0] }).join(&scene);
-        staged(&work.join("gt").join(format!("{scene}.done")), Some(&gt_dir), || {
+        staged(&work.join("gt").join(format!("{scene}.done")), &inputs, &gt_dir, || {
             progress(&format!("{scene}: ground truth"));
             let sequence = Sequence::open(&gt_source)?;
             let gt = GroundTruth::build(&sequence)?;
@@ -232,7 +255,11 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             .objects
             .iter()
             .map(|o| {
-                let class = normalise_name(&o.category).unwrap_or("other");
+                // A category outside the lexicon cannot be checked: it is reported unmatched.
+                let Some(class) = normalise_name(&o.category).filter(|c| crate::convert::lexicon::class_id(c).is_some_and(|id| id != 0)) else {
+                    full_match = false;
+                    return json!({"category": o.category, "class": null, "expected": o.count, "present": 0, "visible": false, "match": false});
+                };
                 let class_id = crate::convert::lexicon::class_id(class).unwrap_or(0);
                 let expected: u32 = prompt.spec.objects.iter().filter(|p| normalise_name(&p.category) == Some(class)).map(|p| p.count).sum();
                 let present = conversion.objects.iter().filter(|c| c.class == class).count() as u32;

@@ -81,8 +81,11 @@ impl Frame {
 /// source triangle and each vertex's barycentric coordinates in it.
 #[derive(Debug, Clone, Copy)]
 struct ScreenTriangle {
-    xy: [[f32; 2]; 3],
+    /// Screen positions in f64: clipped floor and wall triangles reach ~10⁵ pixels.
+    xy: [[f64; 2]; 3],
     inv_z: [f32; 3],
+    /// 1/z over the screen, from the source triangle's plane: a·x + b·y + c.
+    inv_z_plane: [f64; 3],
     /// Barycentric coordinates (in the source triangle) of each vertex.
     bary: [[f32; 3]; 3],
     source: u32,
@@ -114,10 +117,20 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
             poly.push((lerp(a.0, b.0), lerp(a.1, b.1)));
         }
     }
-    let project = |p: [f32; 3]| [(camera.fx as f32) * p[0] / p[2] + camera.cx as f32, (camera.fy as f32) * p[1] / p[2] + camera.cy as f32];
+    let project = |p: [f32; 3]| [camera.fx * p[0] as f64 / p[2] as f64 + camera.cx, camera.fy * p[1] as f64 / p[2] as f64 + camera.cy];
+    // The plane n·P = d of the source triangle: on the ray of pixel (x, y),
+    // 1/z = n·((x − cx)/fx, (y − cy)/fy, 1) / d, affine in x and y.
+    let p = cam.map(|q| nalgebra::Vector3::new(q[0] as f64, q[1] as f64, q[2] as f64));
+    let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+    let d = n.dot(&p[0]);
+    if d.abs() <= 1e-12 * n.norm() {
+        return; // Seen edge-on: covers no pixel.
+    }
+    let (a, b) = (n.x / (camera.fx * d), n.y / (camera.fy * d));
+    let inv_z_plane = [a, b, n.z / d - a * camera.cx - b * camera.cy];
     for k in 1..poly.len().saturating_sub(1) {
         let v = [poly[0], poly[k], poly[k + 1]];
-        out.push(ScreenTriangle { xy: v.map(|(p, _)| project(p)), inv_z: v.map(|(p, _)| 1.0 / p[2]), bary: v.map(|(_, b)| b), source });
+        out.push(ScreenTriangle { xy: v.map(|(p, _)| project(p)), inv_z: v.map(|(p, _)| 1.0 / p[2]), inv_z_plane, bary: v.map(|(_, b)| b), source });
     }
 }
 
@@ -143,7 +156,7 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
         screen.extend(part);
     }
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let (wf, hf) = (w as f32, h as f32);
+    let (wf, hf) = (w as f64, h as f64);
     // Bin triangles by the bands of rows they touch, so each band visits only its own.
     let bands = h.div_ceil(BAND);
     let mut binned: Vec<Vec<u32>> = vec![Vec::new(); bands];
@@ -182,30 +195,47 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                 let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
                 let [a, b, c] = t.xy;
                 let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-                if area.abs() < 1e-12 {
+                if area.abs() < 1e-9 {
                     continue;
                 }
                 let px0 = (xmin.ceil().max(0.0)) as usize;
                 let px1 = (xmax.floor().min(wf - 1.0)).max(-1.0) as isize;
-                let py0 = (ymin.ceil().max(y0 as f32)) as usize;
-                let py1 = (ymax.floor().min(y1 as f32 - 1.0)) as isize;
+                let py0 = (ymin.ceil().max(y0 as f64)) as usize;
+                let py1 = (ymax.floor().min(y1 as f64 - 1.0)) as isize;
                 if px1 < px0 as isize || py1 < py0 as isize {
                     continue;
                 }
+                // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
+                // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32. Coverage
+                // uses each barycentric as a signed distance in pixels to its edge, so its
+                // rounding is a fraction of a pixel however large the triangle.
                 let inv_area = 1.0 / area;
+                let (x0, y0f) = (px0 as f64, py0 as f64);
+                let l0 = [((b[0] - x0) * (c[1] - y0f) - (b[1] - y0f) * (c[0] - x0)) * inv_area, (b[1] - c[1]) * inv_area, (c[0] - b[0]) * inv_area];
+                let l1 = [((c[0] - x0) * (a[1] - y0f) - (c[1] - y0f) * (a[0] - x0)) * inv_area, (c[1] - a[1]) * inv_area, (a[0] - c[0]) * inv_area];
+                let l2 = [1.0 - l0[0] - l1[0], -l0[1] - l1[1], -l0[2] - l1[2]];
+                let per_pixel = |l: [f64; 3]| {
+                    let g = (l[1] * l[1] + l[2] * l[2]).sqrt();
+                    (g as f32, [(l[0] / g) as f32, (l[1] / g) as f32, (l[2] / g) as f32])
+                };
+                let ((_, e0), (g1, e1), (g2, e2)) = (per_pixel(l0), per_pixel(l1), per_pixel(l2));
+                let [za, zb, zc] = t.inv_z_plane;
+                let inv_z = [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32];
+                // A pixel centre within 10⁻³ pixel of an edge counts as inside: on an edge
+                // shared by two triangles, at least one draws it.
+                const EDGE_TOLERANCE_PIXELS: f32 = -1e-3;
                 for py in py0..=py1 as usize {
-                    let y = py as f32;
+                    let dy = (py - py0) as f32;
                     for px in px0..=px1 as usize {
-                        let x = px as f32;
-                        // Screen-space barycentrics (either winding: both faces are drawn).
-                        let l0 = ((b[0] - x) * (c[1] - y) - (b[1] - y) * (c[0] - x)) * inv_area;
-                        let l1 = ((c[0] - x) * (a[1] - y) - (c[1] - y) * (a[0] - x)) * inv_area;
-                        let l2 = 1.0 - l0 - l1;
-                        if l0 < 0.0 || l1 < 0.0 || l2 < 0.0 {
+                        let dx = (px - px0) as f32;
+                        let at = |e: [f32; 3]| e[0] + e[1] * dx + e[2] * dy;
+                        // Either winding: both faces are drawn.
+                        let (d0, d1, d2) = (at(e0), at(e1), at(e2));
+                        if d0 < EDGE_TOLERANCE_PIXELS || d1 < EDGE_TOLERANCE_PIXELS || d2 < EDGE_TOLERANCE_PIXELS {
                             continue;
                         }
-                        let inv_z = l0 * t.inv_z[0] + l1 * t.inv_z[1] + l2 * t.inv_z[2];
-                        let z = 1.0 / inv_z;
+                        let z = 1.0 / at(inv_z);
+                        let (l1, l2) = (d1 * g1, d2 * g2);
                         let i = (py - y0) * w + px;
                         if z < depth[i] {
                             depth[i] = z;
@@ -226,7 +256,8 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
             .iter()
             .map(|l| {
                 if l.attached_to_camera {
-                    let p = pose * nalgebra::Vector4::new(l.position[0] as f64, l.position[1] as f64, l.position[2] as f64, 1.0);
+                    // Offsets are in Habitat's camera frame (y up, z backward); the pose is OpenCV's.
+                    let p = pose * nalgebra::Vector4::new(l.position[0] as f64, -l.position[1] as f64, -l.position[2] as f64, 1.0);
                     Light { position: [p.x as f32, p.y as f32, p.z as f32], ..*l }
                 } else {
                     *l

@@ -39,6 +39,21 @@ impl Default for SensorSettings {
     }
 }
 
+impl SensorSettings {
+    /// The first setting a camera cannot have, as (field, expectation).
+    pub fn problem(&self) -> Option<(&'static str, &'static str)> {
+        if !(16..=8192).contains(&self.width) || !(16..=8192).contains(&self.height) {
+            Some(("width", "image sides must be 16..=8192"))
+        } else if !(self.hfov > 0.0 && self.hfov < 180.0) {
+            Some(("hfov", "a horizontal field of view in degrees, in (0, 180)"))
+        } else if !(self.sensor_height > 0.0 && self.sensor_height < 1.5) {
+            Some(("sensor_height", "metres above the floor, in (0, 1.5) (below the agent's height)"))
+        } else {
+            None
+        }
+    }
+}
+
 /// The camera-to-world pose (OpenCV axes) of an agent state, as HaDaGe writes it:
 /// Habitat's camera rotation with its y and z columns negated.
 pub fn camera_pose(state: &AgentState, floor_height: f64, sensor_height: f64) -> Matrix4<f64> {
@@ -110,6 +125,7 @@ pub fn render_sequence(world: &World, states: &[AgentState], floor_height: f64, 
     std::fs::write(dir.join("log.txt"), log).map_err(|e| InputError::io(dir, &e))?;
 
     let mut summary = SequenceSummary { frames: states.len(), ..Default::default() };
+    let mut pixel_counts = vec![0u64; 1 << 16];
     const BATCH: usize = 8;
     let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
     for start in (0..states.len()).step_by(BATCH) {
@@ -117,10 +133,12 @@ pub fn render_sequence(world: &World, states: &[AgentState], floor_height: f64, 
         for (k, i) in (start..end).enumerate() {
             let camera = Camera { width: sensor.width, height: sensor.height, fx: params.fx, fy: params.fy, cx: params.cx, cy: params.cy, pose: poses[i] };
             let lights = lights_for_goal(light_settings, states[i].goal_index);
-            let shading = if lights.is_empty() { Shading::Flat } else { Shading::Lit(lights) };
+            // A lighting without any light is flat; one whose lights are all off in this
+            // segment is lit by the ambient term only (never brighter than with them on).
+            let shading = if has_no_lights(light_settings) { Shading::Flat } else { Shading::Lit(lights) };
             render(world, &camera, &shading, &mut frames[k]);
             for &c in &frames[k].semantic {
-                *summary.class_pixels.entry(c).or_default() += 1;
+                pixel_counts[c as usize] += 1;
             }
         }
         // Encoding is the slow part of writing: all frames of the batch at once.
@@ -135,5 +153,11 @@ pub fn render_sequence(world: &World, states: &[AgentState], floor_height: f64, 
             write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })
         })?;
     }
+    summary.class_pixels = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
     Ok(summary)
+}
+
+/// Whether a light-settings file holds no light at all (the `no_lights` condition).
+pub fn has_no_lights(settings: &Value) -> bool {
+    settings["lights"].as_object().is_none_or(|lights| lights.is_empty())
 }

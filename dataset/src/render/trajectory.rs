@@ -63,9 +63,36 @@ impl NavGrid {
         [self.origin_xz[0] + ((i % self.width) as f64 + 0.5) * self.cell_size, self.origin_xz[1] + ((i / self.width) as f64 + 0.5) * self.cell_size]
     }
 
-    fn random_point(&self, rng: &mut Rng) -> Option<[f64; 2]> {
-        let free: Vec<usize> = (0..self.cells.len()).filter(|&i| self.cells[i] == 255).collect();
-        (!free.is_empty()).then(|| self.centre(free[rng.below(free.len())]))
+    /// The free cells of the largest connected free region, ascending. (With diagonals
+    /// unable to cut corners, the agent's 8-connected moves connect what 4-neighbours do.)
+    fn largest_region(&self) -> Vec<usize> {
+        let mut region_of = vec![usize::MAX; self.cells.len()];
+        let mut best: Vec<usize> = Vec::new();
+        for seed in 0..self.cells.len() {
+            if self.cells[seed] != 255 || region_of[seed] != usize::MAX {
+                continue;
+            }
+            let mut region = vec![seed];
+            region_of[seed] = seed;
+            let mut next = 0;
+            while next < region.len() {
+                let i = region[next];
+                next += 1;
+                let (c, r) = (i % self.width, i / self.width);
+                let neighbours = [(c > 0).then(|| i - 1), (c + 1 < self.width).then(|| i + 1), (r > 0).then(|| i - self.width), (r + 1 < self.height).then(|| i + self.width)];
+                for j in neighbours.into_iter().flatten() {
+                    if self.cells[j] == 255 && region_of[j] == usize::MAX {
+                        region_of[j] = seed;
+                        region.push(j);
+                    }
+                }
+            }
+            if region.len() > best.len() {
+                best = region;
+            }
+        }
+        best.sort_unstable();
+        best
     }
 
     /// Shortest 8-connected path of cell centres from `a` to `b` (A*), if any.
@@ -177,8 +204,14 @@ impl Action {
 /// The frames of a trajectory through `grid`.
 pub fn trajectory(grid: &NavGrid, settings: &MotionSettings) -> Vec<AgentState> {
     let mut rng = Rng::new(settings.seed);
-    let Some(start) = grid.random_point(&mut rng) else { return Vec::new() };
-    let goals: Vec<[f64; 2]> = (0..settings.goals).filter_map(|_| grid.random_point(&mut rng)).collect();
+    // Start and goals in the largest free region: an isolated pocket would reach no goal.
+    let region = grid.largest_region();
+    if region.is_empty() {
+        return Vec::new();
+    }
+    let mut random_point = || grid.centre(region[rng.below(region.len())]);
+    let start = random_point();
+    let goals: Vec<[f64; 2]> = (0..settings.goals).map(|_| random_point()).collect();
     let (mut x, mut z, mut yaw) = (start[0], start[1], 0.0f64);
     let mut frames = Vec::new();
     let step = settings.move_amount / settings.sub_steps as f64;

@@ -59,7 +59,9 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
             semantics: MapSemantics::ObjectLabels { object_ids: gt.labels.iter().map(|l| ids.iter().position(|c| c == l).unwrap() as u32).collect(), labels: ids },
         };
         let m = score_scene(&gt, &oracle, &classes, None).unwrap().metrics;
-        assert_eq!((m.miou, m.fmiou, m.macc), (1.0, 1.0, 1.0), "{scene}");
+        // f-mIoU sums frequency × IoU in floating point, as the reference does: 1 up to rounding.
+        assert_eq!((m.miou, m.macc), (1.0, 1.0), "{scene}");
+        assert!((m.fmiou - 1.0).abs() < 1e-12, "{scene}: f-mIoU {}", m.fmiou);
     }
 
     // A corrupted file is caught by name.
@@ -140,4 +142,42 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     std::fs::write(&path, broken).unwrap();
     let err = build_release(&path, &dir.path().join("broken"), &|_| {}).unwrap_err();
     assert!(err.to_string().contains("camera_params.yaml"), "{err}");
+}
+
+#[test]
+fn release_configs_with_secrets_or_impossible_cameras_are_rejected_by_field() {
+    use osmab_dataset::release::config::ReleaseConfig;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("release.toml");
+    let secret = TINY.replace("manipuland_pool = 4\n", "manipuland_pool = 4\n[prompts.llm]\nbase_url = \"http://127.0.0.1:1/v1\"\nmodel = \"m\"\napi_key = \"sk-secret\"\n");
+    for (text, field, expectation) in [
+        (secret.as_str(), "prompts.llm.api_key", "OSMAB_LLM_API_KEY"),
+        (&TINY.replace("height = 48\n", "height = 48\nhfov = 180.0\n"), "render.hfov", "(0, 180)"),
+        (&TINY.replace("height = 48\n", "height = 48\nsensor_height = 0.0\n"), "render.sensor_height", "(0, 1.5)"),
+        (&TINY.replace("width = 64", "width = 0"), "render.width", "16..=8192"),
+    ] {
+        std::fs::write(&path, text).unwrap();
+        let message = ReleaseConfig::read(&path).unwrap_err().to_string();
+        assert!(message.contains("release.toml") && message.contains(field) && message.contains(expectation), "{message}");
+    }
+}
+
+#[test]
+fn external_tools_that_fail_or_overrun_are_reported_and_stopped_with_their_children() {
+    use osmab_dataset::external::run_command;
+    use std::time::Duration;
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("logs/tool.log");
+    let sh = |script: &str| vec!["sh".to_string(), "-c".to_string(), script.to_string()];
+
+    let failed = run_command(&sh("echo step one; echo 'no GPU found' >&2; exit 3"), &[], &log, Duration::from_secs(10)).unwrap_err().to_string();
+    assert!(failed.contains("tool.log") && failed.contains("exit status: 3") && failed.contains("no GPU found"), "{failed}");
+
+    // A child left running in the background would keep writing into rebuilt output.
+    let late = dir.path().join("written-after-the-timeout");
+    let script = format!("(sleep 2; touch {}) & sleep 30", late.display());
+    let overran = run_command(&sh(&script), &[], &log, Duration::from_millis(300)).unwrap_err().to_string();
+    assert!(overran.contains("ran longer than"), "{overran}");
+    std::thread::sleep(Duration::from_millis(2500));
+    assert!(!late.exists(), "the tool's child outlived the timeout");
 }

@@ -180,3 +180,33 @@ fn a_box_seen_at_an_angle_has_the_ray_cast_depth() {
     }
     assert!(checked > 300, "{checked} pixels checked");
 }
+
+#[test]
+fn a_floor_reaching_behind_the_camera_keeps_its_depth_to_the_quantum() {
+    // The floor y = 1.5 (OpenCV: y down) from 20 m behind to 20 m ahead, clipped at the near plane.
+    let (w, h) = (1200usize, 680usize);
+    let cam = Camera { width: w as u32, height: h as u32, fx: 600.0, fy: 600.0, cx: 599.5, cy: 339.5, pose: Matrix4::identity() };
+    let n = [[0.0, -1.0, 0.0]; 3];
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 };
+    let (y, e) = (1.5f32, 20.0f32);
+    let floor = world(vec![tri([[-e, y, -e], [e, y, -e], [e, y, e]]), tri([[-e, y, -e], [e, y, e], [-e, y, e]])]);
+    let mut frame = Frame::default();
+    render(&floor, &cam, &Shading::Flat, &mut frame);
+    let mut checked = 0;
+    for v in 0..h {
+        let expected = 1.5 * cam.fy / (v as f64 - cam.cy);
+        if !(0.3..8.0).contains(&expected) {
+            continue;
+        }
+        for u in 0..w {
+            let d = frame.depth[v * w + u] as f64;
+            let x = (u as f64 - cam.cx) / cam.fx * expected;
+            if x.abs() > 19.0 {
+                continue;
+            }
+            assert!((d - expected).abs() < QUANTUM as f64, "pixel ({u}, {v}): depth {d}, expected {expected}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 100_000, "{checked} pixels checked");
+}

@@ -103,3 +103,33 @@ fn rendering_twice_gives_identical_files() {
     };
     assert_eq!(read("a"), read("b"));
 }
+
+#[test]
+fn lights_switch_with_their_life_intervals_and_switched_off_lights_leave_the_ambient_term() {
+    use osmab_dataset::render::sequence::{has_no_lights, lights_for_goal};
+    let settings = serde_json::json!({"lights": {
+        "0": {"type": "point", "position": [0.0, 2.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, 1]]},
+        "1": {"type": "point", "position": [1.0, 2.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[2, 4]]},
+        "2": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}
+    }});
+    let on = |goal| lights_for_goal(&settings, goal).iter().map(|l| l.position[0]).collect::<Vec<_>>();
+    assert_eq!(on(0), vec![0.0, 0.0]);
+    assert_eq!(on(1), vec![0.0]);
+    assert_eq!(on(2), vec![1.0, 0.0]);
+    assert_eq!(on(4), vec![0.0]);
+    assert!(!has_no_lights(&settings));
+    assert!(has_no_lights(&serde_json::json!({"lights": {}})));
+}
+
+#[test]
+fn trajectories_start_and_stay_in_the_largest_free_region() {
+    // A 4×4 m room (x < 4 m) and, behind a wall, a 0.3 m pocket: every seed must start in the room.
+    let (width, height, cell) = (50usize, 40usize, 0.1);
+    let cells = (0..width * height).map(|i| if (1..39).contains(&(i / width)) && ((1..40).contains(&(i % width)) || (45..48).contains(&(i % width))) { 255 } else { 0 }).collect();
+    let grid = NavGrid { origin_xz: [0.0, 0.0], cell_size: cell, width, height, floor_height: 0.0, cells };
+    for seed in 0..40 {
+        let states = trajectory(&grid, &MotionSettings { goals: 2, seed, ..Default::default() });
+        assert!(!states.is_empty(), "seed {seed}: no frames");
+        assert!(states.iter().all(|s| s.x < 4.0), "seed {seed}: the pocket behind the wall was used");
+    }
+}

@@ -157,6 +157,9 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
         SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, goals, seed, max_frames } => {
             let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, ..Default::default() };
+            if let Some((field, expectation)) = sensor.problem() {
+                bail!("--{}: {expectation}", field.replace('_', "-"));
+            }
             let motion = osmab_dataset::render::trajectory::MotionSettings { goals, seed, max_frames, ..Default::default() };
             let lightings: Vec<&str> = lightings.split(',').map(str::trim).filter(|l| !l.is_empty()).collect();
             if let Some(bad) = lightings.iter().find(|l| !osmab_dataset::render::LIGHTINGS.contains(l)) {

@@ -41,48 +41,6 @@ fn floats(v: &Value, n: usize) -> Option<Vec<f64>> {
     v.as_array().filter(|a| a.len() == n).and_then(|a| a.iter().map(Value::as_f64).collect())
 }
 
-/// A small OBJ reader for the converter's primitives (and simple OBJ assets): `v`,
-/// `vn`, `vt`, `f` (triangles or fans) and the first material's `Kd`.
-fn read_obj(path: &Path) -> Result<(Vec<[f32; 3]>, Vec<u32>, [f32; 3])> {
-    let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
-    let (mut positions, mut indices, mut color) = (Vec::new(), Vec::new(), [0.7f32, 0.7, 0.7]);
-    for (i, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let v: Vec<f32> = words.take(3).filter_map(|w| w.parse().ok()).collect();
-                if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-                    return Err(InputError::new(path, format!("line {}", i + 1), "a vertex needs 3 finite numbers"));
-                }
-                positions.push([v[0], v[1], v[2]]);
-            }
-            Some("f") => {
-                let ids: Vec<u32> = words
-                    .map(|w| w.split('/').next().unwrap_or("").parse::<i64>().ok().map(|k| if k < 0 { positions.len() as i64 + k } else { k - 1 }))
-                    .map(|k| k.filter(|&k| k >= 0 && (k as usize) < positions.len()).map(|k| k as u32))
-                    .collect::<Option<_>>()
-                    .ok_or_else(|| InputError::new(path, format!("line {}", i + 1), "a face names a vertex that does not exist"))?;
-                for k in 1..ids.len().saturating_sub(1) {
-                    indices.extend([ids[0], ids[k], ids[k + 1]]);
-                }
-            }
-            Some("mtllib") => {
-                if let Some(name) = words.next()
-                    && let Ok(mtl) = std::fs::read_to_string(path.with_file_name(name))
-                    && let Some(kd) = mtl.lines().find_map(|l| l.trim().strip_prefix("Kd "))
-                {
-                    let c: Vec<f32> = kd.split_whitespace().filter_map(|w| w.parse().ok()).collect();
-                    if c.len() == 3 {
-                        color = [c[0], c[1], c[2]];
-                    }
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok((positions, indices, color))
-}
-
 impl World {
     /// Load the converted scene in `dir` (written by `convert::habitat`), with the class
     /// of every object from its template's `user_defined.class_id`.
@@ -118,17 +76,20 @@ impl World {
             };
             let ext = asset.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
             if ext == "obj" {
-                let (positions, indices, color) = read_obj(&asset)?;
-                let surface = world.surfaces.len() as u32;
-                world.surfaces.push(Surface { color, texture: None });
-                for tri in indices.chunks_exact(3) {
+                let obj = super::obj::read_obj(&asset)?;
+                let base = world.surfaces.len() as u32;
+                for m in &obj.materials {
+                    world.surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
+                }
+                for (corners, material) in &obj.triangles {
                     // Flat faces: the face normal, so boxes keep sharp edges.
-                    let p = [tri[0], tri[1], tri[2]].map(|k| place(positions[k as usize]));
+                    let p = corners.map(|(k, _)| place(obj.positions[k as usize]));
                     let e1 = Vector3::new(p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
                     let e2 = Vector3::new(p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
                     let n = e1.cross(&e2);
                     let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
-                    world.triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs: [[0.0; 2]; 3], surface, class_id });
+                    let uvs = corners.map(|(_, t)| t.map_or([0.0; 2], |t| obj.uvs[t as usize]));
+                    world.triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs, surface: base + *material as u32, class_id });
                 }
             } else {
                 let gltf = read_gltf(&asset)?;

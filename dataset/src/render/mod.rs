@@ -2,6 +2,7 @@
 //! Habitat-style scene, with Habitat's lighting model.
 
 pub mod mesh;
+pub mod obj;
 pub mod raster;
 pub mod trajectory;
 pub mod sequence;

@@ -210,3 +210,36 @@ fn a_floor_reaching_behind_the_camera_keeps_its_depth_to_the_quantum() {
     }
     assert!(checked > 100_000, "{checked} pixels checked");
 }
+
+#[test]
+fn obj_meshes_carry_their_materials_uvs_and_base_colour_textures() {
+    use osmab_dataset::render::obj::read_obj;
+    use osmab_evaluator::formats::image::{RgbImage, write_jpeg_rgb};
+    let dir = tempfile::tempdir().unwrap();
+    write_jpeg_rgb(&dir.path().join("red.jpg"), &RgbImage { width: 16, height: 16, pixels: [230u8, 20, 20].repeat(256) }, 95).unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "Kd 0 1 0\nnewmtl wood\nKd 0.5 0.25 0.125\nmap_Kd -s 1 1 1 red.jpg\nnewmtl paint\nKd 0.1 0.2 0.3\nnewmtl stolen\nmap_Kd ../../etc/passwd\n",
+    )
+    .unwrap();
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl wood\nf 1/1 2/2 3/3 4/4\nusemtl paint\nf -4 -2 -1\n";
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    let mesh = read_obj(&dir.path().join("a.obj")).unwrap();
+    let names: Vec<&str> = mesh.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["", "wood", "paint", "stolen"]);
+    assert_eq!(mesh.materials[1].color, [0.5, 0.25, 0.125]);
+    let texture = mesh.materials[1].texture.as_ref().expect("the wood texture");
+    assert_eq!((texture.width, texture.height), (16, 16));
+    assert!(texture.rgba[0] > 200 && texture.rgba[1] < 60, "red texels: {:?}", &texture.rgba[..4]);
+    assert!(mesh.materials[3].texture.is_none(), "a texture outside the asset's folder is not read");
+    // The quad is a fan of two triangles with wood; the last face uses paint and no UVs.
+    assert_eq!(mesh.triangles.iter().map(|t| t.1).collect::<Vec<_>>(), [1, 1, 2]);
+    assert_eq!(mesh.triangles[0].0, [(0, Some(0)), (1, Some(1)), (2, Some(2))]);
+    assert_eq!(mesh.triangles[2].0, [(0, None), (2, None), (3, None)]);
+    // OBJ's v points up, textures are sampled with v down.
+    assert_eq!(mesh.uvs[0], [0.0, 1.0]);
+
+    std::fs::write(dir.path().join("bad.obj"), "v 0 0 0\nvt 0 0\nf 1/1 1/2 1/1\n").unwrap();
+    let err = read_obj(&dir.path().join("bad.obj")).unwrap_err();
+    assert!(err.to_string().contains("bad.obj") && err.to_string().contains("line 3"), "{err}");
+}

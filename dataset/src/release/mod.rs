@@ -279,9 +279,20 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("classes.json"), &classes_json)?;
     let full = quality.iter().filter(|q| q.full_match).count();
     write_json(&out.join("quality/quality_report.json"), &json!({"scenes": quality.len(), "full_match": full, "per_scene": quality}))?;
+    let scene_names: Vec<&str> = quality.iter().map(|q| q.scene.as_str()).collect();
     let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
+    let gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
+    refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
+    let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into()];
+    for scene in &scene_names {
+        expected.push(format!("scenes/{scene}/"));
+        for lighting in &lightings {
+            expected.extend([format!("sequences/{lighting}/{scene}/"), format!("quality/contact_sheets/{lighting}/{scene}.png")]);
+        }
+    }
+    refuse_leftovers(out, &files, &expected)?;
     let manifest = json!({
         "version": config.version,
         "created": config.created,
@@ -294,6 +305,22 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("manifest.json"), &manifest)?;
     progress(&format!("release {}: {} scenes, {full} full matches, {} files, digest {}", config.version, quality.len(), files.len(), manifest["digest"].as_str().unwrap_or("")));
     Ok(manifest)
+}
+
+/// A release lists exactly what its config built: a file no scene or lighting of the
+/// config accounts for (left by a build with another config, or put there by hand)
+/// stops the build rather than being published. `expected` holds file paths and
+/// directory prefixes ending in '/'.
+fn refuse_leftovers(root: &Path, files: &[manifest::FileEntry], expected: &[String]) -> Result<()> {
+    let stray: Vec<&str> = files.iter().map(|f| f.path.as_str()).filter(|p| !expected.iter().any(|e| if e.ends_with('/') { p.starts_with(e.as_str()) } else { p == e })).collect();
+    match stray.first() {
+        None => Ok(()),
+        Some(first) => Err(InputError::new(
+            root.join(first),
+            "release",
+            format!("{} file(s) the config does not build ({}); remove them or build into a fresh directory", stray.len(), stray.iter().take(5).copied().collect::<Vec<_>>().join(", ")),
+        )),
+    }
 }
 
 /// Frames and class pixels of a sequence on disk (one rendered by an external tool).

@@ -95,6 +95,21 @@ fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume(
     assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
     let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
     assert_eq!(gt_manifest("a"), gt_manifest("b"), "the ground truth is rebuilt too");
+
+    // A sequence the config does not build (left from a build with more lightings) is not published.
+    std::fs::create_dir_all(b.join("sequences/camera/scene_000")).unwrap();
+    std::fs::write(b.join("sequences/camera/scene_000/traj.txt"), b"old").unwrap();
+    let config = dir.path().join("release.toml");
+    let err = build_release(&config, &b, &|_| {}).unwrap_err();
+    assert!(err.message.contains("sequences/camera/scene_000/traj.txt") && err.message.contains("fresh directory"), "{err}");
+
+    // A changed config rebuilds what it changes instead of reusing the old stages.
+    std::fs::remove_dir_all(b.join("sequences/camera")).unwrap();
+    std::fs::write(&config, TINY.replace("max_frames = 24", "max_frames = 12")).unwrap();
+    let shorter = build_release(&config, &b, &|_| {}).unwrap();
+    assert_ne!(shorter["digest"], first["digest"]);
+    let frames = std::fs::read_to_string(b.join("sequences/baseline/scene_000/traj.txt")).unwrap().lines().count();
+    assert!(frames <= 12, "{frames} poses after lowering max_frames to 12");
 }
 
 #[test]

@@ -74,15 +74,20 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64) -> Result<PredictedMap>
             let centroids: Vec<(i64, [f64; 3], usize)> = sums.iter().map(|(&l, (s, n))| (l, s.map(|v| v / *n as f64), *n)).collect();
             let mut by_size: Vec<&(i64, [f64; 3], usize)> = centroids.iter().collect();
             by_size.sort_by_key(|c| (c.2, c.0));
-            let merging: Vec<i64> = by_size.iter().take((centroids.len().saturating_sub(1) / 2).max(1).min(centroids.len().saturating_sub(1))).map(|c| c.0).collect();
+            let merging: Vec<i64> =
+                by_size.iter().take((centroids.len().saturating_sub(1) / 2).max(1).min(centroids.len().saturating_sub(1))).map(|c| c.0).collect();
             let merged: BTreeMap<i64, i64> = centroids
                 .iter()
                 .filter(|c| merging.contains(&c.0))
                 .filter_map(|c| {
-                    centroids.iter().filter(|o| o.0 != c.0).min_by(|a, b| {
-                        let d = |o: &[f64; 3]| (0..3).map(|k| (o[k] - c.1[k]).powi(2)).sum::<f64>();
-                        d(&a.1).total_cmp(&d(&b.1))
-                    }).map(|o| (c.0, o.0))
+                    centroids
+                        .iter()
+                        .filter(|o| o.0 != c.0)
+                        .min_by(|a, b| {
+                            let d = |o: &[f64; 3]| (0..3).map(|k| (o[k] - c.1[k]).powi(2)).sum::<f64>();
+                            d(&a.1).total_cmp(&d(&b.1))
+                        })
+                        .map(|o| (c.0, o.0))
                 })
                 .collect();
             for l in &mut labels {
@@ -98,7 +103,11 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64) -> Result<PredictedMap>
             let phase = rng.below(4);
             let next = |l: i64| vocabulary[(vocabulary.iter().position(|&v| v == l).unwrap_or(0) + 1) % vocabulary.len()];
             let noisy: Vec<i64> = objects.labels.iter().enumerate().map(|(i, &l)| if i % 4 == phase { next(l) } else { l }).collect();
-            return Ok(PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy } });
+            return Ok(PredictedMap {
+                source: gt.source.clone(),
+                points,
+                semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy },
+            });
         }
         "pose-drift" => {
             // A 1.5° yaw and 8 cm shift of the whole map: geometry near boundaries mislabels.
@@ -142,7 +151,8 @@ fn scene_graph(map: &PredictedMap, classes: &ClassList) -> Value {
 /// Write baseline `name` for the release in `release` as a submission directory.
 pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
     let manifest_path = release.join("manifest.json");
-    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path).map_err(|e| InputError::io(&manifest_path, &e))?).map_err(|e| InputError::new(&manifest_path, "(json)", e.to_string()))?;
+    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path).map_err(|e| InputError::io(&manifest_path, &e))?)
+        .map_err(|e| InputError::new(&manifest_path, "(json)", e.to_string()))?;
     let version = manifest["version"].as_str().ok_or_else(|| InputError::new(&manifest_path, "version", "missing"))?;
     let description = match name {
         "oracle" => "The ground truth itself: every ground-truth point labelled with its class (scores 1.0).",

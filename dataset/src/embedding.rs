@@ -28,8 +28,8 @@ impl Default for HashingEmbedder {
 
 /// Words that carry no content for telling scenes apart.
 const STOPWORDS: &[&str] = &[
-    "a", "an", "the", "with", "and", "of", "in", "on", "to", "is", "are", "there", "it", "its", "this", "has", "have", "holds", "contains",
-    "room", "one", "two", "each", "other", "at", "by", "for", "from",
+    "a", "an", "the", "with", "and", "of", "in", "on", "to", "is", "are", "there", "it", "its", "this", "has", "have", "holds", "contains", "room", "one",
+    "two", "each", "other", "at", "by", "for", "from",
 ];
 
 /// FNV-1a, 64-bit: stable across platforms and releases (unlike `std`'s hasher).
@@ -91,7 +91,10 @@ impl Embedder for ServiceEmbedder {
         for chunk in texts.chunks(self.batch.max(1)) {
             for v in self.client.embeddings(chunk)? {
                 if out.first().is_some_and(|first| first.len() != v.len()) {
-                    return Err(ServiceError::BadResponse { url: "embeddings".into(), what: format!("embeddings of {} and {} dimensions in one run", out[0].len(), v.len()) });
+                    return Err(ServiceError::BadResponse {
+                        url: "embeddings".into(),
+                        what: format!("embeddings of {} and {} dimensions in one run", out[0].len(), v.len()),
+                    });
                 }
                 out.push(normalize(v.iter().map(|&x| x as f64).collect()));
             }

@@ -4,12 +4,12 @@
 
 pub mod baselines;
 pub mod convert;
-pub mod external;
 pub mod embedding;
+pub mod external;
 pub mod openai;
 pub mod prompts;
-pub mod selection;
 pub mod release;
 pub mod render;
+pub mod selection;
 pub mod spec;
 pub mod synthesis;

@@ -205,7 +205,10 @@ impl SceneSpec {
             // Categories become file names, XML and YAML: keep them plain.
             let plain = o.category.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == ' ' || c == '-');
             if o.category.trim().is_empty() || o.category.len() > MAX_CATEGORY_LEN || !plain || o.category.contains("  ") || o.category != o.category.trim() {
-                problems.push(format!("objects[{i}].category '{}' must be 1..={MAX_CATEGORY_LEN} lower-case letters, digits, single spaces or hyphens", o.category));
+                problems.push(format!(
+                    "objects[{i}].category '{}' must be 1..={MAX_CATEGORY_LEN} lower-case letters, digits, single spaces or hyphens",
+                    o.category
+                ));
             }
             if o.count == 0 || o.count > MAX_COUNT {
                 problems.push(format!("objects[{i}] ({}) has count {}; expected 1..={MAX_COUNT}", o.category, o.count));

@@ -21,11 +21,7 @@ pub type Result<T> = std::result::Result<T, InputError>;
 impl InputError {
     /// A problem with `field` of `file`.
     pub fn new(file: impl AsRef<Path>, field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self {
-            file: file.as_ref().display().to_string(),
-            field: field.into(),
-            message: message.into(),
-        }
+        Self { file: file.as_ref().display().to_string(), field: field.into(), message: message.into() }
     }
 
     /// The file could not be opened, read or written at all.

@@ -98,11 +98,19 @@ impl GroundTruth {
         let classes = sequence.classes()?;
         let camera = &sequence.camera;
         if camera.crop_edge != 0 {
-            return Err(InputError::new(sequence.dir.join("camera_params.yaml"), "camera_params.crop_edge", format!("expected 0 (HaDaGe never crops), found {}", camera.crop_edge)));
+            return Err(InputError::new(
+                sequence.dir.join("camera_params.yaml"),
+                "camera_params.crop_edge",
+                format!("expected 0 (HaDaGe never crops), found {}", camera.crop_edge),
+            ));
         }
         let scale = camera.png_depth_scale as f32;
         if !scale.is_normal() {
-            return Err(InputError::new(sequence.dir.join("camera_params.yaml"), "camera_params.png_depth_scale", "must be a normal float32 number (Open3D divides by it in float32)"));
+            return Err(InputError::new(
+                sequence.dir.join("camera_params.yaml"),
+                "camera_params.png_depth_scale",
+                "must be a normal float32 number (Open3D divides by it in float32)",
+            ));
         }
         let frames: Vec<usize> = (0..sequence.len().saturating_sub(1)).step_by(FRAME_STRIDE).collect();
         if frames.is_empty() {

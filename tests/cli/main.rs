@@ -8,10 +8,10 @@ use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::image::{GrayImage16, RgbImage, write_jpeg_rgb, write_png_gray16};
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap, TextFeatures};
 use osmab_evaluator::formats::npy::ReadLimits;
-use osmab_evaluator::semseg::score_scene;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::semseg::score_scene;
 
 fn osmab(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_osmab")).args(args).output().expect("osmab runs")
@@ -86,8 +86,16 @@ fn eval_semseg_scores_a_map_and_writes_the_fixture_format() {
     synth(dir.path());
     let json = dir.path().join("out.json");
     let out = osmab(&[
-        "eval", "semseg", "--gt", path(&dir.path().join("gt")), "--map", path(&dir.path().join("map.npz")),
-        "--text-features", path(&dir.path().join("text_features.npz")), "--json", path(&json),
+        "eval",
+        "semseg",
+        "--gt",
+        path(&dir.path().join("gt")),
+        "--map",
+        path(&dir.path().join("map.npz")),
+        "--text-features",
+        path(&dir.path().join("text_features.npz")),
+        "--json",
+        path(&json),
     ]);
     let printed = stdout(&out);
     assert!(printed.contains("miou") && printed.contains("floor"), "{printed}");
@@ -119,10 +127,7 @@ fn eval_semseg_gives_one_for_the_ground_truth_itself() {
     let map = PredictedMap {
         source: dir.path().join("perfect.npz"),
         points: gt.points.clone(),
-        semantics: MapSemantics::ObjectLabels {
-            object_ids: gt.labels.iter().map(|l| ids.iter().position(|c| c == l).unwrap() as u32).collect(),
-            labels: ids,
-        },
+        semantics: MapSemantics::ObjectLabels { object_ids: gt.labels.iter().map(|l| ids.iter().position(|c| c == l).unwrap() as u32).collect(), labels: ids },
     };
     map.write(&dir.path().join("perfect.npz"), true).unwrap();
     let json = dir.path().join("perfect.json");
@@ -184,7 +189,11 @@ fn eval_semseg_reads_a_replica_style_semantic_mesh() {
 fn write_sequence(dir: &Path) {
     std::fs::create_dir_all(dir.join("results")).unwrap();
     CameraParams::from_hfov(8, 6, 90.0, 6553.5).write(&dir.join("camera_params.yaml")).unwrap();
-    std::fs::write(dir.join("embed_semseg_classes.json"), r#"{"classes": [{"name": "other", "id": 0}, {"name": "chair", "id": 3}, {"name": "table", "id": 5}]}"#).unwrap();
+    std::fs::write(
+        dir.join("embed_semseg_classes.json"),
+        r#"{"classes": [{"name": "other", "id": 0}, {"name": "chair", "id": 3}, {"name": "table", "id": 5}]}"#,
+    )
+    .unwrap();
     let poses = (0..11).map(|f| nalgebra::Matrix4::new_translation(&nalgebra::Vector3::new(0.1 * f as f64, 1.0, 0.0))).collect();
     Trajectory { poses }.write(&dir.join("traj.txt")).unwrap();
     for f in 0..11 {

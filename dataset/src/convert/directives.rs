@@ -33,7 +33,8 @@ pub enum Directive {
 pub fn read_directives(path: &Path) -> Result<Vec<Directive>> {
     let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
     let root: Value = serde_yaml_ng::from_str(&text).map_err(|e| InputError::new(path, "(yaml)", format!("not valid YAML: {e}")))?;
-    let list = root.get("directives").and_then(Value::as_sequence).ok_or_else(|| InputError::new(path, "directives", "expected a top-level 'directives' list"))?;
+    let list =
+        root.get("directives").and_then(Value::as_sequence).ok_or_else(|| InputError::new(path, "directives", "expected a top-level 'directives' list"))?;
     list.iter().enumerate().map(|(i, item)| parse_directive(item, path, &format!("directives[{i}]"))).collect()
 }
 
@@ -58,9 +59,10 @@ fn parse_directive(item: &Value, path: &Path, field: &str) -> Result<Directive> 
             let free_body = match body.get("default_free_body_pose") {
                 None => None,
                 Some(v) => {
-                    let m = v.as_mapping().filter(|m| m.len() == 1).ok_or_else(|| {
-                        InputError::new(path, format!("{field}.default_free_body_pose"), "expected one body name mapped to its pose")
-                    })?;
+                    let m = v
+                        .as_mapping()
+                        .filter(|m| m.len() == 1)
+                        .ok_or_else(|| InputError::new(path, format!("{field}.default_free_body_pose"), "expected one body name mapped to its pose"))?;
                     let (body_name, transform) = m.iter().next().expect("one entry");
                     let body_name = body_name.as_str().unwrap_or_default().to_string();
                     Some((body_name.clone(), parse_transform(transform, path, &format!("{field}.default_free_body_pose.{body_name}"))?))
@@ -73,7 +75,11 @@ fn parse_directive(item: &Value, path: &Path, field: &str) -> Result<Directive> 
                 Some(v) => {
                     let t = parse_transform(v, path, &format!("{field}.X_PC"))?;
                     if t.base_frame.is_some() {
-                        return Err(InputError::new(path, format!("{field}.X_PC.base_frame"), "a weld's X_PC has no base_frame (it is relative to the parent)"));
+                        return Err(InputError::new(
+                            path,
+                            format!("{field}.X_PC.base_frame"),
+                            "a weld's X_PC has no base_frame (it is relative to the parent)",
+                        ));
                     }
                     t.pose
                 }
@@ -143,7 +149,11 @@ fn parse_rotation(value: &Value, path: &Path, field: &str) -> Result<UnitQuatern
             Ok(rpy(deg[0].to_radians(), deg[1].to_radians(), deg[2].to_radians()))
         }
         _ => {
-            let angle = body.get("angle_deg").and_then(Value::as_f64).filter(|a| a.is_finite()).ok_or_else(|| InputError::new(path, format!("{field}.angle_deg"), "expected a finite number"))?;
+            let angle = body
+                .get("angle_deg")
+                .and_then(Value::as_f64)
+                .filter(|a| a.is_finite())
+                .ok_or_else(|| InputError::new(path, format!("{field}.angle_deg"), "expected a finite number"))?;
             let axis = numbers(body.get("axis").unwrap_or(&Value::Null), path, &format!("{field}.axis"), 3)?;
             let axis = Vector3::new(axis[0], axis[1], axis[2]);
             if axis.norm() < 1e-9 {

@@ -94,12 +94,18 @@ pub fn read_gltf(path: &Path) -> Result<GltfAsset> {
     let mut meshes = Vec::new();
     let mut generated_normals = false;
     let scene = source.json["scene"].as_u64().unwrap_or(0) as usize;
-    let roots: Vec<usize> = source.json["scenes"][scene]["nodes"].as_array().map(|a| a.iter().filter_map(|n| n.as_u64().map(|n| n as usize)).collect()).unwrap_or_else(|| {
-        // No scene: every node that is nobody's child.
-        let nodes = source.json["nodes"].as_array().map_or(0, Vec::len);
-        let children: std::collections::HashSet<u64> = source.json["nodes"].as_array().into_iter().flatten().flat_map(|n| n["children"].as_array().into_iter().flatten().filter_map(Value::as_u64)).collect();
-        (0..nodes).filter(|i| !children.contains(&(*i as u64))).collect()
-    });
+    let roots: Vec<usize> =
+        source.json["scenes"][scene]["nodes"].as_array().map(|a| a.iter().filter_map(|n| n.as_u64().map(|n| n as usize)).collect()).unwrap_or_else(|| {
+            // No scene: every node that is nobody's child.
+            let nodes = source.json["nodes"].as_array().map_or(0, Vec::len);
+            let children: std::collections::HashSet<u64> = source.json["nodes"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .flat_map(|n| n["children"].as_array().into_iter().flatten().filter_map(Value::as_u64))
+                .collect();
+            (0..nodes).filter(|i| !children.contains(&(*i as u64))).collect()
+        });
     let mut stack: Vec<(usize, Matrix4<f64>, usize)> = roots.into_iter().map(|n| (n, Matrix4::identity(), 0)).collect();
     let node_count = source.json["nodes"].as_array().map_or(0, Vec::len);
     let mut visited = vec![false; node_count];
@@ -221,7 +227,13 @@ fn accessor(source: &Source, index: usize, width: usize, path: &Path, field: &st
     };
     let (view_offset, view_length) = (view["byteOffset"].as_u64().unwrap_or(0), view["byteLength"].as_u64().unwrap_or(0));
     let start = view_offset.checked_add(a["byteOffset"].as_u64().unwrap_or(0));
-    let end = start.and_then(|s| if count == 0 { Some(s) } else { (stride as u64).checked_mul(count as u64 - 1).and_then(|x| x.checked_add(s)).and_then(|x| x.checked_add(element as u64)) });
+    let end = start.and_then(|s| {
+        if count == 0 {
+            Some(s)
+        } else {
+            (stride as u64).checked_mul(count as u64 - 1).and_then(|x| x.checked_add(s)).and_then(|x| x.checked_add(element as u64))
+        }
+    });
     let view_end = view_offset.checked_add(view_length);
     let (Some(start), Some(end), Some(view_end)) = (start, end, view_end) else {
         return Err(bad("offsets overflow".into()));
@@ -251,10 +263,13 @@ fn read_primitive(source: &Source, primitive: &Value, world: &Matrix4<f64>, path
     let raw = accessor(source, position, 3, path, &format!("{field}.POSITION"))?;
     let n = raw.len() / 3;
     let normal_matrix: Matrix3<f64> = world.fixed_view::<3, 3>(0, 0).try_inverse().map(|m| m.transpose()).unwrap_or_else(Matrix3::identity);
-    let positions: Vec<[f32; 3]> = raw.chunks_exact(3).map(|p| {
-        let v = world.transform_point(&nalgebra::Point3::new(p[0], p[1], p[2]));
-        [v.x as f32, v.y as f32, v.z as f32]
-    }).collect();
+    let positions: Vec<[f32; 3]> = raw
+        .chunks_exact(3)
+        .map(|p| {
+            let v = world.transform_point(&nalgebra::Point3::new(p[0], p[1], p[2]));
+            [v.x as f32, v.y as f32, v.z as f32]
+        })
+        .collect();
     let indices: Vec<u32> = match primitive["indices"].as_u64() {
         Some(i) => accessor(source, i as usize, 1, path, &format!("{field}.indices"))?.into_iter().map(|v| v as u32).collect(),
         None => (0..n as u32).collect(),
@@ -280,7 +295,8 @@ fn read_primitive(source: &Source, primitive: &Value, world: &Matrix4<f64>, path
     }
     let uvs = match primitive["attributes"]["TEXCOORD_0"].as_u64() {
         Some(i) => {
-            let uv: Vec<[f32; 2]> = accessor(source, i as usize, 2, path, &format!("{field}.TEXCOORD_0"))?.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]).collect();
+            let uv: Vec<[f32; 2]> =
+                accessor(source, i as usize, 2, path, &format!("{field}.TEXCOORD_0"))?.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]).collect();
             (uv.len() == n).then_some(uv)
         }
         None => None,
@@ -301,7 +317,16 @@ pub fn vertex_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> 
             sums[i as usize] += n;
         }
     }
-    sums.iter().map(|s| if s.norm() > 0.0 { let n = s.normalize(); [n.x as f32, n.y as f32, n.z as f32] } else { [0.0, 1.0, 0.0] }).collect()
+    sums.iter()
+        .map(|s| {
+            if s.norm() > 0.0 {
+                let n = s.normalize();
+                [n.x as f32, n.y as f32, n.z as f32]
+            } else {
+                [0.0, 1.0, 0.0]
+            }
+        })
+        .collect()
 }
 
 fn read_materials(source: &Source, dir: &Path, path: &Path) -> Vec<Material> {
@@ -311,7 +336,8 @@ fn read_materials(source: &Source, dir: &Path, path: &Path) -> Vec<Material> {
         .enumerate()
         .map(|(i, m)| {
             let pbr = &m["pbrMetallicRoughness"];
-            let factor: Vec<f32> = pbr["baseColorFactor"].as_array().map(|a| a.iter().filter_map(Value::as_f64).map(|v| v as f32).collect()).unwrap_or_default();
+            let factor: Vec<f32> =
+                pbr["baseColorFactor"].as_array().map(|a| a.iter().filter_map(Value::as_f64).map(|v| v as f32).collect()).unwrap_or_default();
             let base_color = if factor.len() == 4 && factor.iter().all(|v| v.is_finite()) { [factor[0], factor[1], factor[2], factor[3]] } else { [1.0; 4] };
             let (texture, texture_problem) = match pbr["baseColorTexture"]["index"].as_u64() {
                 None => (None, None),
@@ -326,11 +352,13 @@ fn read_materials(source: &Source, dir: &Path, path: &Path) -> Vec<Material> {
 }
 
 fn load_texture(source: &Source, texture: usize, dir: &Path, path: &Path, field: &str) -> Result<Texture> {
-    let image_index = source.json["textures"][texture]["source"].as_u64().ok_or_else(|| InputError::new(path, field, format!("texture {texture} has no image")))? as usize;
+    let image_index =
+        source.json["textures"][texture]["source"].as_u64().ok_or_else(|| InputError::new(path, field, format!("texture {texture} has no image")))? as usize;
     let image = &source.json["images"][image_index];
     let bytes = if let Some(view) = image["bufferView"].as_u64() {
         let v = &source.json["bufferViews"][view as usize];
-        let buffer = source.buffers.get(v["buffer"].as_u64().unwrap_or(u64::MAX) as usize).ok_or_else(|| InputError::new(path, field, "image buffer missing"))?;
+        let buffer =
+            source.buffers.get(v["buffer"].as_u64().unwrap_or(u64::MAX) as usize).ok_or_else(|| InputError::new(path, field, "image buffer missing"))?;
         let start = v["byteOffset"].as_u64().unwrap_or(0) as usize;
         let end = start.saturating_add(v["byteLength"].as_u64().unwrap_or(0) as usize);
         buffer.get(start..end).ok_or_else(|| InputError::new(path, field, "image bytes past the end of the buffer"))?.to_vec()

@@ -119,7 +119,9 @@ impl Writer<'_> {
     fn classify(&mut self, model: &PlacedModel, visual_name: &str) -> (String, String, String) {
         let (name, description) = match &model.info {
             Some(info) => (info.name.clone(), info.description.clone()),
-            None if model.model.name == "room_geometry" || model.name.starts_with("room_geometry") => (visual_name.trim_end_matches("_visual").to_string(), String::new()),
+            None if model.model.name == "room_geometry" || model.name.starts_with("room_geometry") => {
+                (visual_name.trim_end_matches("_visual").to_string(), String::new())
+            }
             None => {
                 self.report.models_without_metadata.push(model.name.clone());
                 // `<room>_<object>_<n>`: drop the room prefix.
@@ -146,7 +148,8 @@ impl Writer<'_> {
         let q_c = UnitQuaternion::from_rotation_matrix(&c);
         let room_geometry = model.model.name == "room_geometry";
         // Room geometry: one instance per visual (floor, each wall); else one per model.
-        let groups: Vec<Vec<usize>> = if room_geometry { (0..model.visuals().count()).map(|i| vec![i]).collect() } else { vec![(0..model.visuals().count()).collect()] };
+        let groups: Vec<Vec<usize>> =
+            if room_geometry { (0..model.visuals().count()).map(|i| vec![i]).collect() } else { vec![(0..model.visuals().count()).collect()] };
         let visuals: Vec<_> = model.visuals().collect();
         if visuals.is_empty() {
             self.report.models_without_visuals.push(model.name.clone());
@@ -169,7 +172,8 @@ impl Writer<'_> {
                         match ext.as_str() {
                             "gltf" | "glb" => {
                                 let asset = read_gltf(path)?;
-                                let broken: Vec<usize> = asset.materials.iter().enumerate().filter(|(_, m)| m.texture_problem.is_some()).map(|(i, _)| i).collect();
+                                let broken: Vec<usize> =
+                                    asset.materials.iter().enumerate().filter(|(_, m)| m.texture_problem.is_some()).map(|(i, _)| i).collect();
                                 copy_mesh(path, &self.out.join(&target), &ext, &broken)?;
                                 if asset.generated_normals {
                                     self.report.generated_normals.push(relative.clone());
@@ -253,7 +257,16 @@ impl Writer<'_> {
                     "translation_origin": "asset_local",
                 }));
             }
-            self.report.objects.push(ConvertedObject { instance_id, class_id: class_id(&class).unwrap_or(0), class, model: model.name.clone(), name, description, bbox_min: lo, bbox_max: hi });
+            self.report.objects.push(ConvertedObject {
+                instance_id,
+                class_id: class_id(&class).unwrap_or(0),
+                class,
+                model: model.name.clone(),
+                name,
+                description,
+                bbox_min: lo,
+                bbox_max: hi,
+            });
         }
         Ok(())
     }
@@ -276,9 +289,12 @@ fn copy_mesh(from: &Path, to: &Path, ext: &str, broken_textures: &[usize]) -> Re
     let out_dir = to.parent().expect("a file has a folder");
     let mut referenced: Vec<String> = Vec::new();
     if ext == "gltf" {
-        let mut json: Value = serde_json::from_slice(&std::fs::read(from).map_err(|e| InputError::io(from, &e))?).map_err(|e| InputError::new(from, "(json)", e.to_string()))?;
+        let mut json: Value =
+            serde_json::from_slice(&std::fs::read(from).map_err(|e| InputError::io(from, &e))?).map_err(|e| InputError::new(from, "(json)", e.to_string()))?;
         for key in ["buffers", "images"] {
-            referenced.extend(json[key].as_array().into_iter().flatten().filter_map(|b| b["uri"].as_str()).filter(|u| !u.starts_with("data:")).map(|u| u.replace("%20", " ")));
+            referenced.extend(
+                json[key].as_array().into_iter().flatten().filter_map(|b| b["uri"].as_str()).filter(|u| !u.starts_with("data:")).map(|u| u.replace("%20", " ")),
+            );
         }
         for &m in broken_textures {
             if let Some(pbr) = json["materials"][m]["pbrMetallicRoughness"].as_object_mut() {
@@ -298,7 +314,12 @@ fn copy_mesh(from: &Path, to: &Path, ext: &str, broken_textures: &[usize]) -> Re
             if let Some(m) = line.strip_prefix("mtllib ") {
                 let mtl = m.trim().to_string();
                 if let Ok(mtl_text) = std::fs::read_to_string(dir.join(&mtl)) {
-                    referenced.extend(mtl_text.lines().filter_map(|l| l.trim().strip_prefix("map_Kd ").or_else(|| l.trim().strip_prefix("map_Ka "))).map(|t| t.trim().to_string()));
+                    referenced.extend(
+                        mtl_text
+                            .lines()
+                            .filter_map(|l| l.trim().strip_prefix("map_Kd ").or_else(|| l.trim().strip_prefix("map_Ka ")))
+                            .map(|t| t.trim().to_string()),
+                    );
                 }
                 referenced.push(mtl);
             }
@@ -416,7 +437,10 @@ fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'stat
     };
     BTreeMap::from([
         ("baseline", ceiling(json!([[null, null]]))),
-        ("camera", json!({"lights": {"0": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 5.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}})),
+        (
+            "camera",
+            json!({"lights": {"0": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 5.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}}),
+        ),
         ("dynamic_lights", ceiling(json!([[null, 1]]))),
         ("no_lights", json!({"lights": {}})),
     ])
@@ -433,7 +457,16 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
             std::fs::remove_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
         }
     }
-    let mut w = Writer { out, options, scene, report: ConversionReport { scene: scene.name.clone(), ..Default::default() }, templates: Vec::new(), instances: Vec::new(), obstacles: Vec::new(), floor: None };
+    let mut w = Writer {
+        out,
+        options,
+        scene,
+        report: ConversionReport { scene: scene.name.clone(), ..Default::default() },
+        templates: Vec::new(),
+        instances: Vec::new(),
+        obstacles: Vec::new(),
+        floor: None,
+    };
     for model in &scene.models {
         w.add_model(model)?;
     }
@@ -441,12 +474,15 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
     for (handle, template) in &w.templates {
         write_json(&out.join("objects").join(format!("{handle}.object_config.json")), template)?;
     }
-    let floor = w.floor.or_else(|| {
-        // No floor visual: the footprint of everything, at height 0.
-        let lo = w.report.objects.iter().fold([f64::INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].min(o.bbox_min[a])));
-        let hi = w.report.objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
-        lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
-    }).ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
+    let floor = w
+        .floor
+        .or_else(|| {
+            // No floor visual: the footprint of everything, at height 0.
+            let lo = w.report.objects.iter().fold([f64::INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].min(o.bbox_min[a])));
+            let hi = w.report.objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
+            lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
+        })
+        .ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
     // No stage: the floor, walls and furniture are all collidable static objects with
     // their own poses and semantic ids (navmeshes include static objects), so nothing
     // needs the reference adapter's duplicate floor.

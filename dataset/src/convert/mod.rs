@@ -2,9 +2,9 @@
 
 pub mod directives;
 pub mod gltf;
+pub mod habitat;
+pub mod lexicon;
+pub mod primitives;
+pub mod scene;
 pub mod sdf;
 pub mod transform;
-pub mod lexicon;
-pub mod scene;
-pub mod primitives;
-pub mod habitat;

@@ -13,7 +13,8 @@ pub struct PrimitiveMesh {
 /// A box of `size` centred on the origin.
 pub fn box_mesh(size: [f64; 3]) -> PrimitiveMesh {
     let h = size.map(|s| s / 2.0);
-    let positions: Vec<[f64; 3]> = (0..8).map(|i| [if i & 1 == 0 { -h[0] } else { h[0] }, if i & 2 == 0 { -h[1] } else { h[1] }, if i & 4 == 0 { -h[2] } else { h[2] }]).collect();
+    let positions: Vec<[f64; 3]> =
+        (0..8).map(|i| [if i & 1 == 0 { -h[0] } else { h[0] }, if i & 2 == 0 { -h[1] } else { h[1] }, if i & 4 == 0 { -h[2] } else { h[2] }]).collect();
     // Counter-clockwise seen from outside.
     let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let triangles = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
@@ -73,7 +74,9 @@ impl PrimitiveMesh {
 
     /// Axis-aligned bounds.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        self.positions.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))))
+        self.positions.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
+            (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a])))
+        })
     }
 }
 

@@ -66,15 +66,21 @@ fn package_name(root: &Path) -> Result<String> {
     let path = root.join("package.xml");
     let Ok(text) = std::fs::read_to_string(&path) else { return Ok("scene".into()) };
     let doc = roxmltree::Document::parse(&text).map_err(|e| InputError::new(&path, "(xml)", format!("not well-formed XML: {e}")))?;
-    doc.descendants().find(|n| n.has_tag_name("name")).and_then(|n| n.text()).map(|t| t.trim().to_string()).ok_or_else(|| InputError::new(&path, "package.name", "missing <name>"))
+    doc.descendants()
+        .find(|n| n.has_tag_name("name"))
+        .and_then(|n| n.text())
+        .map(|t| t.trim().to_string())
+        .ok_or_else(|| InputError::new(&path, "package.name", "missing <name>"))
 }
 
 /// Load the scene in `root`.
 pub fn load_scene(root: &Path) -> Result<DrakeScene> {
     let root = normalize(&std::path::absolute(root).map_err(|e| InputError::io(root, &e))?);
-    let dmd = DIRECTIVE_FILES.iter().map(|f| root.join(f)).find(|p| p.exists()).ok_or_else(|| {
-        InputError::new(&root, "combined_house/house.dmd.yaml", "no model directives found (looked for combined_house*/house.dmd.yaml)")
-    })?;
+    let dmd = DIRECTIVE_FILES
+        .iter()
+        .map(|f| root.join(f))
+        .find(|p| p.exists())
+        .ok_or_else(|| InputError::new(&root, "combined_house/house.dmd.yaml", "no model directives found (looked for combined_house*/house.dmd.yaml)"))?;
     let directives = read_directives(&dmd)?;
     let packages = HashMap::from([(package_name(&root)?, root.clone())]);
     let resolver = UriResolver { root: &root, packages: &packages };
@@ -93,7 +99,11 @@ pub fn load_scene(root: &Path) -> Result<DrakeScene> {
             Directive::AddModel { name, file, free_body } => {
                 let sdf = resolver.resolve(file, &dmd_dir).map_err(|m| InputError::new(&dmd, format!("directives[{i}].add_model.file"), m))?;
                 if !sdf.exists() {
-                    return Err(InputError::new(&dmd, format!("directives[{i}].add_model.file"), format!("'{file}' resolves to {}, which does not exist", sdf.display())));
+                    return Err(InputError::new(
+                        &dmd,
+                        format!("directives[{i}].add_model.file"),
+                        format!("'{file}' resolves to {}, which does not exist", sdf.display()),
+                    ));
                 }
                 if models.iter().any(|(n, _, _)| n == name) {
                     return Err(InputError::new(&dmd, format!("directives[{i}].add_model.name"), format!("model '{name}' is added twice")));
@@ -101,14 +111,20 @@ pub fn load_scene(root: &Path) -> Result<DrakeScene> {
                 let model = read_sdf(&sdf, &resolver)?;
                 if let Some((body, pose)) = free_body {
                     if model.link(body).is_none() {
-                        return Err(InputError::new(&dmd, format!("directives[{i}].add_model.default_free_body_pose"), format!("model '{name}' has no link '{body}'")));
+                        return Err(InputError::new(
+                            &dmd,
+                            format!("directives[{i}].add_model.default_free_body_pose"),
+                            format!("model '{name}' has no link '{body}'"),
+                        ));
                     }
                     attachments.insert(name.clone(), (body.clone(), pose.pose, pose.base_frame.clone().unwrap_or_else(|| "world".into())));
                 }
                 models.push((name.clone(), sdf, model));
             }
             Directive::AddWeld { parent, child, pose } => {
-                let (model, link) = child.split_once("::").ok_or_else(|| InputError::new(&dmd, format!("directives[{i}].add_weld.child"), format!("'{child}' is not a model::link frame")))?;
+                let (model, link) = child
+                    .split_once("::")
+                    .ok_or_else(|| InputError::new(&dmd, format!("directives[{i}].add_weld.child"), format!("'{child}' is not a model::link frame")))?;
                 if attachments.insert(model.to_string(), (link.to_string(), *pose, parent.clone())).is_some() {
                     return Err(InputError::new(&dmd, format!("directives[{i}].add_weld"), format!("model '{model}' is attached twice")));
                 }
@@ -162,7 +178,13 @@ fn read_house_state(path: &Path) -> Result<HouseState> {
             let text = |k: &str| o[k].as_str().unwrap_or_default().to_string();
             // A category given by the synthesizer (osmab's) names the class better than prose.
             let name = o["metadata"]["category"].as_str().map(str::to_string).unwrap_or_else(|| text("name"));
-            objects.push(ObjectInfo { room: room.clone(), object_id: object_id.clone(), name, description: text("description"), object_type: text("object_type") });
+            objects.push(ObjectInfo {
+                room: room.clone(),
+                object_id: object_id.clone(),
+                name,
+                description: text("description"),
+                object_type: text("object_type"),
+            });
         }
     }
     let prompt = json["layout"]["house_prompt"].as_str().map(str::to_string);
@@ -198,7 +220,8 @@ impl FrameResolver<'_> {
             if link == "__model__" {
                 model_pose
             } else {
-                let l = m.link(link).ok_or_else(|| InputError::new(self.dmd, "directives", format!("frame '{frame}': model '{model}' has no link '{link}'")))?;
+                let l =
+                    m.link(link).ok_or_else(|| InputError::new(self.dmd, "directives", format!("frame '{frame}': model '{model}' has no link '{link}'")))?;
                 model_pose * l.pose_in_model
             }
         } else {

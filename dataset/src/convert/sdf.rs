@@ -198,10 +198,14 @@ pub fn read_sdf(path: &Path, resolver: &UriResolver) -> Result<Model> {
                 .children()
                 .find(|c| c.has_tag_name("material"))
                 .and_then(|m| child_text(m, "diffuse"))
-                .map(|t| numbers(t, 4, path, &format!("{vfield}.material.diffuse")).or_else(|_| numbers(t, 3, path, &format!("{vfield}.material.diffuse")).map(|mut v| {
-                    v.push(1.0);
-                    v
-                })))
+                .map(|t| {
+                    numbers(t, 4, path, &format!("{vfield}.material.diffuse")).or_else(|_| {
+                        numbers(t, 3, path, &format!("{vfield}.material.diffuse")).map(|mut v| {
+                            v.push(1.0);
+                            v
+                        })
+                    })
+                })
                 .transpose()?
                 .map(|v| [v[0], v[1], v[2], v[3]]);
             visuals.push(Visual { name: visual_name, pose: visual_pose, geometry, diffuse });
@@ -214,7 +218,14 @@ pub fn read_sdf(path: &Path, resolver: &UriResolver) -> Result<Model> {
     // Resolve `relative_to` chains between links (cycles are errors).
     let index: HashMap<String, usize> = raw_links.iter().enumerate().map(|(i, l)| (l.0.clone(), i)).collect();
     let mut resolved: Vec<Option<Pose>> = vec![None; raw_links.len()];
-    fn resolve(i: usize, raw: &[(String, Pose, Option<String>, Vec<Visual>)], index: &HashMap<String, usize>, resolved: &mut [Option<Pose>], visiting: &mut Vec<usize>, path: &Path) -> Result<Pose> {
+    fn resolve(
+        i: usize,
+        raw: &[(String, Pose, Option<String>, Vec<Visual>)],
+        index: &HashMap<String, usize>,
+        resolved: &mut [Option<Pose>],
+        visiting: &mut Vec<usize>,
+        path: &Path,
+    ) -> Result<Pose> {
         if let Some(p) = resolved[i] {
             return Ok(p);
         }
@@ -227,7 +238,9 @@ pub fn read_sdf(path: &Path, resolver: &UriResolver) -> Result<Model> {
             None => raw[i].1,
             Some(frame) if frame == "__model__" => raw[i].1,
             Some(frame) => {
-                let j = *index.get(frame).ok_or_else(|| InputError::new(path, format!("link[{}].pose", raw[i].0), format!("relative_to '{frame}' is not a link of the model")))?;
+                let j = *index
+                    .get(frame)
+                    .ok_or_else(|| InputError::new(path, format!("link[{}].pose", raw[i].0), format!("relative_to '{frame}' is not a link of the model")))?;
                 resolve(j, raw, index, resolved, visiting, path)? * raw[i].1
             }
         };

@@ -8,7 +8,9 @@ pub type Pose = Isometry3<f64>;
 
 /// Drake's roll-pitch-yaw (radians): R = Rz(yaw) · Ry(pitch) · Rx(roll).
 pub fn rpy(roll: f64, pitch: f64, yaw: f64) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw) * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), pitch) * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), roll)
+    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw)
+        * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), pitch)
+        * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), roll)
 }
 
 /// A pose from a translation and a rotation.

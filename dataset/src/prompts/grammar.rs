@@ -303,7 +303,12 @@ pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec, u64, V
             let host_is_surface = plan.anchor == host || !matches!(host.as_str(), "dining chair" | "chair" | "office chair" | "armchair");
             let host = if host_is_surface { host } else { plan.anchor.to_string() };
             let host_count = furniture.iter().find(|o| o.category == host).map_or(1, |o| o.count);
-            sentences.push(format!("{} {} {}.", capitalise(&counted(n, group)), if n == 1 { "rests" } else { "rest" }, relation_phrase(On, &[host.clone()], |_| host_count)));
+            sentences.push(format!(
+                "{} {} {}.",
+                capitalise(&counted(n, group)),
+                if n == 1 { "rests" } else { "rest" },
+                relation_phrase(On, &[host.clone()], |_| host_count)
+            ));
             objects.push(ObjectSpec { category: group.into(), count: n, kind: ObjectKind::Manipuland });
             relations.push(Relation { subject: group.into(), kind: On, targets: vec![host] });
         }

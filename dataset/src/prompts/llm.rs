@@ -11,8 +11,24 @@ use crate::spec::{Regime, SceneSpec};
 
 /// Rooms suggested to the model, one per batch, as OSMa-Bench++ does.
 const ROOM_HINTS: &[&str] = &[
-    "kitchen", "bedroom", "living room", "office", "dining room", "storage room", "hallway", "laundry room", "home office", "workshop",
-    "garage", "utility room", "entryway", "kids room", "guest room", "meeting room", "reception area", "study",
+    "kitchen",
+    "bedroom",
+    "living room",
+    "office",
+    "dining room",
+    "storage room",
+    "hallway",
+    "laundry room",
+    "home office",
+    "workshop",
+    "garage",
+    "utility room",
+    "entryway",
+    "kids room",
+    "guest room",
+    "meeting room",
+    "reception area",
+    "study",
 ];
 
 fn system_prompt(regime: Regime) -> String {
@@ -42,9 +58,7 @@ fn system_prompt(regime: Regime) -> String {
 }
 
 fn user_prompt(batch: usize, room: &str) -> String {
-    format!(
-        "Write {batch} different scene prompts. Soft room hint: {room}.\nReturn JSON: {{\"prompts\": [{{\"prompt\": \"...\", \"spec\": {{...}}}}]}}"
-    )
+    format!("Write {batch} different scene prompts. Soft room hint: {room}.\nReturn JSON: {{\"prompts\": [{{\"prompt\": \"...\", \"spec\": {{...}}}}]}}")
 }
 
 #[derive(Deserialize)]

@@ -88,7 +88,11 @@ impl PromptJudge {
     /// Accept `prompt`, or say why not.
     pub fn judge(&mut self, prompt: ScenePrompt) -> Result<ScenePrompt, RejectedPrompt> {
         let mut reasons = rejections(&prompt.text, &self.rules);
-        let details = if prompt.spec.regime == self.regime { spec_mismatches(&prompt.text, &prompt.spec) } else { vec![format!("spec regime is {}", prompt.spec.regime.name())] };
+        let details = if prompt.spec.regime == self.regime {
+            spec_mismatches(&prompt.text, &prompt.spec)
+        } else {
+            vec![format!("spec regime is {}", prompt.spec.regime.name())]
+        };
         if !details.is_empty() {
             reasons.push(Rejection::SpecMismatch);
         }

@@ -112,7 +112,13 @@ impl ReleaseConfig {
         if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
             return bad("version", "expected letters, digits, '.', '_' or '-'");
         }
-        let sensor = crate::render::sequence::SensorSettings { width: config.render.width, height: config.render.height, hfov: config.render.hfov, sensor_height: config.render.sensor_height, ..Default::default() };
+        let sensor = crate::render::sequence::SensorSettings {
+            width: config.render.width,
+            height: config.render.height,
+            hfov: config.render.hfov,
+            sensor_height: config.render.sensor_height,
+            ..Default::default()
+        };
         if let Some((field, expectation)) = sensor.problem() {
             return bad(&format!("render.{field}"), expectation);
         }
@@ -123,7 +129,10 @@ impl ReleaseConfig {
             return bad("render.lightings", &format!("unknown lighting '{l}' (expected some of {})", crate::render::LIGHTINGS.join(", ")));
         }
         // The config text is published in the manifest: secrets come from the environment.
-        for (field, service, variable) in [("prompts.llm.api_key", &mut config.prompts.llm, LLM_KEY_VARIABLE), ("selection.embeddings.api_key", &mut config.selection.embeddings, EMBEDDINGS_KEY_VARIABLE)] {
+        for (field, service, variable) in [
+            ("prompts.llm.api_key", &mut config.prompts.llm, LLM_KEY_VARIABLE),
+            ("selection.embeddings.api_key", &mut config.selection.embeddings, EMBEDDINGS_KEY_VARIABLE),
+        ] {
             if let Some(service) = service {
                 if service.api_key.is_some() {
                     return bad(field, &format!("no secrets in a release config (its text is published in the manifest); set {variable} instead"));

@@ -16,7 +16,8 @@ pub fn write_contact_sheet(sequence_dir: &Path, frames: usize, out: &Path) -> Re
     if frames == 0 {
         return Ok(());
     }
-    let picks: Vec<usize> = (0..GRID * GRID).map(|k| k * frames / (GRID * GRID)).filter(|&i| i < frames).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let picks: Vec<usize> =
+        (0..GRID * GRID).map(|k| k * frames / (GRID * GRID)).filter(|&i| i < frames).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
     let first = read_jpeg_rgb(&frame_path(sequence_dir, "frame", picks[0]), None)?;
     let scale = first.width as f64 / THUMB_WIDTH as f64;
     let thumb_h = ((first.height as f64 / scale).round() as usize).max(1);

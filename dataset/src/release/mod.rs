@@ -143,7 +143,10 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     staged(&work.join("selection/.done"), &inputs, &selected_path, || {
         progress("selection: removing near-duplicates, choosing diverse scenes");
         let embedder: Box<dyn Embedder> = match &config.selection.embeddings {
-            Some(e) => Box::new(ServiceEmbedder { client: ServiceClient::new(e.clone()).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?, batch: 64 }),
+            Some(e) => Box::new(ServiceEmbedder {
+                client: ServiceClient::new(e.clone()).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?,
+                batch: 64,
+            }),
             None => Box::new(HashingEmbedder::default()),
         };
         let mut chosen: Vec<ScenePrompt> = Vec::new();
@@ -154,7 +157,11 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             let embeddings = embedder.embed(&texts).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?;
             let report = select(&keys, &embeddings, target, config.selection.threshold);
             if report.shortfall > 0 {
-                return Err(InputError::new(config_path, "selection", format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), pool.regime.name())));
+                return Err(InputError::new(
+                    config_path,
+                    "selection",
+                    format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), pool.regime.name()),
+                ));
             }
             for s in &report.selected {
                 let index: usize = s.id.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
@@ -180,7 +187,12 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             let unmet = if config.synthesis.command.is_empty() {
                 crate::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &scenesmith, config.synthesis.ceiling)?
             } else {
-                crate::synthesis::external::run_external(&config.synthesis.command, &prompt.text, &scenesmith, std::time::Duration::from_secs(config.synthesis.timeout_secs))?;
+                crate::synthesis::external::run_external(
+                    &config.synthesis.command,
+                    &prompt.text,
+                    &scenesmith,
+                    std::time::Duration::from_secs(config.synthesis.timeout_secs),
+                )?;
                 Vec::new()
             };
             write_json(&unmet_path, &unmet)
@@ -192,7 +204,13 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             loaded.name = scene.clone();
             write_habitat_scene(&loaded, &habitat, &ConvertOptions::default()).map(|_| ())
         })?;
-        let sensor = SensorSettings { width: config.render.width, height: config.render.height, hfov: config.render.hfov, sensor_height: config.render.sensor_height, ..Default::default() };
+        let sensor = SensorSettings {
+            width: config.render.width,
+            height: config.render.height,
+            hfov: config.render.hfov,
+            sensor_height: config.render.sensor_height,
+            ..Default::default()
+        };
         let goals = if prompt.spec.regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
         let motion = MotionSettings { goals, seed: config.seed.wrapping_add(i as u64), max_frames: config.render.max_frames, ..Default::default() };
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
@@ -237,7 +255,10 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             gt.write(&gt_dir)?;
             sequence.classes()?.write(&gt_dir.join("embed_semseg_classes.json"))
         })?;
-        write_json(&out.join("scenes").join(&scene).join("prompt.json"), &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}))?;
+        write_json(
+            &out.join("scenes").join(&scene).join("prompt.json"),
+            &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}),
+        )?;
         scenes_json.push(json!({"id": scene, "subset": prompt.spec.regime, "prompt": prompt.text}));
 
         // Quality: what the prompt asked for, what the scene has, what the camera saw.
@@ -271,11 +292,21 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             .collect();
         let unmet_relations: Vec<String> = read_json(&unmet_path)?;
         full_match &= unmet_relations.is_empty();
-        quality.push(SceneQuality { scene: scene.clone(), subset: prompt.spec.regime, prompt_id: prompt.id.clone(), objects, unmet_relations, class_pixels: baseline.class_pixels, gt_points, full_match });
+        quality.push(SceneQuality {
+            scene: scene.clone(),
+            subset: prompt.spec.regime,
+            prompt_id: prompt.id.clone(),
+            objects,
+            unmet_relations,
+            class_pixels: baseline.class_pixels,
+            gt_points,
+            full_match,
+        });
     }
 
     // The public tree: classes, quality report, manifest.
-    let classes_json: Value = read_json(&work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
+    let classes_json: Value =
+        read_json(&work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
     write_json(&out.join("classes.json"), &classes_json)?;
     let full = quality.iter().filter(|q| q.full_match).count();
     write_json(&out.join("quality/quality_report.json"), &json!({"scenes": quality.len(), "full_match": full, "per_scene": quality}))?;
@@ -303,7 +334,13 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         "files": files,
     });
     write_json(&out.join("manifest.json"), &manifest)?;
-    progress(&format!("release {}: {} scenes, {full} full matches, {} files, digest {}", config.version, quality.len(), files.len(), manifest["digest"].as_str().unwrap_or("")));
+    progress(&format!(
+        "release {}: {} scenes, {full} full matches, {} files, digest {}",
+        config.version,
+        quality.len(),
+        files.len(),
+        manifest["digest"].as_str().unwrap_or("")
+    ));
     Ok(manifest)
 }
 
@@ -312,13 +349,18 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
 /// stops the build rather than being published. `expected` holds file paths and
 /// directory prefixes ending in '/'.
 fn refuse_leftovers(root: &Path, files: &[manifest::FileEntry], expected: &[String]) -> Result<()> {
-    let stray: Vec<&str> = files.iter().map(|f| f.path.as_str()).filter(|p| !expected.iter().any(|e| if e.ends_with('/') { p.starts_with(e.as_str()) } else { p == e })).collect();
+    let stray: Vec<&str> =
+        files.iter().map(|f| f.path.as_str()).filter(|p| !expected.iter().any(|e| if e.ends_with('/') { p.starts_with(e.as_str()) } else { p == e })).collect();
     match stray.first() {
         None => Ok(()),
         Some(first) => Err(InputError::new(
             root.join(first),
             "release",
-            format!("{} file(s) the config does not build ({}); remove them or build into a fresh directory", stray.len(), stray.iter().take(5).copied().collect::<Vec<_>>().join(", ")),
+            format!(
+                "{} file(s) the config does not build ({}); remove them or build into a fresh directory",
+                stray.len(),
+                stray.iter().take(5).copied().collect::<Vec<_>>().join(", ")
+            ),
         )),
     }
 }
@@ -347,7 +389,11 @@ pub fn verify_release(dir: &Path) -> Result<usize> {
         }
         let (size, sha) = manifest::hash_file(&dir.join(&f.path))?;
         if size != f.size || sha != f.sha256 {
-            return Err(InputError::new(dir.join(&f.path), "sha256", format!("expected {} bytes with SHA-256 {}, found {size} bytes with {sha}", f.size, f.sha256)));
+            return Err(InputError::new(
+                dir.join(&f.path),
+                "sha256",
+                format!("expected {} bytes with SHA-256 {}, found {size} bytes with {sha}", f.size, f.sha256),
+            ));
         }
     }
     if manifest["digest"].as_str() != Some(digest(&files).as_str()) {

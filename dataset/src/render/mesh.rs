@@ -64,7 +64,9 @@ impl World {
                 floats(&object["non_uniform_scale"], 3).unwrap_or(vec![1.0; 3]),
             );
             let rotation = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
-            let transform = Matrix4::new_translation(&Vector3::new(t[0], t[1], t[2])) * rotation.to_homogeneous() * Matrix4::new_nonuniform_scaling(&Vector3::new(s[0], s[1], s[2]));
+            let transform = Matrix4::new_translation(&Vector3::new(t[0], t[1], t[2]))
+                * rotation.to_homogeneous()
+                * Matrix4::new_nonuniform_scaling(&Vector3::new(s[0], s[1], s[2]));
             let normal_matrix = transform.fixed_view::<3, 3>(0, 0).try_inverse().map(|m| m.transpose()).unwrap_or_else(nalgebra::Matrix3::identity);
             let place = |p: [f32; 3]| {
                 let w = transform.transform_point(&Point3::new(p[0] as f64, p[1] as f64, p[2] as f64));

@@ -4,8 +4,8 @@
 pub mod mesh;
 pub mod obj;
 pub mod raster;
-pub mod trajectory;
 pub mod sequence;
+pub mod trajectory;
 
 use std::path::Path;
 
@@ -20,7 +20,14 @@ pub const LIGHTINGS: [&str; 4] = ["baseline", "camera", "dynamic_lights", "no_li
 
 /// Render the converted scene `scene` in `habitat_dir` under each of `lightings`, all
 /// along the same trajectory, into `out/<lighting>/<scene>/`.
-pub fn render_scene(habitat_dir: &Path, scene: &str, lightings: &[&str], sensor: &SensorSettings, motion: &MotionSettings, out: &Path) -> Result<Vec<(String, SequenceSummary)>> {
+pub fn render_scene(
+    habitat_dir: &Path,
+    scene: &str,
+    lightings: &[&str],
+    sensor: &SensorSettings,
+    motion: &MotionSettings,
+    out: &Path,
+) -> Result<Vec<(String, SequenceSummary)>> {
     let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
     let grid = NavGrid::read(habitat_dir, scene)?;
     let states = trajectory(&grid, motion);
@@ -34,7 +41,8 @@ pub fn render_scene(habitat_dir: &Path, scene: &str, lightings: &[&str], sensor:
     let mut out_list = Vec::new();
     for lighting in lightings {
         let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
-        let lights: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?).map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
+        let lights: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?)
+            .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
         let mut settings = settings.clone();
         settings["label"] = serde_json::json!(lighting);
         let summary = render_sequence(&world, &states, grid.floor_height, sensor, &lights, &classes, &settings, &out.join(lighting).join(scene))?;

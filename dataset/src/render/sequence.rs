@@ -99,7 +99,16 @@ pub struct SequenceSummary {
 
 /// Render `states` of `world` lit by `light_settings` into `dir` (HaDaGe's layout).
 #[allow(clippy::too_many_arguments)]
-pub fn render_sequence(world: &World, states: &[AgentState], floor_height: f64, sensor: &SensorSettings, light_settings: &Value, classes: &ClassList, settings_copy: &Value, dir: &Path) -> Result<SequenceSummary> {
+pub fn render_sequence(
+    world: &World,
+    states: &[AgentState],
+    floor_height: f64,
+    sensor: &SensorSettings,
+    light_settings: &Value,
+    classes: &ClassList,
+    settings_copy: &Value,
+    dir: &Path,
+) -> Result<SequenceSummary> {
     let results = dir.join("results");
     if dir.exists() {
         std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
@@ -109,7 +118,10 @@ pub fn render_sequence(world: &World, states: &[AgentState], floor_height: f64, 
     params.write(&dir.join("camera_params.yaml"))?;
     std::fs::write(
         dir.join("camera_params.txt"),
-        format!("camera_matrix = \n[[{} 0. {}]\n [0. {} {}]\n [0. 0. 1.]]\n\ndepth_scale = {}\n", params.fx, params.cx, params.fy, params.cy, sensor.depth_scale),
+        format!(
+            "camera_matrix = \n[[{} 0. {}]\n [0. {} {}]\n [0. 0. 1.]]\n\ndepth_scale = {}\n",
+            params.fx, params.cx, params.fy, params.cy, sensor.depth_scale
+        ),
     )
     .map_err(|e| InputError::io(dir, &e))?;
     classes.write(&dir.join("embed_semseg_classes.json"))?;

@@ -79,7 +79,12 @@ impl NavGrid {
                 let i = region[next];
                 next += 1;
                 let (c, r) = (i % self.width, i / self.width);
-                let neighbours = [(c > 0).then(|| i - 1), (c + 1 < self.width).then(|| i + 1), (r > 0).then(|| i - self.width), (r + 1 < self.height).then(|| i + self.width)];
+                let neighbours = [
+                    (c > 0).then(|| i - 1),
+                    (c + 1 < self.width).then(|| i + 1),
+                    (r > 0).then(|| i - self.width),
+                    (r + 1 < self.height).then(|| i + self.width),
+                ];
                 for j in neighbours.into_iter().flatten() {
                     if self.cells[j] == 255 && region_of[j] == usize::MAX {
                         region_of[j] = seed;
@@ -138,7 +143,9 @@ impl NavGrid {
                 }
                 let j = nr as usize * self.width + nc as usize;
                 // Diagonals may not cut a blocked corner.
-                let corner_free = dc == 0 || dr == 0 || (self.cells[r as usize * self.width + nc as usize] == 255 && self.cells[nr as usize * self.width + c as usize] == 255);
+                let corner_free = dc == 0
+                    || dr == 0
+                    || (self.cells[r as usize * self.width + nc as usize] == 255 && self.cells[nr as usize * self.width + c as usize] == 255);
                 if self.cells[j] != 255 || !corner_free {
                     continue;
                 }

@@ -83,7 +83,9 @@ pub fn write_asset_gltf(asset: &Asset, dir: &Path, stem: &str) -> Result<()> {
     for (material, geometry) in by_material.values() {
         let positions: Vec<[f32; 3]> = geometry.positions.iter().map(|&p| to_gltf(p)).collect();
         let normals: Vec<[f32; 3]> = geometry.normals.iter().map(|&n| to_gltf(n)).collect();
-        let (lo, hi) = positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))));
+        let (lo, hi) = positions.iter().fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(lo, hi), p| {
+            (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a])))
+        });
         let mut push_view = |bytes: Vec<u8>, target: u32| {
             while bin.len() % 4 != 0 {
                 bin.push(0);
@@ -100,7 +102,8 @@ pub fn write_asset_gltf(asset: &Asset, dir: &Path, stem: &str) -> Result<()> {
         accessors.push(json!({"bufferView": nv, "componentType": 5126, "count": normals.len(), "type": "VEC3"}));
         accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": geometry.indices.len(), "type": "SCALAR"}));
         primitives.push(json!({"attributes": {"POSITION": base, "NORMAL": base + 1}, "indices": base + 2, "material": materials.len(), "mode": 4}));
-        materials.push(json!({"name": material.name, "pbrMetallicRoughness": {"baseColorFactor": material.color, "metallicFactor": 0.0, "roughnessFactor": 0.8}}));
+        materials
+            .push(json!({"name": material.name, "pbrMetallicRoughness": {"baseColorFactor": material.color, "metallicFactor": 0.0, "roughnessFactor": 0.8}}));
     }
     let doc = json!({
         "asset": {"version": "2.0", "generator": "osmab procedural assets"},

@@ -96,7 +96,13 @@ fn table(category: &str, w: f64, d: f64, h: f64, top: Material, leg: Material) -
         category: category.into(),
         parts,
         size: [w, d, h],
-        supports: vec![SupportSurface { height: h, min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05], max: [w / 2.0 - 0.05, d / 2.0 - 0.05], inside: false, clear_height: f64::INFINITY }],
+        supports: vec![SupportSurface {
+            height: h,
+            min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
+            max: [w / 2.0 - 0.05, d / 2.0 - 0.05],
+            inside: false,
+            clear_height: f64::INFINITY,
+        }],
         clearance: h - t - 0.02,
         under: Some(([-w / 2.0 + 0.08, -d / 2.0 + 0.08], [w / 2.0 - 0.08, d / 2.0 - 0.08])),
         description: format!("A {category} with a flat top on four legs."),
@@ -113,15 +119,33 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
         bx([0.0, 0.0, h - t / 2.0], [w, d, t], body),
         bx([0.0, 0.0, 0.05], [w, d, 0.1], body),
     ];
-    let mut supports = vec![SupportSurface { height: h, min: [-w / 2.0 + 0.03, -d / 2.0 + 0.03], max: [w / 2.0 - 0.03, d / 2.0 - 0.03], inside: false, clear_height: f64::INFINITY }];
+    let mut supports = vec![SupportSurface {
+        height: h,
+        min: [-w / 2.0 + 0.03, -d / 2.0 + 0.03],
+        max: [w / 2.0 - 0.03, d / 2.0 - 0.03],
+        inside: false,
+        clear_height: f64::INFINITY,
+    }];
     // Levels: the bottom panel (top at 0.1), each shelf, and the underside of the top panel.
     let spacing = (h - 0.12) / (shelves + 1) as f64;
     for s in 1..=shelves {
         let z = 0.1 + spacing * s as f64;
         parts.push(bx([0.0, 0.0, z], [w - 2.0 * t, d - t, t], body));
-        supports.push(SupportSurface { height: z + t / 2.0, min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05], max: [w / 2.0 - 0.05, d / 2.0 - 0.06], inside: true, clear_height: spacing - t - 0.01 });
+        supports.push(SupportSurface {
+            height: z + t / 2.0,
+            min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
+            max: [w / 2.0 - 0.05, d / 2.0 - 0.06],
+            inside: true,
+            clear_height: spacing - t - 0.01,
+        });
     }
-    supports.push(SupportSurface { height: 0.1, min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05], max: [w / 2.0 - 0.05, d / 2.0 - 0.06], inside: true, clear_height: spacing - t / 2.0 - 0.01 });
+    supports.push(SupportSurface {
+        height: 0.1,
+        min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
+        max: [w / 2.0 - 0.05, d / 2.0 - 0.06],
+        inside: true,
+        clear_height: spacing - t / 2.0 - 0.01,
+    });
     if !open_front {
         // Two doors on the front (−y face) with handles.
         for side in [-1.0, 1.0] {
@@ -129,7 +153,15 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
             parts.push(bx([side * 0.04, -d / 2.0 - 0.01, h / 2.0 + 0.05], [0.02, 0.02, 0.12], handle));
         }
     }
-    Asset { category: category.into(), parts, size: [w, d, h], supports, clearance: 0.0, under: None, description: format!("A {category} with {shelves} shelves.") }
+    Asset {
+        category: category.into(),
+        parts,
+        size: [w, d, h],
+        supports,
+        clearance: 0.0,
+        under: None,
+        description: format!("A {category} with {shelves} shelves."),
+    }
 }
 
 /// A chair: seat on four legs, backrest at the back (+y).
@@ -137,7 +169,15 @@ fn chair(category: &str, rng: &mut Rng, seat: Material, frame: Material) -> Asse
     let (w, d, h, seat_h) = (vary(rng, 0.42, 0.5), vary(rng, 0.44, 0.52), vary(rng, 0.82, 0.95), 0.46);
     let mut parts = vec![bx([0.0, 0.0, seat_h - 0.03], [w, d, 0.06], seat), bx([0.0, d / 2.0 - 0.03, (seat_h + h) / 2.0], [w, 0.05, h - seat_h], frame)];
     parts.extend(legs(w, d, seat_h - 0.06, 0.04, frame));
-    Asset { category: category.into(), parts, size: [w, d, h], supports: vec![], clearance: 0.0, under: None, description: format!("A {category} with a backrest.") }
+    Asset {
+        category: category.into(),
+        parts,
+        size: [w, d, h],
+        supports: vec![],
+        clearance: 0.0,
+        under: None,
+        description: format!("A {category} with a backrest."),
+    }
 }
 
 /// A sofa or armchair: base, back cushion and two arms.
@@ -150,7 +190,21 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
         bx([-(w - 0.15) / 2.0, 0.0, 0.5], [0.15, d, 0.2], fabric),
         bx([(w - 0.15) / 2.0, 0.0, 0.5], [0.15, d, 0.2], fabric),
     ];
-    Asset { category: category.into(), parts, size: [w, d, h], supports: vec![SupportSurface { height: 0.5, min: [-(w - 0.3) / 2.0, -d / 2.0 + 0.05], max: [(w - 0.3) / 2.0, d / 2.0 - 0.2], inside: false, clear_height: f64::INFINITY }], clearance: 0.0, under: None, description: format!("An upholstered {category} with arms.") }
+    Asset {
+        category: category.into(),
+        parts,
+        size: [w, d, h],
+        supports: vec![SupportSurface {
+            height: 0.5,
+            min: [-(w - 0.3) / 2.0, -d / 2.0 + 0.05],
+            max: [(w - 0.3) / 2.0, d / 2.0 - 0.2],
+            inside: false,
+            clear_height: f64::INFINITY,
+        }],
+        clearance: 0.0,
+        under: None,
+        description: format!("An upholstered {category} with arms."),
+    }
 }
 
 /// Make the asset of `category`, sized by `rng`, facing +y (SceneSmith's front).
@@ -237,7 +291,13 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                     bx([0.0, d / 2.0 - 0.3, 0.56], [w - 0.3, 0.35, 0.12], CUSHION),
                 ],
                 size: [w, d, 1.1],
-                supports: vec![SupportSurface { height: 0.5, min: [-w / 2.0 + 0.1, -d / 2.0 + 0.1], max: [w / 2.0 - 0.1, d / 2.0 - 0.5], inside: false, clear_height: f64::INFINITY }],
+                supports: vec![SupportSurface {
+                    height: 0.5,
+                    min: [-w / 2.0 + 0.1, -d / 2.0 + 0.1],
+                    max: [w / 2.0 - 0.1, d / 2.0 - 0.5],
+                    inside: false,
+                    clear_height: f64::INFINITY,
+                }],
                 clearance: 0.0,
                 under: None,
                 description: "A bed with a headboard.".into(),
@@ -269,7 +329,15 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
         },
         "book" => {
             let (w, d, h) = (vary(rng, 0.15, 0.22), vary(rng, 0.2, 0.28), vary(rng, 0.02, 0.05));
-            Asset { category: category.into(), parts: vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)], size: [w, d, h], supports: vec![], clearance: 0.0, under: None, description: "A hardcover book.".into() }
+            Asset {
+                category: category.into(),
+                parts: vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)],
+                size: [w, d, h],
+                supports: vec![],
+                clearance: 0.0,
+                under: None,
+                description: "A hardcover book.".into(),
+            }
         }
         "laptop" => Asset {
             category: category.into(),
@@ -280,22 +348,126 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             under: None,
             description: "An open laptop.".into(),
         },
-        "plate" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.02, CERAMIC)], size: [0.24, 0.24, 0.02], supports: vec![], clearance: 0.0, under: None, description: "A round plate.".into() },
-        "bowl" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.05, 0.02, CERAMIC), cyl([0.0, 0.0, 0.02], 0.08, 0.05, CERAMIC)], size: [0.16, 0.16, 0.07], supports: vec![], clearance: 0.0, under: None, description: "A ceramic bowl.".into() },
-        "bottle" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.035, 0.2, GREEN_GLASS), cyl([0.0, 0.0, 0.2], 0.013, 0.08, GREEN_GLASS)], size: [0.07, 0.07, 0.28], supports: vec![], clearance: 0.0, under: None, description: "A glass bottle.".into() },
-        "can" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.033, 0.12, RED)], size: [0.066, 0.066, 0.12], supports: vec![], clearance: 0.0, under: None, description: "A metal can.".into() },
+        "plate" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.02, CERAMIC)],
+            size: [0.24, 0.24, 0.02],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A round plate.".into(),
+        },
+        "bowl" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.05, 0.02, CERAMIC), cyl([0.0, 0.0, 0.02], 0.08, 0.05, CERAMIC)],
+            size: [0.16, 0.16, 0.07],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A ceramic bowl.".into(),
+        },
+        "bottle" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.035, 0.2, GREEN_GLASS), cyl([0.0, 0.0, 0.2], 0.013, 0.08, GREEN_GLASS)],
+            size: [0.07, 0.07, 0.28],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A glass bottle.".into(),
+        },
+        "can" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.033, 0.12, RED)],
+            size: [0.066, 0.066, 0.12],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A metal can.".into(),
+        },
         "box" => {
             let s = [vary(rng, 0.25, 0.45), vary(rng, 0.2, 0.35), vary(rng, 0.15, 0.3)];
-            Asset { category: category.into(), parts: vec![bx([0.0, 0.0, s[2] / 2.0], s, CARDBOARD)], size: s, supports: vec![], clearance: 0.0, under: None, description: "A cardboard box.".into() }
+            Asset {
+                category: category.into(),
+                parts: vec![bx([0.0, 0.0, s[2] / 2.0], s, CARDBOARD)],
+                size: s,
+                supports: vec![],
+                clearance: 0.0,
+                under: None,
+                description: "A cardboard box.".into(),
+            }
         }
-        "bucket" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.14, 0.3, METAL), bx([0.0, 0.0, 0.33], [0.28, 0.01, 0.01], BLACK)], size: [0.28, 0.28, 0.34], supports: vec![], clearance: 0.0, under: None, description: "A metal bucket with a handle.".into() },
-        "towel" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.03], [0.3, 0.2, 0.06], WHITE)], size: [0.3, 0.2, 0.06], supports: vec![], clearance: 0.0, under: None, description: "A folded towel.".into() },
-        "pillow" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.06], [0.5, 0.35, 0.12], CUSHION)], size: [0.5, 0.35, 0.12], supports: vec![], clearance: 0.0, under: None, description: "A pillow.".into() },
-        "blanket" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.04], [0.6, 0.4, 0.08], FABRIC)], size: [0.6, 0.4, 0.08], supports: vec![], clearance: 0.0, under: None, description: "A folded blanket.".into() },
-        "backpack" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.22], [0.3, 0.18, 0.44], FABRIC), bx([0.0, -0.1, 0.15], [0.24, 0.04, 0.2], BLACK)], size: [0.3, 0.22, 0.44], supports: vec![], clearance: 0.0, under: None, description: "A backpack with a front pocket.".into() },
-        "suitcase" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.33], [0.42, 0.25, 0.66], BLACK), bx([0.0, 0.0, 0.7], [0.15, 0.03, 0.06], METAL)], size: [0.42, 0.25, 0.72], supports: vec![], clearance: 0.0, under: None, description: "A hard-shell suitcase.".into() },
-        "helmet" => Asset { category: category.into(), parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.12, RED), cyl([0.0, 0.0, 0.12], 0.08, 0.06, RED)], size: [0.24, 0.24, 0.18], supports: vec![], clearance: 0.0, under: None, description: "A helmet.".into() },
-        "clock" => Asset { category: category.into(), parts: vec![bx([0.0, 0.0, 0.1], [0.2, 0.06, 0.2], WHITE), bx([0.0, -0.031, 0.1], [0.16, 0.002, 0.16], PAPER)], size: [0.2, 0.06, 0.2], supports: vec![], clearance: 0.0, under: None, description: "A desk clock.".into() },
+        "bucket" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.14, 0.3, METAL), bx([0.0, 0.0, 0.33], [0.28, 0.01, 0.01], BLACK)],
+            size: [0.28, 0.28, 0.34],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A metal bucket with a handle.".into(),
+        },
+        "towel" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.03], [0.3, 0.2, 0.06], WHITE)],
+            size: [0.3, 0.2, 0.06],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A folded towel.".into(),
+        },
+        "pillow" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.06], [0.5, 0.35, 0.12], CUSHION)],
+            size: [0.5, 0.35, 0.12],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A pillow.".into(),
+        },
+        "blanket" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.04], [0.6, 0.4, 0.08], FABRIC)],
+            size: [0.6, 0.4, 0.08],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A folded blanket.".into(),
+        },
+        "backpack" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.22], [0.3, 0.18, 0.44], FABRIC), bx([0.0, -0.1, 0.15], [0.24, 0.04, 0.2], BLACK)],
+            size: [0.3, 0.22, 0.44],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A backpack with a front pocket.".into(),
+        },
+        "suitcase" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.33], [0.42, 0.25, 0.66], BLACK), bx([0.0, 0.0, 0.7], [0.15, 0.03, 0.06], METAL)],
+            size: [0.42, 0.25, 0.72],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A hard-shell suitcase.".into(),
+        },
+        "helmet" => Asset {
+            category: category.into(),
+            parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.12, RED), cyl([0.0, 0.0, 0.12], 0.08, 0.06, RED)],
+            size: [0.24, 0.24, 0.18],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A helmet.".into(),
+        },
+        "clock" => Asset {
+            category: category.into(),
+            parts: vec![bx([0.0, 0.0, 0.1], [0.2, 0.06, 0.2], WHITE), bx([0.0, -0.031, 0.1], [0.16, 0.002, 0.16], PAPER)],
+            size: [0.2, 0.06, 0.2],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A desk clock.".into(),
+        },
         _ => return None,
     };
     Some(a)

@@ -95,7 +95,12 @@ impl Placer<'_> {
     /// Whether `candidate` satisfies every relation of its category after the first.
     fn honours_others(&self, candidate: &PlacedObject) -> bool {
         let room = [self.width, self.depth];
-        self.spec.relations.iter().filter(|r| r.subject == candidate.category).skip(1).all(|r| super::relations::satisfied_by(r, candidate, &self.placed, room, false))
+        self.spec
+            .relations
+            .iter()
+            .filter(|r| r.subject == candidate.category)
+            .skip(1)
+            .all(|r| super::relations::satisfied_by(r, candidate, &self.placed, room, false))
     }
 
     fn instances(&self, category: &str) -> Vec<usize> {
@@ -156,7 +161,10 @@ impl Placer<'_> {
                     RelationKind::InFrontOf | RelationKind::Facing => {
                         let extra = if kind == RelationKind::Facing { 0.8 } else { 0.0 };
                         let p = along(tf, reach_front + extra);
-                        let p = [p[0] + side[0] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1), p[1] + side[1] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1)];
+                        let p = [
+                            p[0] + side[0] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1),
+                            p[1] + side[1] * (k as f64 - (count as f64 - 1.0) / 2.0) * (asset.size[0] + 0.1),
+                        ];
                         (p, yaw_to_target(p))
                     }
                     RelationKind::Behind => (along([-tf[0], -tf[1]], reach_front), t.yaw_deg),
@@ -210,7 +218,15 @@ impl Placer<'_> {
             let mut fallback = None;
             for attempt in 0..TRIES {
                 let (p, yaw) = self.propose(&asset, kind, &targets, k, count as usize, attempt);
-                let candidate = PlacedObject { object_id: object_id.clone(), category: category.into(), kind: ObjectKind::Furniture, asset: asset.clone(), position: [p[0], p[1], 0.0], yaw_deg: yaw, host: None };
+                let candidate = PlacedObject {
+                    object_id: object_id.clone(),
+                    category: category.into(),
+                    kind: ObjectKind::Furniture,
+                    asset: asset.clone(),
+                    position: [p[0], p[1], 0.0],
+                    yaw_deg: yaw,
+                    host: None,
+                };
                 if self.free(&candidate) {
                     if self.honours_others(&candidate) {
                         chosen = Some(candidate);
@@ -234,7 +250,15 @@ impl Placer<'_> {
             for _ in 0..TRIES {
                 let p = [self.rng.range(-self.width / 2.0, self.width / 2.0), self.rng.range(-self.depth / 2.0, self.depth / 2.0)];
                 let yaw = 90.0 * self.rng.below(4) as f64;
-                let c = PlacedObject { object_id: object_id.into(), category: category.into(), kind: ObjectKind::Furniture, asset: asset.clone(), position: [p[0], p[1], 0.0], yaw_deg: yaw, host: None };
+                let c = PlacedObject {
+                    object_id: object_id.into(),
+                    category: category.into(),
+                    kind: ObjectKind::Furniture,
+                    asset: asset.clone(),
+                    position: [p[0], p[1], 0.0],
+                    yaw_deg: yaw,
+                    host: None,
+                };
                 if self.free(&c) {
                     return c;
                 }
@@ -248,7 +272,12 @@ impl Placer<'_> {
     }
 
     fn place_small(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
-        let relation = self.spec.relations.iter().find(|r| r.subject == category && matches!(r.kind, RelationKind::On | RelationKind::Inside | RelationKind::Under)).cloned();
+        let relation = self
+            .spec
+            .relations
+            .iter()
+            .find(|r| r.subject == category && matches!(r.kind, RelationKind::On | RelationKind::Inside | RelationKind::Under))
+            .cloned();
         for _ in 0..count {
             let asset = make_asset(category, asset_seed).unwrap_or_else(|| {
                 self.notes.push(format!("no procedural asset for '{category}'; a box stands in"));
@@ -300,9 +329,21 @@ impl Placer<'_> {
             for _ in 0..TRIES {
                 let local = [self.rng.range(lo[0] + hw, hi[0] - hw), self.rng.range(lo[1] + hd, hi[1] - hd)];
                 let p = [host.position[0] + c * local[0] - s * local[1], host.position[1] + s * local[0] + c * local[1], height];
-                let candidate = PlacedObject { object_id: object_id.into(), category: category.into(), kind: ObjectKind::Manipuland, asset: asset.clone(), position: p, yaw_deg: host.yaw_deg, host: Some(host.object_id.clone()) };
+                let candidate = PlacedObject {
+                    object_id: object_id.into(),
+                    category: category.into(),
+                    kind: ObjectKind::Manipuland,
+                    asset: asset.clone(),
+                    position: p,
+                    yaw_deg: host.yaw_deg,
+                    host: Some(host.object_id.clone()),
+                };
                 let fp = candidate.footprint();
-                let clash = self.placed.iter().filter(|o| o.kind == ObjectKind::Manipuland && (o.position[2] - height).abs() < 0.05).any(|o| overlaps(fp, o.footprint()));
+                let clash = self
+                    .placed
+                    .iter()
+                    .filter(|o| o.kind == ObjectKind::Manipuland && (o.position[2] - height).abs() < 0.05)
+                    .any(|o| overlaps(fp, o.footprint()));
                 if !clash {
                     if self.honours_others(&candidate) {
                         return Some(candidate);
@@ -327,8 +368,13 @@ fn placement_order(spec: &SceneSpec) -> Vec<(String, u32)> {
     let mut pending = furniture.clone();
     let placed_before = |order: &[(String, u32)], c: &str, t: &str| t == c || order.iter().any(|(o, _)| o == t) || !furniture.iter().any(|(f, _)| f == t);
     while !pending.is_empty() {
-        let all = pending.iter().position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)));
-        let primary = || pending.iter().position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).take(1).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)));
+        let all =
+            pending.iter().position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)));
+        let primary = || {
+            pending
+                .iter()
+                .position(|(c, _)| spec.relations.iter().filter(|r| &r.subject == c).take(1).flat_map(|r| &r.targets).all(|t| placed_before(&order, c, t)))
+        };
         let next = all.or_else(primary).unwrap_or(0);
         order.push(pending.remove(next));
     }

@@ -38,8 +38,14 @@ pub fn holds(kind: RelationKind, s: &PlacedObject, targets: &[&PlacedObject], ro
             let d = wall_distances(s, room);
             (d[0] <= 0.4 || d[1] <= 0.4) && (d[2] <= 0.4 || d[3] <= 0.4)
         }
-        (RelationKind::On, [t]) => s.host.as_deref() == Some(t.object_id.as_str()) && s.position[2] > 0.01 && t.asset.supports.iter().any(|x| !x.inside && (x.height - s.position[2]).abs() < 1e-6),
-        (RelationKind::Inside, [t]) => s.host.as_deref() == Some(t.object_id.as_str()) && t.asset.supports.iter().any(|x| x.inside && (x.height - s.position[2]).abs() < 1e-6),
+        (RelationKind::On, [t]) => {
+            s.host.as_deref() == Some(t.object_id.as_str())
+                && s.position[2] > 0.01
+                && t.asset.supports.iter().any(|x| !x.inside && (x.height - s.position[2]).abs() < 1e-6)
+        }
+        (RelationKind::Inside, [t]) => {
+            s.host.as_deref() == Some(t.object_id.as_str()) && t.asset.supports.iter().any(|x| x.inside && (x.height - s.position[2]).abs() < 1e-6)
+        }
         (RelationKind::Under, [t]) => s.position[2] == 0.0 && contains(t, sc),
         (RelationKind::NextTo | RelationKind::Around, [t]) => gap(s, t) <= 0.5,
         (RelationKind::Near, [t]) => gap(s, t) <= 1.2,
@@ -78,7 +84,8 @@ pub fn holds(kind: RelationKind, s: &PlacedObject, targets: &[&PlacedObject], ro
 /// Whether `s` satisfies `r` with some of `objects` as targets (true when a target
 /// category has no object yet, so a placer can ask before everything is placed).
 pub fn satisfied_by(r: &Relation, s: &PlacedObject, objects: &[PlacedObject], room: [f64; 2], require_targets: bool) -> bool {
-    let target_sets: Vec<Vec<&PlacedObject>> = r.targets.iter().map(|t| objects.iter().filter(|o| &o.category == t && o.object_id != s.object_id).collect()).collect();
+    let target_sets: Vec<Vec<&PlacedObject>> =
+        r.targets.iter().map(|t| objects.iter().filter(|o| &o.category == t && o.object_id != s.object_id).collect()).collect();
     if target_sets.iter().any(Vec::is_empty) {
         return !require_targets;
     }

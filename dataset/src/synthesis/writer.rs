@@ -52,13 +52,19 @@ fn room_sdf(layout: &Layout, ceiling: bool) -> String {
     visuals.push(("right_wall", [w / 2.0, 0.0, h / 2.0], [t, d, h]));
     visuals.push(("back_wall", [0.0, -d / 2.0, h / 2.0], [w, t, h]));
     visuals.push(("front_wall", [0.0, d / 2.0, h / 2.0], [w, t, h]));
-    let mut out = String::from("<sdf xmlns:drake=\"drake.mit.edu\" version=\"1.7\">\n  <model name=\"room_geometry\">\n    <link name=\"room_geometry_body_link\">\n");
+    let mut out =
+        String::from("<sdf xmlns:drake=\"drake.mit.edu\" version=\"1.7\">\n  <model name=\"room_geometry\">\n    <link name=\"room_geometry_body_link\">\n");
     for (name, c, s) in visuals {
         for kind in ["visual", "collision"] {
             let _ = write!(
                 out,
                 "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          <box>\n            <size>{} {} {}</size>\n          </box>\n        </geometry>\n        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
-                num(s[0]), num(s[1]), num(s[2]), num(c[0]), num(c[1]), num(c[2])
+                num(s[0]),
+                num(s[1]),
+                num(s[2]),
+                num(c[0]),
+                num(c[1]),
+                num(c[2])
             );
         }
     }
@@ -84,9 +90,14 @@ fn mass_of(size: [f64; 3]) -> f64 {
 
 /// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`.
 pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout, ceiling: bool) -> Result<()> {
-    write(&dir.join("package.xml"), "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n")?;
+    write(
+        &dir.join("package.xml"),
+        "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n",
+    )?;
     write(&dir.join("room_geometry/room_geometry_main.sdf"), room_sdf(layout, ceiling))?;
-    let mut dmd = String::from("directives:\n- add_frame:\n    name: house_frame\n    X_PF:\n      base_frame: world\n      translation: [0.0, 0.0, 0.0]\n- add_frame:\n    name: room_main_frame\n    X_PF:\n      base_frame: house_frame\n      translation: [0.0, 0.0, 0.0]\n- add_model:\n    name: room_geometry_main\n    file: package://scene/room_geometry/room_geometry_main.sdf\n- add_weld:\n    parent: room_main_frame\n    child: room_geometry_main::room_geometry_body_link\n");
+    let mut dmd = String::from(
+        "directives:\n- add_frame:\n    name: house_frame\n    X_PF:\n      base_frame: world\n      translation: [0.0, 0.0, 0.0]\n- add_frame:\n    name: room_main_frame\n    X_PF:\n      base_frame: house_frame\n      translation: [0.0, 0.0, 0.0]\n- add_model:\n    name: room_geometry_main\n    file: package://scene/room_geometry/room_geometry_main.sdf\n- add_weld:\n    parent: room_main_frame\n    child: room_geometry_main::room_geometry_body_link\n",
+    );
     // SceneSmith also writes the variant with the furniture welded in place.
     let mut welded = dmd.clone();
     let mut objects = serde_json::Map::new();

@@ -50,7 +50,12 @@ fn scene_000_converts_with_every_object_classified_and_placed() {
             }
         }
         for a in 0..3 {
-            assert!((converted.bbox_min[a] - elo[a]).abs() < 1e-3 && (converted.bbox_max[a] - ehi[a]).abs() < 1e-3, "{object_id} axis {a}: {:?}..{:?} vs {elo:?}..{ehi:?}", converted.bbox_min, converted.bbox_max);
+            assert!(
+                (converted.bbox_min[a] - elo[a]).abs() < 1e-3 && (converted.bbox_max[a] - ehi[a]).abs() < 1e-3,
+                "{object_id} axis {a}: {:?}..{:?} vs {elo:?}..{ehi:?}",
+                converted.bbox_min,
+                converted.bbox_max
+            );
         }
     }
 
@@ -75,7 +80,13 @@ fn scene_000_converts_with_every_object_classified_and_placed() {
             }
         }
         for a in 0..3 {
-            assert!((wlo[a] - object.bbox_min[a]).abs() < 1e-3 && (whi[a] - object.bbox_max[a]).abs() < 1e-3, "{}: Habitat puts it at {wlo:?}..{whi:?}, expected {:?}..{:?}", object.model, object.bbox_min, object.bbox_max);
+            assert!(
+                (wlo[a] - object.bbox_min[a]).abs() < 1e-3 && (whi[a] - object.bbox_max[a]).abs() < 1e-3,
+                "{}: Habitat puts it at {wlo:?}..{whi:?}, expected {:?}..{:?}",
+                object.model,
+                object.bbox_min,
+                object.bbox_max
+            );
         }
     }
     let bed = instance["object_instances"].as_array().unwrap().iter().find(|i| i["template_name"].as_str().unwrap().contains("king_bed")).unwrap();
@@ -116,7 +127,12 @@ fn the_navigable_map_blocks_furniture_and_keeps_open_floor() {
     let mut reader = decoder.read_info().unwrap();
     let mut cells = vec![0; reader.output_buffer_size().unwrap()];
     reader.next_frame(&mut cells).unwrap();
-    let (ox, oz, cell, width) = (meta["origin_xz"][0].as_f64().unwrap(), meta["origin_xz"][1].as_f64().unwrap(), meta["cell_size"].as_f64().unwrap(), meta["width"].as_u64().unwrap() as usize);
+    let (ox, oz, cell, width) = (
+        meta["origin_xz"][0].as_f64().unwrap(),
+        meta["origin_xz"][1].as_f64().unwrap(),
+        meta["cell_size"].as_f64().unwrap(),
+        meta["width"].as_u64().unwrap() as usize,
+    );
     let at = |x: f64, z: f64| cells[((z - oz) / cell) as usize * width + ((x - ox) / cell) as usize];
     assert_eq!(at(-0.8, -1.2), 0, "under the bed");
     assert_eq!(at(-0.5, 0.8), 255, "open floor between bed and desk");
@@ -173,13 +189,31 @@ fn load_error(directives: &str, uri: &str) -> String {
 #[test]
 fn malformed_scenes_get_clear_errors() {
     let cases = [
-        (format!("directives:\n{MODEL}    default_free_body_pose:\n      base_link:\n        base_frame: world\n        rotation: !Quaternion {{w: 1}}\n"), "crate.obj", "unknown rotation tag '!Quaternion'"),
+        (
+            format!("directives:\n{MODEL}    default_free_body_pose:\n      base_link:\n        base_frame: world\n        rotation: !Quaternion {{w: 1}}\n"),
+            "crate.obj",
+            "unknown rotation tag '!Quaternion'",
+        ),
         (format!("directives:\n{MODEL}"), "missing.obj", "does not exist"),
         (format!("directives:\n{MODEL}"), "../../../../../etc/passwd", "outside the scene directory"),
-        (format!("directives:\n- add_frame:\n    name: a\n    X_PF: {{base_frame: b}}\n- add_frame:\n    name: b\n    X_PF: {{base_frame: a}}\n{MODEL}- add_weld:\n    parent: a\n    child: main_crate_0::base_link\n"), "crate.obj", "cycle"),
-        (format!("directives:\n{MODEL}- add_weld:\n    parent: nowhere_frame\n    child: main_crate_0::base_link\n"), "crate.obj", "unknown frame 'nowhere_frame'"),
+        (
+            format!(
+                "directives:\n- add_frame:\n    name: a\n    X_PF: {{base_frame: b}}\n- add_frame:\n    name: b\n    X_PF: {{base_frame: a}}\n{MODEL}- add_weld:\n    parent: a\n    child: main_crate_0::base_link\n"
+            ),
+            "crate.obj",
+            "cycle",
+        ),
+        (
+            format!("directives:\n{MODEL}- add_weld:\n    parent: nowhere_frame\n    child: main_crate_0::base_link\n"),
+            "crate.obj",
+            "unknown frame 'nowhere_frame'",
+        ),
         ("directives:\n- add_robot: {name: r2d2}\n".to_string(), "crate.obj", "unknown directive 'add_robot'"),
-        (format!("directives:\n{MODEL}    default_free_body_pose:\n      wheel_link:\n        translation: [0, 0, 0]\n"), "crate.obj", "has no link 'wheel_link'"),
+        (
+            format!("directives:\n{MODEL}    default_free_body_pose:\n      wheel_link:\n        translation: [0, 0, 0]\n"),
+            "crate.obj",
+            "has no link 'wheel_link'",
+        ),
         (format!("directives:\n{MODEL}    default_free_body_pose:\n      base_link:\n        translation: [0, nan, 0]\n"), "crate.obj", "3 finite numbers"),
     ];
     for (directives, uri, needle) in cases {

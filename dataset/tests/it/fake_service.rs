@@ -20,7 +20,10 @@ impl Reply {
 
     /// A chat completion whose message content is `content`.
     pub fn chat(content: &str) -> Self {
-        Self::json(200, serde_json::json!({"id": "x", "object": "chat.completion", "choices": [{"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]}))
+        Self::json(
+            200,
+            serde_json::json!({"id": "x", "object": "chat.completion", "choices": [{"index": 0, "message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]}),
+        )
     }
 }
 
@@ -80,7 +83,8 @@ impl FakeService {
                 reader.read_exact(&mut body).unwrap();
                 log.lock().unwrap().push(Received { path, headers, body: serde_json::from_slice(&body).unwrap_or(serde_json::Value::Null) });
                 let mut out = stream;
-                let mut head = format!("HTTP/1.1 {} X\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n", reply.status, reply.body.len());
+                let mut head =
+                    format!("HTTP/1.1 {} X\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n", reply.status, reply.body.len());
                 for (k, v) in &reply.headers {
                     head.push_str(&format!("{k}: {v}\r\n"));
                 }

@@ -22,9 +22,18 @@ fn each_rule_names_what_it_rejects() {
     let cases = [
         ("A room with several chairs around 1 table and 2 sofas, 3 benches against the wall, 4 shelves. One. Two.", Rejection::VagueWords),
         ("A room with 1 table.", Rejection::TooShort),
-        ("A room with 1 table. 1 chair#1 is behind the table next to it. The 1 sofa is against the wall. The 2 shelves are along the wall near it.", Rejection::ContainsIds),
-        ("A room with 1 table and 1 sofa behind it. The mirror is against the wall next to the 1 shelf. The 1 bench is along the wall near it all.", Rejection::ContainsRiskyLanguage),
-        ("A room with 1 table and 1 sofa. The chair is near the table and the bench. The shelf is near the sofa and the table too, in the room.", Rejection::TooFewExplicitCounts),
+        (
+            "A room with 1 table. 1 chair#1 is behind the table next to it. The 1 sofa is against the wall. The 2 shelves are along the wall near it.",
+            Rejection::ContainsIds,
+        ),
+        (
+            "A room with 1 table and 1 sofa behind it. The mirror is against the wall next to the 1 shelf. The 1 bench is along the wall near it all.",
+            Rejection::ContainsRiskyLanguage,
+        ),
+        (
+            "A room with 1 table and 1 sofa. The chair is near the table and the bench. The shelf is near the sofa and the table too, in the room.",
+            Rejection::TooFewExplicitCounts,
+        ),
     ];
     for (text, expected) in cases {
         let found = rejections(text, &rules);

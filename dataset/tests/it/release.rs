@@ -41,8 +41,17 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
     assert_eq!(manifest["scenes"].as_array().unwrap().len(), 2);
     assert_eq!(manifest["lightings"], serde_json::json!(["baseline", "no_lights"]));
     let files = manifest["files"].as_array().unwrap();
-    assert!(files.iter().all(|f| !f["path"].as_str().unwrap().starts_with(GROUND_TRUTH) && !f["path"].as_str().unwrap().starts_with(WORK)), "ground truth and work files are not public");
-    for expected in ["classes.json", "quality/quality_report.json", "scenes/scene_000/prompt.json", "sequences/baseline/scene_000/traj.txt", "quality/contact_sheets/no_lights/scene_001.png"] {
+    assert!(
+        files.iter().all(|f| !f["path"].as_str().unwrap().starts_with(GROUND_TRUTH) && !f["path"].as_str().unwrap().starts_with(WORK)),
+        "ground truth and work files are not public"
+    );
+    for expected in [
+        "classes.json",
+        "quality/quality_report.json",
+        "scenes/scene_000/prompt.json",
+        "sequences/baseline/scene_000/traj.txt",
+        "quality/contact_sheets/no_lights/scene_001.png",
+    ] {
         assert!(files.iter().any(|f| f["path"] == expected), "{expected} missing from the manifest");
     }
     assert_eq!(verify_release(&rel).unwrap(), files.len());
@@ -56,7 +65,10 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
         let oracle = PredictedMap {
             source: "oracle".into(),
             points: gt.points.clone(),
-            semantics: MapSemantics::ObjectLabels { object_ids: gt.labels.iter().map(|l| ids.iter().position(|c| c == l).unwrap() as u32).collect(), labels: ids },
+            semantics: MapSemantics::ObjectLabels {
+                object_ids: gt.labels.iter().map(|l| ids.iter().position(|c| c == l).unwrap() as u32).collect(),
+                labels: ids,
+            },
         };
         let m = score_scene(&gt, &oracle, &classes, None).unwrap().metrics;
         // f-mIoU sums frequency × IoU in floating point, as the reference does: 1 up to rounding.
@@ -146,8 +158,7 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     let built_in = build(dir.path(), "built-in");
     // "HaDaGe" here copies the sequences the built-in renderer wrote: the release must be the same.
     let source = dir.path().join("built-in/sequences");
-    let config = TINY.to_string()
-        + &format!("command = [\"cp\", \"-r\", \"{}/{{lighting}}/{{scene}}/.\", \"{{out}}\"]\n", source.display());
+    let config = TINY.to_string() + &format!("command = [\"cp\", \"-r\", \"{}/{{lighting}}/{{scene}}/.\", \"{{out}}\"]\n", source.display());
     let path = dir.path().join("external.toml");
     std::fs::write(&path, config.replace("[render]\n", "[render]\n")).unwrap();
     let external = build_release(&path, &dir.path().join("external"), &|_| {}).unwrap();
@@ -164,7 +175,8 @@ fn release_configs_with_secrets_or_impossible_cameras_are_rejected_by_field() {
     use osmab_dataset::release::config::ReleaseConfig;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("release.toml");
-    let secret = TINY.replace("manipuland_pool = 4\n", "manipuland_pool = 4\n[prompts.llm]\nbase_url = \"http://127.0.0.1:1/v1\"\nmodel = \"m\"\napi_key = \"sk-secret\"\n");
+    let secret = TINY
+        .replace("manipuland_pool = 4\n", "manipuland_pool = 4\n[prompts.llm]\nbase_url = \"http://127.0.0.1:1/v1\"\nmodel = \"m\"\napi_key = \"sk-secret\"\n");
     for (text, field, expectation) in [
         (secret.as_str(), "prompts.llm.api_key", "OSMAB_LLM_API_KEY"),
         (&TINY.replace("height = 48\n", "height = 48\nhfov = 180.0\n"), "render.hfov", "(0, 180)"),

@@ -97,7 +97,11 @@ fn rendering_twice_gives_identical_files() {
     }
     let read = |run: &str| {
         let root = dir.path().join(run).join("dynamic_lights").join(&name).join("results");
-        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&root).unwrap().map(|e| e.unwrap().path()).map(|p| (p.file_name().unwrap().to_string_lossy().to_string(), std::fs::read(&p).unwrap())).collect();
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&root)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| (p.file_name().unwrap().to_string_lossy().to_string(), std::fs::read(&p).unwrap()))
+            .collect();
         files.sort();
         files
     };
@@ -125,7 +129,9 @@ fn lights_switch_with_their_life_intervals_and_switched_off_lights_leave_the_amb
 fn trajectories_start_and_stay_in_the_largest_free_region() {
     // A 4×4 m room (x < 4 m) and, behind a wall, a 0.3 m pocket: every seed must start in the room.
     let (width, height, cell) = (50usize, 40usize, 0.1);
-    let cells = (0..width * height).map(|i| if (1..39).contains(&(i / width)) && ((1..40).contains(&(i % width)) || (45..48).contains(&(i % width))) { 255 } else { 0 }).collect();
+    let cells = (0..width * height)
+        .map(|i| if (1..39).contains(&(i / width)) && ((1..40).contains(&(i % width)) || (45..48).contains(&(i % width))) { 255 } else { 0 })
+        .collect();
     let grid = NavGrid { origin_xz: [0.0, 0.0], cell_size: cell, width, height, floor_height: 0.0, cells };
     for seed in 0..40 {
         let states = trajectory(&grid, &MotionSettings { goals: 2, seed, ..Default::default() });

@@ -113,10 +113,13 @@ fn non_json_model_output_is_a_clear_error() {
 
 #[test]
 fn embeddings_come_back_in_input_order_and_normalised() {
-    let server = FakeService::start(vec![Reply::json(200, json!({"object": "list", "data": [
-        {"object": "embedding", "index": 1, "embedding": [0.0, 2.0]},
-        {"object": "embedding", "index": 0, "embedding": [3.0, 4.0]},
-    ]}))]);
+    let server = FakeService::start(vec![Reply::json(
+        200,
+        json!({"object": "list", "data": [
+            {"object": "embedding", "index": 1, "embedding": [0.0, 2.0]},
+            {"object": "embedding", "index": 0, "embedding": [3.0, 4.0]},
+        ]}),
+    )]);
     let embedder = ServiceEmbedder { client: client(&server.base_url), batch: 8 };
     let vectors = embedder.embed(&["a".into(), "b".into()]).unwrap();
     let received = server.finish();

@@ -48,7 +48,11 @@ fn furniture_never_interpenetrates_and_small_objects_rest_on_their_hosts() {
         let furniture: Vec<_> = layout.objects.iter().filter(|o| o.kind == ObjectKind::Furniture).collect();
         for (a, fa) in furniture.iter().enumerate() {
             let (lo, hi) = fa.footprint();
-            assert!(lo[0] >= -layout.width / 2.0 && hi[0] <= layout.width / 2.0 && lo[1] >= -layout.depth / 2.0 && hi[1] <= layout.depth / 2.0, "{} leaves the room", fa.object_id);
+            assert!(
+                lo[0] >= -layout.width / 2.0 && hi[0] <= layout.width / 2.0 && lo[1] >= -layout.depth / 2.0 && hi[1] <= layout.depth / 2.0,
+                "{} leaves the room",
+                fa.object_id
+            );
             for fb in &furniture[a + 1..] {
                 let (lo2, hi2) = fb.footprint();
                 let overlap = lo[0] < hi2[0] - 1e-6 && lo2[0] < hi[0] - 1e-6 && lo[1] < hi2[1] - 1e-6 && lo2[1] < hi[1] - 1e-6;
@@ -59,7 +63,12 @@ fn furniture_never_interpenetrates_and_small_objects_rest_on_their_hosts() {
             let host = layout.objects.iter().find(|o| Some(&o.object_id) == small.host.as_ref()).unwrap();
             let (lo, hi) = small.footprint();
             let (hlo, hhi) = host.footprint();
-            assert!(lo[0] >= hlo[0] - 1e-6 && hi[0] <= hhi[0] + 1e-6 && lo[1] >= hlo[1] - 1e-6 && hi[1] <= hhi[1] + 1e-6, "{} is not over {}", small.object_id, host.object_id);
+            assert!(
+                lo[0] >= hlo[0] - 1e-6 && hi[0] <= hhi[0] + 1e-6 && lo[1] >= hlo[1] - 1e-6 && hi[1] <= hhi[1] + 1e-6,
+                "{} is not over {}",
+                small.object_id,
+                host.object_id
+            );
             let z = small.position[2];
             assert!(z == 0.0 || host.asset.supports.iter().any(|s| (s.height - z).abs() < 1e-9), "{} floats at {z}", small.object_id);
         }

@@ -57,11 +57,9 @@ impl CameraParams {
     /// Read and check `camera_params.yaml`.
     pub fn read(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
-        let file: CameraFile = serde_yaml_ng::from_str(&text)
-            .map_err(|e| InputError::new(path, "camera_params", format!("not valid camera parameters YAML: {e}")))?;
-        let params = file
-            .camera_params
-            .ok_or_else(|| InputError::new(path, "camera_params", "missing the top-level 'camera_params' mapping"))?;
+        let file: CameraFile =
+            serde_yaml_ng::from_str(&text).map_err(|e| InputError::new(path, "camera_params", format!("not valid camera parameters YAML: {e}")))?;
+        let params = file.camera_params.ok_or_else(|| InputError::new(path, "camera_params", "missing the top-level 'camera_params' mapping"))?;
         params.validate(path)?;
         Ok(params)
     }

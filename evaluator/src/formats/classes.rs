@@ -33,7 +33,9 @@ struct ClassFile {
 enum ClassListJson {
     List(Vec<ClassEntry>),
     /// OSMa-Bench-v2's HaDaGe patch wraps the list twice; accept it.
-    Nested { classes: Vec<ClassEntry> },
+    Nested {
+        classes: Vec<ClassEntry>,
+    },
 }
 
 impl ClassList {

@@ -20,9 +20,8 @@ struct ConfusionJson {
 /// Read a `.confusion.json` file.
 pub fn read_confusion(path: &Path) -> Result<ConfusionMatrix> {
     let text = std::fs::read(path).map_err(|e| InputError::io(path, &e))?;
-    let json: ConfusionJson = serde_json::from_slice(&text).map_err(|e| {
-        InputError::new(path, "(json)", format!("expected {{\"labels\": [int, ...], \"matrix\": [[non-negative int, ...], ...]}}: {e}"))
-    })?;
+    let json: ConfusionJson = serde_json::from_slice(&text)
+        .map_err(|e| InputError::new(path, "(json)", format!("expected {{\"labels\": [int, ...], \"matrix\": [[non-negative int, ...], ...]}}: {e}")))?;
     let n = json.labels.len();
     if json.matrix.len() != n {
         return Err(InputError::new(path, "matrix", format!("expected {n} rows (one per label), found {}", json.matrix.len())));
@@ -34,9 +33,11 @@ pub fn read_confusion(path: &Path) -> Result<ConfusionMatrix> {
             return Err(InputError::new(path, format!("matrix[{r}]"), format!("expected {n} columns (one per label), found {}", row.len())));
         }
         // Every sum of counts must stay exact in float64, as it is in NumPy.
-        total = row.iter().try_fold(total, |t, &c| t.checked_add(c)).filter(|&t| t <= MAX_TOTAL).ok_or_else(|| {
-            InputError::new(path, format!("matrix[{r}]"), format!("counts add up to more than 2^53 points"))
-        })?;
+        total = row
+            .iter()
+            .try_fold(total, |t, &c| t.checked_add(c))
+            .filter(|&t| t <= MAX_TOTAL)
+            .ok_or_else(|| InputError::new(path, format!("matrix[{r}]"), format!("counts add up to more than 2^53 points")))?;
         counts.extend_from_slice(row);
     }
     ConfusionMatrix::new(json.labels, counts).map_err(|m| InputError::new(path, "labels", m))

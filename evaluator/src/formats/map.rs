@@ -72,7 +72,11 @@ impl PredictedMap {
         drop(flat);
         let semantics = if npz.contains("point_features") {
             if let Some(other) = ["object_ids", "labels", "features"].into_iter().find(|k| npz.contains(k)) {
-                return Err(InputError::new(path, "point_features", format!("the map holds both 'point_features' and '{other}'; per-point and per-object maps are exclusive")));
+                return Err(InputError::new(
+                    path,
+                    "point_features",
+                    format!("the map holds both 'point_features' and '{other}'; per-point and per-object maps are exclusive"),
+                ));
             }
             let features = FeatureMatrix::from_array(npz.array("point_features")?, path, "point_features")?;
             if features.rows != n {
@@ -84,7 +88,10 @@ impl PredictedMap {
                 return Err(InputError::new(
                     path,
                     "object_ids",
-                    format!("missing: a map needs 'object_ids' with 'labels' or 'features', or 'point_features' (the archive holds: {})", npz.keys().join(", ")),
+                    format!(
+                        "missing: a map needs 'object_ids' with 'labels' or 'features', or 'point_features' (the archive holds: {})",
+                        npz.keys().join(", ")
+                    ),
                 ));
             }
             let ids = npz.array("object_ids")?.into_i64_vec(path, "object_ids")?;
@@ -156,11 +163,7 @@ fn object_indices(ids: &[i64], objects: usize, path: &Path, field: &str) -> Resu
             if id >= 0 && (id as usize) < objects {
                 Ok(id as u32)
             } else {
-                Err(InputError::new(
-                    path,
-                    "object_ids",
-                    format!("point {i} has object id {id}, but '{field}' describes objects 0..{} only", objects - 1),
-                ))
+                Err(InputError::new(path, "object_ids", format!("point {i} has object id {id}, but '{field}' describes objects 0..{} only", objects - 1)))
             }
         })
         .collect()

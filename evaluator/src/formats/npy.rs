@@ -171,11 +171,7 @@ impl NpyArray {
     /// A 1-D integer array as int64 (any integer dtype is accepted).
     pub fn into_i64_vec(self, file: &Path, field: &str) -> Result<Vec<i64>> {
         if self.shape.len() != 1 {
-            return Err(InputError::new(
-                file,
-                field,
-                format!("expected a 1-D integer array, found shape {}", self.shape_text()),
-            ));
+            return Err(InputError::new(file, field, format!("expected a 1-D integer array, found shape {}", self.shape_text())));
         }
         let dtype = self.dtype();
         let values = match self.data {
@@ -192,11 +188,7 @@ impl NpyArray {
                 .collect::<std::result::Result<_, _>>()
                 .map_err(|_| InputError::new(file, field, "uint64 value does not fit in int64"))?,
             _ => {
-                return Err(InputError::new(
-                    file,
-                    field,
-                    format!("expected an integer array (int64), found {}", dtype.name()),
-                ));
+                return Err(InputError::new(file, field, format!("expected an integer array (int64), found {}", dtype.name())));
             }
         };
         Ok(values)
@@ -210,11 +202,7 @@ impl NpyArray {
             None => "an (N, D) float32 array".to_string(),
         };
         if self.shape.len() != 2 || cols.is_some_and(|c| self.shape[1] != c) {
-            return Err(InputError::new(
-                file,
-                field,
-                format!("expected {expected}, found shape {}", self.shape_text()),
-            ));
+            return Err(InputError::new(file, field, format!("expected {expected}, found shape {}", self.shape_text())));
         }
         let (rows, width) = (self.shape[0], self.shape[1]);
         let dtype = self.dtype();
@@ -231,23 +219,14 @@ impl NpyArray {
                 v.into_iter().map(|x| x as f32).collect()
             }
             _ => {
-                return Err(InputError::new(
-                    file,
-                    field,
-                    format!("expected {expected}, found dtype {}", dtype.name()),
-                ));
+                return Err(InputError::new(file, field, format!("expected {expected}, found dtype {}", dtype.name())));
             }
         };
         if let Some(pos) = values.iter().position(|x| !x.is_finite()) {
             return Err(InputError::new(
                 file,
                 field,
-                format!(
-                    "row {}, column {} is {}; every value must be a finite number",
-                    pos / width.max(1),
-                    pos % width.max(1),
-                    values[pos]
-                ),
+                format!("row {}, column {} is {}; every value must be a finite number", pos / width.max(1), pos % width.max(1), values[pos]),
             ));
         }
         Ok((rows, width, values))
@@ -282,11 +261,7 @@ pub fn read_npy(reader: &mut impl Read, file: &Path, limits: ReadLimits) -> Resu
             InputError::new(
                 file,
                 "header.shape",
-                format!(
-                    "array of shape {} is larger than the limit of {} bytes",
-                    shape_repr(&header.shape),
-                    limits.max_array_bytes
-                ),
+                format!("array of shape {} is larger than the limit of {} bytes", shape_repr(&header.shape), limits.max_array_bytes),
             )
         })?;
     let data = read_body(reader, file, header.dtype, header.big_endian, count)?;
@@ -318,9 +293,7 @@ pub fn ensure_at_end(reader: &mut impl Read, file: &Path) -> Result<()> {
 
 fn read_header(reader: &mut impl Read, file: &Path) -> Result<Header> {
     let mut preamble = [0u8; 8];
-    reader.read_exact(&mut preamble).map_err(|_| {
-        InputError::new(file, "header", "not a NumPy .npy file (shorter than the 8-byte preamble)")
-    })?;
+    reader.read_exact(&mut preamble).map_err(|_| InputError::new(file, "header", "not a NumPy .npy file (shorter than the 8-byte preamble)"))?;
     if &preamble[..6] != MAGIC {
         return Err(InputError::new(file, "header", "not a NumPy .npy file (magic string \\x93NUMPY missing)"));
     }
@@ -344,9 +317,7 @@ fn read_header(reader: &mut impl Read, file: &Path) -> Result<Header> {
         return Err(InputError::new(file, "header", format!("header of {header_len} bytes is too long (at most {MAX_HEADER_LEN})")));
     }
     let mut text = vec![0u8; header_len];
-    reader
-        .read_exact(&mut text)
-        .map_err(|_| InputError::new(file, "header", "file is truncated inside the header"))?;
+    reader.read_exact(&mut text).map_err(|_| InputError::new(file, "header", "file is truncated inside the header"))?;
     let text = String::from_utf8(text).map_err(|_| InputError::new(file, "header", "header is not valid text"))?;
     parse_header(&text, file)
 }
@@ -367,9 +338,8 @@ fn parse_header(text: &str, file: &Path) -> Result<Header> {
         Some(c @ ('<' | '>' | '|' | '=')) => (c, &descr[1..]),
         _ => ('=', descr),
     };
-    let dtype = Dtype::from_code(code).ok_or_else(|| {
-        bad("descr", &format!("unsupported dtype '{descr}' (expected a plain bool, integer or float type such as '<f4' or '<i8')"))
-    })?;
+    let dtype = Dtype::from_code(code)
+        .ok_or_else(|| bad("descr", &format!("unsupported dtype '{descr}' (expected a plain bool, integer or float type such as '<f4' or '<i8')")))?;
     let big_endian = order == '>' && dtype.size() > 1;
 
     let fortran = value_of("fortran_order").ok_or_else(|| bad("fortran_order", "missing 'fortran_order'"))?;
@@ -382,7 +352,8 @@ fn parse_header(text: &str, file: &Path) -> Result<Header> {
     };
 
     let shape_text = value_of("shape").ok_or_else(|| bad("shape", "missing 'shape'"))?;
-    let shape_text = shape_text.strip_prefix('(').and_then(|t| t.split_once(')')).map(|(inner, _)| inner).ok_or_else(|| bad("shape", "expected a tuple such as (3, 4)"))?;
+    let shape_text =
+        shape_text.strip_prefix('(').and_then(|t| t.split_once(')')).map(|(inner, _)| inner).ok_or_else(|| bad("shape", "expected a tuple such as (3, 4)"))?;
     let shape = shape_text
         .split(',')
         .map(str::trim)
@@ -509,11 +480,7 @@ fn fortran_to_c_order(array: NpyArray) -> NpyArray {
 fn header_bytes(array: &NpyArray) -> Vec<u8> {
     let dtype = array.dtype();
     let order = if dtype.size() == 1 { '|' } else { '<' };
-    let mut dict = format!(
-        "{{'descr': '{order}{}', 'fortran_order': False, 'shape': {}, }}",
-        dtype.code(),
-        shape_repr(&array.shape)
-    );
+    let mut dict = format!("{{'descr': '{order}{}', 'fortran_order': False, 'shape': {}, }}", dtype.code(), shape_repr(&array.shape));
     // NumPy leaves room for the first axis to grow in place (GROWTH_AXIS_MAX_DIGITS = 21).
     if let Some(first) = array.shape.first() {
         dict.push_str(&" ".repeat(21usize.saturating_sub(first.to_string().len())));

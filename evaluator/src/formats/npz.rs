@@ -24,20 +24,14 @@ impl NpzReader {
     /// Open `path`, checking that it is a zip archive.
     pub fn open(path: &Path, limits: ReadLimits) -> Result<Self> {
         let file = File::open(path).map_err(|e| InputError::io(path, &e))?;
-        let archive = ZipArchive::new(BufReader::new(file)).map_err(|e| {
-            InputError::new(path, "(archive)", format!("not a readable .npz (zip) archive: {e}"))
-        })?;
+        let archive =
+            ZipArchive::new(BufReader::new(file)).map_err(|e| InputError::new(path, "(archive)", format!("not a readable .npz (zip) archive: {e}")))?;
         Ok(Self { path: path.to_path_buf(), archive, limits, read_bytes: 0 })
     }
 
     /// Names of the arrays in the archive (member names without `.npy`), sorted.
     pub fn keys(&self) -> Vec<String> {
-        let mut keys: Vec<String> = self
-            .archive
-            .file_names()
-            .filter_map(|n| n.ok())
-            .filter_map(|n| n.strip_suffix(".npy").map(str::to_string))
-            .collect();
+        let mut keys: Vec<String> = self.archive.file_names().filter_map(|n| n.ok()).filter_map(|n| n.strip_suffix(".npy").map(str::to_string)).collect();
         keys.sort();
         keys
     }
@@ -55,11 +49,7 @@ impl NpzReader {
         let mut entry = match self.archive.by_name(&member) {
             Ok(entry) => entry,
             Err(zip::result::ZipError::FileNotFound) => {
-                return Err(InputError::new(
-                    &self.path,
-                    key,
-                    format!("array '{key}' is missing (the archive holds: {})", list_or_none(&keys)),
-                ));
+                return Err(InputError::new(&self.path, key, format!("array '{key}' is missing (the archive holds: {})", list_or_none(&keys))));
             }
             Err(e) => return Err(InputError::new(&label, "(member)", format!("cannot read: {e}"))),
         };

@@ -84,10 +84,7 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
     let (mut width, mut height, mut points) = (None, None, None);
     for _ in 0..MAX_HEADER_LINES {
         let mut line = Vec::new();
-        let read = reader
-            .take(MAX_HEADER_LINE_BYTES as u64)
-            .read_until(b'\n', &mut line)
-            .map_err(|e| InputError::io(path, &e))?;
+        let read = reader.take(MAX_HEADER_LINE_BYTES as u64).read_until(b'\n', &mut line).map_err(|e| InputError::io(path, &e))?;
         if read == 0 {
             return Err(bad("DATA", "file ends before the header's DATA line".into()));
         }
@@ -103,16 +100,26 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
         let key = words.next().unwrap_or_default().to_ascii_uppercase();
         let values: Vec<&str> = words.collect();
         let number = |key: &str, v: &[&str]| -> Result<usize> {
-            v.first()
-                .and_then(|s| s.parse().ok())
-                .ok_or_else(|| bad(key, format!("expected a non-negative integer, found '{}'", v.join(" "))))
+            v.first().and_then(|s| s.parse().ok()).ok_or_else(|| bad(key, format!("expected a non-negative integer, found '{}'", v.join(" "))))
         };
         match key.as_str() {
             "VERSION" | "VIEWPOINT" => {}
             "FIELDS" => fields = values.iter().map(|s| s.to_string()).collect(),
-            "SIZE" => sizes = values.iter().map(|s| s.parse::<usize>()).collect::<std::result::Result<_, _>>().map_err(|_| bad("SIZE", "sizes must be 1, 2, 4 or 8".into()))?,
+            "SIZE" => {
+                sizes = values
+                    .iter()
+                    .map(|s| s.parse::<usize>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| bad("SIZE", "sizes must be 1, 2, 4 or 8".into()))?
+            }
             "TYPE" => types = values.iter().map(|s| s.chars().next().unwrap_or('?').to_ascii_uppercase()).collect(),
-            "COUNT" => counts = values.iter().map(|s| s.parse::<usize>()).collect::<std::result::Result<_, _>>().map_err(|_| bad("COUNT", "counts must be positive integers".into()))?,
+            "COUNT" => {
+                counts = values
+                    .iter()
+                    .map(|s| s.parse::<usize>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| bad("COUNT", "counts must be positive integers".into()))?
+            }
             "WIDTH" => width = Some(number("WIDTH", &values)?),
             "HEIGHT" => height = Some(number("HEIGHT", &values)?),
             "POINTS" => points = Some(number("POINTS", &values)?),
@@ -129,20 +136,24 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
                 if fields.is_empty() || sizes.len() != fields.len() || types.len() != fields.len() || counts.len() != fields.len() {
                     return Err(bad(
                         "FIELDS",
-                        format!("FIELDS ({}), SIZE ({}), TYPE ({}) and COUNT ({}) must list the same number of entries", fields.len(), sizes.len(), types.len(), counts.len()),
+                        format!(
+                            "FIELDS ({}), SIZE ({}), TYPE ({}) and COUNT ({}) must list the same number of entries",
+                            fields.len(),
+                            sizes.len(),
+                            types.len(),
+                            counts.len()
+                        ),
                     ));
                 }
-                let fields: Vec<Field> = fields
-                    .into_iter()
-                    .zip(sizes)
-                    .zip(types)
-                    .zip(counts)
-                    .map(|(((name, size), kind), count)| Field { name, size, kind, count })
-                    .collect();
+                let fields: Vec<Field> =
+                    fields.into_iter().zip(sizes).zip(types).zip(counts).map(|(((name, size), kind), count)| Field { name, size, kind, count }).collect();
                 for f in &fields {
                     let valid = matches!((f.kind, f.size), ('F', 4 | 8) | ('I' | 'U', 1 | 2 | 4 | 8));
                     if !valid || f.count == 0 || f.count > MAX_FIELD_COUNT {
-                        return Err(bad("TYPE", format!("field '{}' has unsupported type {}{} x {} (counts 1..={MAX_FIELD_COUNT})", f.name, f.kind, f.size, f.count)));
+                        return Err(bad(
+                            "TYPE",
+                            format!("field '{}' has unsupported type {}{} x {} (counts 1..={MAX_FIELD_COUNT})", f.name, f.kind, f.size, f.count),
+                        ));
                     }
                 }
                 let record: usize = fields.iter().map(|f| f.size * f.count).sum();
@@ -164,7 +175,12 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
                     match header.locate(axis) {
                         Some((_, f)) if f.kind == 'F' && f.count == 1 => {}
                         Some(_) => return Err(bad("FIELDS", format!("field '{axis}' must be a single float"))),
-                        None => return Err(bad("FIELDS", format!("missing field '{axis}' (found: {})", header.fields.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(" ")))),
+                        None => {
+                            return Err(bad(
+                                "FIELDS",
+                                format!("missing field '{axis}' (found: {})", header.fields.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(" ")),
+                            ));
+                        }
                     }
                 }
                 return Ok(header);
@@ -176,11 +192,7 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
 }
 
 fn float_at(bytes: &[u8], size: usize) -> f32 {
-    if size == 4 {
-        f32::from_le_bytes(bytes[..4].try_into().expect("4 bytes"))
-    } else {
-        f64::from_le_bytes(bytes[..8].try_into().expect("8 bytes")) as f32
-    }
+    if size == 4 { f32::from_le_bytes(bytes[..4].try_into().expect("4 bytes")) } else { f64::from_le_bytes(bytes[..8].try_into().expect("8 bytes")) as f32 }
 }
 
 /// Open3D packs colours into a float's bytes as B, G, R, 0.
@@ -197,11 +209,7 @@ fn check_finite(point: [f32; 3], index: usize, path: &Path) -> Result<()> {
 }
 
 fn rgb_field(header: &Header) -> Option<usize> {
-    header
-        .locate("rgb")
-        .or_else(|| header.locate("rgba"))
-        .filter(|(_, f)| f.size == 4 && f.count == 1)
-        .map(|(offset, _)| offset)
+    header.locate("rgb").or_else(|| header.locate("rgba")).filter(|(_, f)| f.size == 4 && f.count == 1).map(|(offset, _)| offset)
 }
 
 fn read_binary(reader: &mut impl Read, header: &Header, path: &Path) -> Result<PointCloud> {
@@ -254,7 +262,11 @@ fn read_ascii(reader: &mut impl BufRead, header: &Header, path: &Path) -> Result
     while points.len() < header.points {
         line.clear();
         if reader.read_line(&mut line).map_err(|e| InputError::io(path, &e))? == 0 {
-            return Err(InputError::new(path, "data", format!("file is truncated: the header declares {} points but only {} are present", header.points, points.len())));
+            return Err(InputError::new(
+                path,
+                "data",
+                format!("file is truncated: the header declares {} points but only {} are present", header.points, points.len()),
+            ));
         }
         let values: Vec<&str> = line.split_whitespace().collect();
         if values.is_empty() {
@@ -272,7 +284,11 @@ fn read_ascii(reader: &mut impl BufRead, header: &Header, path: &Path) -> Result
         points.push(p);
         if let (Some(c), Some(colors)) = (rgb, colors.as_mut()) {
             let bad = || InputError::new(path, format!("point {index}"), format!("rgb '{}' is not a packed colour", values[c]));
-            let bytes = if rgb_is_float { values[c].parse::<f32>().map_err(|_| bad())?.to_le_bytes() } else { values[c].parse::<u32>().map_err(|_| bad())?.to_le_bytes() };
+            let bytes = if rgb_is_float {
+                values[c].parse::<f32>().map_err(|_| bad())?.to_le_bytes()
+            } else {
+                values[c].parse::<u32>().map_err(|_| bad())?.to_le_bytes()
+            };
             colors.push(unpack_rgb(bytes));
         }
     }
@@ -287,7 +303,11 @@ fn read_compressed(reader: &mut impl Read, header: &Header, path: &Path) -> Resu
     let record = header.record_size();
     let expected = header.points.checked_mul(record).ok_or_else(|| InputError::new(path, "header.POINTS", "point count overflows"))?;
     if uncompressed != expected {
-        return Err(InputError::new(path, "data", format!("compressed block unpacks to {uncompressed} bytes, but {} points of {record} bytes need {expected}", header.points)));
+        return Err(InputError::new(
+            path,
+            "data",
+            format!("compressed block unpacks to {uncompressed} bytes, but {} points of {record} bytes need {expected}", header.points),
+        ));
     }
     let mut packed = Vec::with_capacity(compressed.min(1 << 24));
     reader.take(compressed as u64).read_to_end(&mut packed).map_err(|e| InputError::io(path, &e))?;
@@ -368,11 +388,8 @@ pub fn write_pcd(path: &Path, cloud: &PointCloud) -> Result<()> {
     let file = File::create(path).map_err(|e| InputError::io(path, &e))?;
     let mut w = BufWriter::with_capacity(1 << 20, file);
     let n = cloud.points.len();
-    let (fields, sizes, types, counts) = if cloud.colors.is_some() {
-        ("x y z rgb", "4 4 4 4", "F F F U", "1 1 1 1")
-    } else {
-        ("x y z", "4 4 4", "F F F", "1 1 1")
-    };
+    let (fields, sizes, types, counts) =
+        if cloud.colors.is_some() { ("x y z rgb", "4 4 4 4", "F F F U", "1 1 1 1") } else { ("x y z", "4 4 4", "F F F", "1 1 1") };
     let header = format!(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {fields}\nSIZE {sizes}\nTYPE {types}\nCOUNT {counts}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
     );

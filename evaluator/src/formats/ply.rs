@@ -118,7 +118,9 @@ pub fn read_semantic_mesh(path: &Path) -> Result<SemanticMesh> {
                 }
             }
             "face" => {
-                let indices = find("vertex_indices").or_else(|| find("vertex_index")).ok_or_else(|| InputError::new(path, "header.face", "faces need a 'vertex_indices' list"))?;
+                let indices = find("vertex_indices")
+                    .or_else(|| find("vertex_index"))
+                    .ok_or_else(|| InputError::new(path, "header.face", "faces need a 'vertex_indices' list"))?;
                 let object = find("object_id").ok_or_else(|| InputError::new(path, "header.face", "faces need an 'object_id' property"))?;
                 for i in 0..element.count {
                     source.start_record()?;
@@ -133,7 +135,11 @@ pub fn read_semantic_mesh(path: &Path) -> Result<SemanticMesh> {
                                 for _ in 0..len {
                                     let v = source.scalar(p.value)?;
                                     if v < 0.0 || v as usize >= mesh.vertices.len() {
-                                        return Err(InputError::new(path, format!("face {i}"), format!("vertex index {v} is outside 0..{}", mesh.vertices.len())));
+                                        return Err(InputError::new(
+                                            path,
+                                            format!("face {i}"),
+                                            format!("vertex index {v} is outside 0..{}", mesh.vertices.len()),
+                                        ));
                                     }
                                     mesh.face_vertices.push(v as u32);
                                 }
@@ -265,9 +271,7 @@ impl<R: BufRead> ValueSource<'_, R> {
         }
         let mut buf = [0u8; 8];
         let bytes = &mut buf[..ty.size()];
-        self.reader
-            .read_exact(bytes)
-            .map_err(|_| InputError::new(self.path, "data", "file is truncated: fewer records than the header declares"))?;
+        self.reader.read_exact(bytes).map_err(|_| InputError::new(self.path, "data", "file is truncated: fewer records than the header declares"))?;
         if self.format == Format::Big {
             bytes.reverse();
         }

@@ -40,11 +40,7 @@ impl Sequence {
         }
         for (kind, frames) in [("depth*.png", &depth_frames), ("semantic*.png", &semantic_frames)] {
             if frames.len() != color_frames.len() {
-                return Err(InputError::new(
-                    &results,
-                    kind,
-                    format!("expected one per colour frame ({}), found {}", color_frames.len(), frames.len()),
-                ));
+                return Err(InputError::new(&results, kind, format!("expected one per colour frame ({}), found {}", color_frames.len(), frames.len())));
             }
         }
         if trajectory.poses.len() != color_frames.len() {

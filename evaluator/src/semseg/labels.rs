@@ -71,9 +71,10 @@ fn class_text(map: &PredictedMap, field: &str, features: &FeatureMatrix, vocabul
     }
     let mut f64_rows = Vec::with_capacity(vocabulary.len() * features.dim);
     for &class in vocabulary.ids() {
-        let row = text.class_ids.iter().position(|&c| c == class).ok_or_else(|| {
-            InputError::new(&text.source, "class_ids", format!("class {class}, present in the scene's ground truth, has no text feature"))
-        })?;
+        let row =
+            text.class_ids.iter().position(|&c| c == class).ok_or_else(|| {
+                InputError::new(&text.source, "class_ids", format!("class {class}, present in the scene's ground truth, has no text feature"))
+            })?;
         let values = text.features.row(row);
         let norm = values.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
         f64_rows.extend(values.iter().map(|&v| v as f64 / norm));

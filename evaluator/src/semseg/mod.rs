@@ -36,10 +36,7 @@ impl Vocabulary {
     /// Sorted unique ground-truth labels that are classes of the release, without 0
     /// ("other") and -1 ("none"): the reference's `(classes & present) - excluded`.
     pub fn from_ground_truth(labels: &[i64], classes: &ClassList) -> Self {
-        let ids = crate::label_set::unique_labels(labels)
-            .into_iter()
-            .filter(|l| !metrics::EXCLUDED_LABELS.contains(l) && classes.contains(*l))
-            .collect();
+        let ids = crate::label_set::unique_labels(labels).into_iter().filter(|l| !metrics::EXCLUDED_LABELS.contains(l) && classes.contains(*l)).collect();
         Self { ids }
     }
 

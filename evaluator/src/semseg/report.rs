@@ -26,11 +26,7 @@ impl MetricTriple {
     /// The relative change of each metric against `baseline`: (self − baseline) / baseline.
     pub fn relative_change(&self, baseline: &MetricTriple) -> MetricTriple {
         let change = |v: f64, b: f64| (v - b) / b;
-        MetricTriple {
-            miou: change(self.miou, baseline.miou),
-            fmiou: change(self.fmiou, baseline.fmiou),
-            macc: change(self.macc, baseline.macc),
-        }
+        MetricTriple { miou: change(self.miou, baseline.miou), fmiou: change(self.fmiou, baseline.fmiou), macc: change(self.macc, baseline.macc) }
     }
 }
 
@@ -62,8 +58,7 @@ impl MetricsTable {
     pub fn from_scenes(mut scenes: Vec<(String, ConfusionMatrix)>) -> Self {
         scenes.sort_by_cached_key(|(name, _)| reference_sort_key(name));
         let pooled = ConfusionMatrix::pooled(scenes.iter().map(|(_, m)| m));
-        let rows: Vec<(String, SegmentationMetrics)> =
-            scenes.into_iter().map(|(name, m)| (name, SegmentationMetrics::from_confusion(&m))).collect();
+        let rows: Vec<(String, SegmentationMetrics)> = scenes.into_iter().map(|(name, m)| (name, SegmentationMetrics::from_confusion(&m))).collect();
         let column = |f: fn(&SegmentationMetrics) -> f64| nan_skipping_mean(&rows.iter().map(|(_, m)| f(m)).collect::<Vec<_>>());
         let overall_mean = MetricTriple { miou: column(|m| m.miou), fmiou: column(|m| m.fmiou), macc: column(|m| m.macc) };
         Self { overall: SegmentationMetrics::from_confusion(&pooled), scenes: rows, overall_mean }

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use osmab_evaluator::InputError;
 use osmab_evaluator::formats::camera::CameraParams;
 use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::map::{FeatureMatrix, MapSemantics, PredictedMap};
@@ -12,7 +13,6 @@ use osmab_evaluator::formats::pcd::{PointCloud, read_pcd, write_pcd};
 use osmab_evaluator::formats::ply::{SemanticMesh, read_semantic_mesh, write_semantic_mesh};
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::ground_truth::GroundTruth;
-use osmab_evaluator::InputError;
 
 use crate::common::classes;
 
@@ -62,18 +62,72 @@ fn malformed_maps_get_their_own_clear_error() {
     let cases: Vec<(&str, Vec<(&str, NpyArray)>, &str, &str)> = vec![
         ("wrong point shape", vec![("points", NpyArray::from_f32_matrix(2, 2, vec![0.0; 4]))], "points", "expected an (N, 3)"),
         ("no points", vec![("points", points(0)), ("object_ids", ids(vec![])), ("labels", ids(vec![1]))], "points", "no points"),
-        ("nan point", vec![("points", NpyArray::from_f32_matrix(1, 3, vec![0.0, f32::NAN, 0.0])), ("object_ids", ids(vec![0])), ("labels", ids(vec![1]))], "points", "row 0, column 1 is NaN"),
+        (
+            "nan point",
+            vec![("points", NpyArray::from_f32_matrix(1, 3, vec![0.0, f32::NAN, 0.0])), ("object_ids", ids(vec![0])), ("labels", ids(vec![1]))],
+            "points",
+            "row 0, column 1 is NaN",
+        ),
         ("missing object ids", vec![("points", points(2)), ("labels", ids(vec![1]))], "object_ids", "missing"),
-        ("short object ids", vec![("points", points(3)), ("object_ids", ids(vec![0, 0])), ("labels", ids(vec![1]))], "object_ids", "one object id per point (3), found 2"),
-        ("object id out of range", vec![("points", points(2)), ("object_ids", ids(vec![0, 5])), ("labels", ids(vec![1, 2]))], "object_ids", "point 1 has object id 5"),
+        (
+            "short object ids",
+            vec![("points", points(3)), ("object_ids", ids(vec![0, 0])), ("labels", ids(vec![1]))],
+            "object_ids",
+            "one object id per point (3), found 2",
+        ),
+        (
+            "object id out of range",
+            vec![("points", points(2)), ("object_ids", ids(vec![0, 5])), ("labels", ids(vec![1, 2]))],
+            "object_ids",
+            "point 1 has object id 5",
+        ),
         ("negative object id", vec![("points", points(1)), ("object_ids", ids(vec![-1])), ("labels", ids(vec![1]))], "object_ids", "object id -1"),
-        ("labels and features", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("labels", ids(vec![1])), ("features", NpyArray::from_f32_matrix(1, 2, vec![1.0, 0.0]))], "labels", "both"),
-        ("float labels", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("labels", NpyArray::from_f32_matrix(1, 1, vec![1.0]))], "labels", "1-D integer"),
-        ("nan feature", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 2, vec![f32::INFINITY, 0.0]))], "features", "finite"),
-        ("point features of wrong length", vec![("points", points(3)), ("point_features", NpyArray::from_f32_matrix(2, 4, vec![1.0; 8]))], "point_features", "one row per point (3), found 2"),
-        ("point features and objects", vec![("points", points(1)), ("point_features", NpyArray::from_f32_matrix(1, 1, vec![1.0])), ("object_ids", ids(vec![0]))], "point_features", "both"),
-        ("huge feature dimension", vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 10_000, vec![1.0; 10_000]))], "features", "1..=8192 dimensions"),
-        ("float64 beyond float32", vec![("points", NpyArray { shape: vec![1, 3], data: osmab_evaluator::formats::npy::NpyData::F64(vec![0.0, 1e300, 0.0]) }), ("object_ids", ids(vec![0])), ("labels", ids(vec![1]))], "points", "outside the float32 range"),
+        (
+            "labels and features",
+            vec![("points", points(1)), ("object_ids", ids(vec![0])), ("labels", ids(vec![1])), ("features", NpyArray::from_f32_matrix(1, 2, vec![1.0, 0.0]))],
+            "labels",
+            "both",
+        ),
+        (
+            "float labels",
+            vec![("points", points(1)), ("object_ids", ids(vec![0])), ("labels", NpyArray::from_f32_matrix(1, 1, vec![1.0]))],
+            "labels",
+            "1-D integer",
+        ),
+        (
+            "nan feature",
+            vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 2, vec![f32::INFINITY, 0.0]))],
+            "features",
+            "finite",
+        ),
+        (
+            "point features of wrong length",
+            vec![("points", points(3)), ("point_features", NpyArray::from_f32_matrix(2, 4, vec![1.0; 8]))],
+            "point_features",
+            "one row per point (3), found 2",
+        ),
+        (
+            "point features and objects",
+            vec![("points", points(1)), ("point_features", NpyArray::from_f32_matrix(1, 1, vec![1.0])), ("object_ids", ids(vec![0]))],
+            "point_features",
+            "both",
+        ),
+        (
+            "huge feature dimension",
+            vec![("points", points(1)), ("object_ids", ids(vec![0])), ("features", NpyArray::from_f32_matrix(1, 10_000, vec![1.0; 10_000]))],
+            "features",
+            "1..=8192 dimensions",
+        ),
+        (
+            "float64 beyond float32",
+            vec![
+                ("points", NpyArray { shape: vec![1, 3], data: osmab_evaluator::formats::npy::NpyData::F64(vec![0.0, 1e300, 0.0]) }),
+                ("object_ids", ids(vec![0])),
+                ("labels", ids(vec![1])),
+            ],
+            "points",
+            "outside the float32 range",
+        ),
     ];
     for (name, arrays, field, needle) in cases {
         let path = dir.path().join(format!("{}.npz", name.replace(' ', "_")));
@@ -165,7 +219,15 @@ fn pcd_ascii_and_compressed_are_read() {
     .unwrap();
     assert_eq!(read_pcd(&ascii).unwrap(), cloud());
     // Open3D 0.20 writes rgb as an unsigned integer.
-    std::fs::write(&ascii, format!("FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nPOINTS 2\nDATA ascii\n0.5 -1.25 3 {}\n0.001 2 -7.5 {}\n", u32::from_le_bytes([10, 0, 255, 0]), u32::from_le_bytes([3, 2, 1, 0]))).unwrap();
+    std::fs::write(
+        &ascii,
+        format!(
+            "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nPOINTS 2\nDATA ascii\n0.5 -1.25 3 {}\n0.001 2 -7.5 {}\n",
+            u32::from_le_bytes([10, 0, 255, 0]),
+            u32::from_le_bytes([3, 2, 1, 0])
+        ),
+    )
+    .unwrap();
     assert_eq!(read_pcd(&ascii).unwrap(), cloud());
 
     // binary_compressed with a literal-only LZF block holding x, y, z columns.
@@ -297,7 +359,12 @@ fn semantic_meshes_are_read_in_ascii_and_binary() {
     assert!(read_semantic_mesh(&binary).unwrap_err().message.contains("truncated"));
 
     // What we write, we read back.
-    let mesh = SemanticMesh { vertices: vec![[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [6.0, 7.0, 8.0]], face_vertices: vec![0, 1, 2], face_offsets: vec![0, 3], face_objects: vec![9] };
+    let mesh = SemanticMesh {
+        vertices: vec![[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [6.0, 7.0, 8.0]],
+        face_vertices: vec![0, 1, 2],
+        face_offsets: vec![0, 3],
+        face_objects: vec![9],
+    };
     let written = dir.path().join("written.ply");
     write_semantic_mesh(&written, &mesh).unwrap();
     assert_eq!(read_semantic_mesh(&written).unwrap(), mesh);

@@ -69,7 +69,10 @@ fn features_and_labels_give_the_same_result_when_they_agree() {
     let feature_map = PredictedMap {
         source: PathBuf::from("map.npz"),
         points: gt.points.clone(),
-        semantics: MapSemantics::ObjectFeatures { object_ids: gt.labels.iter().map(|&l| object_of(l)).collect(), features: FeatureMatrix { rows: 3, dim, values: features } },
+        semantics: MapSemantics::ObjectFeatures {
+            object_ids: gt.labels.iter().map(|&l| object_of(l)).collect(),
+            features: FeatureMatrix { rows: 3, dim, values: features },
+        },
     };
     let by_features = score_scene(&gt, &feature_map, &classes(5), Some(&text)).unwrap();
     assert_eq!(by_features.confusion, by_labels.confusion);
@@ -85,7 +88,11 @@ fn equal_similarities_pick_the_first_class() {
     let map = PredictedMap {
         source: PathBuf::from("map.npz"),
         points: gt.points.clone(),
-        semantics: MapSemantics::PointFeatures(FeatureMatrix { rows: gt.points.len(), dim, values: gt.points.iter().flat_map(|_| [1.0, 1.0, 0.0, 0.0]).collect() }),
+        semantics: MapSemantics::PointFeatures(FeatureMatrix {
+            rows: gt.points.len(),
+            dim,
+            values: gt.points.iter().flat_map(|_| [1.0, 1.0, 0.0, 0.0]).collect(),
+        }),
     };
     let score = score_scene(&gt, &map, &classes(5), Some(&text)).unwrap();
     assert_eq!(score.confusion.column_sum(0), 500, "every point predicted as class 1");

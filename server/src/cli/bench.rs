@@ -107,7 +107,9 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         }
         BenchCommand::ReleaseEstimate { config, sample, timed_frames } => release_estimate(&config, sample, timed_frames),
         BenchCommand::Render { scenesmith, frames, lit, save } => render_frames(&scenesmith, frames, lit, save.as_deref()),
-        BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref()),
+        BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => {
+            scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref())
+        }
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
             let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
             println!("threads {}", rayon::current_num_threads());
@@ -141,7 +143,10 @@ fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manip
     use osmab_dataset::spec::Regime;
 
     let clock = Instant::now();
-    let pools = [(Regime::Furniture, grammar_pool(Regime::Furniture, furniture_pool, 42), furniture), (Regime::Manipuland, grammar_pool(Regime::Manipuland, manipuland_pool, 42), manipuland)];
+    let pools = [
+        (Regime::Furniture, grammar_pool(Regime::Furniture, furniture_pool, 42), furniture),
+        (Regime::Manipuland, grammar_pool(Regime::Manipuland, manipuland_pool, 42), manipuland),
+    ];
     let prompt_time = clock.elapsed().as_secs_f64();
     let written: usize = pools.iter().map(|(_, p, _)| p.accepted.len() + p.rejected.len()).sum();
     let accepted: usize = pools.iter().map(|(_, p, _)| p.accepted.len()).sum();
@@ -183,7 +188,12 @@ fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manip
     println!("| prompts (grammar + filters) | {written} written, {accepted} kept, in {prompt_time:.3} s | {:.0} prompts/s |", written as f64 / prompt_time);
     println!("| selection (embed + dedup + farthest-first) | {} of {accepted} selected | {select_time:.3} s |", selected.len());
     println!("| synthesis | mean / max per scene over {} scenes | {:.1} / {:.1} ms |", synth_times.len(), 1e3 * mean(&synth_times), 1e3 * max(&synth_times));
-    println!("| conversion | mean / max per scene over {} scenes | {:.1} / {:.1} ms |", convert_times.len(), 1e3 * mean(&convert_times), 1e3 * max(&convert_times));
+    println!(
+        "| conversion | mean / max per scene over {} scenes | {:.1} / {:.1} ms |",
+        convert_times.len(),
+        1e3 * mean(&convert_times),
+        1e3 * max(&convert_times)
+    );
     if let Some(t) = scenesmith_time {
         println!("| conversion of the SceneSmith scene | real assets (5 glTF, 7 MB) | {:.1} ms |", 1e3 * t);
     }
@@ -214,7 +224,11 @@ fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: O
                     let v = |k: &str, i: usize| l[k][i].as_f64().unwrap_or(0.0) as f32;
                     let intensity = l["intensity"].as_f64().unwrap_or(0.0) as f32;
                     let scale = intensity * if intensity < 0.0 { 0.1 } else { 2.5 };
-                    Light { position: [v("position", 0), v("position", 1), v("position", 2)], color: [v("color", 0) * scale, v("color", 1) * scale, v("color", 2) * scale], attached_to_camera: false }
+                    Light {
+                        position: [v("position", 0), v("position", 1), v("position", 2)],
+                        color: [v("color", 0) * scale, v("color", 1) * scale, v("color", 2) * scale],
+                        attached_to_camera: false,
+                    }
                 })
                 .collect(),
         )
@@ -232,7 +246,12 @@ fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: O
         render(&world, &camera, &shading, &mut frame);
     }
     let seconds = clock.elapsed().as_secs_f64();
-    println!("{} triangles (loaded in {load:.2} s); {frames} frames of 1200x680 in {seconds:.2} s: {:.1} frames/s ({})", world.triangles.len(), frames as f64 / seconds, if lit { "lit" } else { "flat" });
+    println!(
+        "{} triangles (loaded in {load:.2} s); {frames} frames of 1200x680 in {seconds:.2} s: {:.1} frames/s ({})",
+        world.triangles.len(),
+        frames as f64 / seconds,
+        if lit { "lit" } else { "flat" }
+    );
     if let Some(path) = save {
         let file = std::fs::File::create(path)?;
         let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 1200, 680);
@@ -258,7 +277,10 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     let (config, _) = ReleaseConfig::read(config_path)?;
     let clock = Instant::now();
     let mut chosen = Vec::new();
-    for (regime, pool_size, target) in [(Regime::Furniture, config.prompts.furniture_pool, config.selection.furniture), (Regime::Manipuland, config.prompts.manipuland_pool, config.selection.manipuland)] {
+    for (regime, pool_size, target) in [
+        (Regime::Furniture, config.prompts.furniture_pool, config.selection.furniture),
+        (Regime::Manipuland, config.prompts.manipuland_pool, config.selection.manipuland),
+    ] {
         let pool = grammar_pool(regime, pool_size, config.seed);
         let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
         let keys: Vec<String> = (0..texts.len()).map(|i| i.to_string()).collect();
@@ -270,7 +292,13 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     // Sample scenes spread over both regimes.
     let picks: Vec<usize> = (0..sample.min(total_scenes)).map(|k| k * total_scenes / sample.min(total_scenes).max(1)).collect();
     let work = std::env::temp_dir().join(format!("osmab-release-estimate-{}", std::process::id()));
-    let sensor = SensorSettings { width: config.render.width, height: config.render.height, hfov: config.render.hfov, sensor_height: config.render.sensor_height, ..Default::default() };
+    let sensor = SensorSettings {
+        width: config.render.width,
+        height: config.render.height,
+        hfov: config.render.hfov,
+        sensor_height: config.render.sensor_height,
+        ..Default::default()
+    };
     let (mut scene_seconds, mut frames_total, mut per_frame) = (0.0, 0usize, Vec::new());
     println!("| sampled scene | regime | synthesis + conversion s | frames per lighting | s per frame (render + write) |");
     println!("|---|---|---:|---:|---:|");
@@ -302,6 +330,12 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     let lightings = config.render.lightings.len() as f64;
     let estimate = prompt_time + total_scenes as f64 * (scene_seconds / n + mean_frames * lightings * mean_per_frame * 1.02);
     println!();
-    println!("{total_scenes} scenes × {} lightings × {mean_frames:.0} frames on average at {:.4} s a frame, plus prompts/selection ({prompt_time:.1} s) and synthesis/conversion: about {:.0} min ({:.1} h) on this machine (ground truth adds ~2 %).", lightings, mean_per_frame, estimate / 60.0, estimate / 3600.0);
+    println!(
+        "{total_scenes} scenes × {} lightings × {mean_frames:.0} frames on average at {:.4} s a frame, plus prompts/selection ({prompt_time:.1} s) and synthesis/conversion: about {:.0} min ({:.1} h) on this machine (ground truth adds ~2 %).",
+        lightings,
+        mean_per_frame,
+        estimate / 60.0,
+        estimate / 3600.0
+    );
     Ok(())
 }

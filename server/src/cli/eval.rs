@@ -159,14 +159,6 @@ fn print_scores(score: &SceneScore, classes: &ClassList, gt_points: usize, map_p
     println!();
     println!("{:>6}  {:<24} {:>10} {:>10} {:>8} {:>8}", "class", "name", "gt", "predicted", "iou", "recall");
     for c in &m.classes {
-        println!(
-            "{:>6}  {:<24} {:>10} {:>10} {:>8.4} {:>8.4}",
-            c.label,
-            classes.name(c.label).unwrap_or("?"),
-            c.ground_truth,
-            c.predicted,
-            c.iou,
-            c.recall
-        );
+        println!("{:>6}  {:<24} {:>10} {:>10} {:>8.4} {:>8.4}", c.label, classes.name(c.label).unwrap_or("?"), c.ground_truth, c.predicted, c.iou, c.recall);
     }
 }

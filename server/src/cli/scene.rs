@@ -200,7 +200,8 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
     let mut by_regime: BTreeMap<Regime, Vec<ScenePrompt>> = BTreeMap::new();
     for path in &args.pools {
         let text = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-        let pool: PromptPool = serde_json::from_slice(&text).with_context(|| format!("{}: not a prompt pool written by `osmab scene prompts`", path.display()))?;
+        let pool: PromptPool =
+            serde_json::from_slice(&text).with_context(|| format!("{}: not a prompt pool written by `osmab scene prompts`", path.display()))?;
         by_regime.entry(pool.regime).or_default().extend(pool.accepted);
     }
     let embedder: Box<dyn Embedder> = match args.embeddings.client()? {
@@ -253,7 +254,8 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
 
 fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[String], out: &Path) -> anyhow::Result<()> {
     let text = std::fs::read(prompts_file).with_context(|| format!("{}: cannot read", prompts_file.display()))?;
-    let prompts: Vec<ScenePrompt> = serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
+    let prompts: Vec<ScenePrompt> =
+        serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
     let mut report = Vec::new();
     let mut failures = 0;
     for (i, prompt) in prompts.iter().enumerate() {
@@ -272,7 +274,9 @@ fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[Stri
             Err(err) => {
                 failures += 1;
                 eprintln!("error: {}: {err}", dir.display());
-                report.push(serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "error": err.to_string()}));
+                report.push(
+                    serde_json::json!({"scene": format!("scene_{i:03}"), "prompt_id": prompt.id, "regime": prompt.spec.regime, "error": err.to_string()}),
+                );
             }
         }
     }

@@ -6,6 +6,7 @@ use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::openai::ServiceConfig;
+use crate::render::sequence::SensorSettings;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -72,6 +73,13 @@ pub struct RenderConfig {
     pub timeout_secs: u64,
 }
 
+impl RenderConfig {
+    /// The camera these settings describe.
+    pub fn sensor(&self) -> SensorSettings {
+        SensorSettings { width: self.width, height: self.height, hfov: self.hfov, sensor_height: self.sensor_height, ..Default::default() }
+    }
+}
+
 fn default_render_timeout() -> u64 {
     24 * 3600
 }
@@ -112,13 +120,7 @@ impl ReleaseConfig {
         if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
             return bad("version", "expected letters, digits, '.', '_' or '-'");
         }
-        let sensor = crate::render::sequence::SensorSettings {
-            width: config.render.width,
-            height: config.render.height,
-            hfov: config.render.hfov,
-            sensor_height: config.render.sensor_height,
-            ..Default::default()
-        };
+        let sensor = config.render.sensor();
         if let Some((field, expectation)) = sensor.problem() {
             return bad(&format!("render.{field}"), expectation);
         }

@@ -23,7 +23,7 @@ use crate::convert::scene::load_scene;
 use crate::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
 use crate::openai::ServiceClient;
 use crate::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
-use crate::render::sequence::{SensorSettings, SequenceSummary};
+use crate::render::sequence::SequenceSummary;
 use crate::render::trajectory::MotionSettings;
 use crate::selection::select;
 use crate::spec::Regime;
@@ -204,13 +204,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             loaded.name = scene.clone();
             write_habitat_scene(&loaded, &habitat, &ConvertOptions::default()).map(|_| ())
         })?;
-        let sensor = SensorSettings {
-            width: config.render.width,
-            height: config.render.height,
-            hfov: config.render.hfov,
-            sensor_height: config.render.sensor_height,
-            ..Default::default()
-        };
+        let sensor = config.render.sensor();
         let goals = if prompt.spec.regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
         let motion = MotionSettings { goals, seed: config.seed.wrapping_add(i as u64), max_frames: config.render.max_frames, ..Default::default() };
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();

@@ -78,7 +78,7 @@ fn read_mtl(path: &Path, materials: &mut Vec<ObjMaterial>) {
 pub fn read_obj(path: &Path) -> Result<ObjMesh> {
     let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
     let mut mesh = ObjMesh { materials: vec![default_material()], ..Default::default() };
-    let mut current = 0;
+    let (mut current, mut chose_material) = (0, false);
     for (i, line) in text.lines().enumerate() {
         let at = || format!("line {}", i + 1);
         let mut words = line.split_whitespace();
@@ -128,13 +128,14 @@ pub fn read_obj(path: &Path) -> Result<ObjMesh> {
             }
             Some("usemtl") => {
                 let name = words.collect::<Vec<_>>().join(" ");
+                chose_material = true;
                 current = mesh.materials.iter().position(|m| m.name == name && !name.is_empty()).unwrap_or(0);
             }
             _ => {}
         }
     }
     // Without any `usemtl`, the first library material applies (the converter's primitives).
-    if current == 0 && mesh.materials.len() > 1 && !text.lines().any(|l| l.trim_start().starts_with("usemtl")) {
+    if !chose_material && mesh.materials.len() > 1 {
         for t in &mut mesh.triangles {
             t.1 = 1;
         }

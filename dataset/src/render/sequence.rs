@@ -138,6 +138,9 @@ pub fn render_sequence(
 
     let mut summary = SequenceSummary { frames: states.len(), ..Default::default() };
     let mut pixel_counts = vec![0u64; 1 << 16];
+    // A lighting without any light is flat; one whose lights are all off in a segment
+    // is lit by the ambient term only (never brighter than with them on).
+    let flat = has_no_lights(light_settings);
     const BATCH: usize = 8;
     let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
     for start in (0..states.len()).step_by(BATCH) {
@@ -145,9 +148,7 @@ pub fn render_sequence(
         for (k, i) in (start..end).enumerate() {
             let camera = Camera { width: sensor.width, height: sensor.height, fx: params.fx, fy: params.fy, cx: params.cx, cy: params.cy, pose: poses[i] };
             let lights = lights_for_goal(light_settings, states[i].goal_index);
-            // A lighting without any light is flat; one whose lights are all off in this
-            // segment is lit by the ambient term only (never brighter than with them on).
-            let shading = if has_no_lights(light_settings) { Shading::Flat } else { Shading::Lit(lights) };
+            let shading = if flat { Shading::Flat } else { Shading::Lit(lights) };
             render(world, &camera, &shading, &mut frames[k]);
             for &c in &frames[k].semantic {
                 pixel_counts[c as usize] += 1;

@@ -269,7 +269,6 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     use osmab_dataset::embedding::{Embedder, HashingEmbedder};
     use osmab_dataset::prompts::grammar_pool;
     use osmab_dataset::release::config::ReleaseConfig;
-    use osmab_dataset::render::sequence::SensorSettings;
     use osmab_dataset::render::trajectory::{MotionSettings, NavGrid, trajectory};
     use osmab_dataset::selection::select;
     use osmab_dataset::spec::Regime;
@@ -292,13 +291,7 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     // Sample scenes spread over both regimes.
     let picks: Vec<usize> = (0..sample.min(total_scenes)).map(|k| k * total_scenes / sample.min(total_scenes).max(1)).collect();
     let work = std::env::temp_dir().join(format!("osmab-release-estimate-{}", std::process::id()));
-    let sensor = SensorSettings {
-        width: config.render.width,
-        height: config.render.height,
-        hfov: config.render.hfov,
-        sensor_height: config.render.sensor_height,
-        ..Default::default()
-    };
+    let sensor = config.render.sensor();
     let (mut scene_seconds, mut frames_total, mut per_frame) = (0.0, 0usize, Vec::new());
     println!("| sampled scene | regime | synthesis + conversion s | frames per lighting | s per frame (render + write) |");
     println!("|---|---|---:|---:|---:|");

@@ -12,6 +12,7 @@ pub mod ground_truth;
 pub mod label_set;
 pub mod numeric;
 pub mod semseg;
+pub mod submission;
 pub mod synthetic;
 
 pub use error::{InputError, Result};

@@ -1,6 +1,22 @@
 //! `osmab`: the OSMa-Bench++ evaluation service and its command line.
 
+mod auth;
+mod blobs;
 mod cli;
+mod clock;
+mod config;
+mod intake;
+mod jobs;
+mod leaderboard;
+mod metrics;
+mod problem;
+mod rate_limit;
+mod releases;
+mod routes;
+mod serve;
+mod state;
+mod store;
+mod telemetry;
 
 use std::process::ExitCode;
 

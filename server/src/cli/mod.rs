@@ -6,6 +6,7 @@ mod eval;
 mod gt;
 mod release;
 mod scene;
+mod service;
 
 use clap::{Parser, Subcommand};
 
@@ -19,6 +20,12 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the service: HTTP API, pages and an in-process worker (SQLite under ./osmab-data by default).
+    Serve(service::ServiceArgs),
+    /// Run extra workers against the service's database and storage.
+    Worker(service::WorkerArgs),
+    /// Apply the database migrations.
+    Migrate(service::ServiceArgs),
     /// Score maps and confusion matrices.
     #[command(subcommand)]
     Eval(eval::EvalCommand),
@@ -41,6 +48,9 @@ enum Command {
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Serve(args) => service::serve(args),
+        Command::Worker(args) => service::worker(args),
+        Command::Migrate(args) => service::migrate(args),
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),
         Command::Scene(cmd) => scene::run(cmd),

@@ -24,6 +24,16 @@ pub enum ReleaseCommand {
         /// The release directory.
         dir: PathBuf,
     },
+    /// Register a built release with the service (same database and storage as `osmab serve`).
+    Import {
+        /// The release directory (built by `osmab release build`).
+        dir: PathBuf,
+        /// Make it the current release at once (otherwise it stays a draft until published).
+        #[arg(long)]
+        publish: bool,
+        #[command(flatten)]
+        service: super::service::ServiceArgs,
+    },
 }
 
 pub fn run(cmd: ReleaseCommand) -> anyhow::Result<()> {
@@ -49,6 +59,7 @@ pub fn run(cmd: ReleaseCommand) -> anyhow::Result<()> {
             println!("{}: release built in {:.1} s", out.display(), started.elapsed().as_secs_f64());
             Ok(())
         }
+        ReleaseCommand::Import { dir, publish, service } => super::service::import(&dir, publish, service),
         ReleaseCommand::Verify { dir } => {
             let n = verify_release(&dir)?;
             println!("{}: {n} files match the manifest", dir.display());

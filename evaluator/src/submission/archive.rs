@@ -1,0 +1,268 @@
+//! Submission archives: `.tar`, `.tar.gz` and `.zip` unpacked with every hostile case
+//! refused (path traversal, links, device files, duplicate names, too many entries,
+//! too many bytes — counted as they are written, so a compression bomb stops at the
+//! limit), and directories packed deterministically so the same files give the same
+//! archive bytes and SHA-256.
+
+use std::collections::HashSet;
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, Write};
+use std::path::{Component, Path, PathBuf};
+
+use crate::error::{InputError, Result};
+
+/// Upper bounds on what an archive may unpack to.
+#[derive(Debug, Clone, Copy)]
+pub struct ArchiveLimits {
+    /// Largest number of entries (files and directories).
+    pub max_entries: usize,
+    /// Largest sum of unpacked file sizes.
+    pub max_total_bytes: u64,
+}
+
+impl Default for ArchiveLimits {
+    fn default() -> Self {
+        Self { max_entries: 20_000, max_total_bytes: 16 << 30 }
+    }
+}
+
+/// The container formats a submission may come in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ArchiveKind {
+    Tar,
+    TarGz,
+    Zip,
+}
+
+impl ArchiveKind {
+    /// Recognise an archive by its first bytes (the declared content type is only a hint).
+    pub fn sniff(path: &Path) -> Result<Self> {
+        let mut head = [0u8; 512];
+        let mut file = File::open(path).map_err(|e| InputError::io(path, &e))?;
+        let mut n = 0;
+        while n < head.len() {
+            match file.read(&mut head[n..]) {
+                Ok(0) => break,
+                Ok(k) => n += k,
+                Err(e) => return Err(InputError::io(path, &e)),
+            }
+        }
+        if n >= 2 && head[..2] == [0x1f, 0x8b] {
+            Ok(Self::TarGz)
+        } else if n >= 4 && (head[..4] == *b"PK\x03\x04" || head[..4] == *b"PK\x05\x06") {
+            Ok(Self::Zip)
+        } else if n >= 262 && &head[257..262] == b"ustar" {
+            Ok(Self::Tar)
+        } else if n == 0 {
+            Err(InputError::new(path, "(archive)", "the upload is empty; expected a .tar, .tar.gz or .zip archive"))
+        } else {
+            Err(InputError::new(path, "(archive)", "not a .tar, .tar.gz or .zip archive (unrecognised first bytes)"))
+        }
+    }
+}
+
+/// A relative path inside an archive made safe to join under the destination: no
+/// absolute paths, no `..`, no empty or odd components. A leading `./` is dropped.
+pub fn safe_relative_path(archive: &Path, name: &str) -> Result<PathBuf> {
+    let refuse = |why: &str| InputError::new(archive, name, format!("refused entry: {why}"));
+    if name.contains('\0') || name.contains('\\') {
+        return Err(refuse("names may not contain NUL or backslashes"));
+    }
+    let mut out = PathBuf::new();
+    for component in Path::new(name).components() {
+        match component {
+            Component::Normal(part) => out.push(part),
+            Component::CurDir => {}
+            Component::ParentDir => return Err(refuse("the path leaves the archive ('..')")),
+            Component::RootDir | Component::Prefix(_) => return Err(refuse("absolute paths are not allowed")),
+        }
+    }
+    if out.as_os_str().is_empty() {
+        return Err(refuse("empty path"));
+    }
+    Ok(out)
+}
+
+/// What unpacking wrote.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Unpacked {
+    /// Files written (relative paths).
+    pub files: Vec<PathBuf>,
+    /// Their total size.
+    pub bytes: u64,
+}
+
+struct Writer<'a> {
+    archive: &'a Path,
+    dest: &'a Path,
+    limits: ArchiveLimits,
+    seen: HashSet<PathBuf>,
+    entries: usize,
+    out: Unpacked,
+}
+
+impl Writer<'_> {
+    fn entry(&mut self, name: &str) -> Result<PathBuf> {
+        self.entries += 1;
+        if self.entries > self.limits.max_entries {
+            return Err(InputError::new(self.archive, "(archive)", format!("more than {} entries; a submission needs far fewer", self.limits.max_entries)));
+        }
+        safe_relative_path(self.archive, name)
+    }
+
+    fn directory(&mut self, name: &str) -> Result<()> {
+        let relative = self.entry(name)?;
+        let path = self.dest.join(&relative);
+        std::fs::create_dir_all(&path).map_err(|e| InputError::io(&path, &e))
+    }
+
+    fn file(&mut self, name: &str, content: &mut dyn Read) -> Result<()> {
+        let relative = self.entry(name)?;
+        if !self.seen.insert(relative.clone()) {
+            return Err(InputError::new(self.archive, name, "refused entry: the archive holds this path twice"));
+        }
+        let path = self.dest.join(&relative);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
+        }
+        let mut file = File::create(&path).map_err(|e| InputError::io(&path, &e))?;
+        let budget = self.limits.max_total_bytes - self.out.bytes;
+        // Count what actually arrives: declared sizes in headers can lie.
+        let written = std::io::copy(&mut content.take(budget + 1), &mut file).map_err(|e| truncated(self.archive, name, &e))?;
+        if written > budget {
+            return Err(InputError::new(
+                self.archive,
+                name,
+                format!("the archive unpacks to more than {} bytes (the submission size limit)", self.limits.max_total_bytes),
+            ));
+        }
+        file.flush().map_err(|e| InputError::io(&path, &e))?;
+        self.out.bytes += written;
+        self.out.files.push(relative);
+        Ok(())
+    }
+}
+
+fn truncated(archive: &Path, name: &str, e: &std::io::Error) -> InputError {
+    InputError::new(archive, name, format!("the archive is truncated or corrupt while reading this entry ({e})"))
+}
+
+/// Unpack `archive` into the empty directory `dest`.
+pub fn unpack(archive: &Path, dest: &Path, limits: ArchiveLimits) -> Result<Unpacked> {
+    let kind = ArchiveKind::sniff(archive)?;
+    std::fs::create_dir_all(dest).map_err(|e| InputError::io(dest, &e))?;
+    let mut writer = Writer { archive, dest, limits, seen: HashSet::new(), entries: 0, out: Unpacked::default() };
+    let file = File::open(archive).map_err(|e| InputError::io(archive, &e))?;
+    match kind {
+        ArchiveKind::Tar => unpack_tar(BufReader::new(file), &mut writer)?,
+        ArchiveKind::TarGz => unpack_tar(flate2::read::GzDecoder::new(BufReader::new(file)), &mut writer)?,
+        ArchiveKind::Zip => unpack_zip(file, &mut writer)?,
+    }
+    if writer.out.files.is_empty() {
+        return Err(InputError::new(archive, "(archive)", "the archive holds no files"));
+    }
+    Ok(writer.out)
+}
+
+fn unpack_tar(reader: impl Read, writer: &mut Writer<'_>) -> Result<()> {
+    let archive_path = writer.archive;
+    let mut tar = tar::Archive::new(reader);
+    let entries = tar.entries().map_err(|e| truncated(archive_path, "(archive)", &e))?;
+    for entry in entries {
+        let mut entry = entry.map_err(|e| truncated(archive_path, "(archive)", &e))?;
+        let name =
+            String::from_utf8(entry.path_bytes().into_owned()).map_err(|_| InputError::new(archive_path, "(archive)", "an entry name is not valid UTF-8"))?;
+        match entry.header().entry_type() {
+            tar::EntryType::Regular | tar::EntryType::Continuous => writer.file(&name, &mut entry)?,
+            tar::EntryType::Directory => writer.directory(&name)?,
+            // pax and GNU long-name records describe the next entry; the tar reader applies them.
+            tar::EntryType::XHeader | tar::EntryType::XGlobalHeader | tar::EntryType::GNULongName => {}
+            tar::EntryType::Symlink | tar::EntryType::Link | tar::EntryType::GNULongLink => {
+                return Err(InputError::new(archive_path, name, "refused entry: links are not allowed in a submission; archive the files themselves"));
+            }
+            other => return Err(InputError::new(archive_path, name, format!("refused entry: {other:?} entries are not allowed; only files and directories"))),
+        }
+    }
+    Ok(())
+}
+
+fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
+    let archive_path = writer.archive;
+    let mut zip =
+        zip::ZipArchive::new(BufReader::new(file)).map_err(|e| InputError::new(archive_path, "(archive)", format!("not a readable zip archive: {e}")))?;
+    if zip.len() > writer.limits.max_entries {
+        return Err(InputError::new(archive_path, "(archive)", format!("more than {} entries; a submission needs far fewer", writer.limits.max_entries)));
+    }
+    for i in 0..zip.len() {
+        let mut entry = zip.by_index(i).map_err(|e| InputError::new(archive_path, "(archive)", format!("entry {i} is unreadable: {e}")))?;
+        let name = entry.name().map_err(|e| InputError::new(archive_path, "(archive)", format!("entry {i} has an unreadable name: {e}")))?.to_string();
+        if entry.is_symlink() {
+            return Err(InputError::new(archive_path, name, "refused entry: links are not allowed in a submission; archive the files themselves"));
+        }
+        if entry.is_dir() {
+            writer.directory(&name)?;
+        } else {
+            writer.file(&name, &mut entry)?;
+        }
+    }
+    Ok(())
+}
+
+/// Every file under `dir` as sorted relative paths with '/' separators; links and other
+/// special files are refused.
+pub fn list_tree(dir: &Path) -> Result<Vec<String>> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+        let entries = std::fs::read_dir(dir).map_err(|e| InputError::io(dir, &e))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| InputError::io(dir, &e))?;
+            let path = entry.path();
+            let kind = entry.file_type().map_err(|e| InputError::io(&path, &e))?;
+            if kind.is_dir() {
+                walk(root, &path, out)?;
+            } else if kind.is_file() {
+                let relative = path.strip_prefix(root).expect("under root");
+                let text = relative.to_str().ok_or_else(|| InputError::new(&path, "(name)", "file names must be valid UTF-8"))?;
+                out.push(text.replace(std::path::MAIN_SEPARATOR, "/"));
+            } else {
+                return Err(InputError::new(&path, "(file)", "links and special files cannot be part of a submission"));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out)?;
+    out.sort();
+    Ok(out)
+}
+
+/// Pack the files under `dir` into an uncompressed tar at `out`, deterministically:
+/// sorted names, mode 0644, owner 0, time 0. Returns the number of files.
+pub fn pack_directory(dir: &Path, out: &Path) -> Result<usize> {
+    pack_directory_as(dir, "", out)
+}
+
+/// As [`pack_directory`], with every name inside the archive starting with `prefix`
+/// (`sequences/baseline/scene_000/`).
+pub fn pack_directory_as(dir: &Path, prefix: &str, out: &Path) -> Result<usize> {
+    let files = list_tree(dir)?;
+    let sink = File::create(out).map_err(|e| InputError::io(out, &e))?;
+    let mut builder = tar::Builder::new(std::io::BufWriter::new(sink));
+    builder.mode(tar::HeaderMode::Deterministic);
+    for name in &files {
+        let path = dir.join(name);
+        let mut file = File::open(&path).map_err(|e| InputError::io(&path, &e))?;
+        let size = file.seek(std::io::SeekFrom::End(0)).map_err(|e| InputError::io(&path, &e))?;
+        file.rewind().map_err(|e| InputError::io(&path, &e))?;
+        let mut header = tar::Header::new_gnu();
+        header.set_size(size);
+        header.set_mode(0o644);
+        header.set_mtime(0);
+        header.set_uid(0);
+        header.set_gid(0);
+        header.set_entry_type(tar::EntryType::Regular);
+        builder.append_data(&mut header, format!("{prefix}{name}"), &mut file).map_err(|e| InputError::io(out, &e))?;
+    }
+    let writer = builder.into_inner().map_err(|e| InputError::io(out, &e))?;
+    writer.into_inner().map_err(|e| InputError::io(out, &e.into_error()))?.sync_all().map_err(|e| InputError::io(out, &e))?;
+    Ok(files.len())
+}

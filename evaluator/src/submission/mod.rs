@@ -1,0 +1,20 @@
+//! A whole submission (product.md section 5) checked against a release, then scored.
+//!
+//! [`release::ReleaseIndex`] says what a release holds; [`validate::validate`] reads
+//! every file of an unpacked submission once and reports every problem with the file
+//! (relative to the submission), field and expectation; [`score::score_submission`]
+//! turns a valid submission into the scores object of product.md section 9. The
+//! server and `osmab client validate` run this very code.
+
+pub mod archive;
+pub mod release;
+pub mod score;
+pub mod validate;
+
+pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, unpack};
+pub use release::ReleaseIndex;
+pub use score::score_submission;
+pub use validate::{MethodCard, SubmissionLimits, ValidSubmission, validate};
+
+/// The `format` value of `submission.json`.
+pub const SUBMISSION_FORMAT: &str = "osmab-submission/1";

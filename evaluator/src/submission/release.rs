@@ -1,0 +1,77 @@
+//! What a release offers a submission: its version, scenes with their subsets, lightings
+//! and (where the release directory holds it) the ground truth to score against.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::error::{InputError, Result};
+use crate::formats::classes::ClassList;
+
+/// Folder of a release directory holding the private ground truth, one folder per scene.
+pub const GROUND_TRUTH_DIR: &str = "ground_truth";
+
+/// One scene of a release.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+pub struct ReleaseScene {
+    /// Scene id (`scene_000`).
+    pub id: String,
+    /// `furniture` or `manipuland`.
+    pub subset: String,
+}
+
+/// The facts of a release that validation and scoring need.
+#[derive(Debug, Clone)]
+pub struct ReleaseIndex {
+    /// Where the release lives on disk.
+    pub root: PathBuf,
+    /// The release version.
+    pub version: String,
+    /// Its scenes in manifest order.
+    pub scenes: Vec<ReleaseScene>,
+    /// Its lightings in manifest order.
+    pub lightings: Vec<String>,
+    /// The release's classes (`classes.json`).
+    pub classes: ClassList,
+}
+
+#[derive(Deserialize)]
+struct ManifestFields {
+    version: String,
+    scenes: Vec<ReleaseScene>,
+    lightings: Vec<String>,
+}
+
+impl ReleaseIndex {
+    /// Read `root/manifest.json`.
+    pub fn read(root: &Path) -> Result<Self> {
+        let path = root.join("manifest.json");
+        let bytes = std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?;
+        let fields: ManifestFields = serde_json::from_slice(&bytes).map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
+        if fields.scenes.is_empty() || fields.lightings.is_empty() {
+            return Err(InputError::new(&path, "scenes", "a release needs at least one scene and one lighting"));
+        }
+        let classes = ClassList::read(&root.join("classes.json"))?;
+        Ok(Self { root: root.to_path_buf(), version: fields.version, scenes: fields.scenes, lightings: fields.lightings, classes })
+    }
+
+    /// The scene with id `id`.
+    pub fn scene(&self, id: &str) -> Option<&ReleaseScene> {
+        self.scenes.iter().find(|s| s.id == id)
+    }
+
+    /// The ground-truth folder of `scene` (`pointcloud.pcd`, `semantic.npy`, classes).
+    pub fn ground_truth_dir(&self, scene: &str) -> PathBuf {
+        self.root.join(GROUND_TRUTH_DIR).join(scene)
+    }
+
+    /// Whether this copy of the release carries its ground truth.
+    pub fn has_ground_truth(&self) -> bool {
+        self.scenes.iter().all(|s| self.ground_truth_dir(&s.id).join("semantic.npy").is_file())
+    }
+
+    /// The class list of `scene`'s ground truth.
+    pub fn scene_classes(&self, scene: &str) -> Result<ClassList> {
+        ClassList::read(&self.ground_truth_dir(scene).join("embed_semseg_classes.json"))
+    }
+}

@@ -1,0 +1,453 @@
+//! Checking an unpacked submission against a release before anything is scored: every
+//! problem is reported at once, each naming the file (relative to the submission), the
+//! field and what was expected.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::SUBMISSION_FORMAT;
+use super::archive::list_tree;
+use super::release::ReleaseIndex;
+use crate::error::InputError;
+use crate::formats::map::{MapSemantics, PredictedMap, TextFeatures};
+use crate::formats::npy::ReadLimits;
+use crate::ground_truth::GroundTruth;
+
+/// At most this many problems are reported (the rest are counted).
+pub const MAX_REPORTED_PROBLEMS: usize = 50;
+
+/// Size limits on what one submission may hold.
+#[derive(Debug, Clone, Copy)]
+pub struct SubmissionLimits {
+    /// Limits on each `.npz`.
+    pub arrays: ReadLimits,
+    /// Largest scene graph or answers JSON file.
+    pub max_json_bytes: u64,
+}
+
+impl Default for SubmissionLimits {
+    fn default() -> Self {
+        Self { arrays: ReadLimits { max_array_bytes: 4 << 30, max_archive_bytes: 8 << 30 }, max_json_bytes: 64 << 20 }
+    }
+}
+
+/// The method card of `submission.json`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MethodCard {
+    /// Method name as shown on the leaderboard.
+    pub name: String,
+    /// What the method is and how it was run.
+    #[serde(default)]
+    pub description: String,
+    /// Paper link.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paper_url: Option<String>,
+    /// Code link.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub code_url: Option<String>,
+}
+
+impl MethodCard {
+    /// Check lengths and links; `file` names the source in messages.
+    pub fn check(&self, file: &str) -> Result<(), InputError> {
+        let name = self.name.trim();
+        if name.is_empty() || name.chars().count() > 80 || name.chars().any(char::is_control) {
+            return Err(InputError::new(file, "method.name", "expected a name of 1 to 80 printable characters"));
+        }
+        if self.description.chars().count() > 4000 {
+            return Err(InputError::new(file, "method.description", "expected at most 4000 characters"));
+        }
+        for (field, url) in [("method.paper_url", &self.paper_url), ("method.code_url", &self.code_url)] {
+            if let Some(url) = url
+                && (!(url.starts_with("https://") || url.starts_with("http://")) || url.len() > 500 || url.chars().any(|c| c.is_whitespace() || c.is_control()))
+            {
+                return Err(InputError::new(file, field, format!("expected an http(s) link of at most 500 characters, found '{url}'")));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SubmissionFile {
+    format: String,
+    release: String,
+    method: MethodCard,
+}
+
+/// One (lighting, scene) a submission covers.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct SceneEntry {
+    /// Lighting label.
+    pub lighting: String,
+    /// Scene id.
+    pub scene: String,
+    /// `maps/<lighting>/<scene>.npz`, when present.
+    pub map: Option<PathBuf>,
+    /// `graphs/<lighting>/<scene>.json`, when present.
+    pub graph: Option<PathBuf>,
+    /// `answers/<lighting>/<scene>.json`, when present.
+    pub answers: Option<PathBuf>,
+}
+
+/// A submission that passed every check.
+#[derive(Debug, Clone, Serialize)]
+pub struct ValidSubmission {
+    /// The unpacked submission.
+    #[serde(skip)]
+    pub root: PathBuf,
+    /// The release it is for.
+    pub release: String,
+    /// Its method card.
+    pub method: MethodCard,
+    /// `text_features.npz`, when present.
+    #[serde(skip)]
+    pub text_features: Option<PathBuf>,
+    /// What it covers, by lighting then scene.
+    pub entries: Vec<SceneEntry>,
+    /// Every (lighting, scene) of the release has a map.
+    pub complete: bool,
+    /// `lighting/scene` pairs without a map.
+    pub missing_maps: Vec<String>,
+    /// Points read over all maps.
+    pub points: u64,
+}
+
+fn relative(root: &Path, mut error: InputError) -> InputError {
+    let prefix = format!("{}/", root.display());
+    if let Some(rest) = error.file.strip_prefix(&prefix) {
+        error.file = rest.to_string();
+    }
+    error
+}
+
+/// Files that archivers add and that carry nothing (macOS resource forks, Finder data).
+fn is_archiver_noise(path: &str) -> bool {
+    path.starts_with("__MACOSX/") || path.rsplit('/').next().is_some_and(|name| name == ".DS_Store" || name.starts_with("._"))
+}
+
+/// Where an archive's content really starts: an archive of a folder holds `folder/…`.
+fn submission_root(root: &Path) -> PathBuf {
+    if root.join("submission.json").is_file() {
+        return root.to_path_buf();
+    }
+    let entries: Vec<PathBuf> = std::fs::read_dir(root)
+        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| !is_archiver_noise(&p.file_name().unwrap_or_default().to_string_lossy())).collect())
+        .unwrap_or_default();
+    match entries.as_slice() {
+        [only] if only.is_dir() && only.join("submission.json").is_file() => only.clone(),
+        _ => root.to_path_buf(),
+    }
+}
+
+/// The JSON of a scene graph or answers file, size-checked.
+fn read_json(path: &Path, name: &str, limits: SubmissionLimits) -> Result<Value, InputError> {
+    let size = std::fs::metadata(path).map_err(|e| InputError::io(name, &e))?.len();
+    if size > limits.max_json_bytes {
+        return Err(InputError::new(name, "(file)", format!("{size} bytes is more than the {} allowed for a JSON file", limits.max_json_bytes)));
+    }
+    let bytes = std::fs::read(path).map_err(|e| InputError::io(name, &e))?;
+    serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))
+}
+
+fn finite_triple(value: &Value) -> bool {
+    value.as_array().is_some_and(|a| a.len() == 3 && a.iter().all(|v| v.as_f64().is_some_and(f64::is_finite)))
+}
+
+/// A scene graph: `{"objects": [...], "edges"?: [...]}` or a bare node list (ConceptGraphs, BBQ).
+fn check_graph(value: &Value, name: &str) -> Result<(), InputError> {
+    let objects = match value {
+        Value::Array(list) => list,
+        Value::Object(map) => match map.get("objects") {
+            Some(Value::Array(list)) => list,
+            _ => return Err(InputError::new(name, "objects", "expected {\"objects\": [...]} or a list of nodes")),
+        },
+        _ => return Err(InputError::new(name, "(json)", "expected {\"objects\": [...]} or a list of nodes")),
+    };
+    for (i, object) in objects.iter().enumerate() {
+        let Some(fields) = object.as_object() else {
+            return Err(InputError::new(name, format!("objects[{i}]"), "expected an object"));
+        };
+        for key in ["bbox_center", "bbox_extent"] {
+            if let Some(v) = fields.get(key)
+                && !finite_triple(v)
+            {
+                return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected three finite numbers"));
+            }
+        }
+        for key in ["label", "caption"] {
+            if let Some(v) = fields.get(key)
+                && !(v.is_string() || v.is_null())
+            {
+                return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected a string"));
+            }
+        }
+    }
+    if let Some(edges) = value.get("edges")
+        && !edges.is_array()
+    {
+        return Err(InputError::new(name, "edges", "expected a list of {\"source\", \"target\", \"relation\"}"));
+    }
+    Ok(())
+}
+
+/// Answers: `[{"question_id", "answer"}]` with unique ids.
+fn check_answers(value: &Value, name: &str) -> Result<(), InputError> {
+    let Some(list) = value.as_array() else {
+        return Err(InputError::new(name, "(json)", "expected a list of {\"question_id\": str, \"answer\": str}"));
+    };
+    let mut seen = BTreeSet::new();
+    for (i, item) in list.iter().enumerate() {
+        let id = item.get("question_id").and_then(Value::as_str);
+        let answer = item.get("answer");
+        match (id, answer) {
+            (Some(id), Some(Value::String(_) | Value::Number(_) | Value::Bool(_))) => {
+                if !seen.insert(id.to_string()) {
+                    return Err(InputError::new(name, format!("[{i}].question_id"), format!("question '{id}' is answered twice")));
+                }
+            }
+            _ => return Err(InputError::new(name, format!("[{i}]"), "expected {\"question_id\": str, \"answer\": str}")),
+        }
+    }
+    Ok(())
+}
+
+/// A map in another frame than the release (say, relative to the first camera) overlaps
+/// the scene's ground-truth box only by accident: refuse it with that explanation.
+fn check_frame(map: &PredictedMap, ground_truth: &GroundTruth, name: &str) -> Result<(), InputError> {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in &ground_truth.points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let margin = 0.5;
+    let inside = map.points.iter().filter(|p| (0..3).all(|a| p[a] >= lo[a] - margin && p[a] <= hi[a] + margin)).count();
+    if (inside as f64) < 0.5 * map.points.len() as f64 {
+        return Err(InputError::new(
+            name,
+            "points",
+            format!(
+                "only {:.0}% of the points lie within 0.5 m of the scene's extent ({:.2?} to {:.2?}); the map looks like it is in another frame — points must be in the release's world frame (the frame of traj.txt)",
+                100.0 * inside as f64 / map.points.len() as f64,
+                lo,
+                hi
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Check the unpacked submission in `unpacked` against `release`; on failure, every
+/// problem found (at most [`MAX_REPORTED_PROBLEMS`], then a count of the rest).
+pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimits) -> Result<ValidSubmission, Vec<InputError>> {
+    let root = submission_root(unpacked);
+    let mut problems: Vec<InputError> = Vec::new();
+    let files = match list_tree(&root) {
+        Ok(files) => files,
+        Err(e) => return Err(vec![relative(&root, e)]),
+    };
+
+    let card = match read_json(&root.join("submission.json"), "submission.json", limits) {
+        Err(e) if !root.join("submission.json").is_file() => {
+            problems.push(InputError::new(
+                "submission.json",
+                "(file)",
+                format!("missing: every submission starts with submission.json ({{\"format\": \"{SUBMISSION_FORMAT}\", \"release\", \"method\"}})"),
+            ));
+            let _ = e;
+            None
+        }
+        Err(e) => {
+            problems.push(e);
+            None
+        }
+        Ok(value) => match serde_json::from_value::<SubmissionFile>(value) {
+            Err(e) => {
+                problems.push(InputError::new(
+                    "submission.json",
+                    "(json)",
+                    format!("expected {{\"format\", \"release\", \"method\": {{\"name\", \"description\", \"paper_url\"?, \"code_url\"?}}}}: {e}"),
+                ));
+                None
+            }
+            Ok(file) => {
+                if file.format != SUBMISSION_FORMAT {
+                    problems.push(InputError::new("submission.json", "format", format!("expected \"{SUBMISSION_FORMAT}\", found \"{}\"", file.format)));
+                }
+                if file.release != release.version {
+                    problems.push(InputError::new(
+                        "submission.json",
+                        "release",
+                        format!("this submission is for release '{}', but it is being checked against release '{}'", file.release, release.version),
+                    ));
+                }
+                if let Err(e) = file.method.check("submission.json") {
+                    problems.push(e);
+                }
+                Some(file)
+            }
+        },
+    };
+
+    let text_features = root.join("text_features.npz");
+    let text = if text_features.is_file() {
+        match TextFeatures::read(&text_features, limits.arrays) {
+            Ok(t) => {
+                if let Some(id) = t.class_ids.iter().find(|id| !release.classes.contains(**id)) {
+                    problems.push(InputError::new("text_features.npz", "class_ids", format!("class id {id} is not a class of the release (classes.json)")));
+                }
+                Some(t)
+            }
+            Err(e) => {
+                problems.push(relative(&root, e));
+                None
+            }
+        }
+    } else {
+        None
+    };
+
+    let mut entries: BTreeMap<(String, String), SceneEntry> = BTreeMap::new();
+    let mut ground_truth: BTreeMap<String, Option<GroundTruth>> = BTreeMap::new();
+    let mut points = 0u64;
+    for name in &files {
+        if is_archiver_noise(name) || name == "submission.json" || name == "text_features.npz" {
+            continue;
+        }
+        let parts: Vec<&str> = name.split('/').collect();
+        let (kind, extension) = match parts.first().copied() {
+            Some("maps") => ("maps", "npz"),
+            Some("graphs") => ("graphs", "json"),
+            Some("answers") => ("answers", "json"),
+            _ if parts.len() == 1 && (name.to_ascii_lowercase().starts_with("readme") || name.to_ascii_lowercase().starts_with("license")) => continue,
+            _ => {
+                problems.push(InputError::new(
+                    name.as_str(),
+                    "(file)",
+                    "unexpected file; a submission holds submission.json, text_features.npz, maps/, graphs/ and answers/",
+                ));
+                continue;
+            }
+        };
+        let Some(scene) = (parts.len() == 3).then(|| parts[2].strip_suffix(&format!(".{extension}"))).flatten() else {
+            problems.push(InputError::new(name.as_str(), "(path)", format!("expected {kind}/<lighting>/<scene>.{extension}")));
+            continue;
+        };
+        let lighting = parts[1];
+        if !release.lightings.iter().any(|l| l == lighting) {
+            problems.push(InputError::new(
+                name.as_str(),
+                "(path)",
+                format!("unknown lighting '{lighting}'; release {} has {}", release.version, release.lightings.join(", ")),
+            ));
+            continue;
+        }
+        if release.scene(scene).is_none() {
+            let known: Vec<&str> = release.scenes.iter().map(|s| s.id.as_str()).collect();
+            problems.push(InputError::new(name.as_str(), "(path)", format!("unknown scene '{scene}'; release {} has {}", release.version, known.join(", "))));
+            continue;
+        }
+        let path = root.join(name);
+        let entry = entries.entry((lighting.to_string(), scene.to_string())).or_insert_with(|| SceneEntry {
+            lighting: lighting.to_string(),
+            scene: scene.to_string(),
+            map: None,
+            graph: None,
+            answers: None,
+        });
+        match kind {
+            "maps" => {
+                match PredictedMap::read(&path, limits.arrays) {
+                    Err(e) => problems.push(relative(&root, e)),
+                    Ok(map) => {
+                        points += map.points.len() as u64;
+                        if let Err(e) = check_semantics(&map, release, text.as_ref(), name) {
+                            problems.push(e);
+                        }
+                        let gt = ground_truth.entry(scene.to_string()).or_insert_with(|| {
+                            let dir = release.ground_truth_dir(scene);
+                            release.scene_classes(scene).and_then(|classes| GroundTruth::read(&dir, &classes)).ok()
+                        });
+                        if let Some(gt) = gt
+                            && let Err(e) = check_frame(&map, gt, name)
+                        {
+                            problems.push(e);
+                        }
+                    }
+                }
+                entry.map = Some(path);
+            }
+            "graphs" => {
+                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_graph(&v, name)) {
+                    problems.push(e);
+                }
+                entry.graph = Some(path);
+            }
+            _ => {
+                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_answers(&v, name)) {
+                    problems.push(e);
+                }
+                entry.answers = Some(path);
+            }
+        }
+    }
+    if entries.values().all(|e| e.map.is_none() && e.graph.is_none()) && problems.is_empty() {
+        problems.push(InputError::new("maps/", "(folder)", "the submission has no maps and no scene graphs; expected maps/<lighting>/<scene>.npz"));
+    }
+    if !problems.is_empty() {
+        if problems.len() > MAX_REPORTED_PROBLEMS {
+            let more = problems.len() - MAX_REPORTED_PROBLEMS;
+            problems.truncate(MAX_REPORTED_PROBLEMS);
+            problems.push(InputError::new("(submission)", "(problems)", format!("{more} more problems not listed")));
+        }
+        return Err(problems);
+    }
+    let card = card.expect("no problems means submission.json was read");
+    let missing_maps: Vec<String> = release
+        .lightings
+        .iter()
+        .flat_map(|l| release.scenes.iter().map(move |s| (l, s)))
+        .filter(|(l, s)| !entries.get(&((*l).clone(), s.id.clone())).is_some_and(|e| e.map.is_some()))
+        .map(|(l, s)| format!("{l}/{}", s.id))
+        .collect();
+    Ok(ValidSubmission {
+        root: root.clone(),
+        release: card.release,
+        method: card.method,
+        text_features: text.map(|t| t.source),
+        complete: missing_maps.is_empty(),
+        missing_maps,
+        entries: entries.into_values().collect(),
+        points,
+    })
+}
+
+/// Labels must be release classes; features need text features of the same dimension.
+fn check_semantics(map: &PredictedMap, release: &ReleaseIndex, text: Option<&TextFeatures>, name: &str) -> Result<(), InputError> {
+    let needs_text = |dim: usize, field: &str| match text {
+        None => {
+            Err(InputError::new(name, field, "the map carries features, so the submission needs text_features.npz (class_ids, features) in the same space"))
+        }
+        Some(t) if t.features.dim != dim => {
+            Err(InputError::new(name, field, format!("features have {dim} dimensions but text_features.npz has {}; they must share one space", t.features.dim)))
+        }
+        Some(_) => Ok(()),
+    };
+    match &map.semantics {
+        MapSemantics::ObjectLabels { labels, .. } => match labels.iter().position(|l| !release.classes.contains(*l)) {
+            Some(i) => {
+                Err(InputError::new(name, "labels", format!("object {i} has label {}, which is not a class id of the release (classes.json)", labels[i])))
+            }
+            None => Ok(()),
+        },
+        MapSemantics::ObjectFeatures { features, .. } => needs_text(features.dim, "features"),
+        MapSemantics::PointFeatures(features) => needs_text(features.dim, "point_features"),
+    }
+}

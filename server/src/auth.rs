@@ -1,0 +1,165 @@
+//! API tokens and who is calling. A token is a fixed prefix plus 32 random characters;
+//! only its SHA-256 is stored, so a leaked database holds no usable token. Handlers take
+//! [`Caller`], [`TeamCaller`] or [`AdminCaller`] and never see the token itself.
+
+use axum::extract::FromRequestParts;
+use axum::http::StatusCode;
+use axum::http::request::Parts;
+use sha2::{Digest, Sha256};
+
+use crate::clock::{new_id, now_ms, random_alphanumeric};
+use crate::problem::Problem;
+use crate::state::AppState;
+use crate::store::{StoreError, Team, TokenRecord};
+
+/// Every token starts with this. Never change it: clients and secret scanners rely on it.
+pub const TOKEN_PREFIX: &str = "osmab_";
+
+/// Lowercase hex of the SHA-256 of `token`.
+pub fn token_hash(token: &str) -> String {
+    Sha256::digest(token.as_bytes()).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A new token (shown once) and its record.
+pub fn issue_token(scope: &str, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {
+    let token = format!("{TOKEN_PREFIX}{}", random_alphanumeric(32));
+    let record = TokenRecord {
+        id: new_id("tok"),
+        team_id: team_id.map(str::to_string),
+        scope: scope.to_string(),
+        sha256: token_hash(&token),
+        hint: token[..TOKEN_PREFIX.len() + 4].to_string(),
+        created_at: now_ms(),
+        expires_at,
+        revoked_at: None,
+    };
+    (token, record)
+}
+
+/// Who made a request.
+#[derive(Debug, Clone)]
+pub enum Caller {
+    /// No token.
+    Anonymous,
+    /// An admin token.
+    Admin,
+    /// A team token.
+    Team(Team),
+}
+
+impl Caller {
+    /// Whether the caller may see `team_id`'s private records.
+    pub fn can_see_team(&self, team_id: &str) -> bool {
+        match self {
+            Caller::Admin => true,
+            Caller::Team(team) => team.id == team_id,
+            Caller::Anonymous => false,
+        }
+    }
+}
+
+fn unauthenticated(code: &'static str, detail: &str) -> Problem {
+    Problem::new(StatusCode::UNAUTHORIZED, code, "Authentication required", detail)
+}
+
+async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
+    let Some(value) = parts.headers.get(axum::http::header::AUTHORIZATION) else {
+        return Ok(Caller::Anonymous);
+    };
+    let text = value.to_str().unwrap_or("");
+    let Some(token) = text.strip_prefix("Bearer ").map(str::trim) else {
+        return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'."));
+    };
+    if !token.starts_with(TOKEN_PREFIX) {
+        return Err(unauthenticated("token_invalid", "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));
+    }
+    let record = match state.store.token_by_hash(&token_hash(token)).await {
+        Ok(record) => record,
+        Err(StoreError::NotFound) => {
+            return Err(unauthenticated(
+                "token_invalid",
+                "The token is not known to this server. Check that it was copied whole, or ask the organisers for a new one.",
+            ));
+        }
+        Err(e) => return Err(e.into()),
+    };
+    if let Some(at) = record.revoked_at {
+        return Err(unauthenticated(
+            "token_revoked",
+            &format!("This token was revoked at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
+        ));
+    }
+    if let Some(at) = record.expires_at
+        && at <= now_ms()
+    {
+        return Err(unauthenticated(
+            "token_expired",
+            &format!("This token expired at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
+        ));
+    }
+    match (record.scope.as_str(), record.team_id) {
+        ("admin", _) => Ok(Caller::Admin),
+        (_, Some(team_id)) => Ok(Caller::Team(state.store.team(&team_id).await?)),
+        _ => Err(Problem::internal(format!("token {} has no team", record.id))),
+    }
+}
+
+impl FromRequestParts<AppState> for Caller {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
+        resolve(parts, state).await
+    }
+}
+
+/// A request made with a team token.
+#[derive(Debug, Clone)]
+pub struct TeamCaller(pub Team);
+
+impl FromRequestParts<AppState> for TeamCaller {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
+        match resolve(parts, state).await? {
+            Caller::Team(team) => Ok(TeamCaller(team)),
+            Caller::Admin => Err(Problem::forbidden("This needs a team token; admin tokens act for no team.")),
+            Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs a team token: send 'Authorization: Bearer osmab_…'.")),
+        }
+    }
+}
+
+/// A request made with an admin token.
+#[derive(Debug, Clone)]
+pub struct AdminCaller;
+
+impl FromRequestParts<AppState> for AdminCaller {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
+        match resolve(parts, state).await? {
+            Caller::Admin => Ok(AdminCaller),
+            Caller::Team(_) => Err(Problem::forbidden("This needs an admin token; team tokens cannot manage the service.")),
+            Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs an admin token: send 'Authorization: Bearer osmab_…'.")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_have_the_prefix_and_only_their_hash_is_kept() {
+        let (token, record) = issue_token("team", Some("team_x"), None);
+        assert!(token.starts_with(TOKEN_PREFIX));
+        assert_eq!(token.len(), TOKEN_PREFIX.len() + 32);
+        assert_eq!(record.sha256, token_hash(&token));
+        assert_eq!(record.sha256.len(), 64);
+        assert!(!format!("{record:?}").contains(&token[TOKEN_PREFIX.len() + 4..]));
+    }
+
+    #[test]
+    fn token_hash_is_sha256_hex() {
+        assert_eq!(token_hash("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    }
+}

@@ -1,0 +1,68 @@
+//! `osmab serve`, `osmab worker` and `osmab migrate`.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::config::{Settings, redact_url};
+
+#[derive(Debug, Args)]
+pub struct ServiceArgs {
+    /// A TOML settings file (see docs/service.md); environment variables override it.
+    #[arg(long, env = "OSMAB_CONFIG")]
+    pub config: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct WorkerArgs {
+    #[command(flatten)]
+    pub service: ServiceArgs,
+    /// Jobs run at once in this process.
+    #[arg(long, default_value_t = 1)]
+    pub concurrency: usize,
+}
+
+/// A multi-threaded runtime for the service.
+pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_multi_thread().enable_all().build()?)
+}
+
+fn settings(args: &ServiceArgs) -> anyhow::Result<Settings> {
+    let settings = Settings::load(args.config.as_deref())?;
+    crate::telemetry::init(&settings.log_format);
+    Ok(settings)
+}
+
+pub fn serve(args: ServiceArgs) -> anyhow::Result<()> {
+    let settings = settings(&args)?;
+    runtime()?.block_on(crate::serve::serve(settings))
+}
+
+pub fn worker(args: WorkerArgs) -> anyhow::Result<()> {
+    let settings = settings(&args.service)?;
+    runtime()?.block_on(crate::serve::work(settings, args.concurrency))
+}
+
+pub fn migrate(args: ServiceArgs) -> anyhow::Result<()> {
+    let settings = settings(&args)?;
+    runtime()?.block_on(async {
+        let state = crate::serve::open(settings).await?;
+        println!("{}: migrations applied", redact_url(state.settings.database_url.expose()));
+        state.store.close().await;
+        Ok(())
+    })
+}
+
+pub fn import(dir: &std::path::Path, publish: bool, args: ServiceArgs) -> anyhow::Result<()> {
+    let settings = settings(&args)?;
+    runtime()?.block_on(async {
+        let state = crate::serve::open(settings).await?;
+        let outcome = crate::releases::import_release(&state.store, &state.blobs, dir, publish).await;
+        state.store.close().await;
+        match outcome? {
+            crate::releases::Imported::New(version) => println!("release {version} imported{}", if publish { " and published" } else { " as a draft" }),
+            crate::releases::Imported::Unchanged(version) => println!("release {version} was already imported (same digest)"),
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,89 @@
+//! Time as the records keep it (Unix milliseconds), RFC 3339 for people and JSON, UTC
+//! days for quotas, and random identifiers.
+
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// Milliseconds since the Unix epoch.
+pub fn now_ms() -> i64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as i64).unwrap_or(0)
+}
+
+const DAY_MS: i64 = 86_400_000;
+
+/// Start of the UTC day holding `ms`.
+pub fn utc_day_start(ms: i64) -> i64 {
+    ms.div_euclid(DAY_MS) * DAY_MS
+}
+
+/// Start of the next UTC day after `ms`.
+pub fn next_utc_day(ms: i64) -> i64 {
+    utc_day_start(ms) + DAY_MS
+}
+
+/// `ms` as RFC 3339 UTC with milliseconds (`2026-11-22T05:00:00.000Z`).
+pub fn rfc3339(ms: i64) -> String {
+    let days = ms.div_euclid(DAY_MS);
+    let in_day = ms.rem_euclid(DAY_MS);
+    // Howard Hinnant's civil_from_days.
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    let (h, m, s, milli) = (in_day / 3_600_000, in_day / 60_000 % 60, in_day / 1000 % 60, in_day % 1000);
+    format!("{year:04}-{month:02}-{day:02}T{h:02}:{m:02}:{s:02}.{milli:03}Z")
+}
+
+const ALPHANUMERIC: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+
+/// `n` random characters from [A-Za-z0-9], from the operating system's generator.
+pub fn random_alphanumeric(n: usize) -> String {
+    let mut out = String::with_capacity(n);
+    let mut buf = [0u8; 64];
+    while out.len() < n {
+        getrandom::fill(&mut buf).expect("the operating system's random generator works");
+        // 62 * 4 = 248: bytes above are dropped so every character is equally likely.
+        for &b in buf.iter().filter(|&&b| b < 248) {
+            if out.len() < n {
+                out.push(ALPHANUMERIC[(b % 62) as usize] as char);
+            }
+        }
+    }
+    out
+}
+
+/// A new identifier with a readable prefix (`sub_…`, `team_…`, `job_…`).
+pub fn new_id(prefix: &str) -> String {
+    format!("{prefix}_{}", random_alphanumeric(16).to_ascii_lowercase())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rfc3339_matches_known_instants() {
+        assert_eq!(rfc3339(0), "1970-01-01T00:00:00.000Z");
+        assert_eq!(rfc3339(951_782_400_000), "2000-02-29T00:00:00.000Z");
+        assert_eq!(rfc3339(1_795_323_723_456), "2026-11-22T05:02:03.456Z");
+    }
+
+    #[test]
+    fn utc_days_split_at_midnight() {
+        let t = 1_795_323_723_456;
+        assert_eq!(rfc3339(utc_day_start(t)), "2026-11-22T00:00:00.000Z");
+        assert_eq!(rfc3339(next_utc_day(t)), "2026-11-23T00:00:00.000Z");
+    }
+
+    #[test]
+    fn random_identifiers_differ_and_use_the_alphabet() {
+        let a = random_alphanumeric(32);
+        assert_eq!(a.len(), 32);
+        assert!(a.bytes().all(|b| b.is_ascii_alphanumeric()));
+        assert_ne!(a, random_alphanumeric(32));
+    }
+}

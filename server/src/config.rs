@@ -1,0 +1,221 @@
+//! Service settings: defaults, then an optional TOML file, then `OSMAB_*` environment
+//! variables (and `DATABASE_URL`), so deployments override files. Secrets are wrapped so
+//! they never reach logs or `Debug` output.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+/// A value that must never be printed.
+#[derive(Clone, Default, PartialEq, Eq)]
+pub struct Secret(String);
+
+impl Secret {
+    /// Wrap a secret.
+    pub fn new(value: impl Into<String>) -> Self {
+        Self(value.into())
+    }
+
+    /// The secret itself, for the one place that needs it.
+    pub fn expose(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::fmt::Debug for Secret {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("[redacted]")
+    }
+}
+
+/// A database URL without its password, for logs.
+pub fn redact_url(url: &str) -> String {
+    match (url.find("://"), url.rfind('@')) {
+        (Some(scheme), Some(at)) if at > scheme => {
+            let credentials = &url[scheme + 3..at];
+            let user = credentials.split(':').next().unwrap_or("");
+            let hidden = if credentials.contains(':') { ":[redacted]" } else { "" };
+            format!("{}{user}{hidden}{}", &url[..scheme + 3], &url[at..])
+        }
+        _ => url.to_string(),
+    }
+}
+
+/// Every setting of `osmab serve` and `osmab worker`.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// Address of the HTTP listener (`OSMAB_BIND`).
+    pub bind: SocketAddr,
+    /// Local storage and the embedded database (`OSMAB_DATA_DIR`).
+    pub data_dir: PathBuf,
+    /// `DATABASE_URL`; SQLite in the data directory when unset.
+    pub database_url: Secret,
+    /// `OSMAB_ADMIN_TOKEN`; generated on first start when unset.
+    pub admin_token: Option<Secret>,
+    /// In-process workers of `osmab serve` (`OSMAB_WORKERS`).
+    pub workers: usize,
+    /// Build the demo release and score the baselines on an empty database (`OSMAB_DEMO`).
+    pub demo: bool,
+    /// Submissions per team per UTC day unless the team has its own (`OSMAB_DAILY_QUOTA`).
+    pub daily_quota: i64,
+    /// Largest upload in bytes (`OSMAB_MAX_UPLOAD_BYTES`).
+    pub max_upload_bytes: u64,
+    /// Largest unpacked submission in bytes (`OSMAB_MAX_UNPACKED_BYTES`).
+    pub max_unpacked_bytes: u64,
+    /// How long a job's lease lasts without a heartbeat (`OSMAB_JOB_LEASE_SECS`).
+    pub job_lease_secs: u64,
+    /// Attempts before a job fails for good (`OSMAB_JOB_MAX_ATTEMPTS`).
+    pub job_max_attempts: i64,
+    /// How often an idle worker looks for work (`OSMAB_POLL_MS`).
+    pub poll_ms: u64,
+    /// How long shutdown waits for running jobs before releasing them (`OSMAB_SHUTDOWN_GRACE_SECS`).
+    pub shutdown_grace_secs: u64,
+    /// Write requests per second per client address (`OSMAB_RATE_LIMIT`), with a burst of
+    /// `OSMAB_RATE_BURST`; 0 turns rate limiting off.
+    pub rate_limit: f64,
+    pub rate_burst: f64,
+    /// `text` or `json` logs (`OSMAB_LOG_FORMAT`).
+    pub log_format: String,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSettings {
+    bind: Option<String>,
+    data_dir: Option<PathBuf>,
+    database_url: Option<String>,
+    admin_token: Option<String>,
+    workers: Option<usize>,
+    demo: Option<bool>,
+    daily_quota: Option<i64>,
+    max_upload_bytes: Option<u64>,
+    max_unpacked_bytes: Option<u64>,
+    job_lease_secs: Option<u64>,
+    job_max_attempts: Option<i64>,
+    poll_ms: Option<u64>,
+    shutdown_grace_secs: Option<u64>,
+    rate_limit: Option<f64>,
+    rate_burst: Option<f64>,
+    log_format: Option<String>,
+}
+
+impl Settings {
+    /// Defaults, then `file` (if given), then the environment.
+    pub fn load(file: Option<&Path>) -> anyhow::Result<Self> {
+        Self::load_from(file, &|name| std::env::var(name).ok())
+    }
+
+    /// As [`Settings::load`] with the environment given as a lookup (for tests).
+    pub fn load_from(file: Option<&Path>, env: &dyn Fn(&str) -> Option<String>) -> anyhow::Result<Self> {
+        let from_file: FileSettings = match file {
+            Some(path) => {
+                let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read the configuration: {e}", path.display()))?;
+                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+            }
+            None => FileSettings::default(),
+        };
+        fn parse<T: std::str::FromStr>(name: &str, text: &str) -> anyhow::Result<T>
+        where
+            T::Err: std::fmt::Display,
+        {
+            text.trim().parse().map_err(|e| anyhow::anyhow!("{name}: cannot read '{text}': {e}"))
+        }
+        macro_rules! layer {
+            ($env:literal, $file:expr, $default:expr) => {
+                match env($env) {
+                    Some(text) if !text.trim().is_empty() => parse($env, &text)?,
+                    _ => $file.unwrap_or($default),
+                }
+            };
+        }
+        let bind_text: String = layer!("OSMAB_BIND", from_file.bind.clone(), "127.0.0.1:8080".to_string());
+        let bind = parse("OSMAB_BIND", &bind_text)?;
+        let data_dir: PathBuf = layer!("OSMAB_DATA_DIR", from_file.data_dir.clone(), PathBuf::from("./osmab-data"));
+        let database_url: String = match env("DATABASE_URL").filter(|s| !s.trim().is_empty()).or(from_file.database_url.clone()) {
+            Some(url) => url,
+            None => format!("sqlite://{}", data_dir.join("osmab.db").display()),
+        };
+        let admin_token = env("OSMAB_ADMIN_TOKEN").filter(|s| !s.trim().is_empty()).or(from_file.admin_token.clone()).map(Secret::new);
+        let settings = Self {
+            bind,
+            data_dir,
+            database_url: Secret::new(database_url),
+            admin_token,
+            workers: layer!("OSMAB_WORKERS", from_file.workers, 1),
+            demo: layer!("OSMAB_DEMO", from_file.demo, true),
+            daily_quota: layer!("OSMAB_DAILY_QUOTA", from_file.daily_quota, 5),
+            max_upload_bytes: layer!("OSMAB_MAX_UPLOAD_BYTES", from_file.max_upload_bytes, 4 << 30),
+            max_unpacked_bytes: layer!("OSMAB_MAX_UNPACKED_BYTES", from_file.max_unpacked_bytes, 16 << 30),
+            job_lease_secs: layer!("OSMAB_JOB_LEASE_SECS", from_file.job_lease_secs, 60),
+            job_max_attempts: layer!("OSMAB_JOB_MAX_ATTEMPTS", from_file.job_max_attempts, 3),
+            poll_ms: layer!("OSMAB_POLL_MS", from_file.poll_ms, 500),
+            shutdown_grace_secs: layer!("OSMAB_SHUTDOWN_GRACE_SECS", from_file.shutdown_grace_secs, 30),
+            rate_limit: layer!("OSMAB_RATE_LIMIT", from_file.rate_limit, 20.0),
+            rate_burst: layer!("OSMAB_RATE_BURST", from_file.rate_burst, 60.0),
+            log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format.clone(), "text".to_string()),
+        };
+        settings.check()?;
+        Ok(settings)
+    }
+
+    fn check(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(self.daily_quota >= 0, "daily_quota must be 0 or more, found {}", self.daily_quota);
+        anyhow::ensure!(self.job_lease_secs >= 1, "job_lease_secs must be at least 1");
+        anyhow::ensure!(self.job_max_attempts >= 1, "job_max_attempts must be at least 1");
+        anyhow::ensure!(self.poll_ms >= 10, "poll_ms must be at least 10");
+        anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
+        anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
+        if let Some(token) = &self.admin_token {
+            anyhow::ensure!(token.expose().len() >= 24, "OSMAB_ADMIN_TOKEN must be at least 24 characters");
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env(pairs: &'static [(&'static str, &'static str)]) -> impl Fn(&str) -> Option<String> {
+        move |name| pairs.iter().find(|(k, _)| *k == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn defaults_are_the_embedded_service() {
+        let s = Settings::load_from(None, &env(&[])).unwrap();
+        assert_eq!(s.bind.to_string(), "127.0.0.1:8080");
+        assert_eq!(s.data_dir, PathBuf::from("./osmab-data"));
+        assert_eq!(s.database_url.expose(), "sqlite://./osmab-data/osmab.db");
+        assert_eq!((s.workers, s.demo, s.daily_quota), (1, true, 5));
+    }
+
+    #[test]
+    fn environment_overrides_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("osmab.toml");
+        std::fs::write(&file, "bind = \"0.0.0.0:9000\"\ndaily_quota = 7\nworkers = 2\n").unwrap();
+        let s = Settings::load_from(Some(&file), &env(&[("OSMAB_DAILY_QUOTA", "9")])).unwrap();
+        assert_eq!(s.bind.to_string(), "0.0.0.0:9000");
+        assert_eq!((s.daily_quota, s.workers), (9, 2));
+    }
+
+    #[test]
+    fn unknown_file_keys_and_bad_values_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("osmab.toml");
+        std::fs::write(&file, "bnd = \"x\"\n").unwrap();
+        assert!(Settings::load_from(Some(&file), &env(&[])).unwrap_err().to_string().contains("bnd"));
+        let err = Settings::load_from(None, &env(&[("OSMAB_WORKERS", "many")])).unwrap_err().to_string();
+        assert!(err.contains("OSMAB_WORKERS") && err.contains("many"), "{err}");
+    }
+
+    #[test]
+    fn secrets_never_print() {
+        let s =
+            Settings::load_from(None, &env(&[("OSMAB_ADMIN_TOKEN", "osmab_adminadminadminadminadmin1"), ("DATABASE_URL", "postgres://u:pw@db/x")])).unwrap();
+        let shown = format!("{s:?}");
+        assert!(!shown.contains("adminadmin") && !shown.contains("pw@"), "{shown}");
+        assert_eq!(redact_url("postgres://u:pw@db:5432/x"), "postgres://u:[redacted]@db:5432/x");
+    }
+}

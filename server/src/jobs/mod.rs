@@ -1,0 +1,177 @@
+//! Workers: claim a job, hold its lease with heartbeats while the work runs off the
+//! async runtime, then record success, a retry with backoff, or a failure in words. A
+//! job whose worker died is claimed again once its lease expires; after
+//! `job_max_attempts` it fails with an explanation instead of looping.
+
+pub mod release_build;
+pub mod scoring;
+
+use std::time::Duration;
+
+use serde_json::Value;
+use tokio::sync::watch;
+
+use crate::clock::now_ms;
+use crate::state::AppState;
+use crate::store::{ClaimedJob, JobState};
+
+/// How a job run ended when it did not succeed.
+#[derive(Debug)]
+pub enum JobError {
+    /// The input is wrong; retrying cannot help. The message is for the participant.
+    Permanent(String),
+    /// Something outside the input failed (disk, database); retried with backoff.
+    Retryable(String),
+}
+
+impl<E: std::fmt::Display> From<E> for JobError {
+    fn from(e: E) -> Self {
+        JobError::Retryable(e.to_string())
+    }
+}
+
+/// What a running job may do besides its work: report progress.
+#[derive(Clone)]
+pub struct JobContext {
+    pub state: AppState,
+    pub job: ClaimedJob,
+    pub owner: String,
+}
+
+impl JobContext {
+    /// Record `progress` on the job (visible in `GET /api/v1/jobs/{id}`).
+    pub async fn progress(&self, progress: &Value) {
+        if let Err(e) = self.state.store.set_job_progress(&self.job.id, &self.owner, &progress.to_string(), now_ms()).await {
+            tracing::warn!(job = %self.job.id, error = %e, "could not record progress");
+        }
+    }
+
+    /// As [`JobContext::progress`], from blocking code.
+    pub fn progress_blocking(&self, progress: &Value) {
+        tokio::runtime::Handle::current().block_on(self.progress(progress));
+    }
+}
+
+/// Delay before attempt `attempts + 1`: 5 s doubling, at most 5 minutes.
+pub fn backoff(attempts: i64) -> Duration {
+    Duration::from_secs((5u64 << attempts.clamp(0, 6) as u64).min(300))
+}
+
+async fn run_job(ctx: JobContext) -> Result<(), JobError> {
+    match ctx.job.kind.as_str() {
+        crate::intake::SCORE_JOB => scoring::run(ctx).await,
+        release_build::BUILD_JOB => release_build::run(ctx).await,
+        other => Err(JobError::Permanent(format!("unknown job kind '{other}'"))),
+    }
+}
+
+/// Tell the job's subject that it failed for good.
+async fn on_failure(state: &AppState, job: &ClaimedJob, message: &str) {
+    if job.kind == crate::intake::SCORE_JOB
+        && let Err(e) = state.store.set_submission_state(&job.subject, &["queued", "scoring"], "failed", Some(message), now_ms()).await
+    {
+        tracing::error!(submission = %job.subject, error = %e, "could not mark the submission failed");
+    }
+}
+
+/// Run one claimed job to its end (or until shutdown releases it).
+async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: watch::Receiver<bool>) {
+    let lease = Duration::from_secs(state.settings.job_lease_secs);
+    let span = tracing::info_span!("job", id = %job.id, kind = %job.kind, subject = %job.subject, attempt = job.attempts);
+    let _enter = span.enter();
+    if job.attempts > job.max_attempts {
+        let message = format!(
+            "Stopped after {} attempts: the worker running it stopped responding each time (its lease expired). The organisers have been alerted by the logs.",
+            job.max_attempts
+        );
+        tracing::error!("{message}");
+        let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now_ms()).await;
+        on_failure(state, &job, &message).await;
+        return;
+    }
+    tracing::info!("job started");
+    let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string() };
+    let mut work = tokio::spawn(run_job(ctx));
+    let mut heartbeat = tokio::time::interval(lease / 3);
+    heartbeat.tick().await;
+    let outcome = loop {
+        tokio::select! {
+            result = &mut work => break Some(result),
+            _ = heartbeat.tick() => {
+                let now = now_ms();
+                match state.store.heartbeat(&job.id, owner, now + lease.as_millis() as i64, now).await {
+                    Ok(true) => {}
+                    Ok(false) => tracing::warn!("lost the lease (expired and taken by another worker); the result will be discarded"),
+                    Err(e) => tracing::warn!(error = %e, "heartbeat failed"),
+                }
+            }
+            _ = shutdown.changed() => {
+                let grace = Duration::from_secs(state.settings.shutdown_grace_secs);
+                tracing::info!(grace_secs = grace.as_secs(), "shutting down: waiting for the running job");
+                match tokio::time::timeout(grace, &mut work).await {
+                    Ok(result) => break Some(result),
+                    Err(_) => break None,
+                }
+            }
+        }
+    };
+    let now = now_ms();
+    let Some(result) = outcome else {
+        match state.store.release_job(&job.id, owner, now).await {
+            Ok(_) => tracing::warn!("released the unfinished job for another worker"),
+            Err(e) => tracing::error!(error = %e, "could not release the job; it is taken up again when its lease expires"),
+        }
+        return;
+    };
+    let result = result.unwrap_or_else(|panic| Err(JobError::Retryable(format!("the job panicked: {panic}"))));
+    match result {
+        Ok(()) => {
+            tracing::info!("job succeeded");
+            let _ = state.store.finish_job(&job.id, owner, JobState::Succeeded, None, None, now).await;
+        }
+        Err(JobError::Permanent(message)) => {
+            tracing::warn!(%message, "job failed");
+            let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now).await;
+            on_failure(state, &job, &message).await;
+        }
+        Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
+            let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
+            tracing::error!(%message, "job failed for good");
+            let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now).await;
+            on_failure(state, &job, &message).await;
+        }
+        Err(JobError::Retryable(cause)) => {
+            let retry_at = now + backoff(job.attempts).as_millis() as i64;
+            tracing::warn!(%cause, retry_at = %crate::clock::rfc3339(retry_at), "job failed; will retry");
+            let message = format!("attempt {} failed ({cause}); retrying at {}", job.attempts, crate::clock::rfc3339(retry_at));
+            let _ = state.store.finish_job(&job.id, owner, JobState::Queued, Some(&message), Some(retry_at), now).await;
+            if job.kind == crate::intake::SCORE_JOB {
+                let _ = state.store.set_submission_state(&job.subject, &["scoring"], "queued", Some(&message), now).await;
+            }
+        }
+    }
+}
+
+/// Claim and run jobs until `shutdown` turns true.
+pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Receiver<bool>) {
+    tracing::info!(worker = %owner, "worker started");
+    let poll = Duration::from_millis(state.settings.poll_ms);
+    let lease_ms = (state.settings.job_lease_secs * 1000) as i64;
+    while !*shutdown.borrow() {
+        let now = now_ms();
+        match state.store.claim_next_job(&owner, now, now + lease_ms).await {
+            Ok(Some(job)) => process(&state, &owner, job, shutdown.clone()).await,
+            Ok(None) => {
+                tokio::select! {
+                    _ = tokio::time::sleep(poll) => {}
+                    _ = shutdown.changed() => {}
+                }
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "could not claim a job; retrying");
+                tokio::time::sleep(poll * 4).await;
+            }
+        }
+    }
+    tracing::info!(worker = %owner, "worker stopped");
+}

@@ -1,0 +1,63 @@
+//! A token bucket per client address for requests that change things (uploads, admin
+//! calls). Reads are cheap and cached, so they are not limited.
+
+use std::collections::HashMap;
+use std::net::IpAddr;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Token buckets keyed by client address.
+#[derive(Debug)]
+pub struct RateLimiter {
+    per_second: f64,
+    burst: f64,
+    buckets: Mutex<HashMap<IpAddr, (f64, Instant)>>,
+}
+
+impl RateLimiter {
+    /// `per_second` sustained with bursts of `burst`; a rate of 0 admits everything.
+    pub fn new(per_second: f64, burst: f64) -> Self {
+        Self { per_second, burst, buckets: Mutex::new(HashMap::new()) }
+    }
+
+    /// Take one token for `client`; `Err(seconds)` says when the next one is due.
+    pub fn admit(&self, client: IpAddr, now: Instant) -> Result<(), u64> {
+        if self.per_second <= 0.0 {
+            return Ok(());
+        }
+        let mut buckets = self.buckets.lock().expect("rate limiter lock");
+        if buckets.len() > 100_000 {
+            // Forget full buckets so many distinct clients cannot grow the map without bound.
+            buckets.retain(|_, (tokens, at)| *tokens + now.duration_since(*at).as_secs_f64() * self.per_second < self.burst);
+        }
+        let (tokens, at) = buckets.entry(client).or_insert((self.burst, now));
+        *tokens = (*tokens + now.duration_since(*at).as_secs_f64() * self.per_second).min(self.burst);
+        *at = now;
+        if *tokens >= 1.0 {
+            *tokens -= 1.0;
+            Ok(())
+        } else {
+            Err(((1.0 - *tokens) / self.per_second).ceil().max(1.0) as u64)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn a_burst_is_admitted_then_refused_until_tokens_return() {
+        let limiter = RateLimiter::new(2.0, 3.0);
+        let client: IpAddr = "127.0.0.1".parse().unwrap();
+        let t0 = Instant::now();
+        for _ in 0..3 {
+            assert!(limiter.admit(client, t0).is_ok());
+        }
+        assert_eq!(limiter.admit(client, t0), Err(1));
+        assert!(limiter.admit(client, t0 + Duration::from_millis(600)).is_ok());
+        let other: IpAddr = "10.0.0.1".parse().unwrap();
+        assert!(limiter.admit(other, t0).is_ok());
+    }
+}

@@ -1,0 +1,241 @@
+//! Admin endpoints: teams, tokens and quotas; release builds, imports and publication;
+//! re-scoring; lists of submissions and jobs. Every handler takes [`AdminCaller`].
+
+use axum::extract::{Path, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+use serde_json::{Value, json};
+
+use super::ApiJson;
+use super::jobs::job_json;
+use crate::auth::{AdminCaller, issue_token};
+use crate::clock::{new_id, now_ms, rfc3339};
+use crate::intake::SCORE_JOB;
+use crate::jobs::release_build::{BUILD_JOB, BuildRequest, config_version};
+use crate::problem::{ApiResult, Problem};
+use crate::state::AppState;
+use crate::store::{NewJob, StoreError, Team};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NewTeam {
+    name: String,
+    daily_quota: Option<i64>,
+}
+
+fn unprocessable(detail: impl Into<String>) -> Problem {
+    Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid request", detail)
+}
+
+/// `POST /api/v1/admin/teams` `{"name"}` → `201 {"id", "name", "token"}` (the token is shown once).
+pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<NewTeam>) -> ApiResult<Response> {
+    let name = body.name.trim().to_string();
+    if name.is_empty() || name.chars().count() > 80 || name.chars().any(char::is_control) {
+        return Err(unprocessable("name: expected 1 to 80 printable characters"));
+    }
+    if body.daily_quota.is_some_and(|q| q < 0) {
+        return Err(unprocessable("daily_quota: expected 0 or more"));
+    }
+    let team = Team { id: new_id("team"), name: name.clone(), daily_quota: body.daily_quota, created_at: now_ms() };
+    match state.store.create_team(&team).await {
+        Ok(()) => {}
+        Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("A team named '{name}' exists."))),
+        Err(e) => return Err(e.into()),
+    }
+    let (token, record) = issue_token("team", Some(&team.id), None);
+    state.store.insert_token(&record).await?;
+    tracing::info!(team = %team.name, token = %record.hint, "team created");
+    let body = json!({"id": team.id, "name": team.name, "daily_quota": team.daily_quota, "token": token, "token_id": record.id});
+    Ok((StatusCode::CREATED, [(header::LOCATION, format!("/api/v1/admin/teams/{}", team.id))], axum::Json(body)).into_response())
+}
+
+/// `GET /api/v1/admin/teams`.
+pub async fn list_teams(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
+    let teams: Vec<Value> = state
+        .store
+        .teams()
+        .await?
+        .into_iter()
+        .map(|t| json!({"id": t.id, "name": t.name, "daily_quota": t.daily_quota, "created_at": rfc3339(t.created_at)}))
+        .collect();
+    Ok(axum::Json(json!({"teams": teams})))
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeamUpdate {
+    daily_quota: Option<i64>,
+}
+
+/// `PATCH /api/v1/admin/teams/{id}` `{"daily_quota"}` (null: the service default).
+pub async fn update_team(
+    State(state): State<AppState>,
+    _: AdminCaller,
+    Path(id): Path<String>,
+    ApiJson(body): ApiJson<TeamUpdate>,
+) -> ApiResult<axum::Json<Value>> {
+    if body.daily_quota.is_some_and(|q| q < 0) {
+        return Err(unprocessable("daily_quota: expected 0 or more"));
+    }
+    state.store.set_team_quota(&id, body.daily_quota).await?;
+    let t = state.store.team(&id).await?;
+    Ok(axum::Json(json!({"id": t.id, "name": t.name, "daily_quota": t.daily_quota})))
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NewToken {
+    /// Days until the token expires (none: never).
+    expires_in_days: Option<i64>,
+}
+
+/// `POST /api/v1/admin/teams/{id}/tokens`: another token for a team (shown once).
+pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>, body: axum::body::Bytes) -> ApiResult<Response> {
+    let team = state.store.team(&id).await?;
+    let request: NewToken = if body.iter().all(u8::is_ascii_whitespace) {
+        NewToken::default()
+    } else {
+        serde_json::from_slice(&body).map_err(|e| Problem::bad_request("invalid_request", format!("expected {{\"expires_in_days\"?: int}}: {e}")))?
+    };
+    if request.expires_in_days.is_some_and(|d| !(1..=3650).contains(&d)) {
+        return Err(unprocessable("expires_in_days: expected 1 to 3650"));
+    }
+    let expires = request.expires_in_days.map(|d| now_ms() + d * 86_400_000);
+    let (token, record) = issue_token("team", Some(&team.id), expires);
+    state.store.insert_token(&record).await?;
+    let body = json!({"id": record.id, "team": team.name, "token": token, "expires_at": expires.map(rfc3339)});
+    Ok((StatusCode::CREATED, axum::Json(body)).into_response())
+}
+
+/// `GET /api/v1/admin/teams/{id}/tokens`: hints and states, never the tokens.
+pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+    state.store.team(&id).await?;
+    let tokens: Vec<Value> = state
+        .store
+        .tokens(Some(&id))
+        .await?
+        .iter()
+        .map(|t| json!({"id": t.id, "hint": t.hint, "created_at": rfc3339(t.created_at), "expires_at": t.expires_at.map(rfc3339), "revoked_at": t.revoked_at.map(rfc3339)}))
+        .collect();
+    Ok(axum::Json(json!({"tokens": tokens})))
+}
+
+/// `DELETE /api/v1/admin/tokens/{id}`: revoke a token.
+pub async fn revoke_token(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<StatusCode> {
+    state.store.revoke_token(&id, now_ms()).await?;
+    tracing::info!(token = %id, "token revoked");
+    Ok(StatusCode::NO_CONTENT)
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BuildBody {
+    /// A release configuration (TOML); the demo configuration when absent.
+    config: Option<String>,
+    #[serde(default)]
+    publish: bool,
+    #[serde(default)]
+    baselines: bool,
+}
+
+/// `POST /api/v1/admin/releases`: build a release from a config as a job → `202 {"job", "version"}`.
+pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<BuildBody>) -> ApiResult<Response> {
+    let config = body.config.unwrap_or_else(|| crate::jobs::release_build::DEMO_CONFIG.to_string());
+    let version = config_version(&config).map_err(unprocessable)?;
+    let scratch = state.blobs.scratch("config-check");
+    std::fs::write(&scratch, &config).map_err(Problem::internal)?;
+    let checked = osmab_dataset::release::config::ReleaseConfig::read(&scratch);
+    let _ = std::fs::remove_file(&scratch);
+    checked.map_err(|e| unprocessable(format!("config: {}: {}", e.field, e.message)))?;
+    if state.store.release(&version).await.is_ok() {
+        return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
+    }
+    let job = NewJob {
+        id: new_id("job"),
+        kind: BUILD_JOB.into(),
+        subject: version.clone(),
+        payload: serde_json::to_string(&BuildRequest { config, publish: body.publish, baselines: body.baselines }).expect("json"),
+        max_attempts: state.settings.job_max_attempts,
+        created_at: now_ms(),
+    };
+    state.store.enqueue(&job).await?;
+    let url = format!("/api/v1/jobs/{}", job.id);
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "version": version, "url": url}))).into_response())
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImportBody {
+    /// A release directory on the server's filesystem (built by `osmab release build`).
+    path: String,
+    #[serde(default)]
+    publish: bool,
+}
+
+/// `POST /api/v1/admin/releases/import`: register a built release (manifest and checksums verified).
+pub async fn import_release(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<ImportBody>) -> ApiResult<Response> {
+    let dir = std::path::PathBuf::from(&body.path);
+    if !dir.join("manifest.json").is_file() {
+        return Err(unprocessable(format!("path: '{}' holds no manifest.json", body.path)));
+    }
+    let outcome = crate::releases::import_release(&state.store, &state.blobs, &dir, body.publish).await.map_err(|e| unprocessable(format!("{e:#}")))?;
+    state.leaderboard.invalidate();
+    let (status, version) = match outcome {
+        crate::releases::Imported::New(v) => (StatusCode::CREATED, v),
+        crate::releases::Imported::Unchanged(v) => (StatusCode::OK, v),
+    };
+    let release = state.store.release(&version).await?;
+    Ok((status, axum::Json(super::releases::release_json(&release))).into_response())
+}
+
+/// `POST /api/v1/admin/releases/{version}/publish`: freeze a draft into the current release.
+pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, Path(version): Path<String>) -> ApiResult<axum::Json<Value>> {
+    match state.store.publish_release(&version, now_ms()).await {
+        Ok(()) => {}
+        Err(StoreError::NotFound) => return Err(Problem::not_found(format!("There is no release '{version}'."))),
+        Err(e) => return Err(e.into()),
+    }
+    state.leaderboard.invalidate();
+    Ok(axum::Json(super::releases::release_json(&state.store.release(&version).await?)))
+}
+
+/// `POST /api/v1/admin/submissions/{id}/rescore`: score again with this evaluator; a new
+/// score is added, the old ones stay.
+pub async fn rescore(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<Response> {
+    let s = state.store.submission(&id).await?;
+    if !["scored", "failed"].contains(&s.state.as_str()) {
+        return Err(Problem::conflict(format!("The submission is {}; it can be re-scored once scored or failed.", s.state)));
+    }
+    let now = now_ms();
+    let job = NewJob {
+        id: new_id("job"),
+        kind: SCORE_JOB.into(),
+        subject: id.clone(),
+        payload: json!({"submission_id": id, "rescore": true}).to_string(),
+        max_attempts: state.settings.job_max_attempts,
+        created_at: now,
+    };
+    state.store.set_submission_state(&id, &["scored", "failed"], "queued", Some("re-scoring requested by an admin"), now).await?;
+    state.store.enqueue(&job).await?;
+    let url = format!("/api/v1/jobs/{}", job.id);
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "submission": id, "url": url}))).into_response())
+}
+
+/// `GET /api/v1/admin/submissions`: every submission, newest first.
+pub async fn list_submissions(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
+    let items: Vec<Value> = state
+        .store
+        .submissions(None, 1000)
+        .await?
+        .iter()
+        .map(|s| json!({"id": s.id, "team_id": s.team_id, "release": s.release, "state": s.state, "reason": s.reason, "method": s.method_name, "baseline": s.baseline, "created_at": rfc3339(s.created_at)}))
+        .collect();
+    Ok(axum::Json(json!({"submissions": items})))
+}
+
+/// `GET /api/v1/admin/jobs`: recent jobs.
+pub async fn list_jobs(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
+    let jobs: Vec<Value> = state.store.jobs(200).await?.iter().map(job_json).collect();
+    Ok(axum::Json(json!({"jobs": jobs})))
+}

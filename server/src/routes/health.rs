@@ -1,0 +1,37 @@
+//! Liveness, readiness and Prometheus metrics.
+
+use axum::extract::State;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde_json::json;
+
+use crate::problem::Problem;
+use crate::state::AppState;
+
+/// `GET /livez`: the process answers.
+pub async fn livez() -> impl IntoResponse {
+    axum::Json(json!({"status": "ok"}))
+}
+
+/// `GET /readyz`: the database and the blob storage are reachable.
+pub async fn readyz(State(state): State<AppState>) -> Response {
+    let database = state.store.ping().await;
+    let blobs = state.blobs.check();
+    match (&database, &blobs) {
+        (Ok(()), Ok(())) => axum::Json(json!({"status": "ready", "database": state.store.backend(), "storage": "ok"})).into_response(),
+        _ => {
+            let what = [database.err().map(|e| format!("database: {e}")), blobs.err().map(|e| format!("storage: {e}"))];
+            let detail = what.into_iter().flatten().collect::<Vec<_>>().join("; ");
+            tracing::warn!(%detail, "not ready");
+            Problem::new(StatusCode::SERVICE_UNAVAILABLE, "not_ready", "Not ready", "The database or the storage is not reachable.").into_response()
+        }
+    }
+}
+
+/// `GET /metrics`: Prometheus text.
+pub async fn metrics(State(state): State<AppState>) -> Response {
+    let jobs = state.store.job_state_counts().await.unwrap_or_default();
+    let submissions = state.store.submission_state_counts().await.unwrap_or_default();
+    let text = state.metrics.render(&[("osmab_jobs", "Jobs by state.", jobs), ("osmab_submissions", "Submissions by state.", submissions)]);
+    ([(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")], text).into_response()
+}

@@ -1,0 +1,150 @@
+//! The HTTP surface: one `router(state)` the server, the tests and the benchmarks share.
+//! Each module owns the routes, handlers and response shapes of one area.
+
+mod admin;
+mod files;
+mod health;
+mod jobs;
+mod leaderboard;
+mod openapi;
+mod pages;
+mod releases;
+mod submissions;
+
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+use axum::Router;
+use axum::extract::{ConnectInfo, DefaultBodyLimit, FromRequest, MatchedPath, Request, State};
+use axum::http::{HeaderName, Method, StatusCode};
+use axum::middleware::{Next, from_fn_with_state};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use serde::de::DeserializeOwned;
+use tower_http::request_id::{MakeRequestId, PropagateRequestIdLayer, RequestId, SetRequestIdLayer};
+use tower_http::trace::TraceLayer;
+
+use crate::problem::Problem;
+use crate::state::AppState;
+
+/// Largest JSON request body (everything but uploads, which stream).
+const JSON_BODY_LIMIT: usize = 1 << 20;
+
+static REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
+
+#[derive(Clone, Default)]
+struct RandomRequestId;
+
+impl MakeRequestId for RandomRequestId {
+    fn make_request_id<B>(&mut self, _: &axum::http::Request<B>) -> Option<RequestId> {
+        axum::http::HeaderValue::from_str(&crate::clock::random_alphanumeric(16)).ok().map(RequestId::new)
+    }
+}
+
+/// A JSON body whose rejections are problem+json like every other error.
+pub struct ApiJson<T>(pub T);
+
+impl<T: DeserializeOwned, S: Send + Sync> FromRequest<S> for ApiJson<T> {
+    type Rejection = Problem;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        match axum::Json::<T>::from_request(req, state).await {
+            Ok(axum::Json(value)) => Ok(ApiJson(value)),
+            Err(rejection) => Err(Problem::new(rejection.status(), "invalid_request", "Invalid request body", rejection.body_text())),
+        }
+    }
+}
+
+async fn count_request(State(state): State<AppState>, request: Request, next: Next) -> Response {
+    let started = Instant::now();
+    let method = request.method().to_string();
+    let route = request.extensions().get::<MatchedPath>().map(|p| p.as_str().to_string()).unwrap_or_else(|| "(unmatched)".into());
+    let response = next.run(request).await;
+    state.metrics.observe(&method, &route, response.status().as_u16(), started.elapsed());
+    response
+}
+
+async fn limit_writes(State(state): State<AppState>, request: Request, next: Next) -> Response {
+    if ![Method::GET, Method::HEAD, Method::OPTIONS].contains(request.method()) {
+        let client = request.extensions().get::<ConnectInfo<SocketAddr>>().map(|c| c.0.ip());
+        if let Some(client) = client
+            && let Err(seconds) = state.limiter.admit(client, Instant::now())
+        {
+            return Problem::new(StatusCode::TOO_MANY_REQUESTS, "rate_limited", "Too many requests", format!("Slow down: retry in {seconds} s."))
+                .retry_after(seconds)
+                .into_response();
+        }
+    }
+    next.run(request).await
+}
+
+async fn route_not_found(request: Request) -> Problem {
+    Problem::new(StatusCode::NOT_FOUND, "route_not_found", "Not found", format!("There is no {} {}; see /api/docs.", request.method(), request.uri().path()))
+}
+
+async fn method_not_allowed(request: Request) -> Problem {
+    Problem::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "method_not_allowed",
+        "Method not allowed",
+        format!("{} is not allowed on {}; see /api/docs.", request.method(), request.uri().path()),
+    )
+}
+
+/// The whole service.
+pub fn router(state: AppState) -> Router {
+    let api = Router::new()
+        .route("/api/v1/openapi.json", get(openapi::document))
+        .route("/api/v1/releases", get(releases::list))
+        .route("/api/v1/releases/{version}", get(releases::show))
+        .route("/api/v1/releases/{version}/manifest.json", get(releases::manifest))
+        .route("/api/v1/releases/{version}/files/{*path}", get(releases::file))
+        .route("/api/v1/me", get(submissions::me))
+        .route("/api/v1/submissions", post(submissions::create).get(submissions::list))
+        .route("/api/v1/submissions/{id}", get(submissions::show).patch(submissions::update))
+        .route("/api/v1/submissions/{id}/cancel", post(submissions::cancel))
+        .route("/api/v1/leaderboard", get(leaderboard::json_or_csv))
+        .route("/api/v1/leaderboard.csv", get(leaderboard::csv))
+        .route("/api/v1/jobs/{id}", get(jobs::show))
+        .route("/api/v1/admin/teams", post(admin::create_team).get(admin::list_teams))
+        .route("/api/v1/admin/teams/{id}", axum::routing::patch(admin::update_team))
+        .route("/api/v1/admin/teams/{id}/tokens", post(admin::issue_team_token).get(admin::list_team_tokens))
+        .route("/api/v1/admin/tokens/{id}", axum::routing::delete(admin::revoke_token))
+        .route("/api/v1/admin/releases", post(admin::build_release))
+        .route("/api/v1/admin/releases/import", post(admin::import_release))
+        .route("/api/v1/admin/releases/{version}/publish", post(admin::publish_release))
+        .route("/api/v1/admin/submissions", get(admin::list_submissions))
+        .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
+        .route("/api/v1/admin/jobs", get(admin::list_jobs));
+    let pages = Router::new()
+        .route("/", get(pages::leaderboard))
+        .route("/releases/{version}", get(pages::release))
+        .route("/submissions/{id}", get(pages::submission))
+        .route("/api/docs", get(openapi::docs_page))
+        .route("/static/{file}", get(pages::static_file));
+    let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));
+    Router::new()
+        .merge(api)
+        .merge(pages)
+        .merge(health)
+        .fallback(route_not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
+        .layer(from_fn_with_state(state.clone(), limit_writes))
+        .layer(from_fn_with_state(state.clone(), count_request))
+        .layer(
+            TraceLayer::new_for_http()
+                .make_span_with(|request: &Request| {
+                    let id = request.headers().get(&REQUEST_ID).and_then(|v| v.to_str().ok()).unwrap_or("-");
+                    let route = request.extensions().get::<MatchedPath>().map(MatchedPath::as_str).unwrap_or(request.uri().path());
+                    tracing::info_span!("request", request_id = %id, method = %request.method(), route = %route)
+                })
+                .on_request(())
+                .on_response(|response: &Response, latency: Duration, _span: &tracing::Span| {
+                    tracing::info!(status = response.status().as_u16(), latency_ms = latency.as_secs_f64() * 1000.0, "response");
+                }),
+        )
+        .layer(PropagateRequestIdLayer::new(REQUEST_ID.clone()))
+        .layer(SetRequestIdLayer::new(REQUEST_ID.clone(), RandomRequestId))
+        .with_state(state)
+}

@@ -1,0 +1,90 @@
+//! Releases: the list, one release, its manifest and its public files. Drafts are
+//! visible to admins only; ground truth is never a public file, so it cannot be served.
+
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, header};
+use axum::response::{IntoResponse, Response};
+use serde_json::{Value, json};
+
+use super::files::serve_blob;
+use crate::auth::Caller;
+use crate::problem::{ApiResult, Problem};
+use crate::releases::release_prefix;
+use crate::state::AppState;
+use crate::store::{ReleaseRecord, StoreError};
+
+/// The summary of a release in lists.
+pub fn release_json(r: &ReleaseRecord) -> Value {
+    let manifest: Value = serde_json::from_str(&r.manifest).unwrap_or(Value::Null);
+    json!({
+        "version": r.version,
+        "state": r.state,
+        "current": r.is_current,
+        "digest": r.digest,
+        "created": manifest["created"],
+        "scenes": manifest["scenes"].as_array().map(Vec::len).unwrap_or(0),
+        "lightings": manifest["lightings"],
+        "registered_at": crate::clock::rfc3339(r.created_at),
+        "published_at": r.published_at.map(crate::clock::rfc3339),
+        "manifest_url": format!("/api/v1/releases/{}/manifest.json", r.version),
+    })
+}
+
+/// A release the caller may see.
+pub async fn visible_release(state: &AppState, caller: &Caller, version: &str) -> ApiResult<ReleaseRecord> {
+    match state.store.release(version).await {
+        Ok(r) if r.state == "published" || matches!(caller, Caller::Admin) => Ok(r),
+        Ok(_) | Err(StoreError::NotFound) => Err(Problem::not_found(format!("There is no published release '{version}'; see GET /api/v1/releases."))),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// `GET /api/v1/releases`.
+pub async fn list(State(state): State<AppState>, caller: Caller) -> ApiResult<axum::Json<Value>> {
+    let releases = state.store.releases().await?;
+    let visible: Vec<Value> = releases.iter().filter(|r| r.state == "published" || matches!(caller, Caller::Admin)).map(release_json).collect();
+    Ok(axum::Json(json!({"releases": visible})))
+}
+
+/// `GET /api/v1/releases/{version}` (`current` names the current release).
+pub async fn show(State(state): State<AppState>, caller: Caller, Path(version): Path<String>) -> ApiResult<axum::Json<Value>> {
+    let version = resolve(&state, &version).await?;
+    Ok(axum::Json(release_json(&visible_release(&state, &caller, &version).await?)))
+}
+
+pub async fn resolve(state: &AppState, version: &str) -> ApiResult<String> {
+    if version == "current" {
+        return match state.store.current_release().await {
+            Ok(r) => Ok(r.version),
+            Err(StoreError::NotFound) => Err(Problem::not_found("No release has been published yet.")),
+            Err(e) => Err(e.into()),
+        };
+    }
+    Ok(version.to_string())
+}
+
+/// `GET /api/v1/releases/{version}/manifest.json`.
+pub async fn manifest(State(state): State<AppState>, caller: Caller, Path(version): Path<String>, headers: HeaderMap) -> ApiResult<Response> {
+    let version = resolve(&state, &version).await?;
+    let release = visible_release(&state, &caller, &version).await?;
+    let etag = format!("\"{}\"", release.digest);
+    if headers.get(header::IF_NONE_MATCH).and_then(|v| v.to_str().ok()).is_some_and(|t| t.split(',').any(|t| t.trim() == etag)) {
+        return Ok((axum::http::StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
+    }
+    Ok(([(header::CONTENT_TYPE, "application/json".to_string()), (header::ETAG, etag)], release.manifest).into_response())
+}
+
+/// `GET /api/v1/releases/{version}/files/{path}`: a manifest file or a sequence archive.
+pub async fn file(State(state): State<AppState>, caller: Caller, Path((version, path)): Path<(String, String)>, headers: HeaderMap) -> ApiResult<Response> {
+    let version = resolve(&state, &version).await?;
+    let release = visible_release(&state, &caller, &version).await?;
+    let entry = match state.store.release_file(&version, &path).await {
+        Ok(entry) => entry,
+        Err(StoreError::NotFound) => {
+            return Err(Problem::not_found(format!("Release {version} has no public file '{path}'; the manifest lists every file.")));
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let blob = state.blobs.path(&format!("{}/{}", release_prefix(&version), entry.path)).map_err(Problem::internal)?;
+    serve_blob(&blob, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == "published").await
+}

@@ -1,0 +1,280 @@
+//! Submissions: upload (or dry-run validate), list, show with history and scores, edit
+//! the method card, cancel.
+
+use axum::body::Body;
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+use serde_json::{Value, json};
+
+use super::ApiJson;
+use crate::auth::{Caller, TeamCaller};
+use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
+use crate::intake::{Scratch, check, declared_sha256, receive, record, too_large};
+use crate::problem::{ApiResult, Problem};
+use crate::state::AppState;
+use crate::store::{StoreError, SubmissionRecord, Team};
+
+#[derive(Debug, Deserialize)]
+pub struct UploadQuery {
+    /// Validate only: nothing is stored and no quota is used.
+    #[serde(default)]
+    dry_run: bool,
+    /// Show the submission on the public leaderboard (default true).
+    public: Option<bool>,
+}
+
+/// The quota of `team` today: (limit, used, resets at).
+async fn quota(state: &AppState, team: &Team) -> ApiResult<(i64, i64, i64)> {
+    let now = now_ms();
+    let limit = team.daily_quota.unwrap_or(state.settings.daily_quota);
+    let used = state.store.submissions_since(&team.id, utc_day_start(now)).await?;
+    Ok((limit, used, next_utc_day(now)))
+}
+
+fn quota_json((limit, used, resets): (i64, i64, i64)) -> Value {
+    json!({"limit": limit, "used": used, "remaining": (limit - used).max(0), "resets_at": rfc3339(resets)})
+}
+
+fn quota_exceeded((limit, used, resets): (i64, i64, i64)) -> Problem {
+    let seconds = ((resets - now_ms()) / 1000).max(1) as u64;
+    Problem::new(
+        StatusCode::TOO_MANY_REQUESTS,
+        "quota_exceeded",
+        "Daily submission quota used",
+        format!(
+            "Your team has used {used} of its {limit} submissions for this UTC day; the next one is possible at {}. Dry runs (?dry_run=true) are free.",
+            rfc3339(resets)
+        ),
+    )
+    .with("quota", quota_json((limit, used, resets)))
+    .retry_after(seconds)
+}
+
+/// `GET /api/v1/me`: the calling team and its quota.
+pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Value>> {
+    let q = quota(&state, &team).await?;
+    Ok(axum::Json(json!({"team": {"id": team.id, "name": team.name}, "quota": quota_json(q)})))
+}
+
+/// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
+pub async fn create(
+    State(state): State<AppState>,
+    TeamCaller(team): TeamCaller,
+    Query(query): Query<UploadQuery>,
+    headers: HeaderMap,
+    body: Body,
+) -> ApiResult<Response> {
+    if !query.dry_run {
+        let q = quota(&state, &team).await?;
+        if q.1 >= q.0 {
+            return Err(quota_exceeded(q));
+        }
+    }
+    let max = state.settings.max_upload_bytes;
+    let declared_length = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok());
+    if declared_length.is_some_and(|n| n > max) {
+        return Err(too_large(max));
+    }
+    let declared_digest = match headers.get("content-digest").and_then(|v| v.to_str().ok()) {
+        Some(value) => declared_sha256(value)?,
+        None => None,
+    };
+    let (upload, _upload_scratch) = receive(&state, body, max).await?;
+    if let Some(length) = declared_length
+        && length != upload.size
+    {
+        return Err(Problem::bad_request("upload_incomplete", format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size)));
+    }
+    if let Some(expected) = declared_digest
+        && expected != upload.sha256
+    {
+        return Err(Problem::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "digest_mismatch",
+            "Checksum mismatch",
+            format!(
+                "The upload's SHA-256 is {} but Content-Digest declared another; the file changed or was corrupted on the way. Nothing was stored; upload again.",
+                upload.sha256_hex()
+            ),
+        ));
+    }
+    let validating_at = now_ms();
+    let current = state.store.current_release().await.ok().map(|r| r.version);
+    let unpack_to = Scratch(state.blobs.scratch("unpack"));
+    let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
+    let (valid, _) =
+        tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref())).await.map_err(Problem::internal)??;
+    match state.store.release(&valid.release).await {
+        Ok(r) if r.state == "published" => {}
+        Ok(_) | Err(StoreError::NotFound) => {
+            return Err(Problem::new(
+                StatusCode::CONFLICT,
+                "release_not_open",
+                "Release not open",
+                format!("Release '{}' is not published, so it takes no submissions; see GET /api/v1/releases.", valid.release),
+            ));
+        }
+        Err(e) => return Err(e.into()),
+    }
+    if query.dry_run {
+        return Ok(axum::Json(json!({
+            "valid": true,
+            "release": valid.release,
+            "method": valid.method,
+            "complete": valid.complete,
+            "missing_maps": valid.missing_maps,
+            "entries": valid.entries.iter().map(|e| json!({"lighting": e.lighting, "scene": e.scene, "map": e.map.is_some(), "graph": e.graph.is_some(), "answers": e.answers.is_some()})).collect::<Vec<_>>(),
+            "points": valid.points,
+            "size": upload.size,
+            "sha256": upload.sha256_hex(),
+        }))
+        .into_response());
+    }
+    // The quota again: another upload of the same team may have finished meanwhile.
+    let q = quota(&state, &team).await?;
+    if q.1 >= q.0 {
+        return Err(quota_exceeded(q));
+    }
+    let id = record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at).await?;
+    tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
+    let location = format!("/api/v1/submissions/{id}");
+    let body = json!({"id": id, "state": "queued", "complete": valid.complete, "missing_maps": valid.missing_maps, "quota": quota_json((q.0, q.1 + 1, q.2)), "url": location});
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, location)], axum::Json(body)).into_response())
+}
+
+/// The JSON view of a submission (with history, jobs and scores).
+pub async fn submission_json(state: &AppState, s: &SubmissionRecord) -> ApiResult<Value> {
+    let team = state.store.team(&s.team_id).await?;
+    let history: Vec<Value> =
+        state.store.submission_events(&s.id).await?.into_iter().map(|e| json!({"state": e.state, "reason": e.reason, "at": rfc3339(e.at)})).collect();
+    let scores = state.store.scores(&s.id).await?;
+    let latest = scores.last().and_then(|c| serde_json::from_str::<Value>(&c.body).ok());
+    let score_history: Vec<Value> =
+        scores.iter().map(|c| json!({"id": c.id, "release": c.release, "evaluator_version": c.evaluator_version, "at": rfc3339(c.created_at)})).collect();
+    let jobs: Vec<Value> = state
+        .store
+        .jobs_for(&s.id)
+        .await?
+        .into_iter()
+        .map(|j| json!({"id": j.id, "kind": j.kind, "state": j.state, "attempts": j.attempts, "error": j.error, "url": format!("/api/v1/jobs/{}", j.id)}))
+        .collect();
+    let mut body = json!({
+        "id": s.id,
+        "team": team.name,
+        "release": s.release,
+        "state": s.state,
+        "method": {"name": s.method_name, "description": s.method_description, "paper_url": s.paper_url, "code_url": s.code_url},
+        "public": s.public,
+        "baseline": s.baseline,
+        "complete": s.complete,
+        "archive": {"size": s.archive_size, "sha256": s.archive_sha256},
+        "created_at": rfc3339(s.created_at),
+        "updated_at": rfc3339(s.updated_at),
+        "history": history,
+        "score_history": score_history,
+        "jobs": jobs,
+    });
+    if let Some(reason) = &s.reason {
+        body["reason"] = json!(reason);
+    }
+    if let Some(latest) = latest {
+        body["scores"] = latest;
+    }
+    Ok(body)
+}
+
+/// A submission the caller may see: public ones to everyone, private ones to their team and admins.
+pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> ApiResult<SubmissionRecord> {
+    match state.store.submission(id).await {
+        Ok(s) if s.public || s.baseline || caller.can_see_team(&s.team_id) => Ok(s),
+        Ok(_) | Err(StoreError::NotFound) => Err(Problem::not_found(format!("There is no submission '{id}' you can see."))),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// `GET /api/v1/submissions/{id}`.
+pub async fn show(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+    let s = visible_submission(&state, &caller, &id).await?;
+    Ok(axum::Json(submission_json(&state, &s).await?))
+}
+
+/// `GET /api/v1/submissions`: the calling team's submissions.
+pub async fn list(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Value>> {
+    let items: Vec<Value> = state
+        .store
+        .submissions(Some(&team.id), 500)
+        .await?
+        .iter()
+        .map(|s| json!({"id": s.id, "release": s.release, "state": s.state, "reason": s.reason, "method": s.method_name, "public": s.public, "complete": s.complete, "created_at": rfc3339(s.created_at), "url": format!("/api/v1/submissions/{}", s.id)}))
+        .collect();
+    Ok(axum::Json(json!({"submissions": items})))
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MethodCardUpdate {
+    name: Option<String>,
+    description: Option<String>,
+    paper_url: Option<Option<String>>,
+    code_url: Option<Option<String>>,
+    public: Option<bool>,
+}
+
+/// `PATCH /api/v1/submissions/{id}`: edit the method card or visibility (own team or admin).
+pub async fn update(
+    State(state): State<AppState>,
+    caller: Caller,
+    Path(id): Path<String>,
+    ApiJson(change): ApiJson<MethodCardUpdate>,
+) -> ApiResult<axum::Json<Value>> {
+    let mut s = visible_submission(&state, &caller, &id).await?;
+    if !caller.can_see_team(&s.team_id) {
+        return Err(Problem::forbidden("Only the submitting team (or an admin) can edit a submission."));
+    }
+    if let Some(name) = change.name {
+        s.method_name = name.trim().to_string();
+    }
+    if let Some(description) = change.description {
+        s.method_description = description;
+    }
+    if let Some(url) = change.paper_url {
+        s.paper_url = url;
+    }
+    if let Some(url) = change.code_url {
+        s.code_url = url;
+    }
+    if let Some(public) = change.public {
+        s.public = public;
+    }
+    let card = osmab_evaluator::submission::MethodCard {
+        name: s.method_name.clone(),
+        description: s.method_description.clone(),
+        paper_url: s.paper_url.clone(),
+        code_url: s.code_url.clone(),
+    };
+    card.check("request body")
+        .map_err(|e| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("{}: {}", e.field, e.message)))?;
+    state.store.update_method_card(&id, &s, now_ms()).await?;
+    state.leaderboard.invalidate();
+    Ok(axum::Json(submission_json(&state, &state.store.submission(&id).await?).await?))
+}
+
+/// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
+pub async fn cancel(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+    let s = visible_submission(&state, &caller, &id).await?;
+    if !caller.can_see_team(&s.team_id) {
+        return Err(Problem::forbidden("Only the submitting team (or an admin) can cancel a submission."));
+    }
+    let reason = if matches!(caller, Caller::Admin) { "cancelled by an admin" } else { "cancelled by the team" };
+    if !state.store.set_submission_state(&id, &["queued"], "cancelled", Some(reason), now_ms()).await? {
+        return Err(Problem::conflict(format!("The submission is {}; only queued submissions can be cancelled.", s.state)));
+    }
+    for job in state.store.jobs_for(&id).await? {
+        if job.state == "queued" {
+            let _ = state.store.cancel_job(&job.id, now_ms()).await;
+        }
+    }
+    Ok(axum::Json(submission_json(&state, &state.store.submission(&id).await?).await?))
+}

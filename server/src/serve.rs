@@ -1,0 +1,165 @@
+//! Starting the service: open the store and the blobs, make sure an admin token exists,
+//! queue the demo release on an empty database, run the in-process workers and the HTTP
+//! server, and on SIGINT/SIGTERM stop accepting requests, let running jobs finish within
+//! the grace period and release the rest for other workers.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use anyhow::Context;
+use tokio::sync::watch;
+
+use crate::auth::{issue_token, token_hash};
+use crate::blobs::Blobs;
+use crate::clock::{new_id, now_ms};
+use crate::config::{Settings, redact_url};
+use crate::jobs::release_build::{BUILD_JOB, BuildRequest, DEMO_CONFIG};
+use crate::state::AppState;
+use crate::store::{NewJob, Store, StoreError, TokenRecord};
+
+/// Open the database (migrated) and the blob storage of `settings`.
+pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
+    std::fs::create_dir_all(&settings.data_dir).with_context(|| format!("cannot create the data directory {}", settings.data_dir.display()))?;
+    let url = settings.database_url.expose().to_string();
+    let store = Store::connect(&url).await.with_context(|| format!("cannot open the database {}", redact_url(&url)))?;
+    store.migrate().await.context("cannot apply the database migrations")?;
+    let blobs = Blobs::open(&settings.data_dir.join("blobs")).context("cannot open the blob storage")?;
+    tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), "store opened");
+    Ok(AppState::new(settings, store, blobs))
+}
+
+/// Make sure an admin token exists: the configured one (stored hashed), or on first
+/// start a generated one written once to an owner-only file.
+pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
+    if let Some(token) = &state.settings.admin_token {
+        let hash = token_hash(token.expose());
+        match state.store.token_by_hash(&hash).await {
+            Ok(_) => {}
+            Err(StoreError::NotFound) => {
+                let hint: String = token.expose().chars().take(10).collect();
+                let record = TokenRecord {
+                    id: new_id("tok"),
+                    team_id: None,
+                    scope: "admin".into(),
+                    sha256: hash,
+                    hint,
+                    created_at: now_ms(),
+                    expires_at: None,
+                    revoked_at: None,
+                };
+                state.store.insert_token(&record).await?;
+            }
+            Err(e) => return Err(e.into()),
+        }
+        tracing::info!("admin token from the configuration");
+        return Ok(());
+    }
+    let path = state.settings.data_dir.join("admin-token");
+    if state.store.tokens(None).await?.iter().any(|t| t.revoked_at.is_none()) {
+        tracing::info!(file = %path.display(), "admin token exists (written at first start)");
+        return Ok(());
+    }
+    let (token, record) = issue_token("admin", None, None);
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    let mut file = options.open(&path).with_context(|| format!("cannot write the admin token to {} (remove a stale file)", path.display()))?;
+    file.write_all(format!("{token}\n").as_bytes())?;
+    file.sync_all()?;
+    state.store.insert_token(&record).await?;
+    tracing::warn!(file = %path.display(), "generated an admin token; it is in this owner-only file");
+    Ok(())
+}
+
+/// On an empty database, queue the demo release build with the baselines.
+pub async fn queue_demo(state: &AppState) -> anyhow::Result<()> {
+    if !state.store.releases().await?.is_empty() || state.store.jobs(1000).await?.iter().any(|j| j.kind == BUILD_JOB) {
+        return Ok(());
+    }
+    let job = NewJob {
+        id: new_id("job"),
+        kind: BUILD_JOB.into(),
+        subject: crate::jobs::release_build::config_version(DEMO_CONFIG).map_err(anyhow::Error::msg)?,
+        payload: serde_json::to_string(&BuildRequest { config: DEMO_CONFIG.into(), publish: true, baselines: true })?,
+        max_attempts: state.settings.job_max_attempts,
+        created_at: now_ms(),
+    };
+    state.store.enqueue(&job).await?;
+    tracing::info!(job = %job.id, "empty database: the demo release is being built and the baselines scored");
+    Ok(())
+}
+
+/// Resolves at SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
+    let interrupt = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut terminate = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).expect("SIGTERM handler");
+        tokio::select! {
+            _ = interrupt => {}
+            _ = terminate.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = interrupt.await;
+    tracing::info!("shutdown requested");
+}
+
+fn spawn_workers(state: &AppState, count: usize, shutdown: &watch::Receiver<bool>) -> Vec<tokio::task::JoinHandle<()>> {
+    let host = std::env::var("HOSTNAME").unwrap_or_else(|_| "local".into());
+    (0..count)
+        .map(|i| {
+            let owner = format!("{host}:{}:{i}:{}", std::process::id(), crate::clock::random_alphanumeric(6));
+            tokio::spawn(crate::jobs::run_worker(state.clone(), owner, shutdown.clone()))
+        })
+        .collect()
+}
+
+async fn stop_workers(state: &AppState, workers: Vec<tokio::task::JoinHandle<()>>) {
+    let grace = Duration::from_secs(state.settings.shutdown_grace_secs + 5);
+    for worker in workers {
+        if tokio::time::timeout(grace, worker).await.is_err() {
+            tracing::warn!("a worker did not stop in time");
+        }
+    }
+}
+
+/// `osmab serve`.
+pub async fn serve(settings: Settings) -> anyhow::Result<()> {
+    let bind = settings.bind;
+    let state = open(settings).await?;
+    ensure_admin_token(&state).await?;
+    if state.settings.demo {
+        queue_demo(&state).await?;
+    }
+    let (stop, stopped) = watch::channel(false);
+    let workers = spawn_workers(&state, state.settings.workers, &stopped);
+    let listener = tokio::net::TcpListener::bind(bind).await.with_context(|| format!("cannot listen on {bind}"))?;
+    let address = listener.local_addr()?;
+    tracing::info!(%address, workers = state.settings.workers, "serving");
+    println!("osmab listening on http://{address}");
+    let _ = std::io::stdout().flush();
+    let app = crate::routes::router(state.clone());
+    axum::serve(listener, app.into_make_service_with_connect_info::<SocketAddr>()).with_graceful_shutdown(shutdown_signal()).await?;
+    let _ = stop.send(true);
+    stop_workers(&state, workers).await;
+    state.store.close().await;
+    tracing::info!("stopped");
+    Ok(())
+}
+
+/// `osmab worker`: workers only, against the same database and storage.
+pub async fn work(settings: Settings, count: usize) -> anyhow::Result<()> {
+    let state = open(settings).await?;
+    let (stop, stopped) = watch::channel(false);
+    let workers = spawn_workers(&state, count.max(1), &stopped);
+    println!("osmab worker running ({} workers)", count.max(1));
+    let _ = std::io::stdout().flush();
+    shutdown_signal().await;
+    let _ = stop.send(true);
+    stop_workers(&state, workers).await;
+    state.store.close().await;
+    Ok(())
+}

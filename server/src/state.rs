@@ -1,0 +1,36 @@
+//! What every handler and worker shares.
+
+use std::sync::Arc;
+
+use crate::blobs::Blobs;
+use crate::config::Settings;
+use crate::leaderboard::LeaderboardCache;
+use crate::metrics::Metrics;
+use crate::rate_limit::RateLimiter;
+use crate::store::Store;
+
+/// Shared service state (cheap to clone).
+#[derive(Clone)]
+pub struct AppState {
+    pub settings: Arc<Settings>,
+    pub store: Store,
+    pub blobs: Blobs,
+    pub metrics: Arc<Metrics>,
+    pub leaderboard: Arc<LeaderboardCache>,
+    pub limiter: Arc<RateLimiter>,
+}
+
+impl AppState {
+    /// State over an opened store and blob directory.
+    pub fn new(settings: Settings, store: Store, blobs: Blobs) -> Self {
+        let limiter = RateLimiter::new(settings.rate_limit, settings.rate_burst);
+        Self {
+            settings: Arc::new(settings),
+            store,
+            blobs,
+            metrics: Arc::new(Metrics::default()),
+            leaderboard: Arc::new(LeaderboardCache::default()),
+            limiter: Arc::new(limiter),
+        }
+    }
+}

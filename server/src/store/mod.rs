@@ -1,0 +1,114 @@
+//! The service's records behind one interface with two backends: embedded SQLite (the
+//! default) and PostgreSQL. The SQL is written once with `$N` placeholders, which both
+//! drivers accept; where the dialects differ (claiming a job) each backend has its own
+//! statement. Every query is runtime-checked, so building never needs a database.
+
+mod jobs;
+mod models;
+mod postgres;
+mod records;
+mod sqlite;
+#[cfg(test)]
+pub mod tests;
+
+pub use jobs::{ClaimedJob, JobState, NewJob};
+pub use models::*;
+
+use sqlx::{PgPool, SqlitePool};
+
+/// Run `$body` with `$pool` bound to whichever pool the store holds; the body is the
+/// same text for both backends.
+macro_rules! on_pool {
+    ($store:expr, |$pool:ident| $body:expr) => {
+        match $store {
+            $crate::store::Store::Sqlite($pool) => $body,
+            $crate::store::Store::Postgres($pool) => $body,
+        }
+    };
+}
+pub(crate) use on_pool;
+
+/// A failure of the record store.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// The record does not exist.
+    #[error("not found")]
+    NotFound,
+    /// A unique constraint refused the write (a name or version already taken).
+    #[error("already exists: {0}")]
+    Conflict(String),
+    /// Anything else from the database.
+    #[error("database error: {0}")]
+    Database(sqlx::Error),
+    /// Migrations could not be applied.
+    #[error("migration failed: {0}")]
+    Migration(#[from] sqlx::migrate::MigrateError),
+}
+
+impl From<sqlx::Error> for StoreError {
+    fn from(e: sqlx::Error) -> Self {
+        match &e {
+            sqlx::Error::RowNotFound => StoreError::NotFound,
+            sqlx::Error::Database(db) if db.is_unique_violation() => StoreError::Conflict(db.message().to_string()),
+            _ => StoreError::Database(e),
+        }
+    }
+}
+
+/// Result of a store operation.
+pub type StoreResult<T> = Result<T, StoreError>;
+
+/// The record store: one of the two backends.
+#[derive(Clone)]
+pub enum Store {
+    /// Embedded SQLite (one file in the data directory).
+    Sqlite(SqlitePool),
+    /// PostgreSQL (any number of servers and workers share it).
+    Postgres(PgPool),
+}
+
+impl std::fmt::Debug for Store {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.backend())
+    }
+}
+
+impl Store {
+    /// Connect to `url` (`sqlite://…` or `postgres://…`).
+    pub async fn connect(url: &str) -> StoreResult<Self> {
+        if url.starts_with("postgres://") || url.starts_with("postgresql://") {
+            postgres::connect(url).await.map(Store::Postgres)
+        } else if url.starts_with("sqlite:") {
+            sqlite::connect(url).await.map(Store::Sqlite)
+        } else {
+            Err(StoreError::Database(sqlx::Error::Configuration("DATABASE_URL must start with sqlite: or postgres://".into())))
+        }
+    }
+
+    /// `sqlite` or `postgres`.
+    pub fn backend(&self) -> &'static str {
+        match self {
+            Store::Sqlite(_) => "sqlite",
+            Store::Postgres(_) => "postgres",
+        }
+    }
+
+    /// Apply the migrations of this backend (idempotent).
+    pub async fn migrate(&self) -> StoreResult<()> {
+        match self {
+            Store::Sqlite(pool) => sqlx::migrate!("../migrations/sqlite").run(pool).await?,
+            Store::Postgres(pool) => sqlx::migrate!("../migrations/postgres").run(pool).await?,
+        }
+        Ok(())
+    }
+
+    /// Whether the database answers.
+    pub async fn ping(&self) -> StoreResult<()> {
+        on_pool!(self, |pool| sqlx::query("SELECT 1").execute(pool).await.map(|_| ())).map_err(StoreError::from)
+    }
+
+    /// Close the pool (waits for connections to return).
+    pub async fn close(&self) {
+        on_pool!(self, |pool| pool.close().await)
+    }
+}

@@ -1,0 +1,148 @@
+//! Records as the store returns them.
+
+use serde::Serialize;
+
+/// A participating team.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, sqlx::FromRow)]
+pub struct Team {
+    pub id: String,
+    pub name: String,
+    /// Submissions per UTC day; `None` uses the service default.
+    pub daily_quota: Option<i64>,
+    pub created_at: i64,
+}
+
+/// A stored API token: only its SHA-256 and a short hint are kept.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, sqlx::FromRow)]
+pub struct TokenRecord {
+    pub id: String,
+    pub team_id: Option<String>,
+    /// `admin` or `team`.
+    pub scope: String,
+    #[serde(skip)]
+    pub sha256: String,
+    /// The first characters of the token, to tell tokens apart in lists.
+    pub hint: String,
+    pub created_at: i64,
+    pub expires_at: Option<i64>,
+    pub revoked_at: Option<i64>,
+}
+
+/// A registered release.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct ReleaseRecord {
+    pub version: String,
+    /// `draft` or `published`.
+    pub state: String,
+    pub is_current: bool,
+    pub digest: String,
+    /// The manifest JSON as served (with the sequence archives added).
+    pub manifest: String,
+    pub created_at: i64,
+    pub published_at: Option<i64>,
+}
+
+/// A public file of a release (a manifest file or a sequence archive).
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct ReleaseFile {
+    pub version: String,
+    pub path: String,
+    pub size: i64,
+    pub sha256: String,
+    /// `file` or `archive`.
+    pub kind: String,
+}
+
+/// A submission.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct SubmissionRecord {
+    pub id: String,
+    pub team_id: String,
+    pub release: String,
+    pub state: String,
+    pub reason: Option<String>,
+    pub method_name: String,
+    pub method_description: String,
+    pub paper_url: Option<String>,
+    pub code_url: Option<String>,
+    pub public: bool,
+    pub baseline: bool,
+    pub complete: bool,
+    pub archive_size: i64,
+    pub archive_sha256: String,
+    pub created_at: i64,
+    pub updated_at: i64,
+}
+
+/// One state change of a submission.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct SubmissionEvent {
+    pub state: String,
+    pub reason: Option<String>,
+    pub at: i64,
+}
+
+/// One score of a submission (re-scoring adds rows).
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct ScoreRecord {
+    pub id: i64,
+    pub submission_id: String,
+    pub release: String,
+    pub evaluator_version: String,
+    pub body: String,
+    pub created_at: i64,
+}
+
+/// A job as listed or shown.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct JobRecord {
+    pub id: String,
+    pub kind: String,
+    pub subject: String,
+    pub payload: String,
+    pub state: String,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub run_after: i64,
+    pub lease_owner: Option<String>,
+    pub lease_expires: Option<i64>,
+    pub progress: String,
+    pub error: Option<String>,
+    pub created_at: i64,
+    pub updated_at: i64,
+}
+
+/// A scored submission with its latest score and team, for the leaderboard.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct LeaderboardRow {
+    pub submission_id: String,
+    pub team: String,
+    pub method_name: String,
+    pub paper_url: Option<String>,
+    pub code_url: Option<String>,
+    pub baseline: bool,
+    pub complete: bool,
+    pub created_at: i64,
+    pub body: String,
+}
+
+/// A new submission to record together with its scoring job.
+#[derive(Debug, Clone)]
+pub struct NewSubmission {
+    pub id: String,
+    pub team_id: String,
+    pub release: String,
+    pub method_name: String,
+    pub method_description: String,
+    pub paper_url: Option<String>,
+    pub code_url: Option<String>,
+    pub public: bool,
+    pub baseline: bool,
+    pub complete: bool,
+    pub archive_size: i64,
+    pub archive_sha256: String,
+    /// When the upload began and when validation began and ended (history timestamps).
+    pub received_at: i64,
+    pub validating_at: i64,
+    pub queued_at: i64,
+}

@@ -1,0 +1,383 @@
+//! Teams, tokens, releases, submissions and scores.
+
+use super::{
+    JobRecord, LeaderboardRow, NewJob, NewSubmission, ReleaseFile, ReleaseRecord, ScoreRecord, Store, StoreError, StoreResult, SubmissionEvent,
+    SubmissionRecord, Team, TokenRecord, on_pool,
+};
+
+const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
+
+impl Store {
+    /// Create a team.
+    pub async fn create_team(&self, team: &Team) -> StoreResult<()> {
+        on_pool!(self, |pool| sqlx::query("INSERT INTO teams (id, name, daily_quota, created_at) VALUES ($1, $2, $3, $4)")
+            .bind(&team.id)
+            .bind(&team.name)
+            .bind(team.daily_quota)
+            .bind(team.created_at)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
+        Ok(())
+    }
+
+    /// Every team, by name.
+    pub async fn teams(&self) -> StoreResult<Vec<Team>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams ORDER BY name").fetch_all(pool).await)?)
+    }
+
+    /// The team `id`.
+    pub async fn team(&self, id: &str) -> StoreResult<Team> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams WHERE id = $1").bind(id).fetch_one(pool).await)?)
+    }
+
+    /// The team named `name`.
+    pub async fn team_by_name(&self, name: &str) -> StoreResult<Team> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams WHERE name = $1").bind(name).fetch_one(pool).await)?)
+    }
+
+    /// Change a team's daily quota.
+    pub async fn set_team_quota(&self, id: &str, quota: Option<i64>) -> StoreResult<()> {
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE teams SET daily_quota = $2 WHERE id = $1")
+            .bind(id)
+            .bind(quota)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
+        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
+    }
+
+    /// Store a token record.
+    pub async fn insert_token(&self, token: &TokenRecord) -> StoreResult<()> {
+        on_pool!(self, |pool| sqlx::query(
+            "INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)"
+        )
+        .bind(&token.id)
+        .bind(&token.team_id)
+        .bind(&token.scope)
+        .bind(&token.sha256)
+        .bind(&token.hint)
+        .bind(token.created_at)
+        .bind(token.expires_at)
+        .bind(token.revoked_at)
+        .execute(pool)
+        .await
+        .map(|r| r.rows_affected()))?;
+        Ok(())
+    }
+
+    /// The token whose SHA-256 is `sha256`.
+    pub async fn token_by_hash(&self, sha256: &str) -> StoreResult<TokenRecord> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE sha256 = $1")
+            .bind(sha256)
+            .fetch_one(pool)
+            .await)?)
+    }
+
+    /// Tokens of a team (or the admin tokens for `None`).
+    pub async fn tokens(&self, team_id: Option<&str>) -> StoreResult<Vec<TokenRecord>> {
+        Ok(match team_id {
+            Some(team) => on_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE team_id = $1 ORDER BY created_at"
+            )
+            .bind(team)
+            .fetch_all(pool)
+            .await)?,
+            None => on_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE scope = 'admin' ORDER BY created_at"
+            )
+            .fetch_all(pool)
+            .await)?,
+        })
+    }
+
+    /// Revoke token `id`; revoking twice keeps the first time.
+    pub async fn revoke_token(&self, id: &str, at: i64) -> StoreResult<()> {
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE tokens SET revoked_at = COALESCE(revoked_at, $2) WHERE id = $1")
+            .bind(id)
+            .bind(at)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
+        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
+    }
+
+    /// Register a release and its public files in one transaction.
+    pub async fn insert_release(&self, release: &ReleaseRecord, files: &[ReleaseFile]) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            sqlx::query("INSERT INTO releases (version, state, is_current, digest, manifest, created_at, published_at) VALUES ($1, $2, $3, $4, $5, $6, $7)")
+                .bind(&release.version)
+                .bind(&release.state)
+                .bind(release.is_current)
+                .bind(&release.digest)
+                .bind(&release.manifest)
+                .bind(release.created_at)
+                .bind(release.published_at)
+                .execute(&mut *tx)
+                .await?;
+            for file in files {
+                sqlx::query("INSERT INTO release_files (version, path, size, sha256, kind) VALUES ($1, $2, $3, $4, $5)")
+                    .bind(&file.version)
+                    .bind(&file.path)
+                    .bind(file.size)
+                    .bind(&file.sha256)
+                    .bind(&file.kind)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            tx.commit().await
+        })?;
+        Ok(())
+    }
+
+    /// Every release, newest first.
+    pub async fn releases(&self) -> StoreResult<Vec<ReleaseRecord>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases ORDER BY created_at DESC, version"
+        )
+        .fetch_all(pool)
+        .await)?)
+    }
+
+    /// Release `version`.
+    pub async fn release(&self, version: &str) -> StoreResult<ReleaseRecord> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE version = $1"
+        )
+        .bind(version)
+        .fetch_one(pool)
+        .await)?)
+    }
+
+    /// The current (most recently published) release.
+    pub async fn current_release(&self) -> StoreResult<ReleaseRecord> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE is_current = TRUE"
+        )
+        .fetch_one(pool)
+        .await)?)
+    }
+
+    /// Freeze draft `version` and make it the current release.
+    pub async fn publish_release(&self, version: &str, at: i64) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let done = sqlx::query("UPDATE releases SET state = 'published', published_at = COALESCE(published_at, $2) WHERE version = $1")
+                .bind(version)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if done == 0 {
+                return Err(StoreError::NotFound);
+            }
+            sqlx::query("UPDATE releases SET is_current = FALSE WHERE is_current = TRUE AND version <> $1").bind(version).execute(&mut *tx).await?;
+            sqlx::query("UPDATE releases SET is_current = TRUE WHERE version = $1").bind(version).execute(&mut *tx).await?;
+            tx.commit().await.map_err(StoreError::from)
+        })
+    }
+
+    /// A public file of a release.
+    pub async fn release_file(&self, version: &str, path: &str) -> StoreResult<ReleaseFile> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT version, path, size, sha256, kind FROM release_files WHERE version = $1 AND path = $2")
+            .bind(version)
+            .bind(path)
+            .fetch_one(pool)
+            .await)?)
+    }
+
+    /// Record a validated submission, its history so far and its scoring job in one transaction.
+    pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob) -> StoreResult<()> {
+        let sql =
+            format!("INSERT INTO submissions ({SUBMISSION_COLUMNS}) VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)");
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
+                .bind(&s.id)
+                .bind(&s.team_id)
+                .bind(&s.release)
+                .bind(&s.method_name)
+                .bind(&s.method_description)
+                .bind(&s.paper_url)
+                .bind(&s.code_url)
+                .bind(s.public)
+                .bind(s.baseline)
+                .bind(s.complete)
+                .bind(s.archive_size)
+                .bind(&s.archive_sha256)
+                .bind(s.received_at)
+                .bind(s.queued_at)
+                .execute(&mut *tx)
+                .await?;
+            for (state, at) in [("received", s.received_at), ("validating", s.validating_at), ("queued", s.queued_at)] {
+                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, NULL, $3)")
+                    .bind(&s.id)
+                    .bind(state)
+                    .bind(at)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
+            tx.commit().await
+        })?;
+        Ok(())
+    }
+
+    /// Submission `id`.
+    pub async fn submission(&self, id: &str) -> StoreResult<SubmissionRecord> {
+        let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions WHERE id = $1");
+        Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(id).fetch_one(pool).await)?)
+    }
+
+    /// Submissions of a team (all teams for `None`), newest first.
+    pub async fn submissions(&self, team_id: Option<&str>, limit: i64) -> StoreResult<Vec<SubmissionRecord>> {
+        Ok(match team_id {
+            Some(team) => {
+                let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2");
+                on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(team).bind(limit).fetch_all(pool).await)?
+            }
+            None => {
+                let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions ORDER BY created_at DESC, id LIMIT $1");
+                on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(limit).fetch_all(pool).await)?
+            }
+        })
+    }
+
+    /// The state history of a submission, oldest first.
+    pub async fn submission_events(&self, id: &str) -> StoreResult<Vec<SubmissionEvent>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT state, reason, at FROM submission_events WHERE submission_id = $1 ORDER BY id")
+            .bind(id)
+            .fetch_all(pool)
+            .await)?)
+    }
+
+    /// Move a submission to `state` with `reason`, recording the change in its history.
+    /// `from` restricts the change to submissions in one of those states; returns whether it happened.
+    pub async fn set_submission_state(&self, id: &str, from: &[&str], state: &str, reason: Option<&str>, at: i64) -> StoreResult<bool> {
+        let current = self.submission(id).await?;
+        if !from.is_empty() && !from.contains(&current.state.as_str()) {
+            return Ok(false);
+        }
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let done = sqlx::query("UPDATE submissions SET state = $2, reason = $3, updated_at = $4 WHERE id = $1 AND state = $5")
+                .bind(id)
+                .bind(state)
+                .bind(reason)
+                .bind(at)
+                .bind(&current.state)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if done == 1 {
+                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, $3, $4)")
+                    .bind(id)
+                    .bind(state)
+                    .bind(reason)
+                    .bind(at)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            tx.commit().await?;
+            Ok(done == 1)
+        })
+    }
+
+    /// Edit the method card and visibility of a submission.
+    pub async fn update_method_card(&self, id: &str, s: &SubmissionRecord, at: i64) -> StoreResult<()> {
+        let done = on_pool!(self, |pool| sqlx::query(
+            "UPDATE submissions SET method_name = $2, method_description = $3, paper_url = $4, code_url = $5, public = $6, updated_at = $7 WHERE id = $1"
+        )
+        .bind(id)
+        .bind(&s.method_name)
+        .bind(&s.method_description)
+        .bind(&s.paper_url)
+        .bind(&s.code_url)
+        .bind(s.public)
+        .bind(at)
+        .execute(pool)
+        .await
+        .map(|r| r.rows_affected()))?;
+        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
+    }
+
+    /// Submissions a team made since `since` (quota), baselines and dry runs never count.
+    pub async fn submissions_since(&self, team_id: &str, since: i64) -> StoreResult<i64> {
+        Ok(on_pool!(self, |pool| sqlx::query_scalar("SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE")
+            .bind(team_id)
+            .bind(since)
+            .fetch_one(pool)
+            .await)?)
+    }
+
+    /// Record a score and mark the submission scored, in one transaction.
+    pub async fn add_score(&self, submission_id: &str, release: &str, evaluator_version: &str, body: &str, at: i64) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            sqlx::query("INSERT INTO scores (submission_id, release, evaluator_version, body, created_at) VALUES ($1, $2, $3, $4, $5)")
+                .bind(submission_id)
+                .bind(release)
+                .bind(evaluator_version)
+                .bind(body)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?;
+            let done = sqlx::query("UPDATE submissions SET state = 'scored', reason = NULL, updated_at = $2 WHERE id = $1 AND state <> 'scored'")
+                .bind(submission_id)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if done == 1 {
+                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'scored', NULL, $2)")
+                    .bind(submission_id)
+                    .bind(at)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            tx.commit().await
+        })?;
+        Ok(())
+    }
+
+    /// Every score of a submission, oldest first.
+    pub async fn scores(&self, submission_id: &str) -> StoreResult<Vec<ScoreRecord>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT id, submission_id, release, evaluator_version, body, created_at FROM scores WHERE submission_id = $1 ORDER BY id"
+        )
+        .bind(submission_id)
+        .fetch_all(pool)
+        .await)?)
+    }
+
+    /// Scored public submissions of `release` with their latest score.
+    pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.created_at, c.body \
+             FROM submissions s JOIN teams t ON t.id = s.team_id \
+             JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
+             WHERE s.release = $1 AND s.state = 'scored' AND (s.public = TRUE OR s.baseline = TRUE) \
+             ORDER BY s.created_at, s.id"
+        )
+        .bind(release)
+        .fetch_all(pool)
+        .await)?)
+    }
+
+    /// Jobs whose subject is `subject` (a submission or release), newest first.
+    pub async fn jobs_for(&self, subject: &str) -> StoreResult<Vec<JobRecord>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(format!(
+            "SELECT {} FROM jobs WHERE subject = $1 ORDER BY created_at DESC, id",
+            super::jobs::JOB_COLUMNS
+        )))
+        .bind(subject)
+        .fetch_all(pool)
+        .await)?)
+    }
+
+    /// Count submissions per state (for /metrics).
+    pub async fn submission_state_counts(&self) -> StoreResult<Vec<(String, i64)>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT state, COUNT(*) FROM submissions GROUP BY state ORDER BY state").fetch_all(pool).await)?)
+    }
+}

@@ -1,0 +1,237 @@
+//! The store's behaviour, run against both backends: a temporary SQLite file and a fresh
+//! PostgreSQL database (`OSMAB_TEST_DATABASE_URL`, default the local server; the test
+//! fails, it does not skip, when PostgreSQL is unreachable).
+
+use super::*;
+use crate::clock::now_ms;
+
+/// A store of each backend; PostgreSQL databases are dropped when the guard goes.
+pub struct TestStores {
+    pub stores: Vec<Store>,
+    _dir: tempfile::TempDir,
+    pg_admin: String,
+    pg_database: String,
+}
+
+pub fn postgres_base_url() -> String {
+    std::env::var("OSMAB_TEST_DATABASE_URL").unwrap_or_else(|_| "postgres://postgres@127.0.0.1:5432/test".into())
+}
+
+impl TestStores {
+    pub async fn new() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let sqlite = Store::connect(&format!("sqlite://{}", dir.path().join("t.db").display())).await.unwrap();
+        sqlite.migrate().await.unwrap();
+        let base = postgres_base_url();
+        let admin =
+            sqlx::PgPool::connect(&base).await.unwrap_or_else(|e| panic!("PostgreSQL at {base} is needed for the store tests (.ci/run starts it): {e}"));
+        let name = format!("osmab_test_{}", crate::clock::random_alphanumeric(12).to_ascii_lowercase());
+        sqlx::query(sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}"))).execute(&admin).await.unwrap();
+        admin.close().await;
+        let url = match base.rfind('/') {
+            Some(i) => format!("{}/{name}", &base[..i]),
+            None => panic!("{base} names no database"),
+        };
+        let postgres = Store::connect(&url).await.unwrap();
+        postgres.migrate().await.unwrap();
+        Self { stores: vec![sqlite, postgres], _dir: dir, pg_admin: base, pg_database: name }
+    }
+
+    pub async fn drop_all(self) {
+        for store in &self.stores {
+            store.close().await;
+        }
+        if let Ok(admin) = sqlx::PgPool::connect(&self.pg_admin).await {
+            let _ = sqlx::query(sqlx::AssertSqlSafe(format!("DROP DATABASE IF EXISTS {} WITH (FORCE)", self.pg_database))).execute(&admin).await;
+            admin.close().await;
+        }
+    }
+}
+
+fn job(id: &str, at: i64) -> NewJob {
+    NewJob { id: id.into(), kind: "score_submission".into(), subject: format!("sub_{id}"), payload: "{}".into(), max_attempts: 3, created_at: at }
+}
+
+#[tokio::test]
+async fn a_job_whose_worker_died_is_claimed_again_after_its_lease() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t0 = now_ms();
+        store.enqueue(&job("j1", t0)).await.unwrap();
+        let first = store.claim_next_job("worker-a", t0, t0 + 1000).await.unwrap().expect("a job is ready");
+        assert_eq!((first.id.as_str(), first.attempts), ("j1", 1), "{}", store.backend());
+        assert!(store.claim_next_job("worker-b", t0 + 500, t0 + 1500).await.unwrap().is_none(), "the lease still holds");
+        // worker-a stops heartbeating; after the lease, worker-b takes the job over.
+        let second = store.claim_next_job("worker-b", t0 + 1001, t0 + 2001).await.unwrap().expect("the expired lease frees the job");
+        assert_eq!((second.id.as_str(), second.attempts), ("j1", 2));
+        assert!(!store.heartbeat("j1", "worker-a", t0 + 3000, t0 + 1002).await.unwrap(), "the dead worker lost its lease");
+        assert!(!store.finish_job("j1", "worker-a", JobState::Succeeded, None, None, t0 + 1003).await.unwrap());
+        assert!(store.finish_job("j1", "worker-b", JobState::Succeeded, None, None, t0 + 1004).await.unwrap());
+        let record = store.job("j1").await.unwrap();
+        assert_eq!((record.state.as_str(), record.lease_owner), ("succeeded", None));
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn a_retried_job_waits_for_its_backoff_and_a_released_one_keeps_its_attempts() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t0 = now_ms();
+        store.enqueue(&job("j2", t0)).await.unwrap();
+        store.claim_next_job("w", t0, t0 + 1000).await.unwrap().unwrap();
+        assert!(store.finish_job("j2", "w", JobState::Queued, Some("disk full"), Some(t0 + 5000), t0 + 10).await.unwrap());
+        assert!(store.claim_next_job("w", t0 + 4999, t0 + 6000).await.unwrap().is_none(), "not before the backoff");
+        let again = store.claim_next_job("w", t0 + 5000, t0 + 6000).await.unwrap().unwrap();
+        assert_eq!(again.attempts, 2);
+        assert!(store.release_job("j2", "w", t0 + 5001).await.unwrap());
+        let after_release = store.claim_next_job("w2", t0 + 5002, t0 + 7000).await.unwrap().unwrap();
+        assert_eq!(after_release.attempts, 2, "a graceful release does not count as an attempt");
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn two_workers_never_claim_the_same_job() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t0 = now_ms();
+        for i in 0..20 {
+            store.enqueue(&job(&format!("c{i:02}"), t0 + i)).await.unwrap();
+        }
+        let mut handles = Vec::new();
+        for w in 0..4 {
+            let store = store.clone();
+            handles.push(tokio::spawn(async move {
+                let mut got = Vec::new();
+                while let Some(j) = store.claim_next_job(&format!("w{w}"), t0 + 100, t0 + 60_000).await.unwrap() {
+                    got.push(j.id);
+                }
+                got
+            }));
+        }
+        let mut all = Vec::new();
+        for h in handles {
+            all.extend(h.await.unwrap());
+        }
+        all.sort();
+        let expected: Vec<String> = (0..20).map(|i| format!("c{i:02}")).collect();
+        assert_eq!(all, expected, "{}: every job claimed exactly once", store.backend());
+    }
+    stores.drop_all().await;
+}
+
+fn release(version: &str) -> ReleaseRecord {
+    ReleaseRecord {
+        version: version.into(),
+        state: "draft".into(),
+        is_current: false,
+        digest: format!("digest-{version}"),
+        manifest: "{}".into(),
+        created_at: now_ms(),
+        published_at: None,
+    }
+}
+
+#[tokio::test]
+async fn submissions_scores_and_releases_keep_their_history() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let team = Team { id: "team_a".into(), name: "Team A".into(), daily_quota: None, created_at: now_ms() };
+        store.create_team(&team).await.unwrap();
+        assert!(matches!(store.create_team(&Team { id: "team_b".into(), ..team.clone() }).await, Err(StoreError::Conflict(_))), "names are unique");
+        store
+            .insert_release(&release("r1"), &[ReleaseFile { version: "r1".into(), path: "a.txt".into(), size: 1, sha256: "00".into(), kind: "file".into() }])
+            .await
+            .unwrap();
+        store.insert_release(&release("r2"), &[]).await.unwrap();
+        store.publish_release("r1", 1).await.unwrap();
+        store.publish_release("r2", 2).await.unwrap();
+        assert_eq!(store.current_release().await.unwrap().version, "r2", "the last publication is current");
+        assert!(!store.release("r1").await.unwrap().is_current);
+
+        let t = now_ms();
+        let new = NewSubmission {
+            id: "sub_1".into(),
+            team_id: team.id.clone(),
+            release: "r1".into(),
+            method_name: "M".into(),
+            method_description: String::new(),
+            paper_url: None,
+            code_url: None,
+            public: true,
+            baseline: false,
+            complete: true,
+            archive_size: 10,
+            archive_sha256: "ab".into(),
+            received_at: t,
+            validating_at: t + 1,
+            queued_at: t + 2,
+        };
+        store.create_submission(&new, &job("js1", t)).await.unwrap();
+        assert_eq!(store.jobs_for("sub_1").await.unwrap().len(), 0, "the job's subject is its own field");
+        let s = store.submission("sub_1").await.unwrap();
+        assert_eq!(s.state, "queued");
+        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1);
+        assert!(store.set_submission_state("sub_1", &["queued"], "scoring", None, t + 3).await.unwrap());
+        assert!(!store.set_submission_state("sub_1", &["queued"], "cancelled", Some("late"), t + 4).await.unwrap(), "only from the named states");
+        store.add_score("sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap();
+        store.add_score("sub_1", "r1", "0.1.0", r#"{"v":2}"#, t + 6).await.unwrap();
+        let states: Vec<String> = store.submission_events("sub_1").await.unwrap().into_iter().map(|e| e.state).collect();
+        assert_eq!(states, ["received", "validating", "queued", "scoring", "scored"]);
+        assert_eq!(store.scores("sub_1").await.unwrap().len(), 2, "re-scoring adds a score");
+        let rows = store.leaderboard_rows("r1").await.unwrap();
+        assert_eq!((rows.len(), rows[0].body.as_str(), rows[0].team.as_str()), (1, r#"{"v":2}"#, "Team A"), "the latest score counts");
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn a_failed_transaction_leaves_no_submission_behind() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t = now_ms();
+        let team = Team { id: "team_x".into(), name: "X".into(), daily_quota: None, created_at: t };
+        store.create_team(&team).await.unwrap();
+        store.insert_release(&release("r1"), &[]).await.unwrap();
+        store.enqueue(&job("taken", t)).await.unwrap();
+        let new = NewSubmission {
+            id: "sub_x".into(),
+            team_id: team.id,
+            release: "r1".into(),
+            method_name: "M".into(),
+            method_description: String::new(),
+            paper_url: None,
+            code_url: None,
+            public: true,
+            baseline: false,
+            complete: true,
+            archive_size: 1,
+            archive_sha256: "00".into(),
+            received_at: t,
+            validating_at: t,
+            queued_at: t,
+        };
+        // The job id collides, so the whole transaction must roll back.
+        assert!(store.create_submission(&new, &job("taken", t)).await.is_err());
+        assert!(matches!(store.submission("sub_x").await, Err(StoreError::NotFound)), "{}", store.backend());
+        assert!(store.submission_events("sub_x").await.unwrap().is_empty());
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn tokens_are_found_by_hash_and_revocation_is_kept() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let (token, record) = crate::auth::issue_token("admin", None, None);
+        store.insert_token(&record).await.unwrap();
+        let found = store.token_by_hash(&crate::auth::token_hash(&token)).await.unwrap();
+        assert_eq!(found.id, record.id);
+        store.revoke_token(&record.id, 5).await.unwrap();
+        store.revoke_token(&record.id, 9).await.unwrap();
+        assert_eq!(store.token_by_hash(&record.sha256).await.unwrap().revoked_at, Some(5), "the first revocation time stays");
+        assert!(matches!(store.revoke_token("tok_missing", 1).await, Err(StoreError::NotFound)));
+    }
+    stores.drop_all().await;
+}

@@ -1,0 +1,132 @@
+//! Hostile and broken uploads get clear problem+json errors and leave every stored record
+//! (submissions, leaderboard, blobs) as it was.
+
+use std::io::Write;
+
+use serde_json::Value;
+
+use super::{Backend, Deployment, baseline_dir, on_both_backends, problem, tar_of};
+
+fn tar_with(entries: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut builder = tar::Builder::new(Vec::new());
+    for (name, data) in entries {
+        let mut header = tar::Header::new_gnu();
+        header.set_size(data.len() as u64);
+        header.set_mode(0o644);
+        header.set_entry_type(tar::EntryType::Regular);
+        // Write the raw name so '..' reaches the server as a hostile client would send it.
+        let bytes = name.as_bytes();
+        header.as_old_mut().name[..bytes.len()].copy_from_slice(bytes);
+        header.set_cksum();
+        builder.append(&header, *data).unwrap();
+    }
+    builder.into_inner().unwrap()
+}
+
+fn zip_bomb() -> Vec<u8> {
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated).large_file(true);
+    zip.start_file("maps/baseline/scene_000.npz", options).unwrap();
+    let zeros = vec![0u8; 1 << 20];
+    for _ in 0..64 {
+        zip.write_all(&zeros).unwrap();
+    }
+    zip.finish().unwrap().into_inner()
+}
+
+fn stored_state(server: &super::Server<'_>, token: &str) -> (Value, Value, usize) {
+    let submissions: Value = server.get("/api/v1/submissions").bearer_auth(token).send().unwrap().json().unwrap();
+    let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
+    let incoming = std::fs::read_dir(server.deployment.data.path().join("blobs/.incoming")).map(|d| d.count()).unwrap_or(0);
+    (submissions, board, incoming)
+}
+
+fn hostile_uploads(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_MAX_UPLOAD_BYTES", "20000000"), ("OSMAB_MAX_UNPACKED_BYTES", "30000000")]);
+    let server = deployment.serve();
+    let version = server.import_test_release();
+    let token = server.team("Team Hostile");
+    let oracle = baseline_dir("oracle");
+    let good = tar_of(oracle.path());
+    let accepted = server.upload(&token, &good, "");
+    assert_eq!(accepted.status(), 202);
+    let id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+    server.wait_done(&id, &token);
+    let before = stored_state(&server, &token);
+
+    // Truncated archive.
+    let truncated = &good[..good.len() / 2 + 100];
+    let body = problem(server.upload(&token, truncated, ""), 422, "invalid_archive");
+    assert!(body["detail"].as_str().unwrap().contains("truncated"), "{body}");
+
+    // Path traversal.
+    let submission_json = std::fs::read(oracle.path().join("submission.json")).unwrap();
+    let evil = tar_with(&[("submission.json", &submission_json), ("../../evil.txt", b"owned")]);
+    let body = problem(server.upload(&token, &evil, ""), 422, "invalid_archive");
+    assert!(body["errors"][0]["message"].as_str().unwrap().contains(".."), "{body}");
+    assert!(!deployment.data.path().join("evil.txt").exists() && !deployment.data.path().parent().unwrap().join("evil.txt").exists());
+
+    // Archive bomb: 64 MiB of zeros in a small zip, over the unpacked limit.
+    let bomb = zip_bomb();
+    assert!(bomb.len() < 1_000_000);
+    let body = problem(server.upload(&token, &bomb, ""), 422, "invalid_archive");
+    assert!(body["detail"].as_str().unwrap().contains("30000000"), "{body}");
+
+    // Wrong checksum.
+    let response = server
+        .post("/api/v1/submissions")
+        .bearer_auth(&token)
+        .header("content-digest", super::content_digest(b"something else"))
+        .body(good.clone())
+        .send()
+        .unwrap();
+    problem(response, 422, "digest_mismatch");
+
+    // Oversized body (declared and streamed).
+    let big = vec![7u8; 20_000_001];
+    problem(server.upload(&token, &big, ""), 413, "payload_too_large");
+
+    // NaN points and an unknown scene.
+    let nan_dir = baseline_dir("oracle");
+    let map_path = nan_dir.path().join("maps/baseline/scene_000.npz");
+    let mut map = osmab_evaluator::formats::map::PredictedMap::read(&map_path, Default::default()).unwrap();
+    map.points[3][1] = f32::NAN;
+    map.write(&map_path, false).unwrap();
+    std::fs::copy(nan_dir.path().join("graphs/baseline/scene_000.json"), nan_dir.path().join("graphs/baseline/scene_999.json")).unwrap();
+    let body = problem(server.upload(&token, &tar_of(nan_dir.path()), ""), 422, "invalid_submission");
+    let errors = body["errors"].as_array().unwrap();
+    assert!(
+        errors.iter().any(|e| e["file"] == "maps/baseline/scene_000.npz" && e["field"] == "points" && e["message"].as_str().unwrap().contains("NaN")),
+        "{body}"
+    );
+    assert!(
+        errors.iter().any(|e| e["file"] == "graphs/baseline/scene_999.json" && e["message"].as_str().unwrap().contains("unknown scene 'scene_999'")),
+        "{body}"
+    );
+
+    // A submission for another release, and one without submission.json.
+    let other = tar_with(&[("submission.json", br#"{"format": "osmab-submission/1", "release": "nope-9", "method": {"name": "x"}}"#)]);
+    let body = problem(server.upload(&token, &other, ""), 422, "invalid_submission");
+    assert!(body["detail"].as_str().unwrap().contains("nope-9"));
+    let bare = tar_with(&[("maps/baseline/scene_000.npz", b"junk")]);
+    problem(server.upload(&token, &bare, ""), 422, "invalid_submission");
+    problem(server.upload(&token, b"", ""), 422, "invalid_archive");
+
+    // A map in another frame is reported as such.
+    let shifted_dir = baseline_dir("oracle");
+    let shifted_path = shifted_dir.path().join("maps/camera/scene_001.npz");
+    let mut shifted = osmab_evaluator::formats::map::PredictedMap::read(&shifted_path, Default::default()).unwrap();
+    for p in &mut shifted.points {
+        p[0] += 40.0;
+    }
+    shifted.write(&shifted_path, false).unwrap();
+    let body = problem(server.upload(&token, &tar_of(shifted_dir.path()), "?dry_run=true"), 422, "invalid_submission");
+    assert!(body["errors"][0]["message"].as_str().unwrap().contains("another frame"), "{body}");
+
+    // Nothing changed: the same submissions, the same leaderboard, no scratch files left.
+    assert_eq!(stored_state(&server, &token), before);
+    let release_page = server.get(&format!("/releases/{version}")).send().unwrap();
+    assert_eq!(release_page.status(), 200);
+}
+
+on_both_backends!(hostile_uploads_are_refused_and_change_nothing, super::hostile_uploads);

@@ -1,0 +1,148 @@
+//! A team's whole journey: team and token, download with ranges, upload the oracle and a
+//! degraded baseline, watch them reach `scored`, read the leaderboard and the pages.
+
+use serde_json::Value;
+use sha2::Digest;
+
+use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of, test_release};
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn journey(backend: Backend) {
+    let deployment = Deployment::new(backend, &[]);
+    let server = deployment.serve();
+    assert_eq!(server.get("/livez").send().unwrap().status(), 200);
+    let ready: Value = server.get("/readyz").send().unwrap().json().unwrap();
+    assert_eq!(ready["database"], if backend == Backend::Sqlite { "sqlite" } else { "postgres" });
+    let version = server.import_test_release();
+    let token = server.team("Team Journey");
+
+    // The manifest lists every file and one archive per sequence with their checksums.
+    let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
+    let archives = manifest["archives"].as_array().unwrap();
+    assert_eq!(archives.len(), 2 * 4, "one archive per scene and lighting");
+    assert!(manifest["files"].as_array().unwrap().iter().all(|f| !f["path"].as_str().unwrap().starts_with("ground_truth")));
+
+    // A file with a range, its ETag, and a conditional request.
+    let traj = manifest["files"].as_array().unwrap().iter().find(|f| f["path"].as_str().unwrap().ends_with("traj.txt")).unwrap();
+    let path = traj["path"].as_str().unwrap();
+    let url = format!("/api/v1/releases/{version}/files/{path}");
+    let whole = server.get(&url).send().unwrap();
+    assert_eq!(whole.status(), 200);
+    let etag = whole.headers()["etag"].to_str().unwrap().to_string();
+    assert_eq!(etag, format!("\"{}\"", traj["sha256"].as_str().unwrap()));
+    let bytes = whole.bytes().unwrap();
+    assert_eq!(sha256_hex(&bytes), traj["sha256"].as_str().unwrap());
+    let part = server.get(&url).header("range", "bytes=10-29").send().unwrap();
+    assert_eq!(part.status(), 206);
+    assert_eq!(part.headers()["content-range"].to_str().unwrap(), format!("bytes 10-29/{}", bytes.len()));
+    assert_eq!(part.bytes().unwrap().as_ref(), &bytes[10..30]);
+    let tail = server.get(&url).header("range", format!("bytes={}-", bytes.len() - 5)).send().unwrap();
+    assert_eq!(tail.bytes().unwrap().as_ref(), &bytes[bytes.len() - 5..]);
+    assert_eq!(server.get(&url).header("if-none-match", &etag).send().unwrap().status(), 304);
+    super::problem(server.get(&url).header("range", format!("bytes={}-", bytes.len() + 10)).send().unwrap(), 416, "range_not_satisfiable");
+    // Ground truth is never served, whatever the path.
+    for hidden in ["ground_truth/scene_000/semantic.npy", "../ground_truth/scene_000/semantic.npy", "manifest.json.original"] {
+        let status = server.get(&format!("/api/v1/releases/{version}/files/{hidden}")).send().unwrap().status();
+        assert_eq!(status, 404, "{hidden}");
+    }
+    // A sequence archive matches its manifest checksum.
+    let archive = &archives[0];
+    let tar = server.get(&format!("/api/v1/releases/{version}/files/{}", archive["path"].as_str().unwrap())).send().unwrap().bytes().unwrap();
+    assert_eq!(sha256_hex(&tar), archive["sha256"].as_str().unwrap());
+
+    // Upload the oracle and a degraded baseline; both reach `scored`.
+    let oracle = baseline_dir("oracle");
+    let merged = baseline_dir("merge");
+    let accepted = server.upload(&token, &tar_of(oracle.path()), "");
+    assert_eq!(accepted.status(), 202);
+    let location = accepted.headers()["location"].to_str().unwrap().to_string();
+    let oracle_id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+    assert_eq!(location, format!("/api/v1/submissions/{oracle_id}"));
+    let merge_response = server.upload(&token, &tar_of(merged.path()), "?public=true");
+    assert_eq!(merge_response.status(), 202);
+    let merge_id = merge_response.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+
+    let oracle_view = server.wait_done(&oracle_id, &token);
+    assert_eq!(oracle_view["state"], "scored", "{oracle_view}");
+    let states: Vec<&str> = oracle_view["history"].as_array().unwrap().iter().map(|e| e["state"].as_str().unwrap()).collect();
+    assert_eq!(states, ["received", "validating", "queued", "scoring", "scored"]);
+    let scores = &oracle_view["scores"];
+    assert_eq!(scores["release"], version.as_str());
+    assert!(scores["evaluator_version"].is_string());
+    for lighting in ["baseline", "camera", "dynamic_lights", "no_lights"] {
+        for metric in ["miou", "fmiou", "macc"] {
+            assert_eq!(scores["semseg"][lighting]["overall"][metric], 1.0, "the oracle is perfect under {lighting}");
+        }
+    }
+    let merge_view = server.wait_done(&merge_id, &token);
+    assert_eq!(merge_view["state"], "scored");
+
+    // The server's numbers are the evaluator's: score one scene locally and compare.
+    let scene = "scene_000";
+    let local = tempfile::tempdir().unwrap();
+    let json_out = local.path().join("s.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_osmab"))
+        .args(["eval", "semseg", "--gt"])
+        .arg(test_release().join("ground_truth").join(scene))
+        .arg("--map")
+        .arg(merged.path().join("maps/camera").join(format!("{scene}.npz")))
+        .arg("--json")
+        .arg(&json_out)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let expected: Value = serde_json::from_slice(&std::fs::read(&json_out).unwrap()).unwrap();
+    for metric in ["miou", "fmiou", "macc"] {
+        assert_eq!(merge_view["scores"]["semseg"]["camera"]["scenes"][scene][metric], expected["metrics"][metric], "{metric}");
+    }
+
+    // The leaderboard ranks the oracle first, in JSON and CSV.
+    let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
+    assert_eq!(board["release"], version.as_str());
+    let entries = board["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 2);
+    assert_eq!(entries[0]["submission_id"], oracle_id.as_str());
+    assert_eq!(entries[0]["team"], "Team Journey");
+    assert_eq!((entries[0]["baseline"].as_bool(), entries[0]["complete"].as_bool()), (Some(false), Some(true)));
+    let merge_miou = entries[1]["scores"]["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap();
+    assert!(merge_miou < 1.0 && merge_miou > 0.0);
+    let csv = server.get("/api/v1/leaderboard").header("accept", "text/csv").send().unwrap().text().unwrap();
+    let mut lines = csv.lines();
+    assert!(lines.next().unwrap().starts_with("rank,submission_id,team,method,baseline,complete,baseline_overall_miou"));
+    assert!(lines.next().unwrap().starts_with(&format!("1,{oracle_id},Team Journey,baseline-oracle,false,true,1,1,1")));
+    assert_eq!(server.get("/api/v1/leaderboard.csv").send().unwrap().text().unwrap(), csv);
+
+    // Pages render without JavaScript.
+    let page = server.get("/").send().unwrap().text().unwrap();
+    assert!(page.contains("baseline-oracle") && page.contains("baseline-merge") && page.contains("<svg"), "{page}");
+    let release_page = server.get(&format!("/releases/{version}")).send().unwrap().text().unwrap();
+    assert!(release_page.contains("scene_000") && release_page.contains(".tar"));
+    let submission_page = server.get(&format!("/submissions/{oracle_id}")).send().unwrap().text().unwrap();
+    assert!(submission_page.contains("scored") && submission_page.contains(scene));
+
+    // Re-scoring adds a score and keeps the first.
+    let rescore = server.admin(server.post(&format!("/api/v1/admin/submissions/{merge_id}/rescore")));
+    assert_eq!(rescore.status(), 202);
+    let rescored = server.wait_done(&merge_id, &token);
+    assert_eq!(rescored["state"], "scored");
+    assert_eq!(rescored["score_history"].as_array().unwrap().len(), 2);
+    assert_eq!(rescored["scores"]["semseg"], merge_view["scores"]["semseg"], "the same evaluator gives the same scores");
+
+    // The method card can be edited and the submission hidden from the leaderboard.
+    let edited = server
+        .client
+        .patch(format!("{}/api/v1/submissions/{merge_id}", server.url))
+        .bearer_auth(&token)
+        .json(&serde_json::json!({"name": "Merged classes", "paper_url": "https://example.org/paper", "public": false}))
+        .send()
+        .unwrap();
+    assert_eq!(edited.status(), 200);
+    let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
+    assert_eq!(board["entries"].as_array().unwrap().len(), 1, "the private submission left the leaderboard");
+    assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}")).send().unwrap().status(), 404, "private to others");
+}
+
+on_both_backends!(a_team_goes_from_download_to_leaderboard, super::journey);

@@ -1,0 +1,305 @@
+//! End-to-end tests of the service: the real `osmab serve` binary on a real socket, over
+//! SQLite and over PostgreSQL (a fresh database per server; the tests fail, they do not
+//! skip, when PostgreSQL is unreachable — `.ci/run` starts it).
+
+mod access;
+mod hostile;
+mod journey;
+mod workers;
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use reqwest::blocking::{Client, RequestBuilder, Response};
+use serde_json::{Value, json};
+
+/// The admin token every test server is configured with.
+pub const ADMIN: &str = "osmab_e2eadmintoken0000000000000000";
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    Sqlite,
+    Postgres,
+}
+
+/// Run a test body once per backend, as two tests.
+macro_rules! on_both_backends {
+    ($name:ident, $body:path) => {
+        mod $name {
+            #[test]
+            fn sqlite() {
+                $body(super::Backend::Sqlite)
+            }
+            #[test]
+            fn postgres() {
+                $body(super::Backend::Postgres)
+            }
+        }
+    };
+}
+pub(crate) use on_both_backends;
+
+fn block_on<F: std::future::Future>(f: F) -> F::Output {
+    tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap().block_on(f)
+}
+
+fn postgres_base() -> String {
+    std::env::var("OSMAB_TEST_DATABASE_URL").unwrap_or_else(|_| "postgres://postgres@127.0.0.1:5432/test".into())
+}
+
+/// A fresh PostgreSQL database, dropped with the guard.
+pub struct PgDatabase {
+    pub url: String,
+    name: String,
+}
+
+impl PgDatabase {
+    fn create() -> Self {
+        let base = postgres_base();
+        let name = format!("osmab_e2e_{}_{}", std::process::id(), rand_suffix());
+        block_on(async {
+            let admin = sqlx::PgPool::connect(&base).await.unwrap_or_else(|e| panic!("PostgreSQL at {base} is needed (.ci/run starts it): {e}"));
+            sqlx::query(sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}"))).execute(&admin).await.unwrap();
+            admin.close().await;
+        });
+        let url = format!("{}/{name}", &base[..base.rfind('/').unwrap()]);
+        Self { url, name }
+    }
+}
+
+impl Drop for PgDatabase {
+    fn drop(&mut self) {
+        let (base, name) = (postgres_base(), self.name.clone());
+        block_on(async move {
+            if let Ok(admin) = sqlx::PgPool::connect(&base).await {
+                let _ = sqlx::query(sqlx::AssertSqlSafe(format!("DROP DATABASE IF EXISTS {name} WITH (FORCE)"))).execute(&admin).await;
+                admin.close().await;
+            }
+        });
+    }
+}
+
+fn rand_suffix() -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static N: AtomicU64 = AtomicU64::new(0);
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().subsec_nanos();
+    format!("{nanos:x}{}", N.fetch_add(1, Ordering::SeqCst))
+}
+
+/// What every server of a test shares: its data directory and database.
+pub struct Deployment {
+    pub data: tempfile::TempDir,
+    _pg: Option<PgDatabase>,
+    pub env: Vec<(String, String)>,
+}
+
+impl Deployment {
+    pub fn new(backend: Backend, env: &[(&str, &str)]) -> Self {
+        let data = tempfile::tempdir().unwrap();
+        let (database_url, pg) = match backend {
+            Backend::Sqlite => (format!("sqlite://{}", data.path().join("osmab.db").display()), None),
+            Backend::Postgres => {
+                let db = PgDatabase::create();
+                (db.url.clone(), Some(db))
+            }
+        };
+        let mut all: Vec<(String, String)> = [
+            ("OSMAB_DATA_DIR", data.path().to_str().unwrap()),
+            ("DATABASE_URL", database_url.as_str()),
+            ("OSMAB_ADMIN_TOKEN", ADMIN),
+            ("OSMAB_DEMO", "false"),
+            ("OSMAB_POLL_MS", "50"),
+            ("OSMAB_RATE_LIMIT", "0"),
+            ("OSMAB_BIND", "127.0.0.1:0"),
+            ("OSMAB_SHUTDOWN_GRACE_SECS", "5"),
+            ("RUST_LOG", "info"),
+        ]
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+        for (k, v) in env {
+            all.retain(|(key, _)| key != k);
+            all.push((k.to_string(), v.to_string()));
+        }
+        Self { data, _pg: pg, env: all }
+    }
+
+    /// Start `osmab <args>` with this deployment's environment; its log goes to `name.log`.
+    pub fn spawn(&self, args: &[&str], name: &str) -> Child {
+        let log = std::fs::File::create(self.data.path().join(format!("{name}.log"))).unwrap();
+        Command::new(env!("CARGO_BIN_EXE_osmab"))
+            .args(args)
+            .env_clear()
+            .env("PATH", std::env::var("PATH").unwrap_or_default())
+            .envs(self.env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::from(log))
+            .spawn()
+            .expect("osmab starts")
+    }
+
+    pub fn log(&self, name: &str) -> String {
+        std::fs::read_to_string(self.data.path().join(format!("{name}.log"))).unwrap_or_default()
+    }
+
+    /// Start `osmab serve` and wait until it listens.
+    pub fn serve(&self) -> Server<'_> {
+        let mut child = self.spawn(&["serve"], "serve");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let url = line.trim().strip_prefix("osmab listening on ").unwrap_or_else(|| panic!("serve did not start: {}", self.log("serve"))).to_string();
+        Server { child, url, deployment: self, client: Client::builder().timeout(Duration::from_secs(60)).build().unwrap() }
+    }
+}
+
+/// A running `osmab serve`.
+pub struct Server<'a> {
+    pub child: Child,
+    pub url: String,
+    pub deployment: &'a Deployment,
+    pub client: Client,
+}
+
+impl Drop for Server<'_> {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Server<'_> {
+    pub fn get(&self, path: &str) -> RequestBuilder {
+        self.client.get(format!("{}{path}", self.url))
+    }
+
+    pub fn post(&self, path: &str) -> RequestBuilder {
+        self.client.post(format!("{}{path}", self.url))
+    }
+
+    pub fn admin(&self, request: RequestBuilder) -> Response {
+        request.bearer_auth(ADMIN).send().unwrap()
+    }
+
+    /// Import and publish the shared test release.
+    pub fn import_test_release(&self) -> String {
+        let response = self.admin(self.post("/api/v1/admin/releases/import").json(&json!({"path": test_release(), "publish": true})));
+        assert_eq!(response.status(), 201, "{}", response.text().unwrap());
+        response.json::<Value>().unwrap()["version"].as_str().unwrap().to_string()
+    }
+
+    /// Create a team; returns its token.
+    pub fn team(&self, name: &str) -> String {
+        let response = self.admin(self.post("/api/v1/admin/teams").json(&json!({"name": name})));
+        assert_eq!(response.status(), 201);
+        response.json::<Value>().unwrap()["token"].as_str().unwrap().to_string()
+    }
+
+    /// Upload `archive` with `token`, declaring its SHA-256.
+    pub fn upload(&self, token: &str, archive: &[u8], query: &str) -> Response {
+        self.post(&format!("/api/v1/submissions{query}"))
+            .bearer_auth(token)
+            .header("content-type", "application/x-tar")
+            .header("content-digest", content_digest(archive))
+            .body(archive.to_vec())
+            .send()
+            .unwrap()
+    }
+
+    /// Poll a submission until it is scored or failed.
+    pub fn wait_done(&self, id: &str, token: &str) -> Value {
+        let started = Instant::now();
+        loop {
+            let body: Value = self.get(&format!("/api/v1/submissions/{id}")).bearer_auth(token).send().unwrap().json().unwrap();
+            if ["scored", "failed", "cancelled"].contains(&body["state"].as_str().unwrap_or("")) {
+                return body;
+            }
+            assert!(started.elapsed() < Duration::from_secs(120), "submission {id} stuck: {body}\n{}", self.deployment.log("serve"));
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
+/// `sha-256=:BASE64:` of `bytes` (RFC 9530).
+pub fn content_digest(bytes: &[u8]) -> String {
+    use base64::Engine;
+    use sha2::Digest;
+    format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(bytes)))
+}
+
+const TEST_RELEASE_CONFIG: &str = r#"version = "e2e-1"
+created = "2026-11-22"
+seed = 7
+
+[prompts]
+furniture_pool = 6
+manipuland_pool = 4
+
+[selection]
+furniture = 1
+manipuland = 1
+
+[synthesis]
+ceiling = false
+
+[render]
+width = 160
+height = 90
+hfov = 90.0
+sensor_height = 1.0
+goals_furniture = 1
+goals_manipuland = 1
+max_frames = 30
+lightings = ["baseline", "camera", "dynamic_lights", "no_lights"]
+"#;
+
+/// A small release (two scenes, four lightings) built once per test run; builds resume,
+/// so later runs reuse it.
+pub fn test_release() -> &'static Path {
+    static RELEASE: OnceLock<PathBuf> = OnceLock::new();
+    RELEASE.get_or_init(|| {
+        let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-release");
+        std::fs::create_dir_all(&root).unwrap();
+        let config = root.join("config.toml");
+        std::fs::write(&config, TEST_RELEASE_CONFIG).unwrap();
+        let out = root.join("release");
+        let status = Command::new(env!("CARGO_BIN_EXE_osmab"))
+            .args(["release", "build", "--config", config.to_str().unwrap(), "--out", out.to_str().unwrap()])
+            .stdout(Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success(), "the test release builds");
+        out
+    })
+}
+
+/// The baseline `name` of the test release as a submission folder.
+pub fn baseline_dir(name: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_osmab"))
+        .args(["baseline", name, "--release", test_release().to_str().unwrap(), "--out", dir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    dir
+}
+
+/// A tar of the files under `dir` (as `osmab client submit` will pack it).
+pub fn tar_of(dir: &Path) -> Vec<u8> {
+    let out = tempfile::NamedTempFile::new().unwrap();
+    osmab_evaluator::submission::pack_directory(dir, out.path()).unwrap();
+    std::fs::read(out.path()).unwrap()
+}
+
+/// Assert `response` is problem+json with `status` and `code`; returns the body.
+pub fn problem(response: Response, status: u16, code: &str) -> Value {
+    assert_eq!(response.status().as_u16(), status, "expected {status} {code}");
+    assert_eq!(response.headers()["content-type"], "application/problem+json");
+    let body: Value = response.json().unwrap();
+    assert_eq!(body["code"], code, "{body}");
+    assert_eq!(body["status"], status);
+    assert!(body["detail"].as_str().is_some_and(|d| !d.is_empty()) && body["title"].is_string() && body["type"].is_string(), "{body}");
+    body
+}

@@ -1,0 +1,94 @@
+//! The queue never loses work: a worker that dies mid-job has its job finished by
+//! another once the lease expires, and a submission accepted before a shutdown is scored
+//! after the restart.
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of};
+
+fn signal(child: &std::process::Child, name: &str) {
+    let status = Command::new("kill").args([&format!("-{name}"), &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+}
+
+fn job_of(server: &super::Server<'_>, submission: &str) -> Value {
+    let view = server.admin(server.get(&format!("/api/v1/submissions/{submission}"))).json::<Value>().unwrap();
+    let id = view["jobs"][0]["id"].as_str().unwrap().to_string();
+    server.admin(server.get(&format!("/api/v1/jobs/{id}"))).json().unwrap()
+}
+
+fn a_dead_worker_s_job_is_finished_by_another(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_WORKERS", "0"), ("OSMAB_JOB_LEASE_SECS", "2"), ("OSMAB_POLL_MS", "20")]);
+    let server = deployment.serve();
+    server.import_test_release();
+    let token = server.team("Team Workers");
+    let archive = tar_of(baseline_dir("label-noise").path());
+    // Worker A must be killed mid-job; a job that finishes first is tried again. (A
+    // frozen process would not do on SQLite: it can hold the database's write lock.)
+    for attempt in 0..5 {
+        let id = server.upload(&token, &archive, "").json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+        let mut first = deployment.spawn(&["worker"], &format!("worker-a{attempt}"));
+        let started = Instant::now();
+        let caught = loop {
+            let job = job_of(&server, &id);
+            match job["state"].as_str().unwrap() {
+                "running" => {
+                    signal(&first, "KILL");
+                    let _ = first.wait();
+                    break job_of(&server, &id)["state"] == "running";
+                }
+                "succeeded" => break false,
+                _ => {}
+            }
+            assert!(started.elapsed() < Duration::from_secs(60), "worker A never claimed the job: {}", deployment.log(&format!("worker-a{attempt}")));
+            std::thread::sleep(Duration::from_millis(1));
+        };
+        if !caught {
+            let _ = first.kill();
+            let _ = first.wait();
+            continue;
+        }
+        // Worker A died holding the lease; worker B takes over once it expires.
+        let mut second = deployment.spawn(&["worker"], &format!("worker-b{attempt}"));
+        let done = server.wait_done(&id, &token);
+        assert_eq!(done["state"], "scored", "{done}");
+        let job = job_of(&server, &id);
+        assert_eq!((job["state"].as_str(), job["attempts"].as_i64()), (Some("succeeded"), Some(2)), "{job}");
+        assert_eq!(done["score_history"].as_array().unwrap().len(), 1, "one score, not two");
+        // B stops gracefully on SIGTERM.
+        signal(&second, "TERM");
+        assert!(second.wait().unwrap().success(), "{}", deployment.log(&format!("worker-b{attempt}")));
+        return;
+    }
+    panic!("the job finished before worker A could be stopped, five times");
+}
+
+on_both_backends!(a_job_whose_worker_died_is_finished_by_another_worker, super::a_dead_worker_s_job_is_finished_by_another);
+
+fn accepted_work_survives_a_restart(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_WORKERS", "0")]);
+    let token;
+    let id;
+    {
+        let mut server = deployment.serve();
+        server.import_test_release();
+        token = server.team("Team Restart");
+        let accepted = server.upload(&token, &tar_of(baseline_dir("oracle").path()), "");
+        assert_eq!(accepted.status(), 202);
+        id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+        signal(&server.child, "TERM");
+        assert!(server.child.wait().unwrap().success(), "serve stops cleanly on SIGTERM: {}", deployment.log("serve"));
+    }
+    let server = deployment.serve();
+    let waiting: Value = server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().json().unwrap();
+    assert_eq!(waiting["state"], "queued", "still queued, not lost");
+    let mut worker = deployment.spawn(&["worker"], "worker");
+    assert_eq!(server.wait_done(&id, &token)["state"], "scored");
+    signal(&worker, "TERM");
+    assert!(worker.wait().unwrap().success());
+}
+
+on_both_backends!(a_submission_accepted_before_a_restart_is_scored_after_it, super::accepted_work_survives_a_restart);

@@ -28,6 +28,8 @@ CREATE TABLE releases (
     created_at   BIGINT NOT NULL,
     published_at BIGINT NULL
 );
+-- At most one current release, whatever publications race.
+CREATE UNIQUE INDEX releases_one_current ON releases (is_current) WHERE is_current;
 
 CREATE TABLE release_files (
     version TEXT NOT NULL REFERENCES releases(version),
@@ -96,3 +98,5 @@ CREATE TABLE jobs (
 );
 CREATE INDEX jobs_ready ON jobs (state, run_after);
 CREATE INDEX jobs_by_subject ON jobs (subject);
+-- One live job per kind and subject: a release is not built twice at once, a submission not scored twice.
+CREATE UNIQUE INDEX jobs_one_live ON jobs (kind, subject) WHERE state IN ('queued', 'running');

@@ -79,6 +79,22 @@ impl Blobs {
         }
     }
 
+    /// Remove scratch entries older than `age` (left by processes that died mid-upload);
+    /// returns how many went.
+    pub fn sweep_scratch(&self, age: std::time::Duration) -> usize {
+        let Ok(entries) = std::fs::read_dir(self.root.join(".incoming")) else { return 0 };
+        let mut removed = 0;
+        for entry in entries.flatten() {
+            let old = entry.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok()).is_some_and(|e| e > age);
+            if old {
+                let path = entry.path();
+                let gone = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
+                removed += usize::from(gone.is_ok());
+            }
+        }
+        removed
+    }
+
     /// Whether the store can be written (readiness).
     pub fn check(&self) -> io::Result<()> {
         let probe = self.scratch("ready");

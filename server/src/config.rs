@@ -167,7 +167,14 @@ impl Settings {
         anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         if let Some(token) = &self.admin_token {
-            anyhow::ensure!(token.expose().len() >= 24, "OSMAB_ADMIN_TOKEN must be at least 24 characters");
+            let text = token.expose();
+            anyhow::ensure!(
+                text.starts_with(crate::auth::TOKEN_PREFIX)
+                    && text.len() >= crate::auth::TOKEN_PREFIX.len() + 24
+                    && text.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_'),
+                "OSMAB_ADMIN_TOKEN must be '{}' followed by at least 24 letters or digits (e.g. osmab_$(openssl rand -hex 16))",
+                crate::auth::TOKEN_PREFIX
+            );
         }
         Ok(())
     }

@@ -39,15 +39,26 @@ impl Upload {
     }
 }
 
-/// Removes a scratch file or folder when dropped, whatever happened.
+/// Removes a scratch file or folder when dropped, whatever happened; on the async
+/// runtime the removal (maybe thousands of files) runs on a blocking thread.
 pub struct Scratch(pub PathBuf);
+
+fn remove_path(path: &Path) {
+    if path.is_dir() {
+        let _ = std::fs::remove_dir_all(path);
+    } else {
+        let _ = std::fs::remove_file(path);
+    }
+}
 
 impl Drop for Scratch {
     fn drop(&mut self) {
-        if self.0.is_dir() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        } else {
-            let _ = std::fs::remove_file(&self.0);
+        let path = std::mem::take(&mut self.0);
+        match tokio::runtime::Handle::try_current() {
+            Ok(handle) if handle.runtime_flavor() != tokio::runtime::RuntimeFlavor::CurrentThread => {
+                handle.spawn_blocking(move || remove_path(&path));
+            }
+            _ => remove_path(&path),
         }
     }
 }
@@ -129,6 +140,10 @@ fn release_named(unpacked: &Path) -> Option<String> {
         let only = dirs.next()?;
         dirs.next().is_none().then(|| only.path().join("submission.json")).filter(|p| p.is_file())
     })?;
+    // Read only a plausible submission.json; a huge one is reported by the validator.
+    if std::fs::metadata(&direct).ok()?.len() > 1 << 20 {
+        return None;
+    }
     let value: Value = serde_json::from_slice(&std::fs::read(direct).ok()?).ok()?;
     value.get("release")?.as_str().map(str::to_string)
 }
@@ -162,7 +177,9 @@ pub fn check(state: &AppState, upload: &Path, unpack_to: &Path, current: Option<
 }
 
 /// Record a validated upload as a submission of `team` with its scoring job, storing the
-/// archive first so the job always finds it.
+/// archive first so the job always finds it. `quota = Some((limit, since))` is checked in
+/// the same transaction; `Ok(None)` means it was used up.
+#[allow(clippy::too_many_arguments)]
 pub async fn record(
     state: &AppState,
     team: &Team,
@@ -171,7 +188,8 @@ pub async fn record(
     public: bool,
     baseline: bool,
     validating_at: i64,
-) -> Result<String, Problem> {
+    quota: Option<(i64, i64)>,
+) -> Result<Option<String>, Problem> {
     let id = new_id("sub");
     let key = format!("submissions/{id}/upload");
     state.blobs.put_file(&key, &upload.path).map_err(Problem::internal)?;
@@ -201,12 +219,15 @@ pub async fn record(
         max_attempts: state.settings.job_max_attempts,
         created_at: queued_at,
     };
-    if let Err(e) = state.store.create_submission(&new, &job).await {
-        let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
-        return Err(match e {
-            StoreError::NotFound => Problem::not_found("The release is not registered."),
-            other => other.into(),
-        });
+    match state.store.create_submission(&new, &job, quota).await {
+        Ok(true) => Ok(Some(id)),
+        outcome => {
+            let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
+            match outcome {
+                Ok(_) => Ok(None),
+                Err(StoreError::NotFound) => Err(Problem::not_found("The release is not registered.")),
+                Err(other) => Err(other.into()),
+            }
+        }
     }
-    Ok(id)
 }

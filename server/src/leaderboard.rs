@@ -46,11 +46,6 @@ impl Entry {
     pub fn subset_metric(&self, lighting: &str, subset: &str, metric: &str) -> Option<f64> {
         self.scores["semseg"][lighting]["subsets"][subset]["overall"][metric].as_f64()
     }
-
-    /// Relative change of a pooled metric against the baseline lighting.
-    pub fn change(&self, lighting: &str, metric: &str) -> Option<f64> {
-        self.scores["relative_change"][lighting]["overall"][metric].as_f64()
-    }
 }
 
 /// The leaderboard of one release.
@@ -132,7 +127,7 @@ impl Leaderboard {
 
 fn csv_text(text: &str) -> String {
     // Quote as RFC 4180, and defuse spreadsheet formulas in participant-chosen names.
-    let text = if text.starts_with(['=', '+', '-', '@']) { format!("'{text}") } else { text.to_string() };
+    let text = if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { format!("'{text}") } else { text.to_string() };
     if text.contains([',', '"', '\n', '\r']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text }
 }
 
@@ -142,7 +137,9 @@ pub struct Rendered {
     pub board: Leaderboard,
     pub json: String,
     pub csv: String,
-    pub etag: String,
+    /// Entity tags of the JSON and the CSV representation.
+    pub etag_json: String,
+    pub etag_csv: String,
 }
 
 /// Recently built leaderboards per release.
@@ -176,8 +173,9 @@ impl LeaderboardCache {
         let json = serde_json::to_string(&board.to_json()).expect("json");
         let csv = board.to_csv();
         use sha2::Digest;
-        let etag = format!("\"{}\"", sha2::Sha256::digest(json.as_bytes()).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
-        let rendered = Arc::new(Rendered { board, json, csv, etag });
+        let tag = |text: &str| format!("\"{}\"", sha2::Sha256::digest(text.as_bytes()).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
+        let (etag_json, etag_csv) = (tag(&json), tag(&csv));
+        let rendered = Arc::new(Rendered { board, json, csv, etag_json, etag_csv });
         self.boards.write().expect("cache lock").insert(release.to_string(), (Instant::now(), generation, rendered.clone()));
         Ok(rendered)
     }

@@ -128,6 +128,10 @@ pub enum Imported {
 
 /// Import the built release in `dir`; `publish` also makes it the current release.
 pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: bool) -> anyhow::Result<Imported> {
+    // One import at a time in this process, so two imports of one version cannot
+    // replace each other's blobs (builds of one version are one job, by the jobs' index).
+    static IMPORTING: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+    let _one_at_a_time = IMPORTING.lock().await;
     let (blobs_for_stage, dir_owned) = (blobs.clone(), dir.to_path_buf());
     let (prepared, staging) = tokio::task::spawn_blocking(move || stage_release(&blobs_for_stage, &dir_owned)).await??;
     let version = prepared.record.version.clone();
@@ -146,10 +150,15 @@ pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: b
         Err(StoreError::NotFound) => {
             let prefix = release_prefix(&version);
             // Blobs left by an import that died before recording it are replaced.
-            blobs.remove_prefix(&prefix)?;
-            blobs.put_dir(&prefix, &staging)?;
+            let (for_move, prefix_for_move, staging_for_move) = (blobs.clone(), prefix.clone(), staging.clone());
+            tokio::task::spawn_blocking(move || -> std::io::Result<()> {
+                for_move.remove_prefix(&prefix_for_move)?;
+                for_move.put_dir(&prefix_for_move, &staging_for_move)
+            })
+            .await??;
             if let Err(e) = store.insert_release(&prepared.record, &prepared.files).await {
-                let _ = blobs.remove_prefix(&prefix);
+                let (for_cleanup, prefix) = (blobs.clone(), prefix.clone());
+                let _ = tokio::task::spawn_blocking(move || for_cleanup.remove_prefix(&prefix)).await;
                 return Err(e.into());
             }
             Imported::New(version.clone())

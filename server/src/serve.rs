@@ -16,7 +16,7 @@ use crate::clock::{new_id, now_ms};
 use crate::config::{Settings, redact_url};
 use crate::jobs::release_build::{BUILD_JOB, BuildRequest, DEMO_CONFIG};
 use crate::state::AppState;
-use crate::store::{NewJob, Store, StoreError, TokenRecord};
+use crate::store::{NewJob, Store, TokenRecord};
 
 /// Open the database (migrated) and the blob storage of `settings`.
 pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
@@ -25,32 +25,37 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     let store = Store::connect(&url).await.with_context(|| format!("cannot open the database {}", redact_url(&url)))?;
     store.migrate().await.context("cannot apply the database migrations")?;
     let blobs = Blobs::open(&settings.data_dir.join("blobs")).context("cannot open the blob storage")?;
+    let swept = blobs.sweep_scratch(Duration::from_secs(6 * 3600));
+    if swept > 0 {
+        tracing::info!(swept, "removed scratch files left by processes that died");
+    }
     tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), "store opened");
     Ok(AppState::new(settings, store, blobs))
 }
+
+/// Record id of the admin token given by `OSMAB_ADMIN_TOKEN`.
+const CONFIGURED_ADMIN_TOKEN: &str = "tok_configured_admin";
 
 /// Make sure an admin token exists: the configured one (stored hashed), or on first
 /// start a generated one written once to an owner-only file.
 pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
     if let Some(token) = &state.settings.admin_token {
+        // The configured token has a fixed record: changing the setting replaces (and so
+        // revokes) the token an earlier configuration set.
         let hash = token_hash(token.expose());
-        match state.store.token_by_hash(&hash).await {
-            Ok(_) => {}
-            Err(StoreError::NotFound) => {
-                let hint: String = token.expose().chars().take(10).collect();
-                let record = TokenRecord {
-                    id: new_id("tok"),
-                    team_id: None,
-                    scope: "admin".into(),
-                    sha256: hash,
-                    hint,
-                    created_at: now_ms(),
-                    expires_at: None,
-                    revoked_at: None,
-                };
-                state.store.insert_token(&record).await?;
-            }
-            Err(e) => return Err(e.into()),
+        let current = state.store.tokens(None).await?.into_iter().find(|t| t.id == CONFIGURED_ADMIN_TOKEN);
+        if current.is_none_or(|t| t.sha256 != hash || t.revoked_at.is_some()) {
+            let record = TokenRecord {
+                id: CONFIGURED_ADMIN_TOKEN.into(),
+                team_id: None,
+                scope: "admin".into(),
+                sha256: hash,
+                hint: crate::auth::TOKEN_PREFIX.into(),
+                created_at: now_ms(),
+                expires_at: None,
+                revoked_at: None,
+            };
+            state.store.replace_token(&record).await?;
         }
         tracing::info!("admin token from the configuration");
         return Ok(());
@@ -136,14 +141,23 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     }
     let (stop, stopped) = watch::channel(false);
     let workers = spawn_workers(&state, state.settings.workers, &stopped);
+    // One signal stops both: workers stop claiming at once while HTTP drains open requests.
+    let mut http_stopped = stopped.clone();
+    tokio::spawn(async move {
+        shutdown_signal().await;
+        let _ = stop.send(true);
+    });
     let listener = tokio::net::TcpListener::bind(bind).await.with_context(|| format!("cannot listen on {bind}"))?;
     let address = listener.local_addr()?;
     tracing::info!(%address, workers = state.settings.workers, "serving");
     println!("osmab listening on http://{address}");
     let _ = std::io::stdout().flush();
     let app = crate::routes::router(state.clone());
-    axum::serve(listener, app.into_make_service_with_connect_info::<SocketAddr>()).with_graceful_shutdown(shutdown_signal()).await?;
-    let _ = stop.send(true);
+    axum::serve(listener, app.into_make_service_with_connect_info::<SocketAddr>())
+        .with_graceful_shutdown(async move {
+            let _ = http_stopped.wait_for(|stop| *stop).await;
+        })
+        .await?;
     stop_workers(&state, workers).await;
     state.store.close().await;
     tracing::info!("stopped");

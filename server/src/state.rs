@@ -18,6 +18,8 @@ pub struct AppState {
     pub metrics: Arc<Metrics>,
     pub leaderboard: Arc<LeaderboardCache>,
     pub limiter: Arc<RateLimiter>,
+    /// Uploads being unpacked and validated at once.
+    pub validation: Arc<tokio::sync::Semaphore>,
 }
 
 impl AppState {
@@ -31,6 +33,7 @@ impl AppState {
             metrics: Arc::new(Metrics::default()),
             leaderboard: Arc::new(LeaderboardCache::default()),
             limiter: Arc::new(limiter),
+            validation: Arc::new(tokio::sync::Semaphore::new(2)),
         }
     }
 }

@@ -4,6 +4,7 @@ mod baseline;
 mod bench;
 mod eval;
 mod gt;
+mod loadgen;
 mod release;
 mod scene;
 mod service;

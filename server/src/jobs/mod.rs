@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use serde_json::Value;
 use tokio::sync::watch;
+use tracing::Instrument;
 
 use crate::clock::now_ms;
 use crate::state::AppState;
@@ -65,28 +66,26 @@ async fn run_job(ctx: JobContext) -> Result<(), JobError> {
     }
 }
 
-/// Tell the job's subject that it failed for good.
-async fn on_failure(state: &AppState, job: &ClaimedJob, message: &str) {
-    if job.kind == crate::intake::SCORE_JOB
-        && let Err(e) = state.store.set_submission_state(&job.subject, &["queued", "scoring"], "failed", Some(message), now_ms()).await
-    {
-        tracing::error!(submission = %job.subject, error = %e, "could not mark the submission failed");
+/// Fail `job` for good with `message` (and its submission, for a scoring job).
+async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str) {
+    let submission = (job.kind == crate::intake::SCORE_JOB).then_some(job.subject.as_str());
+    match state.store.fail_job(&job.id, owner, message, submission, now_ms()).await {
+        Ok(true) => {}
+        Ok(false) => tracing::warn!("the lease was lost; another worker owns the job now"),
+        Err(e) => tracing::error!(error = %e, "could not record the failure; the job is retried when its lease expires"),
     }
 }
 
 /// Run one claimed job to its end (or until shutdown releases it).
 async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: watch::Receiver<bool>) {
     let lease = Duration::from_secs(state.settings.job_lease_secs);
-    let span = tracing::info_span!("job", id = %job.id, kind = %job.kind, subject = %job.subject, attempt = job.attempts);
-    let _enter = span.enter();
     if job.attempts > job.max_attempts {
         let message = format!(
             "Stopped after {} attempts: the worker running it stopped responding each time (its lease expired). The organisers have been alerted by the logs.",
             job.max_attempts
         );
         tracing::error!("{message}");
-        let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now_ms()).await;
-        on_failure(state, &job, &message).await;
+        fail(state, owner, &job, &message).await;
         return;
     }
     tracing::info!("job started");
@@ -94,7 +93,16 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
     let mut work = tokio::spawn(run_job(ctx));
     let mut heartbeat = tokio::time::interval(lease / 3);
     heartbeat.tick().await;
+    // Until shutdown there is no deadline; then the running job has the grace period,
+    // and the lease is renewed meanwhile so no other worker takes the job over.
+    let mut deadline: Option<tokio::time::Instant> = None;
     let outcome = loop {
+        let grace_over = async {
+            match deadline {
+                Some(at) => tokio::time::sleep_until(at).await,
+                None => std::future::pending().await,
+            }
+        };
         tokio::select! {
             result = &mut work => break Some(result),
             _ = heartbeat.tick() => {
@@ -105,14 +113,12 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
                     Err(e) => tracing::warn!(error = %e, "heartbeat failed"),
                 }
             }
-            _ = shutdown.changed() => {
+            _ = shutdown.changed(), if deadline.is_none() => {
                 let grace = Duration::from_secs(state.settings.shutdown_grace_secs);
                 tracing::info!(grace_secs = grace.as_secs(), "shutting down: waiting for the running job");
-                match tokio::time::timeout(grace, &mut work).await {
-                    Ok(result) => break Some(result),
-                    Err(_) => break None,
-                }
+                deadline = Some(tokio::time::Instant::now() + grace);
             }
+            _ = grace_over => break None,
         }
     };
     let now = now_ms();
@@ -131,14 +137,12 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
         }
         Err(JobError::Permanent(message)) => {
             tracing::warn!(%message, "job failed");
-            let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now).await;
-            on_failure(state, &job, &message).await;
+            fail(state, owner, &job, &message).await;
         }
         Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
             let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
             tracing::error!(%message, "job failed for good");
-            let _ = state.store.finish_job(&job.id, owner, JobState::Failed, Some(&message), None, now).await;
-            on_failure(state, &job, &message).await;
+            fail(state, owner, &job, &message).await;
         }
         Err(JobError::Retryable(cause)) => {
             let retry_at = now + backoff(job.attempts).as_millis() as i64;
@@ -160,7 +164,10 @@ pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Rec
     while !*shutdown.borrow() {
         let now = now_ms();
         match state.store.claim_next_job(&owner, now, now + lease_ms).await {
-            Ok(Some(job)) => process(&state, &owner, job, shutdown.clone()).await,
+            Ok(Some(job)) => {
+                let span = tracing::info_span!("job", id = %job.id, kind = %job.kind, subject = %job.subject, attempt = job.attempts);
+                process(&state, &owner, job, shutdown.clone()).instrument(span).await
+            }
             Ok(None) => {
                 tokio::select! {
                     _ = tokio::time::sleep(poll) => {}

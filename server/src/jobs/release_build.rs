@@ -75,6 +75,10 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
         })
         .await??;
         ctx.progress(&json!({"stage": "import", "message": format!("importing release {version}")})).await;
+        let now = now_ms();
+        if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
+            return Err(JobError::Retryable("the lease was lost during the build; another worker took the job over".into()));
+        }
         match import_release(&state.store, &state.blobs, &out, request.publish).await.map_err(|e| JobError::Retryable(format!("import: {e:#}")))? {
             Imported::New(v) | Imported::Unchanged(v) => tracing::info!(release = %v, publish = request.publish, "release imported"),
         }
@@ -133,7 +137,7 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current)))
             .await?
             .map_err(|p| JobError::Permanent(format!("baseline {name}: {}", p.detail)))?;
-        crate::intake::record(state, &team, &upload, &valid, true, true, validating_at).await.map_err(|p| JobError::Retryable(p.detail))?;
+        crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None).await.map_err(|p| JobError::Retryable(p.detail))?;
         queued += 1;
     }
     Ok(queued)

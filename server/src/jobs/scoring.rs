@@ -1,9 +1,11 @@
 //! The `score_submission` job: unpack the stored upload, validate it again with the very
 //! code that accepted it, score every map, and record the score (a new row each time, so
-//! re-scoring never overwrites).
+//! re-scoring never overwrites) together with the job's success, fenced on its lease.
 
-use osmab_evaluator::EVALUATOR_VERSION;
+use std::path::Path;
+
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission, unpack, validate};
+use osmab_evaluator::{EVALUATOR_VERSION, InputError};
 use serde_json::json;
 
 use super::{JobContext, JobError};
@@ -11,35 +13,56 @@ use crate::clock::now_ms;
 use crate::intake::Scratch;
 use crate::releases::release_dir;
 
+/// A scoring error is the participant's when it is about a file of the submission (then
+/// it is shown relative to the submission); anything else (the release, the disk) is the
+/// server's and is retried.
+fn classify(e: InputError, unpacked: &Path) -> JobError {
+    let prefix = format!("{}/", unpacked.display());
+    match e.file.strip_prefix(&prefix) {
+        Some(inside) => JobError::Permanent(InputError { file: inside.to_string(), ..e }.to_string()),
+        None => JobError::Retryable(e.to_string()),
+    }
+}
+
 pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     let state = &ctx.state;
     let submission = state.store.submission(&ctx.job.subject).await?;
-    if submission.state == "cancelled" {
-        return Ok(());
+    if !state.store.set_submission_state(&submission.id, &["queued", "scoring"], "scoring", None, now_ms()).await? {
+        let now = state.store.submission(&submission.id).await?;
+        if now.state != "scoring" {
+            tracing::info!(state = %now.state, "nothing to score: the submission left the queue");
+            return Ok(());
+        }
     }
-    state.store.set_submission_state(&submission.id, &["queued", "scoring"], "scoring", None, now_ms()).await?;
     let archive = state.blobs.path(&format!("submissions/{}/upload", submission.id))?;
+    if !archive.is_file() {
+        return Err(JobError::Retryable(format!("the stored upload of {} is missing", submission.id)));
+    }
     let release = release_dir(&state.blobs, &submission.release)?;
     let unpack_to = Scratch(state.blobs.scratch("score"));
     let max_unpacked = state.settings.max_unpacked_bytes;
     let blocking_ctx = ctx.clone();
     let body = tokio::task::spawn_blocking(move || -> Result<serde_json::Value, JobError> {
-        let permanent = |e: osmab_evaluator::InputError| JobError::Permanent(e.to_string());
-        unpack(&archive, &unpack_to.0, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(permanent)?;
+        let root = unpack_to.0.clone();
+        // The upload passed these checks when it arrived: failing now is the server's problem.
+        unpack(&archive, &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
         let index = ReleaseIndex::read(&release).map_err(|e| JobError::Retryable(e.to_string()))?;
-        let valid = validate(&unpack_to.0, &index, SubmissionLimits::default())
+        let valid = validate(&root, &index, SubmissionLimits::default())
             .map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;
         let progress = |done: usize, total: usize| {
             blocking_ctx.progress_blocking(&json!({"stage": "scoring", "done": done, "total": total, "message": format!("scored {done} of {total} maps")}));
         };
-        score_submission(&valid, &index, SubmissionLimits::default(), &progress).map_err(permanent)
+        let scored = score_submission(&valid, &index, SubmissionLimits::default(), &progress).map_err(|e| classify(e, &valid.root));
+        drop(unpack_to);
+        scored
     })
     .await??;
-    let now = now_ms();
-    if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
-        return Err(JobError::Retryable("the lease was lost while scoring".into()));
+    let recorded =
+        state.store.complete_scoring(&ctx.job.id, &ctx.owner, &submission.id, &submission.release, EVALUATOR_VERSION, &body.to_string(), now_ms()).await?;
+    if recorded {
+        state.leaderboard.invalidate();
+    } else {
+        tracing::warn!("the score was not recorded: the lease was lost or the submission was cancelled meanwhile");
     }
-    state.store.add_score(&submission.id, &submission.release, EVALUATOR_VERSION, &body.to_string(), now).await?;
-    state.leaderboard.invalidate();
     Ok(())
 }

@@ -144,9 +144,15 @@ pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJso
     let config = body.config.unwrap_or_else(|| crate::jobs::release_build::DEMO_CONFIG.to_string());
     let version = config_version(&config).map_err(unprocessable)?;
     let scratch = state.blobs.scratch("config-check");
-    std::fs::write(&scratch, &config).map_err(Problem::internal)?;
-    let checked = osmab_dataset::release::config::ReleaseConfig::read(&scratch);
-    let _ = std::fs::remove_file(&scratch);
+    let text = config.clone();
+    let checked = tokio::task::spawn_blocking(move || {
+        std::fs::write(&scratch, &text).map_err(|e| osmab_evaluator::InputError::io(&scratch, &e))?;
+        let checked = osmab_dataset::release::config::ReleaseConfig::read(&scratch);
+        let _ = std::fs::remove_file(&scratch);
+        checked
+    })
+    .await
+    .map_err(Problem::internal)?;
     checked.map_err(|e| unprocessable(format!("config: {}: {}", e.field, e.message)))?;
     if state.store.release(&version).await.is_ok() {
         return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
@@ -159,7 +165,11 @@ pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJso
         max_attempts: state.settings.job_max_attempts,
         created_at: now_ms(),
     };
-    state.store.enqueue(&job).await?;
+    match state.store.enqueue(&job).await {
+        Ok(()) => {}
+        Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("Release {version} is being built already."))),
+        Err(e) => return Err(e.into()),
+    }
     let url = format!("/api/v1/jobs/{}", job.id);
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "version": version, "url": url}))).into_response())
 }
@@ -204,9 +214,6 @@ pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, Path
 /// score is added, the old ones stay.
 pub async fn rescore(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<Response> {
     let s = state.store.submission(&id).await?;
-    if !["scored", "failed"].contains(&s.state.as_str()) {
-        return Err(Problem::conflict(format!("The submission is {}; it can be re-scored once scored or failed.", s.state)));
-    }
     let now = now_ms();
     let job = NewJob {
         id: new_id("job"),
@@ -216,8 +223,14 @@ pub async fn rescore(State(state): State<AppState>, _: AdminCaller, Path(id): Pa
         max_attempts: state.settings.job_max_attempts,
         created_at: now,
     };
-    state.store.set_submission_state(&id, &["scored", "failed"], "queued", Some("re-scoring requested by an admin"), now).await?;
-    state.store.enqueue(&job).await?;
+    // Scored and failed submissions, and ones stuck without a live job (the jobs' unique
+    // index refuses a second live one).
+    match state.store.requeue_submission(&id, &["scored", "failed", "queued", "scoring"], "re-scoring requested by an admin", &job, now).await {
+        Ok(true) => {}
+        Ok(false) => return Err(Problem::conflict(format!("The submission is {}; it cannot be re-scored.", s.state))),
+        Err(StoreError::Conflict(_)) => return Err(Problem::conflict("The submission has a queued or running scoring job already.")),
+        Err(e) => return Err(e.into()),
+    }
     let url = format!("/api/v1/jobs/{}", job.id);
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "submission": id, "url": url}))).into_response())
 }
@@ -236,6 +249,6 @@ pub async fn list_submissions(State(state): State<AppState>, _: AdminCaller) -> 
 
 /// `GET /api/v1/admin/jobs`: recent jobs.
 pub async fn list_jobs(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
-    let jobs: Vec<Value> = state.store.jobs(200).await?.iter().map(job_json).collect();
+    let jobs: Vec<Value> = state.store.jobs(200).await?.iter().map(|j| job_json(j, true)).collect();
     Ok(axum::Json(json!({"jobs": jobs})))
 }

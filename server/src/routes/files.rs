@@ -53,6 +53,14 @@ fn content_type(path: &str) -> &'static str {
     }
 }
 
+/// Whether `If-None-Match` in `request` matches `etag` (weak comparison, `*` matches).
+pub fn none_match(request: &HeaderMap, etag: &str) -> bool {
+    request
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|tags| tags.trim() == "*" || tags.split(',').any(|t| t.trim().trim_start_matches("W/") == etag))
+}
+
 /// The response for the blob at `file` (`size` bytes, hex `sha256`) as `name`.
 pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, request: &HeaderMap, immutable: bool) -> Result<Response, Problem> {
     let etag = format!("\"{sha256}\"");
@@ -66,9 +74,7 @@ pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, reques
         let digest = format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(bytes));
         headers.insert(HeaderName::from_static("repr-digest"), HeaderValue::from_str(&digest).expect("base64"));
     }
-    if let Some(tags) = request.get(header::IF_NONE_MATCH).and_then(|v| v.to_str().ok())
-        && (tags.trim() == "*" || tags.split(',').any(|t| t.trim().trim_start_matches("W/") == etag))
-    {
+    if none_match(request, &etag) {
         return Ok((StatusCode::NOT_MODIFIED, headers).into_response());
     }
     let range_applies = match request.get(header::IF_RANGE).and_then(|v| v.to_str().ok()) {
@@ -79,7 +85,7 @@ pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, reques
         Some(value) if range_applies => match parse_range(value, size) {
             Ok(range) => range,
             Err(()) => {
-                headers.insert(header::CONTENT_RANGE, HeaderValue::from_str(&format!("bytes */{size}")).expect("ascii"));
+                // Not cacheable: only the size, so the client can ask again.
                 let problem = Problem::new(
                     StatusCode::RANGE_NOT_SATISFIABLE,
                     "range_not_satisfiable",
@@ -87,8 +93,7 @@ pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, reques
                     format!("The file has {size} bytes; ask for a range inside it (bytes=START-END)."),
                 );
                 let mut response = problem.into_response();
-                response.headers_mut().extend(headers);
-                response.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static("application/problem+json"));
+                response.headers_mut().insert(header::CONTENT_RANGE, HeaderValue::from_str(&format!("bytes */{size}")).expect("ascii"));
                 return Ok(response);
             }
         },

@@ -9,9 +9,9 @@ use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 use crate::store::{JobRecord, StoreError};
 
-/// The JSON view of a job.
-pub fn job_json(j: &JobRecord) -> Value {
-    json!({
+/// The JSON view of a job; workers and raw errors are for admins only.
+pub fn job_json(j: &JobRecord, admin: bool) -> Value {
+    let mut view = json!({
         "id": j.id,
         "kind": j.kind,
         "subject": j.subject,
@@ -19,12 +19,15 @@ pub fn job_json(j: &JobRecord) -> Value {
         "attempts": j.attempts,
         "max_attempts": j.max_attempts,
         "progress": serde_json::from_str::<Value>(&j.progress).unwrap_or(Value::Null),
-        "error": j.error,
-        "lease": j.lease_owner.as_ref().map(|owner| json!({"worker": owner, "expires_at": j.lease_expires.map(rfc3339)})),
         "run_after": rfc3339(j.run_after),
         "created_at": rfc3339(j.created_at),
         "updated_at": rfc3339(j.updated_at),
-    })
+    });
+    if admin {
+        view["error"] = json!(j.error);
+        view["lease"] = json!(j.lease_owner.as_ref().map(|owner| json!({"worker": owner, "expires_at": j.lease_expires.map(rfc3339)})));
+    }
+    view
 }
 
 /// `GET /api/v1/jobs/{id}`: admins see every job; teams see the jobs of their submissions.
@@ -45,5 +48,5 @@ pub async fn show(State(state): State<AppState>, caller: Caller, Path(id): Path<
     if !allowed {
         return Err(missing());
     }
-    Ok(axum::Json(job_json(&job)))
+    Ok(axum::Json(job_json(&job, matches!(caller, Caller::Admin))))
 }

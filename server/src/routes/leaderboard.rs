@@ -40,11 +40,12 @@ pub async fn rendered(state: &AppState, release: Option<&str>) -> ApiResult<Arc<
 }
 
 fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {
-    if headers.get(header::IF_NONE_MATCH).and_then(|v| v.to_str().ok()).is_some_and(|t| t.split(',').any(|t| t.trim() == board.etag)) {
-        return (StatusCode::NOT_MODIFIED, [(header::ETAG, board.etag.clone())]).into_response();
+    let tag = if csv { &board.etag_csv } else { &board.etag_json };
+    if super::files::none_match(headers, tag) {
+        return (StatusCode::NOT_MODIFIED, [(header::ETAG, tag.clone())]).into_response();
     }
     let cache = (header::CACHE_CONTROL, "public, max-age=1".to_string());
-    let etag = (header::ETAG, board.etag.clone());
+    let etag = (header::ETAG, tag.clone());
     let vary = (header::VARY, "Accept".to_string());
     if csv {
         let disposition = (header::CONTENT_DISPOSITION, format!("inline; filename=\"leaderboard-{}.csv\"", board.board.release));

@@ -66,7 +66,11 @@ async fn count_request(State(state): State<AppState>, request: Request, next: Ne
 
 async fn limit_writes(State(state): State<AppState>, request: Request, next: Next) -> Response {
     if ![Method::GET, Method::HEAD, Method::OPTIONS].contains(request.method()) {
-        let client = request.extensions().get::<ConnectInfo<SocketAddr>>().map(|c| c.0.ip());
+        // Per token when there is one (clients behind one proxy address stay apart), else per address.
+        let client = match request.headers().get(axum::http::header::AUTHORIZATION) {
+            Some(value) => Some(crate::auth::token_hash(value.to_str().unwrap_or(""))),
+            None => request.extensions().get::<ConnectInfo<SocketAddr>>().map(|c| c.0.ip().to_string()),
+        };
         if let Some(client) = client
             && let Err(seconds) = state.limiter.admit(client, Instant::now())
         {
@@ -76,6 +80,19 @@ async fn limit_writes(State(state): State<AppState>, request: Request, next: Nex
         }
     }
     next.run(request).await
+}
+
+/// A request refused with its body unread (an upload without a valid token, over quota
+/// or too large) leaves bytes on the connection: say `Connection: close` so the client
+/// does not reuse it for its next request.
+async fn close_after_refused_body(request: Request, next: Next) -> Response {
+    let has_body = request.headers().get(axum::http::header::CONTENT_LENGTH).is_some_and(|v| v != "0")
+        || request.headers().contains_key(axum::http::header::TRANSFER_ENCODING);
+    let mut response = next.run(request).await;
+    if has_body && (response.status().is_client_error() || response.status().is_server_error()) {
+        response.headers_mut().insert(axum::http::header::CONNECTION, axum::http::HeaderValue::from_static("close"));
+    }
+    response
 }
 
 async fn route_not_found(request: Request) -> Problem {
@@ -131,6 +148,7 @@ pub fn router(state: AppState) -> Router {
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
         .layer(from_fn_with_state(state.clone(), limit_writes))
+        .layer(axum::middleware::from_fn(close_after_refused_body))
         .layer(from_fn_with_state(state.clone(), count_request))
         .layer(
             TraceLayer::new_for_http()

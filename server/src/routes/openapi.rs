@@ -204,7 +204,24 @@ pub struct OperationView {
     pub method: String,
     pub path: &'static str,
     pub auth: &'static str,
-    pub summary: &'static str,
+    /// The summary as HTML: escaped, with `code` spans.
+    pub summary_html: String,
+}
+
+/// `text` escaped for HTML, with backtick spans as `<code>`.
+fn inline_code(text: &str) -> String {
+    let escaped = text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;");
+    let mut out = String::new();
+    for (i, part) in escaped.split('`').enumerate() {
+        if i % 2 == 1 {
+            out.push_str("<code>");
+            out.push_str(part);
+            out.push_str("</code>");
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
 }
 
 #[derive(Template, WebTemplate)]
@@ -214,7 +231,7 @@ pub struct DocsPage {
     pub version: &'static str,
     pub description: &'static str,
     pub operations: Vec<OperationView>,
-    pub problems: &'static [(&'static str, &'static str)],
+    pub problems: Vec<(&'static str, String)>,
 }
 
 /// `GET /api/docs`: the API reference, rendered on the server (no external assets).
@@ -234,9 +251,9 @@ pub async fn docs_page() -> DocsPage {
                     Auth::Admin => "admin token",
                     Auth::Optional => "optional",
                 },
-                summary: o.summary,
+                summary_html: inline_code(o.summary),
             })
             .collect(),
-        problems: PROBLEMS,
+        problems: PROBLEMS.iter().map(|(code, text)| (*code, inline_code(text))).collect(),
     }
 }

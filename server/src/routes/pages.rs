@@ -110,16 +110,28 @@ fn link(release: &str, agg: &str, subset: &str, sort: &str) -> String {
     format!("/?release={release}&agg={agg}&subset={subset}&sort={sort}")
 }
 
-/// The relative change of pooled mIoU against the baseline lighting, one group of bars
-/// per lighting and one bar per entry (the paper's robustness figure).
-fn change_chart(entries: &[Entry], lightings: &[String]) -> String {
-    let others: Vec<&String> = lightings.iter().filter(|l| l.as_str() != "baseline").collect();
+/// A short name of a lighting for narrow column headers.
+fn lighting_short(lighting: &str) -> String {
+    match lighting {
+        "camera" => "Camera".into(),
+        "dynamic_lights" => "Dynamic".into(),
+        "no_lights" => "Nominal".into(),
+        other => lighting_label(other),
+    }
+}
+
+/// The relative change of mIoU against the baseline lighting, one group of bars per
+/// lighting and one bar per entry (the paper's robustness figure). `entries` come in the
+/// leaderboard's own order, so a method keeps its colour whatever the table's sorting;
+/// `changes[i][g]` is entry i's change under the g-th non-baseline lighting.
+fn change_chart(entries: &[&Entry], others: &[String], changes: &[Vec<Option<f64>>]) -> String {
     if entries.is_empty() || others.is_empty() {
         return String::new();
     }
-    let shown: Vec<&Entry> = entries.iter().take(8).collect();
-    let values: Vec<Vec<Option<f64>>> = shown.iter().map(|e| others.iter().map(|l| e.change(l, "miou")).collect()).collect();
-    let extent = values.iter().flatten().flatten().fold(0.05f64, |m, v| m.max(v.abs())).min(1.0);
+    let shown: Vec<&Entry> = entries.iter().take(8).copied().collect();
+    let values = changes;
+    // The axis reaches the largest change, rounded up to a multiple of 5 %.
+    let extent = (values.iter().flatten().flatten().fold(0.05f64, |m, v| m.max(v.abs())).min(1.0) * 20.0).ceil() / 20.0;
     let (width, height, top, bottom, left) = (720.0, 260.0, 20.0, 60.0, 50.0);
     let plot_h = height - top - bottom;
     let zero = top + plot_h / 2.0;
@@ -132,7 +144,7 @@ fn change_chart(entries: &[Entry], lightings: &[String]) -> String {
     for frac in [-1.0, -0.5, 0.0, 0.5, 1.0] {
         let y = zero - frac * plot_h / 2.0;
         svg.push_str(&format!(
-            "<line x1=\"{left}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{:+.0}%</text>",
+            "<line x1=\"{left}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{:+.1}%</text>",
             width - 10.0,
             left - 6.0,
             y + 4.0,
@@ -225,6 +237,11 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
         }
     }
     let others: Vec<String> = board.lightings.iter().filter(|l| l.as_str() != "baseline").cloned().collect();
+    // The change of mIoU against the baseline lighting, for the aggregate and scenes shown.
+    let change = |e: &Entry, lighting: &str| match (value(e, lighting, "miou"), value(e, "baseline", "miou")) {
+        (Some(v), Some(b)) if b != 0.0 => Some((v - b) / b),
+        _ => None,
+    };
     let rows = entries
         .iter()
         .enumerate()
@@ -237,7 +254,7 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
             baseline: e.baseline,
             complete: e.complete,
             cells: columns.iter().map(|c| percent(value(e, &c.lighting, metric_key(c.metric_label)))).collect(),
-            changes: others.iter().map(|l| signed_percent(e.change(l, "miou"))).collect(),
+            changes: others.iter().map(|l| signed_percent(change(e, l))).collect(),
         })
         .collect();
     let aggregates = [("Pooled", "overall"), ("Mean over scenes", "overall_mean")]
@@ -248,16 +265,18 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
         .into_iter()
         .map(|(label, key)| Choice { label, link: link(release, agg, key, &sort), active: key == subset })
         .collect();
-    let ranked: Vec<Entry> = entries.iter().map(|e| (*e).clone()).collect();
+    let in_board_order: Vec<&Entry> = board.entries.iter().collect();
+    let chart_changes: Vec<Vec<Option<f64>>> = in_board_order.iter().take(8).map(|e| others.iter().map(|l| change(e, l)).collect()).collect();
+    let chart = change_chart(&in_board_order, &others, &chart_changes);
     LeaderboardPage {
         release: release.clone(),
         lighting_groups: board.lightings.iter().map(|l| (lighting_label(l), METRICS.len())).collect(),
         columns,
-        change_headers: others.iter().map(|l| lighting_label(l)).collect(),
+        change_headers: others.iter().map(|l| lighting_short(l)).collect(),
         rows,
         aggregates,
         subsets,
-        chart: change_chart(&ranked, &board.lightings),
+        chart,
         csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
         json_link: format!("/api/v1/leaderboard?release={release}"),
     }

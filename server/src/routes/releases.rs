@@ -68,7 +68,7 @@ pub async fn manifest(State(state): State<AppState>, caller: Caller, Path(versio
     let version = resolve(&state, &version).await?;
     let release = visible_release(&state, &caller, &version).await?;
     let etag = format!("\"{}\"", release.digest);
-    if headers.get(header::IF_NONE_MATCH).and_then(|v| v.to_str().ok()).is_some_and(|t| t.split(',').any(|t| t.trim() == etag)) {
+    if super::files::none_match(&headers, &etag) {
         return Ok((axum::http::StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
     }
     Ok(([(header::CONTENT_TYPE, "application/json".to_string()), (header::ETAG, etag)], release.manifest).into_response())

@@ -104,6 +104,8 @@ pub async fn create(
     let current = state.store.current_release().await.ok().map(|r| r.version);
     let unpack_to = Scratch(state.blobs.scratch("unpack"));
     let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
+    // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
+    let _permit = state.validation.acquire().await.map_err(Problem::internal)?;
     let (valid, _) =
         tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref())).await.map_err(Problem::internal)??;
     match state.store.release(&valid.release).await {
@@ -137,7 +139,10 @@ pub async fn create(
     if q.1 >= q.0 {
         return Err(quota_exceeded(q));
     }
-    let id = record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at).await?;
+    let Some(id) = record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at, Some((q.0, utc_day_start(now_ms())))).await?
+    else {
+        return Err(quota_exceeded(quota(&state, &team).await?));
+    };
     tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
     let location = format!("/api/v1/submissions/{id}");
     let body = json!({"id": id, "state": "queued", "complete": valid.complete, "missing_maps": valid.missing_maps, "quota": quota_json((q.0, q.1 + 1, q.2)), "url": location});
@@ -158,7 +163,7 @@ pub async fn submission_json(state: &AppState, s: &SubmissionRecord) -> ApiResul
         .jobs_for(&s.id)
         .await?
         .into_iter()
-        .map(|j| json!({"id": j.id, "kind": j.kind, "state": j.state, "attempts": j.attempts, "error": j.error, "url": format!("/api/v1/jobs/{}", j.id)}))
+        .map(|j| json!({"id": j.id, "kind": j.kind, "state": j.state, "attempts": j.attempts, "url": format!("/api/v1/jobs/{}", j.id)}))
         .collect();
     let mut body = json!({
         "id": s.id,

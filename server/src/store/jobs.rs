@@ -16,7 +16,6 @@ pub(super) const JOB_COLUMNS: &str =
 pub enum JobState {
     Queued,
     Succeeded,
-    Failed,
 }
 
 /// A job to enqueue.
@@ -121,7 +120,6 @@ impl Store {
         let state_text = match state {
             JobState::Queued => "queued",
             JobState::Succeeded => "succeeded",
-            JobState::Failed => "failed",
         };
         let done = on_pool!(self, |pool| sqlx::query(
             "UPDATE jobs SET state = $3, error = $4, run_after = COALESCE($5, run_after), lease_owner = NULL, lease_expires = NULL, updated_at = $6 \

@@ -187,12 +187,20 @@ impl Store {
             .await)?)
     }
 
-    /// Record a validated submission, its history so far and its scoring job in one transaction.
-    pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob) -> StoreResult<()> {
+    /// Record a validated submission, its history so far and its scoring job in one
+    /// transaction. With `quota = Some((limit, since))` the submission is only recorded
+    /// while the team has fewer than `limit` submissions since `since` (counted inside the
+    /// transaction, so parallel uploads cannot overrun it); returns whether it was recorded.
+    pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<bool> {
         let sql =
             format!("INSERT INTO submissions ({SUBMISSION_COLUMNS}) VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)");
+        let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
+            if postgres {
+                // Serialise a team's concurrent uploads (SQLite serialises every writer already).
+                sqlx::query("SELECT id FROM teams WHERE id = $1 FOR UPDATE").bind(&s.team_id).execute(&mut *tx).await?;
+            }
             sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
                 .bind(&s.id)
                 .bind(&s.team_id)
@@ -210,6 +218,17 @@ impl Store {
                 .bind(s.queued_at)
                 .execute(&mut *tx)
                 .await?;
+            if let Some((limit, since)) = quota {
+                let used: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE")
+                    .bind(&s.team_id)
+                    .bind(since)
+                    .fetch_one(&mut *tx)
+                    .await?;
+                if used > limit {
+                    tx.rollback().await?;
+                    return Ok(false);
+                }
+            }
             for (state, at) in [("received", s.received_at), ("validating", s.validating_at), ("queued", s.queued_at)] {
                 sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, NULL, $3)")
                     .bind(&s.id)
@@ -219,6 +238,159 @@ impl Store {
                     .await?;
             }
             super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
+            tx.commit().await
+        })?;
+        Ok(true)
+    }
+
+    /// Finish a scoring job: mark the job succeeded (only while `owner` holds its lease),
+    /// add the score and move the submission from `scoring` to `scored`, all or nothing.
+    /// Returns false (and changes nothing) when the lease was lost or the submission left
+    /// `scoring` (cancelled meanwhile).
+    #[allow(clippy::too_many_arguments)]
+    pub async fn complete_scoring(
+        &self,
+        job_id: &str,
+        owner: &str,
+        submission_id: &str,
+        release: &str,
+        evaluator_version: &str,
+        body: &str,
+        at: i64,
+    ) -> StoreResult<bool> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let job = sqlx::query(
+                "UPDATE jobs SET state = 'succeeded', error = NULL, lease_owner = NULL, lease_expires = NULL, updated_at = $3 \
+                 WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+            )
+            .bind(job_id)
+            .bind(owner)
+            .bind(at)
+            .execute(&mut *tx)
+            .await?
+            .rows_affected();
+            let moved = sqlx::query("UPDATE submissions SET state = 'scored', reason = NULL, updated_at = $2 WHERE id = $1 AND state = 'scoring'")
+                .bind(submission_id)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if job != 1 || moved != 1 {
+                tx.rollback().await?;
+                return Ok(false);
+            }
+            sqlx::query("INSERT INTO scores (submission_id, release, evaluator_version, body, created_at) VALUES ($1, $2, $3, $4, $5)")
+                .bind(submission_id)
+                .bind(release)
+                .bind(evaluator_version)
+                .bind(body)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?;
+            sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'scored', NULL, $2)")
+                .bind(submission_id)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?;
+            tx.commit().await?;
+            Ok(true)
+        })
+    }
+
+    /// Fail a job for good (only while `owner` holds its lease) and, for a scoring job, its
+    /// submission with the same message, all or nothing. Returns whether it happened.
+    pub async fn fail_job(&self, job_id: &str, owner: &str, message: &str, submission_id: Option<&str>, at: i64) -> StoreResult<bool> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let job = sqlx::query(
+                "UPDATE jobs SET state = 'failed', error = $3, lease_owner = NULL, lease_expires = NULL, updated_at = $4 \
+                 WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+            )
+            .bind(job_id)
+            .bind(owner)
+            .bind(message)
+            .bind(at)
+            .execute(&mut *tx)
+            .await?
+            .rows_affected();
+            if job != 1 {
+                tx.rollback().await?;
+                return Ok(false);
+            }
+            if let Some(id) = submission_id {
+                let moved =
+                    sqlx::query("UPDATE submissions SET state = 'failed', reason = $2, updated_at = $3 WHERE id = $1 AND state IN ('queued', 'scoring')")
+                        .bind(id)
+                        .bind(message)
+                        .bind(at)
+                        .execute(&mut *tx)
+                        .await?
+                        .rows_affected();
+                if moved == 1 {
+                    sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'failed', $2, $3)")
+                        .bind(id)
+                        .bind(message)
+                        .bind(at)
+                        .execute(&mut *tx)
+                        .await?;
+                }
+            }
+            tx.commit().await?;
+            Ok(true)
+        })
+    }
+
+    /// Queue a submission for scoring again with `job`, from one of `from`; fails with a
+    /// conflict while another scoring job of it is live. Returns whether it was queued.
+    pub async fn requeue_submission(&self, id: &str, from: &[&str], reason: &str, job: &NewJob, at: i64) -> StoreResult<bool> {
+        let current = self.submission(id).await?;
+        if !from.contains(&current.state.as_str()) {
+            return Ok(false);
+        }
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let moved = sqlx::query("UPDATE submissions SET state = 'queued', reason = $2, updated_at = $3 WHERE id = $1 AND state = $4")
+                .bind(id)
+                .bind(reason)
+                .bind(at)
+                .bind(&current.state)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if moved != 1 {
+                tx.rollback().await?;
+                return Ok(false);
+            }
+            sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'queued', $2, $3)")
+                .bind(id)
+                .bind(reason)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?;
+            super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
+            tx.commit().await?;
+            Ok(true)
+        })
+    }
+
+    /// Put the configured admin token in place under the fixed id `id`, replacing the
+    /// token an earlier configuration set (so changing the setting revokes the old one).
+    pub async fn replace_token(&self, token: &TokenRecord) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            sqlx::query("DELETE FROM tokens WHERE id = $1").bind(&token.id).execute(&mut *tx).await?;
+            sqlx::query("INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)")
+                .bind(&token.id)
+                .bind(&token.team_id)
+                .bind(&token.scope)
+                .bind(&token.sha256)
+                .bind(&token.hint)
+                .bind(token.created_at)
+                .bind(token.expires_at)
+                .bind(token.revoked_at)
+                .execute(&mut *tx)
+                .await?;
             tx.commit().await
         })?;
         Ok(())
@@ -311,36 +483,6 @@ impl Store {
             .await)?)
     }
 
-    /// Record a score and mark the submission scored, in one transaction.
-    pub async fn add_score(&self, submission_id: &str, release: &str, evaluator_version: &str, body: &str, at: i64) -> StoreResult<()> {
-        on_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            sqlx::query("INSERT INTO scores (submission_id, release, evaluator_version, body, created_at) VALUES ($1, $2, $3, $4, $5)")
-                .bind(submission_id)
-                .bind(release)
-                .bind(evaluator_version)
-                .bind(body)
-                .bind(at)
-                .execute(&mut *tx)
-                .await?;
-            let done = sqlx::query("UPDATE submissions SET state = 'scored', reason = NULL, updated_at = $2 WHERE id = $1 AND state <> 'scored'")
-                .bind(submission_id)
-                .bind(at)
-                .execute(&mut *tx)
-                .await?
-                .rows_affected();
-            if done == 1 {
-                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'scored', NULL, $2)")
-                    .bind(submission_id)
-                    .bind(at)
-                    .execute(&mut *tx)
-                    .await?;
-            }
-            tx.commit().await
-        })?;
-        Ok(())
-    }
-
     /// Every score of a submission, oldest first.
     pub async fn scores(&self, submission_id: &str) -> StoreResult<Vec<ScoreRecord>> {
         Ok(on_pool!(self, |pool| sqlx::query_as(
@@ -351,13 +493,14 @@ impl Store {
         .await)?)
     }
 
-    /// Scored public submissions of `release` with their latest score.
+    /// Public submissions of `release` that have a score, with their latest one (a
+    /// submission being re-scored keeps its place with its previous score).
     pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
         Ok(on_pool!(self, |pool| sqlx::query_as(
             "SELECT s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.created_at, c.body \
              FROM submissions s JOIN teams t ON t.id = s.team_id \
              JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
-             WHERE s.release = $1 AND s.state = 'scored' AND (s.public = TRUE OR s.baseline = TRUE) \
+             WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
              ORDER BY s.created_at, s.id"
         )
         .bind(release)

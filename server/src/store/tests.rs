@@ -168,17 +168,35 @@ async fn submissions_scores_and_releases_keep_their_history() {
             validating_at: t + 1,
             queued_at: t + 2,
         };
-        store.create_submission(&new, &job("js1", t)).await.unwrap();
-        assert_eq!(store.jobs_for("sub_1").await.unwrap().len(), 0, "the job's subject is its own field");
+        assert!(store.create_submission(&new, &job("js1", t), Some((1, t - 1))).await.unwrap());
+        let second = NewSubmission { id: "sub_2".into(), ..new.clone() };
+        assert!(!store.create_submission(&second, &job("js9", t), Some((1, t - 1))).await.unwrap(), "the quota of 1 is used");
+        assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "nothing of the refused submission stays");
+        assert!(matches!(store.job("js9").await, Err(StoreError::NotFound)));
         let s = store.submission("sub_1").await.unwrap();
         assert_eq!(s.state, "queued");
         assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1);
+
+        // Scoring: the score lands with the job's success, only for the lease holder.
+        let claimed = store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
+        assert_eq!(claimed.id, "js1");
         assert!(store.set_submission_state("sub_1", &["queued"], "scoring", None, t + 3).await.unwrap());
         assert!(!store.set_submission_state("sub_1", &["queued"], "cancelled", Some("late"), t + 4).await.unwrap(), "only from the named states");
-        store.add_score("sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap();
-        store.add_score("sub_1", "r1", "0.1.0", r#"{"v":2}"#, t + 6).await.unwrap();
+        assert!(!store.complete_scoring("js1", "intruder", "sub_1", "r1", "0.1.0", r#"{"v":0}"#, t + 5).await.unwrap(), "not without the lease");
+        assert!(store.scores("sub_1").await.unwrap().is_empty());
+        assert!(store.complete_scoring("js1", "w", "sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap());
+        assert!(!store.complete_scoring("js1", "w", "sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap(), "never twice");
+
+        // Re-scoring adds a score; a second live scoring job is refused.
+        assert!(store.requeue_submission("sub_1", &["scored"], "rescore", &job("js2", t + 6), t + 6).await.unwrap());
+        let mut duplicate = job("js3", t + 6);
+        duplicate.subject = "sub_js2".into();
+        assert!(matches!(store.enqueue(&duplicate).await, Err(StoreError::Conflict(_))), "one live job per subject");
+        store.claim_next_job("w", t + 7, t + 60_000).await.unwrap().unwrap();
+        store.set_submission_state("sub_1", &["queued"], "scoring", None, t + 7).await.unwrap();
+        assert!(store.complete_scoring("js2", "w", "sub_1", "r1", "0.1.0", r#"{"v":2}"#, t + 8).await.unwrap());
         let states: Vec<String> = store.submission_events("sub_1").await.unwrap().into_iter().map(|e| e.state).collect();
-        assert_eq!(states, ["received", "validating", "queued", "scoring", "scored"]);
+        assert_eq!(states, ["received", "validating", "queued", "scoring", "scored", "queued", "scoring", "scored"]);
         assert_eq!(store.scores("sub_1").await.unwrap().len(), 2, "re-scoring adds a score");
         let rows = store.leaderboard_rows("r1").await.unwrap();
         assert_eq!((rows.len(), rows[0].body.as_str(), rows[0].team.as_str()), (1, r#"{"v":2}"#, "Team A"), "the latest score counts");
@@ -213,7 +231,7 @@ async fn a_failed_transaction_leaves_no_submission_behind() {
             queued_at: t,
         };
         // The job id collides, so the whole transaction must roll back.
-        assert!(store.create_submission(&new, &job("taken", t)).await.is_err());
+        assert!(store.create_submission(&new, &job("taken", t), None).await.is_err());
         assert!(matches!(store.submission("sub_x").await, Err(StoreError::NotFound)), "{}", store.backend());
         assert!(store.submission_events("sub_x").await.unwrap().is_empty());
     }
@@ -232,6 +250,52 @@ async fn tokens_are_found_by_hash_and_revocation_is_kept() {
         store.revoke_token(&record.id, 9).await.unwrap();
         assert_eq!(store.token_by_hash(&record.sha256).await.unwrap().revoked_at, Some(5), "the first revocation time stays");
         assert!(matches!(store.revoke_token("tok_missing", 1).await, Err(StoreError::NotFound)));
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submission() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t = now_ms();
+        let team = Team { id: "team_c".into(), name: "C".into(), daily_quota: None, created_at: t };
+        store.create_team(&team).await.unwrap();
+        store.insert_release(&release("r1"), &[]).await.unwrap();
+        let new = |id: &str| NewSubmission {
+            id: id.into(),
+            team_id: team.id.clone(),
+            release: "r1".into(),
+            method_name: "M".into(),
+            method_description: String::new(),
+            paper_url: None,
+            code_url: None,
+            public: true,
+            baseline: false,
+            complete: true,
+            archive_size: 1,
+            archive_sha256: "00".into(),
+            received_at: t,
+            validating_at: t,
+            queued_at: t,
+        };
+        let mut first = job("k1", t);
+        first.subject = "sub_a".into();
+        store.create_submission(&new("sub_a"), &first, None).await.unwrap();
+        store.claim_next_job("w", t, t + 60_000).await.unwrap().unwrap();
+        assert!(store.set_submission_state("sub_a", &["queued"], "cancelled", Some("by the team"), t + 1).await.unwrap());
+        assert!(!store.complete_scoring("k1", "w", "sub_a", "r1", "0.1.0", "{}", t + 2).await.unwrap(), "a cancelled submission stays cancelled");
+        assert!(store.scores("sub_a").await.unwrap().is_empty());
+        assert_eq!(store.submission("sub_a").await.unwrap().state, "cancelled");
+
+        let mut second = job("k2", t + 1);
+        second.subject = "sub_b".into();
+        store.create_submission(&new("sub_b"), &second, None).await.unwrap();
+        store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
+        assert!(store.fail_job("k2", "w", "maps/baseline/scene_000.npz: points: NaN", Some("sub_b"), t + 4).await.unwrap());
+        let failed = store.submission("sub_b").await.unwrap();
+        assert_eq!((failed.state.as_str(), failed.reason.as_deref()), ("failed", Some("maps/baseline/scene_000.npz: points: NaN")));
+        assert_eq!(store.job("k2").await.unwrap().state, "failed");
     }
     stores.drop_all().await;
 }

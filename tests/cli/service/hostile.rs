@@ -34,6 +34,18 @@ fn zip_bomb() -> Vec<u8> {
     zip.finish().unwrap().into_inner()
 }
 
+fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            out.extend(walk(&path));
+        }
+        out.push(path);
+    }
+    out
+}
+
 fn stored_state(server: &super::Server<'_>, token: &str) -> (Value, Value, usize) {
     let submissions: Value = server.get("/api/v1/submissions").bearer_auth(token).send().unwrap().json().unwrap();
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
@@ -64,7 +76,10 @@ fn hostile_uploads(backend: Backend) {
     let evil = tar_with(&[("submission.json", &submission_json), ("../../evil.txt", b"owned")]);
     let body = problem(server.upload(&token, &evil, ""), 422, "invalid_archive");
     assert!(body["errors"][0]["message"].as_str().unwrap().contains(".."), "{body}");
-    assert!(!deployment.data.path().join("evil.txt").exists() && !deployment.data.path().parent().unwrap().join("evil.txt").exists());
+    let escaped = walk(deployment.data.path())
+        .into_iter()
+        .chain(walk(deployment.data.path().parent().unwrap()).into_iter().filter(|p| p.parent() == deployment.data.path().parent()));
+    assert!(escaped.into_iter().all(|p| p.file_name().unwrap() != "evil.txt"), "the entry was not written anywhere");
 
     // Archive bomb: 64 MiB of zeros in a small zip, over the unpacked limit.
     let bomb = zip_bomb();
@@ -82,9 +97,19 @@ fn hostile_uploads(backend: Backend) {
         .unwrap();
     problem(response, 422, "digest_mismatch");
 
-    // Oversized body (declared and streamed).
+    // Oversized body: declared (refused before reading) and streamed without a length
+    // (refused once the limit is passed).
     let big = vec![7u8; 20_000_001];
     problem(server.upload(&token, &big, ""), 413, "payload_too_large");
+    let chunked = reqwest::blocking::Body::new(std::io::Cursor::new(vec![7u8; 25_000_000]));
+    let response = server.post("/api/v1/submissions").bearer_auth(&token).body(chunked).send();
+    match response {
+        Ok(response) => {
+            problem(response, 413, "payload_too_large");
+        }
+        // The server may close the connection before the client finished sending.
+        Err(e) => assert!(e.is_request() || e.is_body() || e.is_connect(), "{e}"),
+    }
 
     // NaN points and an unknown scene.
     let nan_dir = baseline_dir("oracle");

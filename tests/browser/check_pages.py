@@ -1,0 +1,830 @@
+#!/usr/bin/env python3
+"""Check osmab's server-rendered pages in headless Chromium, with JavaScript disabled,
+and take a screenshot of each.
+
+The script starts `osmab serve` on a free port with a fresh data directory (the demo
+release and its five scored baselines are built on start), loads every page in headless
+Chromium with JavaScript switched off, checks what the page shows against the JSON API,
+saves a full-page PNG of it, then stops the server (SIGTERM, expecting exit 0).
+
+Only the standard library is used. Chromium is driven over the DevTools protocol on a
+pipe (`--remote-debugging-pipe`) rather than with `--dump-dom`/`--screenshot`, because
+`--dump-dom` reads the DOM through JavaScript and prints nothing once JavaScript is
+disabled; over the protocol the DOM is read with the DOM domain, which needs no script.
+
+    apt-get install -y chromium
+    python3 tests/browser/check_pages.py --out target/browser-screenshots
+
+Environment: OSMAB_BIN (the osmab binary; default target/release/osmab if it exists,
+else target/debug/osmab), CHROMIUM (the browser; default the first of chromium,
+chromium-browser, google-chrome on PATH). Exit status: 0 when every check passed, 1 when
+one failed, 2 when the run could not start (no binary, no browser, server did not come up).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import fcntl
+import html.parser
+import json
+import os
+import re
+import select
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+WIDTH, HEIGHT = 1400, 1000
+MIN_PNG_BYTES = 10 * 1024
+MAX_SHOT_HEIGHT = 8000
+METRICS = ["miou", "fmiou", "macc"]
+EXPECTED_ENTRIES = 5
+
+
+class Failure(Exception):
+    """A check did not hold."""
+
+
+class Fatal(Exception):
+    """The run cannot go on (no binary, no browser, the server did not start)."""
+
+
+def expect(cond, message: str) -> None:
+    if not cond:
+        raise Failure(message)
+
+
+def log(message: str) -> None:
+    print(f"[{time.strftime('%H:%M:%S')}] {message}", flush=True)
+
+
+# --------------------------------------------------------------------------- DOM parsing
+
+
+VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source", "track", "wbr"}
+
+
+class Node:
+    def __init__(self, tag: str, attrs: dict, parent: "Node | None"):
+        self.tag, self.attrs, self.parent, self.children = tag, attrs, parent, []
+
+    def classes(self) -> set:
+        return set(self.attrs.get("class", "").split())
+
+    def iter(self):
+        yield self
+        for c in self.children:
+            if isinstance(c, Node):
+                yield from c.iter()
+
+    def find_all(self, tag=None, id=None, cls=None) -> list:
+        return [
+            n
+            for n in self.iter()
+            if n is not self
+            and (tag is None or n.tag == tag)
+            and (id is None or n.attrs.get("id") == id)
+            and (cls is None or cls in n.classes())
+        ]
+
+    def find(self, tag=None, id=None, cls=None) -> "Node | None":
+        found = self.find_all(tag, id, cls)
+        return found[0] if found else None
+
+    def kids(self, tag: str) -> list:
+        return [c for c in self.children if isinstance(c, Node) and c.tag == tag]
+
+    def text(self) -> str:
+        parts = []
+        for c in self.children:
+            parts.append(c.text() if isinstance(c, Node) else c)
+        return "".join(parts)
+
+    def clean(self) -> str:
+        return " ".join(self.text().split())
+
+
+class TreeBuilder(html.parser.HTMLParser):
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.root = Node("#document", {}, None)
+        self.cur = self.root
+
+    def handle_starttag(self, tag, attrs):
+        node = Node(tag, {k: (v or "") for k, v in attrs}, self.cur)
+        self.cur.children.append(node)
+        if tag not in VOID:
+            self.cur = node
+
+    def handle_startendtag(self, tag, attrs):
+        self.cur.children.append(Node(tag, {k: (v or "") for k, v in attrs}, self.cur))
+
+    def handle_endtag(self, tag):
+        n = self.cur
+        while n is not None and n.tag != tag:
+            n = n.parent
+        if n is not None and n.parent is not None:
+            self.cur = n.parent
+
+    def handle_data(self, data):
+        self.cur.children.append(data)
+
+
+def parse_html(text: str) -> Node:
+    b = TreeBuilder()
+    b.feed(text)
+    b.close()
+    return b.root
+
+
+# ------------------------------------------------------------------------------ Chromium
+
+
+def find_chromium(explicit: str | None) -> str:
+    for cand in [explicit, os.environ.get("CHROMIUM"), "chromium", "chromium-browser", "google-chrome", "google-chrome-stable"]:
+        if cand:
+            path = shutil.which(cand) or (cand if os.path.isfile(cand) and os.access(cand, os.X_OK) else None)
+            if path:
+                return path
+    raise Fatal("no Chromium found: install it with `apt-get install -y chromium`, or set CHROMIUM=/path/to/chrome")
+
+
+class Browser:
+    """Headless Chromium driven over the DevTools protocol on a pipe (fds 3 and 4)."""
+
+    def __init__(self, exe: str, profile: Path, log_path: Path):
+        cmd_r, cmd_w = os.pipe()  # we write commands, Chromium reads them on fd 3
+        res_r, res_w = os.pipe()  # Chromium writes answers on fd 4, we read them
+
+        def child_fds():
+            a = fcntl.fcntl(cmd_r, fcntl.F_DUPFD, 10)
+            b = fcntl.fcntl(res_w, fcntl.F_DUPFD, 10)
+            os.dup2(a, 3)
+            os.dup2(b, 4)
+
+        args = [
+            exe,
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            f"--window-size={WIDTH},{HEIGHT}",
+            # JavaScript off for every page; Emulation.setScriptExecutionDisabled below too.
+            "--blink-settings=scriptEnabled=false",
+            "--remote-debugging-pipe",
+            f"--user-data-dir={profile}",
+            "--no-first-run",
+            "--no-default-browser-check",
+            "--disable-extensions",
+            "--disable-background-networking",
+            "--disable-sync",
+            "--mute-audio",
+            "--force-color-profile=srgb",
+            "about:blank",
+        ]
+        self.log_file = open(log_path, "wb")
+        self.proc = subprocess.Popen(
+            args, stdin=subprocess.DEVNULL, stdout=self.log_file, stderr=subprocess.STDOUT, close_fds=False, preexec_fn=child_fds
+        )
+        os.close(cmd_r)
+        os.close(res_w)
+        self.w, self.r = cmd_w, res_r
+        self.buf = b""
+        self.next_id = 0
+        self.events: list = []
+        try:
+            self.version = self.send("Browser.getVersion", timeout=30)["product"]
+        except Exception as e:
+            self.close()
+            raise Fatal(f"Chromium did not answer on the DevTools pipe ({e}); see {log_path}")
+
+    def _read_message(self, deadline: float) -> dict:
+        while b"\0" not in self.buf:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise Failure("timed out waiting for Chromium")
+            ready, _, _ = select.select([self.r], [], [], min(left, 1.0))
+            if ready:
+                chunk = os.read(self.r, 1 << 20)
+                if not chunk:
+                    raise Fatal("Chromium closed the DevTools pipe (did it crash?)")
+                self.buf += chunk
+            elif self.proc.poll() is not None:
+                raise Fatal(f"Chromium exited with status {self.proc.returncode}")
+        raw, self.buf = self.buf.split(b"\0", 1)
+        return json.loads(raw)
+
+    def send(self, method: str, params: dict | None = None, session: str | None = None, timeout: float = 60) -> dict:
+        self.next_id += 1
+        msg = {"id": self.next_id, "method": method, "params": params or {}}
+        if session:
+            msg["sessionId"] = session
+        data = json.dumps(msg).encode() + b"\0"
+        while data:
+            data = data[os.write(self.w, data):]
+        deadline = time.monotonic() + timeout
+        while True:
+            m = self._read_message(deadline)
+            if m.get("id") == self.next_id:
+                if "error" in m:
+                    raise Failure(f"{method}: {m['error'].get('message')}")
+                return m.get("result", {})
+            if "method" in m:
+                self.events.append(m)
+
+    def wait_event(self, name: str, session: str, timeout: float = 60) -> dict:
+        deadline = time.monotonic() + timeout
+        while True:
+            for i, e in enumerate(self.events):
+                if e["method"] == name and e.get("sessionId") == session:
+                    return self.events.pop(i)
+            m = self._read_message(deadline)
+            if "method" in m:
+                self.events.append(m)
+
+    def close(self) -> None:
+        try:
+            if self.proc.poll() is None:
+                try:
+                    self.send("Browser.close", timeout=10)
+                except Exception:
+                    pass
+                try:
+                    self.proc.wait(10)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait(10)
+        finally:
+            for fd in (self.w, self.r):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+            self.log_file.close()
+
+
+class Page:
+    """One tab, JavaScript disabled, a fixed 1400 x 1000 viewport."""
+
+    def __init__(self, browser: Browser, dark: bool = False, width: int = WIDTH):
+        self.b = browser
+        self.width = width
+        self.target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        self.sid = browser.send("Target.attachToTarget", {"targetId": self.target, "flatten": True})["sessionId"]
+        self.cmd("Page.enable")
+        self.cmd("Network.enable")
+        self.cmd("Emulation.setScriptExecutionDisabled", {"value": True})
+        self.cmd("Emulation.setDeviceMetricsOverride", {"width": width, "height": HEIGHT, "deviceScaleFactor": 1, "mobile": False})
+        self.cmd("Emulation.setEmulatedMedia", {"media": "screen", "features": [{"name": "prefers-color-scheme", "value": "dark" if dark else "light"}]})
+
+    def cmd(self, method: str, params: dict | None = None, timeout: float = 60) -> dict:
+        return self.b.send(method, params, self.sid, timeout)
+
+    def goto(self, url: str, timeout: float = 60) -> dict:
+        """Load `url`; return the main document's response and the failed sub-resources."""
+        self.b.events = [e for e in self.b.events if e.get("sessionId") != self.sid]
+        nav = self.cmd("Page.navigate", {"url": url})
+        expect(not nav.get("errorText"), f"navigation to {url} failed: {nav.get('errorText')}")
+        self.b.wait_event("Page.loadEventFired", self.sid, timeout)
+        events = [e for e in self.b.events if e.get("sessionId") == self.sid]
+        requests = {e["params"]["requestId"]: e["params"]["request"]["url"] for e in events if e["method"] == "Network.requestWillBeSent"}
+        document, bad = None, []
+        for e in events:
+            p = e["params"]
+            if e["method"] == "Network.responseReceived":
+                status = p["response"]["status"]
+                if p.get("type") == "Document" and document is None:
+                    document = p["response"]
+                elif status >= 400:
+                    bad.append(f"{p['response']['url']} -> HTTP {status}")
+            elif e["method"] == "Network.loadingFailed" and not p.get("canceled"):
+                bad.append(f"{requests.get(p['requestId'], p['requestId'])} -> {p.get('errorText')} {p.get('blockedReason', '')}".strip())
+        expect(document is not None, f"no document response for {url}")
+        return {"document": document, "failed": bad, "requests": sorted(set(requests.values()))}
+
+    def dom(self) -> tuple[str, Node]:
+        root = self.cmd("DOM.getDocument", {"depth": 1})["root"]
+        html_node = next(c for c in root.get("children", []) if c.get("nodeName") == "HTML")
+        text = self.cmd("DOM.getOuterHTML", {"nodeId": html_node["nodeId"]})["outerHTML"]
+        return text, parse_html(text)
+
+    def boxes(self, selector: str) -> list:
+        """Rendered (width, height) of every element matching `selector` (no JavaScript needed)."""
+        root = self.cmd("DOM.getDocument", {"depth": 0})["root"]["nodeId"]
+        out = []
+        for node in self.cmd("DOM.querySelectorAll", {"nodeId": root, "selector": selector})["nodeIds"]:
+            try:
+                m = self.cmd("DOM.getBoxModel", {"nodeId": node})["model"]
+                out.append((m["width"], m["height"]))
+            except Failure:
+                out.append((0, 0))  # not rendered
+        return out
+
+    def screenshot(self, path: Path) -> tuple[int, int, int]:
+        metrics = self.cmd("Page.getLayoutMetrics")
+        size = metrics.get("cssContentSize") or metrics["contentSize"]
+        height = int(min(max(size["height"], HEIGHT), MAX_SHOT_HEIGHT))
+        shot = self.cmd(
+            "Page.captureScreenshot",
+            {"format": "png", "captureBeyondViewport": True, "clip": {"x": 0, "y": 0, "width": self.width, "height": height, "scale": 1}},
+        )
+        data = base64.b64decode(shot["data"])
+        path.write_bytes(data)
+        expect(data[:8] == b"\x89PNG\r\n\x1a\n", f"{path.name} is not a PNG")
+        w, h = struct.unpack(">II", data[16:24])
+        expect(len(data) > MIN_PNG_BYTES, f"{path.name} is only {len(data)} bytes (a blank page?)")
+        return w, h, len(data)
+
+    def close(self) -> None:
+        try:
+            self.b.send("Target.closeTarget", {"targetId": self.target}, timeout=10)
+        except Exception:
+            pass
+
+
+# -------------------------------------------------------------------------------- server
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def http_get(url: str, method: str = "GET", timeout: float = 30):
+    req = urllib.request.Request(url, method=method)
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            return r.status, r.headers, (r.read() if method == "GET" else b"")
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers, e.read()
+
+
+def get_json(url: str):
+    status, _, body = http_get(url)
+    expect(status == 200, f"GET {url} -> HTTP {status}")
+    return json.loads(body)
+
+
+def osmab_binary(explicit: str | None) -> Path:
+    name = explicit or os.environ.get("OSMAB_BIN")
+    if name:
+        path = Path(name)
+        path = path if path.is_absolute() else (Path.cwd() / path if (Path.cwd() / path).exists() else ROOT / path)
+    else:
+        release = ROOT / "target/release/osmab"
+        path = release if release.exists() else ROOT / "target/debug/osmab"
+    if not (path.is_file() and os.access(path, os.X_OK)):
+        raise Fatal(f"no osmab binary at {path}: build it (cargo build) or set OSMAB_BIN")
+    return path
+
+
+class Server:
+    def __init__(self, binary: Path, data_dir: Path, log_path: Path):
+        self.port = free_port()
+        self.base = f"http://127.0.0.1:{self.port}"
+        env = dict(os.environ)
+        env.update({"OSMAB_DATA_DIR": str(data_dir), "OSMAB_BIND": f"127.0.0.1:{self.port}"})
+        env.setdefault("OSMAB_DEMO", "true")
+        env.setdefault("RUST_LOG", "warn")
+        env.pop("OSMAB_CONFIG", None)
+        self.log_path = log_path
+        self.log_file = open(log_path, "wb")
+        self.proc = subprocess.Popen(
+            [str(binary), "serve"], cwd=str(data_dir.parent), env=env, stdin=subprocess.DEVNULL, stdout=self.log_file, stderr=subprocess.STDOUT
+        )
+
+    def log_tail(self, lines: int = 25) -> str:
+        try:
+            text = self.log_path.read_text(errors="replace").splitlines()
+        except OSError:
+            return ""
+        return "\n".join("    " + re.sub(r"\x1b\[[0-9;]*m", "", line) for line in text[-lines:])
+
+    def wait_ready(self, timeout: float) -> dict:
+        deadline = time.monotonic() + timeout
+        last = "no answer yet"
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise Fatal(f"osmab serve exited with status {self.proc.returncode} before it was ready:\n{self.log_tail()}")
+            try:
+                status, _, body = http_get(f"{self.base}/api/v1/leaderboard", timeout=5)
+                if status == 200:
+                    board = json.loads(body)
+                    n = len(board.get("entries", []))
+                    last = f"{n} scored entries"
+                    if n >= EXPECTED_ENTRIES:
+                        return board
+                else:
+                    last = f"HTTP {status}"
+            except (OSError, ValueError) as e:
+                last = str(e)
+            time.sleep(0.5)
+        raise Fatal(f"the leaderboard did not reach {EXPECTED_ENTRIES} scored entries in {timeout:.0f} s (last: {last}):\n{self.log_tail()}")
+
+    def stop(self, timeout: float = 30) -> tuple[int | None, float]:
+        t0 = time.monotonic()
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(10)
+                self.log_file.close()
+                return None, time.monotonic() - t0
+        self.log_file.close()
+        return self.proc.returncode, time.monotonic() - t0
+
+
+# -------------------------------------------------------------------------------- checks
+
+
+def pct(v) -> str:
+    return "–" if v is None else f"{100.0 * v:.1f}"
+
+
+def signed_pct(v) -> str:
+    return "–" if v is None else f"{100.0 * v:+.1f}%"
+
+
+def board_value(entry: dict, lighting: str, agg: str, subset: str, metric: str):
+    semseg = entry["scores"]["semseg"].get(lighting, {})
+    node = semseg.get(agg, {}) if subset == "all" else semseg.get("subsets", {}).get(subset, {}).get(agg, {})
+    v = node.get(metric)
+    return float(v) if isinstance(v, (int, float)) else None
+
+
+def common_page_checks(page: Node, html_text: str, loaded: dict) -> list:
+    """Checks every page must pass; returns notes."""
+    doc = loaded["document"]
+    expect(doc["status"] == 200, f"HTTP {doc['status']} for {doc['url']}")
+    expect(doc.get("mimeType") == "text/html", f"content type {doc.get('mimeType')} for {doc['url']}")
+    expect(not loaded["failed"], "sub-resources failed to load: " + "; ".join(loaded["failed"]))
+    expect(any(u.endswith("/static/style.css") for u in loaded["requests"]), "the stylesheet /static/style.css was not requested")
+    expect(page.find("header", cls="site") is not None, "no <header class=site>")
+    expect(page.find("main") is not None, "no <main>")
+    expect(page.find("footer", cls="site") is not None, "no <footer class=site>")
+    expect("{{" not in html_text and "{%" not in html_text, "unrendered template syntax in the page")
+    scripts = page.find_all("script")
+    return [f"{len(scripts)} <script>"] if scripts else []
+
+
+def check_board(page: Node, board: dict, agg: str, subset: str, sort: str, labels: dict) -> str:
+    table = page.find(id="leaderboard")
+    expect(table is not None, "no table#leaderboard")
+    tbody = table.find("tbody")
+    rows = tbody.kids("tr") if tbody else []
+    entries = board["entries"]
+    expect(len(rows) == len(entries) == EXPECTED_ENTRIES, f"{len(rows)} rows in #leaderboard tbody, expected {EXPECTED_ENTRIES}")
+    lightings = board["lightings"]
+    # Headers: one group per lighting, one sort link per lighting x metric, the sorted one marked.
+    head_rows = table.find("thead").kids("tr")
+    groups = [th.clean() for th in head_rows[0].kids("th") if "group" in th.classes()]
+    expect(groups[: len(lightings)] == [labels.get(l, l) for l in lightings], f"lighting headers {groups}")
+    links = [th.find("a") for th in head_rows[1].kids("th") if th.find("a") is not None]
+    keys = [urllib.parse.parse_qs(urllib.parse.urlsplit(a.attrs["href"]).query).get("sort", [""])[0] for a in links]
+    expect(keys == [f"{l}.{m}" for l in lightings for m in METRICS], f"sort links {keys}")
+    sorted_th = [th for th in head_rows[1].kids("th") if "sorted" in th.classes()]
+    expect(len(sorted_th) == 1, f"{len(sorted_th)} headers marked sorted")
+    sorted_key = urllib.parse.parse_qs(urllib.parse.urlsplit(sorted_th[0].find("a").attrs["href"]).query)["sort"][0]
+    expect(sorted_key == sort and "▼" in sorted_th[0].text(), f"sorted header is {sorted_key!r}, expected {sort!r} with ▼")
+    # Active choices.
+    choices = page.find(cls="choices")
+    active = {urllib.parse.parse_qs(urllib.parse.urlsplit(a.attrs["href"]).query).get(k, [""])[0] for a in choices.find_all("a", cls="active") for k in ("agg", "subset")}
+    expect({agg, subset} <= active, f"active choices {sorted(active)} do not include {agg!r} and {subset!r}")
+    # Rows: ranks, methods, tags, every number against the JSON API.
+    by_method = {e["method"]: e for e in entries}
+    sl, sm = sort.split(".")
+    shown = []
+    for i, tr in enumerate(rows):
+        tds = tr.kids("td")
+        expect(tds[0].clean() == str(i + 1), f"row {i + 1} has rank {tds[0].clean()!r}")
+        method = tds[1].find("a").clean()
+        expect(method in by_method, f"row {i + 1}: unknown method {method!r}")
+        e = by_method[method]
+        expect(tds[1].find("a").attrs["href"] == f"/submissions/{e['submission_id']}", f"{method}: link {tds[1].find('a').attrs['href']}")
+        if e.get("baseline"):
+            expect("baseline" in tr.classes() and any(s.clean() == "baseline" for s in tds[1].find_all("span", cls="tag")), f"{method}: no baseline tag")
+        expect(tds[2].clean() == e["team"], f"{method}: team {tds[2].clean()!r}")
+        cells = [td.clean() for td in tds[3 : 3 + len(lightings) * len(METRICS)]]
+        want = [pct(board_value(e, l, agg, subset, m)) for l in lightings for m in METRICS]
+        expect(cells == want, f"{method}: cells {cells}, the API says {want}")
+        changes = [td.clean() for td in tr.find_all("td", cls="change")]
+        # The change of mIoU against the Baseline lighting, for the aggregate and scenes shown.
+        def change(l):
+            v, base = board_value(e, l, agg, subset, "miou"), board_value(e, "baseline", agg, subset, "miou")
+            return (v - base) / base if v is not None and base else None
+
+        want_changes = [signed_pct(change(l)) for l in lightings if l != "baseline"]
+        if agg == "overall" and subset == "all":
+            api = [signed_pct(e["scores"].get("relative_change", {}).get(l, {}).get("overall", {}).get("miou")) for l in lightings if l != "baseline"]
+            expect(want_changes == api, f"{method}: pooled changes {want_changes} differ from the API's relative_change {api}")
+        expect(changes == want_changes, f"{method}: change cells {changes}, the API says {want_changes}")
+        shown.append((method, board_value(e, sl, agg, subset, sm)))
+    methods = [m for m, _ in shown]
+    expect(len(set(methods)) == len(methods), f"a method appears twice: {methods}")
+    values = [v if v is not None else float("-inf") for _, v in shown]
+    expect(all(a >= b for a, b in zip(values, values[1:])), f"rows not in descending {sort}: {shown}")
+    best = max(entries, key=lambda e: board_value(e, sl, agg, subset, sm) or float("-inf"))
+    expect(shown[0][0] == best["method"], f"first row is {shown[0][0]}, the API's best {sort} ({agg}, {subset}) is {best['method']}")
+    return f"{len(rows)} rows, first {shown[0][0]} ({pct(shown[0][1])}); order " + " > ".join(m.removeprefix("baseline-") for m in methods)
+
+
+def lighting_labels(page: Node, board: dict) -> dict:
+    head = page.find(id="leaderboard").find("thead").kids("tr")[0]
+    groups = [th.clean() for th in head.kids("th") if "group" in th.classes()]
+    return dict(zip(board["lightings"], groups))
+
+
+# ---------------------------------------------------------------------------------- main
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default=str(ROOT / "target/browser-screenshots"), help="where the PNGs go (default target/browser-screenshots)")
+    ap.add_argument("--keep", action="store_true", help="keep the temporary data dir (and Chromium profile) for debugging")
+    ap.add_argument("--bin", help="osmab binary (default $OSMAB_BIN, else target/release/osmab or target/debug/osmab)")
+    ap.add_argument("--chromium", help="Chromium binary (default $CHROMIUM, else chromium on PATH)")
+    ap.add_argument("--timeout", type=float, default=180, help="seconds to wait for the five scored baselines (default 180)")
+    args = ap.parse_args()
+
+    started = time.monotonic()
+    results: list = []  # (check, ok, seconds, detail)
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    for old in out.iterdir():  # screenshots and DOM dumps of an earlier run, nothing else
+        if re.fullmatch(r"\d\d-[a-z0-9-]+\.(png|html)", old.name):
+            old.unlink()
+    tmp = Path(tempfile.mkdtemp(prefix="osmab-browser-"))
+    data_dir = tmp / "data"
+    data_dir.mkdir()
+    server = browser = None
+
+    def run(name: str, fn) -> None:
+        t0 = time.monotonic()
+        try:
+            detail = fn() or ""
+            results.append((name, True, time.monotonic() - t0, detail))
+            log(f"PASS {name}: {detail}")
+        except Failure as e:
+            results.append((name, False, time.monotonic() - t0, str(e)))
+            log(f"FAIL {name}: {e}")
+        except Fatal:
+            raise
+        except Exception as e:  # a bug in a check, or an unexpected page shape
+            results.append((name, False, time.monotonic() - t0, f"{type(e).__name__}: {e}"))
+            log(f"FAIL {name}: {type(e).__name__}: {e}")
+
+    try:
+        binary = osmab_binary(args.bin)
+        chromium = find_chromium(args.chromium)
+        log(f"osmab {binary}, data dir {data_dir}")
+        server = Server(binary, data_dir, out / "server.log")
+        log(f"waiting for {EXPECTED_ENTRIES} scored baselines on {server.base} (up to {args.timeout:.0f} s)")
+        t0 = time.monotonic()
+        board = server.wait_ready(args.timeout)
+        results.append(("server ready", True, time.monotonic() - t0, f"{len(board['entries'])} scored entries, release {board['release']}"))
+        log(f"ready after {time.monotonic() - t0:.1f} s")
+        base = server.base
+        browser = Browser(chromium, tmp / "chromium-profile", out / "chromium.log")
+        log(f"browser {browser.version} ({chromium})")
+        state: dict = {"labels": {}, "links": set(), "sort_link": None}
+
+        def load(url_path: str, shot: str, *, dark=False, width=WIDTH):
+            page = Page(browser, dark=dark, width=width)
+            try:
+                loaded = page.goto(base + url_path)
+                html_text, dom = page.dom()
+                (out / f"{shot}.html").write_text(html_text)
+                notes = common_page_checks(dom, html_text, loaded)
+                w, h, size = page.screenshot(out / f"{shot}.png")
+                for a in dom.find_all("a"):
+                    href = a.attrs.get("href", "")
+                    if href.startswith("/"):
+                        state["links"].add(href)
+                for img in dom.find_all("img"):
+                    if img.attrs.get("src", "").startswith("/"):
+                        state["links"].add(img.attrs["src"])
+                return page, dom, f"{shot}.png {w}x{h} {size // 1024} kB" + ("; " + ", ".join(notes) if notes else "")
+            except BaseException:
+                page.close()
+                raise
+
+        def js_is_off():
+            page = Page(browser)
+            try:
+                probe = "<p id=x>static</p><script>document.getElementById('x').textContent='js ran'</script>"
+                page.goto("data:text/html," + urllib.parse.quote(probe))
+                _, dom = page.dom()
+                expect(dom.find(id="x").clean() == "static", "JavaScript ran although it should be disabled")
+                return "a probe script did not run"
+            finally:
+                page.close()
+
+        def leaderboard_default():
+            page, dom, shot = load("/", "01-leaderboard")
+            try:
+                hrefs = [a.attrs["href"] for a in dom.find(id="leaderboard").find("thead").find_all("a")]
+                state["sort_link"] = next((h for h in reversed(hrefs) if "sort=baseline.miou" not in h), None)
+                state["labels"] = lighting_labels(dom, board)
+                summary = check_board(dom, board, "overall", "all", f"{board['lightings'][0]}.miou", state["labels"])
+                oracle = [tr for tr in dom.find(id="leaderboard").find("tbody").kids("tr") if "baseline-oracle" in tr.clean()]
+                expect(oracle and "100.0" in [td.clean() for td in oracle[0].kids("td")], "the baseline-oracle row does not show 100.0")
+                svg = dom.find("svg", cls="chart")
+                expect(svg is not None, "no <svg class=chart>")
+                expect(len(svg.find_all("rect")) >= EXPECTED_ENTRIES, "the chart has no bars")
+                (sw, sh), = page.boxes("svg.chart") or [(0, 0)]
+                expect(sw > 300 and sh > 100, f"the chart renders at {sw:.0f}x{sh:.0f} px")
+                (tw, _), = page.boxes("#leaderboard")
+                (ww, _), = page.boxes(".table-wrap")
+                overflow = f"; table {tw:.0f}px wide in a {ww:.0f}px wrapper (scrolls sideways)" if tw > ww + 1 else ""
+                return f"{summary}; chart {sw:.0f}x{sh:.0f}; {shot}{overflow}"
+            finally:
+                page.close()
+
+        def leaderboard_sorted():
+            page, dom, shot = load("/?release=" + board["release"] + "&agg=overall_mean&subset=all&sort=no_lights.macc", "02-leaderboard-sorted-no-lights-macc")
+            try:
+                return check_board(dom, board, "overall_mean", "all", "no_lights.macc", state["labels"]) + "; " + shot
+            finally:
+                page.close()
+
+        def leaderboard_manipuland():
+            page, dom, shot = load("/?release=" + board["release"] + "&subset=manipuland", "03-leaderboard-manipuland")
+            try:
+                return check_board(dom, board, "overall", "manipuland", f"{board['lightings'][0]}.miou", state["labels"]) + "; " + shot
+            finally:
+                page.close()
+
+        def follow_sort_link():
+            href = state["sort_link"]
+            expect(href, "no sort link (th a) found on the leaderboard")
+            q = {k: v[0] for k, v in urllib.parse.parse_qs(urllib.parse.urlsplit(href).query).items()}
+            page, dom, shot = load(href, "04-leaderboard-followed-sort-link")
+            try:
+                got = check_board(dom, board, q.get("agg", "overall"), q.get("subset", "all"), q["sort"], state["labels"])
+                return f"{href} -> {got}; {shot}"
+            finally:
+                page.close()
+
+        def release_page():
+            version = board["release"]
+            manifest = get_json(f"{base}/api/v1/releases/{version}/manifest.json")
+            page, dom, shot = load(f"/releases/{version}", "05-release")
+            try:
+                expect(version in dom.find("h1").clean(), f"h1 is {dom.find('h1').clean()!r}")
+                cards = dom.find_all("article", cls="scene")
+                scenes = manifest["scenes"]
+                expect(len(cards) == len(scenes) == 3, f"{len(cards)} scene cards, the manifest has {len(scenes)} scenes (expected 3)")
+                for card, scene in zip(cards, scenes):
+                    h3 = card.find("h3").clean()
+                    expect(scene["id"] in h3 and scene["subset"] in h3, f"card title {h3!r} for {scene['id']} ({scene['subset']})")
+                    expect(card.find("p").clean() == " ".join(scene["prompt"].split()), f"{scene['id']}: prompt differs from the manifest")
+                    img = card.find("img")
+                    expect(img is not None and img.attrs.get("src"), f"{scene['id']}: no <img>")
+                    status, headers, body = http_get(base + img.attrs["src"])
+                    ctype = headers.get("content-type", "")
+                    expect(status == 200 and ctype.startswith("image/jpeg") and body[:2] == b"\xff\xd8", f"{img.attrs['src']}: HTTP {status} {ctype}")
+                rendered = page.boxes(".scene img")
+                expect(len(rendered) == 3 and all(w > 100 and h > 50 for w, h in rendered), f"thumbnails render at {rendered}")
+                archive_table = [t for t in dom.find_all("table") if "SHA-256" in t.find("thead").clean()]
+                expect(archive_table, "no archive table")
+                rows = archive_table[0].find("tbody").kids("tr")
+                want = len(manifest["lightings"]) * len(scenes)
+                expect(len(rows) == want == 12, f"{len(rows)} archive rows, expected {want} (12)")
+                by_path = {a["path"]: a for a in manifest["archives"]}
+                for tr in rows:
+                    tds = tr.kids("td")
+                    href = tds[2].find("a").attrs["href"]
+                    path = href.split("/files/", 1)[-1]
+                    expect(path in by_path, f"archive link {href} is not in the manifest")
+                    expect(tds[4].clean() == by_path[path]["sha256"], f"{path}: SHA-256 differs from the manifest")
+                    expect(tds[1].clean() == by_path[path]["scene"], f"{path}: scene cell {tds[1].clean()!r}")
+                return f"{len(cards)} scene cards (thumbnails {rendered[0][0]:.0f}x{rendered[0][1]:.0f} px), {len(rows)} archives; {shot}"
+            finally:
+                page.close()
+
+        def submission_page():
+            entry = next((e for e in board["entries"] if e["method"] == "baseline-pose-drift"), board["entries"][0])
+            page, dom, shot = load(f"/submissions/{entry['submission_id']}", "06-submission")
+            try:
+                expect(entry["method"] in dom.find("h1").clean(), f"h1 is {dom.find('h1').clean()!r}")
+                state_p = dom.find("p", cls="state")
+                expect(state_p is not None and state_p.find("strong").clean() == "scored" and "state-scored" in state_p.classes(), "the state is not 'scored'")
+                expect(all(m.attrs.get("http-equiv") != "refresh" for m in dom.find_all("meta")), "a scored submission still refreshes itself")
+                main = dom.find("main")
+                heads = [n for n in main.iter() if n.tag in ("h2", "table")]
+                semseg = entry["scores"]["semseg"]
+                tables = 0
+                for i, lighting in enumerate(board["lightings"]):
+                    label = state["labels"].get(lighting, lighting)
+                    idx = next((k for k, n in enumerate(heads) if n.tag == "h2" and n.clean() == label), None)
+                    expect(idx is not None and idx + 1 < len(heads) and heads[idx + 1].tag == "table", f"no table under <h2>{label}</h2>")
+                    rows = heads[idx + 1].find("tbody").kids("tr")
+                    scenes = sorted(semseg[lighting]["scenes"])
+                    expect(len(rows) == len(scenes) + 2, f"{label}: {len(rows)} rows, expected {len(scenes)} scenes + mean + pooled")
+                    for tr, scene in zip(rows, scenes + ["mean over scenes", "pooled"]):
+                        tds = [td.clean() for td in tr.kids("td")]
+                        src = semseg[lighting]["scenes"].get(scene) or semseg[lighting]["overall_mean" if scene.startswith("mean") else "overall"]
+                        want = [scene] + [pct(src.get(m)) for m in METRICS]
+                        expect(tds == want, f"{label}: row {tds}, the API says {want}")
+                    tables += 1
+                history = [t for t in main.find_all("table") if "State" in t.find("thead").clean()]
+                expect(history and "scored" in history[0].find("tbody").clean(), "the history does not show 'scored'")
+                return f"{entry['method']}: scored, {tables} per-lighting tables of {len(scenes)} scenes; {shot}"
+            finally:
+                page.close()
+
+        def api_docs():
+            page, dom, shot = load("/api/docs", "07-api-docs")
+            try:
+                paths = {r.kids("td")[1].clean() for r in dom.find("table").find("tbody").kids("tr")}
+                for p in ("/api/v1/submissions", "/api/v1/leaderboard", "/api/v1/releases/{version}"):
+                    expect(p in paths, f"{p} is not listed")
+                expect(dom.find("dl", cls="codes") is not None, "no error codes")
+                return f"{len(paths)} paths listed; {shot}"
+            finally:
+                page.close()
+
+        def extra_views():
+            notes = []
+            for name, kw in (("08-leaderboard-dark", {"dark": True}), ("09-leaderboard-narrow", {"width": 420})):
+                page, dom, shot = load("/", name, **kw)
+                page.close()
+                expect(len(dom.find(id="leaderboard").find("tbody").kids("tr")) == EXPECTED_ENTRIES, f"{name}: rows missing")
+                notes.append(shot)
+            return "; ".join(notes)
+
+        def internal_links():
+            checked, bad = 0, []
+            extra = {"/releases/current", "/api/v1/openapi.json"}
+            for href in sorted(state["links"] | extra):
+                status, _, _ = http_get(base + href, method="HEAD")
+                if status == 405:
+                    status, _, _ = http_get(base + href)
+                checked += 1
+                if status != 200:
+                    bad.append(f"{href} -> {status}")
+            expect(not bad, "broken links: " + "; ".join(bad))
+            return f"{checked} distinct internal links and images answer 200"
+
+        run("JavaScript disabled", js_is_off)
+        run("leaderboard (default)", leaderboard_default)
+        run("leaderboard sort=no_lights.macc agg=overall_mean", leaderboard_sorted)
+        run("leaderboard subset=manipuland", leaderboard_manipuland)
+        run("follow a sort link from the leaderboard", follow_sort_link)
+        run("release page", release_page)
+        run("submission page", submission_page)
+        run("API docs page", api_docs)
+        run("leaderboard dark + 420px wide", extra_views)
+        run("internal links", internal_links)
+    except Fatal as e:
+        results.append(("setup", False, time.monotonic() - started, str(e)))
+        log(f"FATAL {e}")
+    finally:
+        if browser is not None:
+            browser.close()
+        if server is not None:
+            code, took = server.stop(30)
+            ok = code == 0
+            results.append(("server stops on SIGTERM", ok, took, f"exit status {code}" if code is not None else "still running after 30 s, killed"))
+            log(f"{'PASS' if ok else 'FAIL'} server stop: exit {code} after {took:.1f} s")
+        if args.keep:
+            log(f"kept {tmp} (data dir {data_dir})")
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    total = time.monotonic() - started
+    width = max(len(r[0]) for r in results)
+    print()
+    print(f"{'check':<{width}}  result  time    detail")
+    print(f"{'-' * width}  ------  ------  ------")
+    for name, ok, secs, detail in results:
+        print(f"{name:<{width}}  {'PASS' if ok else 'FAIL':<6}  {secs:5.1f}s  {detail}")
+    failed = [r for r in results if not r[1]]
+    passed = len(results) - len(failed)
+    print()
+    print(f"screenshots and DOM dumps in {out}; total {total:.1f} s")
+    print(f"browser: {passed} passed, {len(failed)} failed")
+    if failed:
+        print("FAILED: " + "; ".join(f"{r[0]}: {r[3]}" for r in failed), file=sys.stderr)
+        if any(r[0] == "setup" for r in failed):
+            return 2
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -5,9 +5,10 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
+use axum::body::Bytes;
 use serde::Serialize;
 use serde_json::{Value, json};
 
@@ -70,7 +71,7 @@ impl Leaderboard {
                 baseline: row.baseline,
                 complete: row.complete,
                 submitted_at: crate::clock::rfc3339(row.created_at),
-                scores: serde_json::from_str(&row.body).unwrap_or(Value::Null),
+                scores: summary(serde_json::from_str(&row.body).unwrap_or(Value::Null)),
             })
             .collect();
         let key_lighting = lightings.first().cloned().unwrap_or_default();
@@ -125,29 +126,61 @@ impl Leaderboard {
     }
 }
 
+/// A score without its per-scene tables (`scenes` objects; scene counts stay): the
+/// leaderboard carries the aggregates, a submission's own page and API the details.
+fn summary(mut scores: Value) -> Value {
+    fn strip(value: &mut Value) {
+        if let Value::Object(map) = value {
+            if map.get("scenes").is_some_and(Value::is_object) {
+                map.remove("scenes");
+            }
+            map.values_mut().for_each(strip);
+        }
+    }
+    strip(&mut scores);
+    scores
+}
+
 fn csv_text(text: &str) -> String {
     // Quote as RFC 4180, and defuse spreadsheet formulas in participant-chosen names.
     let text = if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { format!("'{text}") } else { text.to_string() };
     if text.contains([',', '"', '\n', '\r']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text }
 }
 
-/// A leaderboard ready to serve.
+/// A leaderboard ready to serve: its bytes are shared by every response.
 #[derive(Debug)]
 pub struct Rendered {
     pub board: Leaderboard,
-    pub json: String,
-    pub csv: String,
+    pub json: Bytes,
+    pub csv: Bytes,
     /// Entity tags of the JSON and the CSV representation.
     pub etag_json: String,
     pub etag_csv: String,
+    /// Leaderboard pages already rendered from this board, by their normalised view.
+    pages: Mutex<HashMap<String, Bytes>>,
 }
 
-/// Recently built leaderboards per release.
+impl Rendered {
+    /// The page of `view` (a normalised key of sort, aggregate and subset), rendered once.
+    pub fn page(&self, view: &str, render: impl FnOnce() -> String) -> Bytes {
+        if let Some(page) = self.pages.lock().expect("page cache lock").get(view) {
+            return page.clone();
+        }
+        let page = Bytes::from(render());
+        self.pages.lock().expect("page cache lock").insert(view.to_string(), page.clone());
+        page
+    }
+}
+
+/// Recently built leaderboards per release, and which one `current` was.
 #[derive(Debug, Default)]
 pub struct LeaderboardCache {
     generation: AtomicU64,
     boards: RwLock<HashMap<String, (Instant, u64, Arc<Rendered>)>>,
 }
+
+/// The cache key of the current release's board.
+const CURRENT: &str = "";
 
 /// How long a built leaderboard is served before it is rebuilt (other replicas' writes
 /// show up within this time; this process's own writes invalidate at once).
@@ -159,23 +192,39 @@ impl LeaderboardCache {
         self.generation.fetch_add(1, Ordering::SeqCst);
     }
 
+    /// The board last built for `release` (`None`: the current release) if still fresh:
+    /// the hot path, which touches no database.
+    pub fn fresh(&self, release: Option<&str>) -> Option<Arc<Rendered>> {
+        let generation = self.generation.load(Ordering::SeqCst);
+        let boards = self.boards.read().expect("cache lock");
+        let (at, built_in, rendered) = boards.get(release.unwrap_or(CURRENT))?;
+        (*built_in == generation && at.elapsed() < FRESH_FOR).then(|| rendered.clone())
+    }
+
+    /// Remember that the current release's board is `rendered`.
+    pub fn remember_current(&self, rendered: &Arc<Rendered>, generation: u64) {
+        self.boards.write().expect("cache lock").insert(CURRENT.to_string(), (Instant::now(), generation, rendered.clone()));
+    }
+
+    /// The cache generation now (read before a lookup that may be invalidated meanwhile).
+    pub fn generation(&self) -> u64 {
+        self.generation.load(Ordering::SeqCst)
+    }
+
     /// The leaderboard of `release`, rebuilt when stale.
     pub async fn get(&self, store: &Store, release: &str, lightings: &[String]) -> StoreResult<Arc<Rendered>> {
         let generation = self.generation.load(Ordering::SeqCst);
-        if let Some((at, built_in, rendered)) = self.boards.read().expect("cache lock").get(release)
-            && *built_in == generation
-            && at.elapsed() < FRESH_FOR
-        {
-            return Ok(rendered.clone());
+        if let Some(rendered) = self.fresh(Some(release)) {
+            return Ok(rendered);
         }
         let rows = store.leaderboard_rows(release).await?;
         let board = Leaderboard::new(release, lightings.to_vec(), rows);
-        let json = serde_json::to_string(&board.to_json()).expect("json");
-        let csv = board.to_csv();
+        let json = Bytes::from(serde_json::to_string(&board.to_json()).expect("json"));
+        let csv = Bytes::from(board.to_csv());
         use sha2::Digest;
-        let tag = |text: &str| format!("\"{}\"", sha2::Sha256::digest(text.as_bytes()).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
+        let tag = |text: &[u8]| format!("\"{}\"", sha2::Sha256::digest(text).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
         let (etag_json, etag_csv) = (tag(&json), tag(&csv));
-        let rendered = Arc::new(Rendered { board, json, csv, etag_json, etag_csv });
+        let rendered = Arc::new(Rendered { board, json, csv, etag_json, etag_csv, pages: Mutex::default() });
         self.boards.write().expect("cache lock").insert(release.to_string(), (Instant::now(), generation, rendered.clone()));
         Ok(rendered)
     }

@@ -726,7 +726,8 @@ def main() -> int:
                 expect(all(m.attrs.get("http-equiv") != "refresh" for m in dom.find_all("meta")), "a scored submission still refreshes itself")
                 main = dom.find("main")
                 heads = [n for n in main.iter() if n.tag in ("h2", "table")]
-                semseg = entry["scores"]["semseg"]
+                # The leaderboard carries aggregates; the per-scene tables come with the submission.
+                semseg = get_json(f"{base}/api/v1/submissions/{entry['submission_id']}")["scores"]["semseg"]
                 tables = 0
                 for i, lighting in enumerate(board["lightings"]):
                     label = state["labels"].get(lighting, lighting)

@@ -1,11 +1,14 @@
 //! `osmab release build`: the whole pipeline from a config to a frozen release in the
 //! layout of product.md section 4. Every stage keeps its output under `.work/` with a
-//! completion marker, so an interrupted build resumes where it stopped and a partial
-//! stage output (no marker) is rebuilt.
+//! completion marker (see `stages`), so an interrupted build resumes where it stopped
+//! and a partial stage output (no marker) is rebuilt. A service spreads the rendering
+//! over workers: [`prepare_release`], then [`render_release_sequence`] per sequence,
+//! then [`build_release`], which finds everything before the assembly done.
 
 pub mod config;
 pub mod contact;
 pub mod manifest;
+pub mod stages;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -17,86 +20,17 @@ use osmab_evaluator::{InputError, Result};
 use serde::Serialize;
 use serde_json::{Value, json};
 
-use crate::convert::habitat::{ConversionReport, ConvertOptions, write_habitat_scene};
+use crate::convert::habitat::ConversionReport;
 use crate::convert::lexicon::normalise_name;
-use crate::convert::scene::load_scene;
-use crate::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
-use crate::openai::ServiceClient;
-use crate::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
+use crate::prompts::ScenePrompt;
 use crate::render::sequence::SequenceSummary;
-use crate::render::trajectory::MotionSettings;
-use crate::selection::select;
 use crate::spec::Regime;
-use config::ReleaseConfig;
 use manifest::{digest, list_files};
+use stages::{Build, read_json, scene_name, write_json};
+pub use stages::{SequenceUnit, WORK};
 
-/// Where the build keeps its intermediate stages (not part of the release).
-pub const WORK: &str = ".work";
 /// Ground truth, kept by the server and never served (not in the public manifest).
 pub const GROUND_TRUTH: &str = "ground_truth";
-
-fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
-    }
-    std::fs::write(path, serde_json::to_string_pretty(value).expect("serialisable") + "\n").map_err(|e| InputError::io(path, &e))
-}
-
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::io(path, &e))?;
-    serde_json::from_slice(&bytes).map_err(|e| InputError::new(path, "(json)", e.to_string()))
-}
-
-/// The fingerprint of a stage's output (a directory or one file): the digest of its files.
-fn fingerprint(output: &Path) -> Result<String> {
-    if output.is_dir() {
-        Ok(digest(&list_files(output, &[])?))
-    } else if output.is_file() {
-        manifest::hash_file(output).map(|(_, sha256)| sha256)
-    } else {
-        Ok("missing".into())
-    }
-}
-
-/// A stage marker: what the stage was built from and the fingerprint of what it wrote.
-fn marker_text(inputs: &str, output: &Path) -> Result<String> {
-    Ok(format!("inputs {inputs}\noutput {}\n", fingerprint(output)?))
-}
-
-/// Run `stage` unless its marker says it finished from the same `inputs` and its output
-/// is still what the marker recorded; a partial output (no marker), a changed one
-/// (corrupted, edited) or one built from other inputs is removed and built again.
-fn staged(marker: &Path, inputs: &str, output: &Path, stage: impl FnOnce() -> Result<()>) -> Result<bool> {
-    if let Ok(recorded) = std::fs::read_to_string(marker) {
-        if recorded == marker_text(inputs, output)? {
-            return Ok(false);
-        }
-        std::fs::remove_file(marker).map_err(|e| InputError::io(marker, &e))?;
-    }
-    if output.is_dir() {
-        std::fs::remove_dir_all(output).map_err(|e| InputError::io(output, &e))?;
-    } else if output.exists() {
-        std::fs::remove_file(output).map_err(|e| InputError::io(output, &e))?;
-    }
-    stage()?;
-    if let Some(parent) = marker.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
-    }
-    std::fs::write(marker, marker_text(inputs, output)?).map_err(|e| InputError::io(marker, &e))?;
-    Ok(true)
-}
-
-/// The digest of everything in a config that shapes the release's content (not its
-/// name, date or secrets): a stage built from another config is rebuilt.
-fn inputs_digest(config: &ReleaseConfig) -> String {
-    let mut content = config.clone();
-    content.version.clear();
-    content.created.clear();
-    for service in [&mut content.prompts.llm, &mut content.selection.embeddings].into_iter().flatten() {
-        service.api_key = None;
-    }
-    manifest::hex(&<sha2::Sha256 as sha2::Digest>::digest(serde_json::to_vec(&content).expect("serialisable")))
-}
 
 /// What one scene of the release holds and how well it matches its prompt.
 #[derive(Debug, Clone, Serialize)]
@@ -113,142 +47,65 @@ pub struct SceneQuality {
     pub full_match: bool,
 }
 
+/// Stages 1–4 of the build of `config_path` into `out` (prompts, selection, and every
+/// scene's synthesis and conversion); returns every sequence of the release and
+/// whether it is rendered already.
+pub fn prepare_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Vec<(SequenceUnit, bool)>> {
+    let build = Build::open(config_path, out)?;
+    let prompts = build.prompts(progress)?;
+    let mut units = Vec::new();
+    for (index, prompt) in prompts.iter().enumerate() {
+        build.scene_assets(index, prompt, progress)?;
+        for lighting in &build.config.render.lightings {
+            let unit = SequenceUnit { scene_index: index, scene: scene_name(index), lighting: lighting.clone() };
+            let done = build.sequence_rendered(&unit)?;
+            units.push((unit, done));
+        }
+    }
+    Ok(units)
+}
+
+/// Stage 5 for one sequence of a prepared build (see [`prepare_release`]).
+pub fn render_release_sequence(config_path: &Path, out: &Path, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
+    let build = Build::open(config_path, out)?;
+    let prompts: Vec<ScenePrompt> = read_json(&build.work.join("selection/final_prompts.json"))?;
+    let prompt = prompts.get(unit.scene_index).ok_or_else(|| {
+        InputError::new(config_path, "(selection)", format!("the selection has {} scenes; there is no scene {}", prompts.len(), unit.scene_index))
+    })?;
+    if !build.config.render.lightings.contains(&unit.lighting) {
+        return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
+    }
+    build.render_sequence(unit, prompt.spec.regime, progress).map(|_| ())
+}
+
 /// Build the release of `config_path` into `out`.
 pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Value> {
-    let (config, config_text) = ReleaseConfig::read(config_path)?;
-    let work = out.join(WORK);
-    let inputs = inputs_digest(&config);
-    std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
-
-    // 1. Prompt pools.
-    let mut pools: Vec<PromptPool> = Vec::new();
-    for (regime, count) in [(Regime::Furniture, config.prompts.furniture_pool), (Regime::Manipuland, config.prompts.manipuland_pool)] {
-        let path = work.join(format!("prompts/{}.json", regime.name()));
-        staged(&work.join(format!("prompts/{}.done", regime.name())), &inputs, &path, || {
-            progress(&format!("prompts: writing {count} {} prompts", regime.name()));
-            let pool = match &config.prompts.llm {
-                Some(llm) => {
-                    let client = ServiceClient::new(llm.clone()).map_err(|e| InputError::new(config_path, "prompts.llm", e.to_string()))?;
-                    llm_pool(&client, regime, count, 12, 80).map_err(|(_, e)| InputError::new(config_path, "prompts.llm", e.to_string()))?
-                }
-                None => grammar_pool(regime, count, config.seed),
-            };
-            write_json(&path, &pool)
-        })?;
-        pools.push(read_json(&path)?);
-    }
-
-    // 2. Selection.
-    let selected_path = work.join("selection/final_prompts.json");
-    staged(&work.join("selection/.done"), &inputs, &selected_path, || {
-        progress("selection: removing near-duplicates, choosing diverse scenes");
-        let embedder: Box<dyn Embedder> = match &config.selection.embeddings {
-            Some(e) => Box::new(ServiceEmbedder {
-                client: ServiceClient::new(e.clone()).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?,
-                batch: 64,
-            }),
-            None => Box::new(HashingEmbedder::default()),
-        };
-        let mut chosen: Vec<ScenePrompt> = Vec::new();
-        let mut reports = BTreeMap::new();
-        for (pool, target) in pools.iter().zip([config.selection.furniture, config.selection.manipuland]) {
-            let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
-            let keys: Vec<String> = pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect();
-            let embeddings = embedder.embed(&texts).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?;
-            let report = select(&keys, &embeddings, target, config.selection.threshold);
-            if report.shortfall > 0 {
-                return Err(InputError::new(
-                    config_path,
-                    "selection",
-                    format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), pool.regime.name()),
-                ));
-            }
-            for s in &report.selected {
-                let index: usize = s.id.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
-                chosen.push(pool.accepted[index].clone());
-            }
-            reports.insert(pool.regime.name(), report);
-        }
-        write_json(&work.join("selection/selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
-        write_json(&selected_path, &chosen)
-    })?;
-    let prompts: Vec<ScenePrompt> = read_json(&selected_path)?;
+    let build = Build::open(config_path, out)?;
+    let (config, config_text) = (&build.config, &build.config_text);
+    let work = &build.work;
+    let prompts = build.prompts(progress)?;
 
     // 3–6. Per scene: synthesis, conversion, sequences, ground truth.
     let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
     for (i, prompt) in prompts.iter().enumerate() {
-        let scene = format!("scene_{i:03}");
-        let scenesmith = work.join("scenesmith").join(&scene);
-        let unmet_path = work.join("scenesmith").join(format!("{scene}.unmet.json"));
-        staged(&work.join("scenesmith").join(format!("{scene}.done")), &inputs, &scenesmith, || {
-            progress(&format!("{scene}: synthesis ({})", prompt.id));
-            let unmet = if config.synthesis.command.is_empty() {
-                crate::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &scenesmith, config.synthesis.ceiling)?
-            } else {
-                crate::synthesis::external::run_external(
-                    &config.synthesis.command,
-                    &prompt.text,
-                    &scenesmith,
-                    std::time::Duration::from_secs(config.synthesis.timeout_secs),
-                )?;
-                Vec::new()
-            };
-            write_json(&unmet_path, &unmet)
-        })?;
-        let habitat = work.join("habitat").join(&scene);
-        staged(&work.join("habitat").join(format!("{scene}.done")), &inputs, &habitat, || {
-            progress(&format!("{scene}: conversion"));
-            let mut loaded = load_scene(&scenesmith)?;
-            loaded.name = scene.clone();
-            write_habitat_scene(&loaded, &habitat, &ConvertOptions::default()).map(|_| ())
-        })?;
-        let sensor = config.render.sensor();
-        let goals = if prompt.spec.regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
-        let motion = MotionSettings { goals, seed: config.seed.wrapping_add(i as u64), max_frames: config.render.max_frames, ..Default::default() };
+        let scene = scene_name(i);
+        build.scene_assets(i, prompt, progress)?;
+        let unmet_path = build.unmet_path(i);
+        let habitat = build.habitat_dir(i);
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
         for lighting in &lightings {
+            let unit = SequenceUnit { scene_index: i, scene: scene.clone(), lighting: lighting.to_string() };
+            let summary = build.render_sequence(&unit, prompt.spec.regime, progress)?;
             let sequence_dir = out.join("sequences").join(lighting).join(&scene);
-            let summary_path = work.join("rendered").join(lighting).join(format!("{scene}.json"));
-            staged(&work.join("rendered").join(lighting).join(format!("{scene}.done")), &inputs, &sequence_dir, || {
-                progress(&format!("{scene}: rendering {lighting}"));
-                if config.render.command.is_empty() {
-                    let rendered = crate::render::render_scene(&habitat, &scene, &[lighting], &sensor, &motion, &out.join("sequences"))?;
-                    return write_json(&summary_path, &rendered[0].1);
-                }
-                let substitutions = [
-                    ("scene_dir", habitat.display().to_string()),
-                    ("scene", scene.clone()),
-                    ("lighting", lighting.to_string()),
-                    ("out", sequence_dir.display().to_string()),
-                    ("width", sensor.width.to_string()),
-                    ("height", sensor.height.to_string()),
-                    ("goals", motion.goals.to_string()),
-                    ("seed", motion.seed.to_string()),
-                ];
-                std::fs::create_dir_all(&sequence_dir).map_err(|e| InputError::io(&sequence_dir, &e))?;
-                let log = work.join("rendered").join(lighting).join(format!("{scene}.log"));
-                crate::external::run_command(&config.render.command, &substitutions, &log, std::time::Duration::from_secs(config.render.timeout_secs))?;
-                // Whatever rendered it, it must be a sequence the evaluator reads.
-                write_json(&summary_path, &summarize_sequence(&sequence_dir)?)
-            })?;
-            let summary: SequenceSummary = read_json(&summary_path)?;
             let sheet = out.join("quality/contact_sheets").join(lighting).join(format!("{scene}.png"));
             if !sheet.exists() {
                 contact::write_contact_sheet(&sequence_dir, summary.frames, &sheet)?;
             }
             summaries.insert(lighting.to_string(), summary);
         }
-        let gt_dir = out.join(GROUND_TRUTH).join(&scene);
-        let gt_source = out.join("sequences").join(if lightings.contains(&"baseline") { "baseline" } else { lightings[0] }).join(&scene);
-        staged(&work.join("gt").join(format!("{scene}.done")), &inputs, &gt_dir, || {
-            progress(&format!("{scene}: ground truth"));
-            let sequence = Sequence::open(&gt_source)?;
-            let gt = GroundTruth::build(&sequence)?;
-            gt.write(&gt_dir)?;
-            sequence.classes()?.write(&gt_dir.join("embed_semseg_classes.json"))
-        })?;
+        let gt_dir = build.ground_truth(i, progress)?;
         write_json(
             &out.join("scenes").join(&scene).join("prompt.json"),
             &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}),

@@ -23,6 +23,9 @@ pub enum JobError {
     Permanent(String),
     /// Something outside the input failed (disk, database); retried with backoff.
     Retryable(String),
+    /// A coordinator waits for the jobs it fanned out: back to the queue without
+    /// counting an attempt, to run again after the delay.
+    Waiting(Duration),
 }
 
 impl<E: std::fmt::Display> From<E> for JobError {
@@ -62,6 +65,7 @@ async fn run_job(ctx: JobContext) -> Result<(), JobError> {
     match ctx.job.kind.as_str() {
         crate::intake::SCORE_JOB => scoring::run(ctx).await,
         release_build::BUILD_JOB => release_build::run(ctx).await,
+        release_build::RENDER_JOB => release_build::render(ctx).await,
         other => Err(JobError::Permanent(format!("unknown job kind '{other}'"))),
     }
 }
@@ -123,7 +127,7 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
     };
     let now = now_ms();
     let Some(result) = outcome else {
-        match state.store.release_job(&job.id, owner, now).await {
+        match state.store.release_job(&job.id, owner, now, now).await {
             Ok(_) => tracing::warn!("released the unfinished job for another worker"),
             Err(e) => tracing::error!(error = %e, "could not release the job; it is taken up again when its lease expires"),
         }
@@ -134,6 +138,11 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
         Ok(()) => {
             tracing::info!("job succeeded");
             let _ = state.store.finish_job(&job.id, owner, JobState::Succeeded, None, None, now).await;
+        }
+        Err(JobError::Waiting(delay)) => {
+            if let Err(e) = state.store.release_job(&job.id, owner, now + delay.as_millis() as i64, now).await {
+                tracing::warn!(error = %e, "could not put the waiting job back; it is taken up again when its lease expires");
+            }
         }
         Err(JobError::Permanent(message)) => {
             tracing::warn!(%message, "job failed");

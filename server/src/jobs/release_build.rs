@@ -2,11 +2,17 @@
 //! section 8), import the result as a draft (or publish it), and optionally score the
 //! reference baselines on it so the leaderboard has rows to compare against. Every stage
 //! keeps its output in the build folder, so a retried job resumes where it stopped.
+//!
+//! The rendering, the bulk of the work, fans out: the build job prepares the scenes,
+//! queues one `render_sequence` job per scene and lighting for any worker to take, waits
+//! off the queue (it does not hold a worker) until they are all done, then assembles the
+//! release. Its progress shows how many sequences are rendered and which failed.
 
 use std::cell::RefCell;
+use std::collections::BTreeMap;
 
 use osmab_dataset::baselines::{BASELINES, write_baseline};
-use osmab_dataset::release::build_release;
+use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_sequence};
 use osmab_evaluator::submission::pack_directory;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -17,10 +23,16 @@ use crate::clock::{new_id, now_ms};
 use crate::intake::{Scratch, Upload};
 use crate::releases::{Imported, import_release};
 use crate::state::AppState;
-use crate::store::{StoreError, Team};
+use crate::store::{JobRecord, NewJob, StoreError, Team};
 
 /// Kind of the job that builds a release.
 pub const BUILD_JOB: &str = "build_release";
+
+/// Kind of the jobs that render one sequence (scene × lighting) of a release build.
+pub const RENDER_JOB: &str = "render_sequence";
+
+/// How long a build job waits between looks at its render jobs.
+const WAIT_FOR_RENDERING: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// The configuration of the demo release built on an empty data directory.
 pub const DEMO_CONFIG: &str = include_str!("../../../configs/release-demo.toml");
@@ -49,31 +61,140 @@ pub fn config_version(config: &str) -> Result<String, String> {
     Ok(version)
 }
 
+/// Parameters of a render job.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct RenderRequest {
+    version: String,
+    unit: SequenceUnit,
+}
+
+/// The build folder of `version`: (its config, the release folder).
+fn build_paths(state: &AppState, version: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let build_dir = state.settings.data_dir.join("builds").join(version);
+    (build_dir.join("config.toml"), build_dir.join("release"))
+}
+
+/// Run `stage` of the build off the runtime, its progress lines shown on the job.
+async fn blocking_stage<T: Send + 'static>(
+    ctx: &JobContext,
+    stage: &'static str,
+    work: impl FnOnce(&dyn Fn(&str)) -> osmab_evaluator::Result<T> + Send + 'static,
+) -> Result<T, JobError> {
+    let blocking_ctx = ctx.clone();
+    tokio::task::spawn_blocking(move || {
+        let log = RefCell::new(Vec::<String>::new());
+        let progress = |message: &str| {
+            let mut log = log.borrow_mut();
+            log.push(message.to_string());
+            let tail: Vec<&String> = log.iter().rev().take(20).rev().collect();
+            blocking_ctx.progress_blocking(&json!({"stage": stage, "message": message, "log": tail}));
+        };
+        work(&progress).map_err(|e| JobError::Permanent(format!("release build: {e}")))
+    })
+    .await?
+}
+
+/// Where the rendering of a build stands.
+enum Rendering {
+    /// Every sequence is rendered.
+    Done,
+    /// Some are still queued or running.
+    Running { done: usize, total: usize },
+}
+
+/// The sequences a build job fanned out, as recorded in its progress.
+fn fanned_out(progress: &str) -> Option<Vec<String>> {
+    let value: serde_json::Value = serde_json::from_str(progress).ok()?;
+    serde_json::from_value(value.get("fanned_out")?.clone()).ok()
+}
+
+/// Prepare the build (stages 1–4) and queue a render job for every sequence not rendered
+/// yet; returns their subjects.
+async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
+    let (config, out_dir) = (config_path.to_path_buf(), out.to_path_buf());
+    let units = blocking_stage(ctx, "prepare", move |progress| prepare_release(&config, &out_dir, progress)).await?;
+    let mut subjects = Vec::new();
+    for (unit, rendered) in units {
+        if rendered {
+            continue;
+        }
+        let subject = format!("{version}/{}/{}", unit.scene, unit.lighting);
+        let job = NewJob {
+            id: new_id("job"),
+            kind: RENDER_JOB.into(),
+            subject: subject.clone(),
+            payload: serde_json::to_string(&RenderRequest { version: version.to_string(), unit }).expect("json"),
+            max_attempts: ctx.state.settings.job_max_attempts,
+            created_at: now_ms(),
+        };
+        match ctx.state.store.enqueue(&job).await {
+            // A live job for it (left by an earlier build attempt) is followed instead.
+            Ok(()) | Err(StoreError::Conflict(_)) => subjects.push(subject),
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Ok(subjects)
+}
+
+/// Where the render jobs of `subjects` stand; a failed one fails the build.
+async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Result<Rendering, JobError> {
+    let parts = ctx.state.store.jobs_of(RENDER_JOB, &format!("{version}/"), 0).await?;
+    let mut latest: BTreeMap<&str, &JobRecord> = BTreeMap::new();
+    for part in &parts {
+        latest.insert(part.subject.as_str(), part); // ordered by creation within a subject
+    }
+    let (mut done, mut running) = (0, Vec::new());
+    for subject in subjects {
+        match latest.get(subject.as_str()) {
+            Some(job) if job.state == "succeeded" => done += 1,
+            Some(job) if job.state == "queued" || job.state == "running" => running.push(subject.as_str()),
+            Some(job) => {
+                let why = job.error.as_deref().unwrap_or("cancelled");
+                return Err(JobError::Permanent(format!("rendering {subject} failed: {why}")));
+            }
+            None => return Err(JobError::Retryable(format!("the render job of {subject} is missing"))),
+        }
+    }
+    if running.is_empty() {
+        return Ok(Rendering::Done);
+    }
+    let total = subjects.len();
+    ctx.progress(&json!({
+        "stage": "rendering",
+        "message": format!("{done} of {total} sequences rendered"),
+        "fanned_out": subjects,
+        "rendered": done,
+        "waiting_for": running,
+    }))
+    .await;
+    Ok(Rendering::Running { done, total })
+}
+
 pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     let request: BuildRequest = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("payload: {e}")))?;
     let state = &ctx.state;
     let version = config_version(&request.config).map_err(JobError::Permanent)?;
-    let build_dir = state.settings.data_dir.join("builds").join(&version);
-    std::fs::create_dir_all(&build_dir)?;
-    let config_path = build_dir.join("config.toml");
+    let (config_path, out) = build_paths(state, &version);
+    std::fs::create_dir_all(config_path.parent().expect("in the build folder"))?;
     std::fs::write(&config_path, &request.config)?;
-    let out = build_dir.join("release");
 
     let already = matches!(state.store.release(&version).await, Ok(_));
     if !already {
-        let blocking_ctx = ctx.clone();
+        let subjects = match fanned_out(&ctx.job.progress) {
+            Some(subjects) => subjects,
+            None => {
+                let subjects = fan_out(&ctx, &version, &config_path, &out).await?;
+                let message = format!("{} sequences queued for rendering", subjects.len());
+                ctx.progress(&json!({"stage": "rendering", "message": message, "fanned_out": subjects, "rendered": 0})).await;
+                subjects
+            }
+        };
+        if let Rendering::Running { done, total } = rendering(&ctx, &version, &subjects).await? {
+            tracing::debug!(done, total, "waiting for the render jobs");
+            return Err(JobError::Waiting(WAIT_FOR_RENDERING));
+        }
         let (config_for_build, out_for_build) = (config_path.clone(), out.clone());
-        tokio::task::spawn_blocking(move || {
-            let log = RefCell::new(Vec::<String>::new());
-            let progress = |message: &str| {
-                let mut log = log.borrow_mut();
-                log.push(message.to_string());
-                let tail: Vec<&String> = log.iter().rev().take(20).rev().collect();
-                blocking_ctx.progress_blocking(&json!({"stage": "build", "message": message, "log": tail}));
-            };
-            build_release(&config_for_build, &out_for_build, &progress).map_err(|e| JobError::Permanent(format!("release build: {e}")))
-        })
-        .await??;
+        blocking_stage(&ctx, "assemble", move |progress| build_release(&config_for_build, &out_for_build, progress)).await?;
         ctx.progress(&json!({"stage": "import", "message": format!("importing release {version}")})).await;
         let now = now_ms();
         if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
@@ -93,6 +214,19 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     }
     ctx.progress(&json!({"stage": "done", "message": format!("release {version} ready")})).await;
     Ok(())
+}
+
+/// A `render_sequence` job: one scene under one lighting of a prepared build.
+pub async fn render(ctx: JobContext) -> Result<(), JobError> {
+    let request: RenderRequest = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("payload: {e}")))?;
+    let (config_path, out) = build_paths(&ctx.state, &request.version);
+    let blocking_ctx = ctx.clone();
+    tokio::task::spawn_blocking(move || {
+        let progress = |message: &str| blocking_ctx.progress_blocking(&json!({"stage": "render", "message": message}));
+        // A renderer can fail for passing reasons (an external command's timeout): retried.
+        render_release_sequence(&config_path, &out, &request.unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+    })
+    .await?
 }
 
 /// The team that owns the baselines (created on first use).

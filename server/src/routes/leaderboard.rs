@@ -20,6 +20,10 @@ pub struct LeaderboardQuery {
 
 /// The rendered leaderboard of `release` (the current one when `None`).
 pub async fn rendered(state: &AppState, release: Option<&str>) -> ApiResult<Arc<Rendered>> {
+    if let Some(board) = state.leaderboard.fresh(release) {
+        return Ok(board);
+    }
+    let generation = state.leaderboard.generation();
     let record = match release {
         Some(version) => state.store.release(version).await,
         None => state.store.current_release().await,
@@ -36,7 +40,11 @@ pub async fn rendered(state: &AppState, release: Option<&str>) -> ApiResult<Arc<
     };
     let manifest: serde_json::Value = serde_json::from_str(&record.manifest).unwrap_or_default();
     let lightings: Vec<String> = manifest["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str().map(str::to_string)).collect();
-    Ok(state.leaderboard.get(&state.store, &record.version, &lightings).await?)
+    let board = state.leaderboard.get(&state.store, &record.version, &lightings).await?;
+    if release.is_none() {
+        state.leaderboard.remember_current(&board, generation);
+    }
+    Ok(board)
 }
 
 fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {

@@ -210,12 +210,19 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
         Some("manipuland") => "manipuland",
         _ => "all",
     };
-    let value = |e: &Entry, lighting: &str, metric: &str| -> Option<f64> {
-        if subset == "all" { e.metric(lighting, agg, metric) } else { e.scores["semseg"][lighting]["subsets"][subset][agg][metric].as_f64() }
-    };
     let default_sort = format!("{}.miou", board.lightings.first().map(String::as_str).unwrap_or("baseline"));
     let sort = query.sort.clone().filter(|s| s.split_once('.').is_some_and(|(l, m)| board.lightings.iter().any(|x| x == l) && METRICS.contains(&m)));
     let sort = sort.unwrap_or(default_sort);
+    let view = format!("{agg}/{subset}/{sort}");
+    let page = rendered.page(&view, || board_page(board, agg, subset, &sort).render().unwrap_or_else(|e| format!("template error: {e}")));
+    ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
+}
+
+/// The leaderboard page of `board` for one view (aggregate, subset, sort key `lighting.metric`).
+fn board_page(board: &crate::leaderboard::Leaderboard, agg: &str, subset: &str, sort: &str) -> LeaderboardPage {
+    let value = |e: &Entry, lighting: &str, metric: &str| -> Option<f64> {
+        if subset == "all" { e.metric(lighting, agg, metric) } else { e.scores["semseg"][lighting]["subsets"][subset][agg][metric].as_f64() }
+    };
     let (sort_lighting, sort_metric) = sort.split_once('.').expect("checked");
     let mut entries: Vec<&Entry> = board.entries.iter().collect();
     entries.sort_by(|a, b| {
@@ -231,7 +238,7 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
                 label: lighting_label(lighting),
                 metric_label: metric_label(metric),
                 sort_link: link(release, agg, subset, &key),
-                sorted: key == sort,
+                sorted: key == *sort,
                 first_of_lighting: k == 0,
             });
         }
@@ -280,7 +287,6 @@ pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<Boar
         csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
         json_link: format!("/api/v1/leaderboard?release={release}"),
     }
-    .into_response()
 }
 
 fn metric_key(label: &str) -> &'static str {

@@ -137,14 +137,16 @@ impl Store {
         Ok(done == 1)
     }
 
-    /// Give a running job back to the queue without counting the attempt (graceful shutdown).
-    pub async fn release_job(&self, id: &str, owner: &str, now: i64) -> StoreResult<bool> {
+    /// Give a running job back to the queue without counting the attempt, ready again at
+    /// `run_after` (graceful shutdown: now; a coordinator waiting for its parts: later).
+    pub async fn release_job(&self, id: &str, owner: &str, run_after: i64, now: i64) -> StoreResult<bool> {
         let done = on_pool!(self, |pool| sqlx::query(
-            "UPDATE jobs SET state = 'queued', attempts = attempts - 1, lease_owner = NULL, lease_expires = NULL, run_after = $3, updated_at = $3 \
+            "UPDATE jobs SET state = 'queued', attempts = attempts - 1, lease_owner = NULL, lease_expires = NULL, run_after = $3, updated_at = $4 \
              WHERE id = $1 AND lease_owner = $2 AND state = 'running'"
         )
         .bind(id)
         .bind(owner)
+        .bind(run_after)
         .bind(now)
         .execute(pool)
         .await
@@ -156,6 +158,16 @@ impl Store {
     pub async fn job(&self, id: &str) -> StoreResult<JobRecord> {
         let sql = format!("SELECT {JOB_COLUMNS} FROM jobs WHERE id = $1");
         Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(id).fetch_one(pool).await)?)
+    }
+
+    /// Jobs of `kind` whose subject starts with `subject_prefix`, created at or after
+    /// `since` (the parts a coordinator fanned out), in subject order.
+    pub async fn jobs_of(&self, kind: &str, subject_prefix: &str, since: i64) -> StoreResult<Vec<JobRecord>> {
+        let sql = format!(
+            "SELECT {JOB_COLUMNS} FROM jobs WHERE kind = $1 AND substr(subject, 1, CAST($2 AS INTEGER)) = $3 AND created_at >= $4 ORDER BY subject, created_at"
+        );
+        let prefix_len = subject_prefix.chars().count() as i32;
+        Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(kind).bind(prefix_len).bind(subject_prefix).bind(since).fetch_all(pool).await)?)
     }
 
     /// Jobs, newest first.

@@ -84,9 +84,13 @@ async fn a_retried_job_waits_for_its_backoff_and_a_released_one_keeps_its_attemp
         assert!(store.claim_next_job("w", t0 + 4999, t0 + 6000).await.unwrap().is_none(), "not before the backoff");
         let again = store.claim_next_job("w", t0 + 5000, t0 + 6000).await.unwrap().unwrap();
         assert_eq!(again.attempts, 2);
-        assert!(store.release_job("j2", "w", t0 + 5001).await.unwrap());
+        assert!(store.release_job("j2", "w", t0 + 5001, t0 + 5001).await.unwrap());
         let after_release = store.claim_next_job("w2", t0 + 5002, t0 + 7000).await.unwrap().unwrap();
         assert_eq!(after_release.attempts, 2, "a graceful release does not count as an attempt");
+        // A coordinator waiting for its parts goes back to the queue until a later time.
+        assert!(store.release_job("j2", "w2", t0 + 9000, t0 + 5003).await.unwrap());
+        assert!(store.claim_next_job("w", t0 + 8999, t0 + 10_000).await.unwrap().is_none(), "not before it asked to be woken");
+        assert_eq!(store.claim_next_job("w", t0 + 9000, t0 + 10_000).await.unwrap().unwrap().attempts, 2);
     }
     stores.drop_all().await;
 }
@@ -296,6 +300,34 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         let failed = store.submission("sub_b").await.unwrap();
         assert_eq!((failed.state.as_str(), failed.reason.as_deref()), ("failed", Some("maps/baseline/scene_000.npz: points: NaN")));
         assert_eq!(store.job("k2").await.unwrap().state, "failed");
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn a_coordinator_finds_the_parts_it_fanned_out_by_kind_prefix_and_time() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t0 = now_ms();
+        let part = |id: &str, subject: &str, at: i64| NewJob {
+            id: id.into(),
+            kind: "render_sequence".into(),
+            subject: subject.into(),
+            payload: "{}".into(),
+            max_attempts: 3,
+            created_at: at,
+        };
+        store.enqueue(&part("old", "v_1/scene_000/baseline", t0 - 10)).await.unwrap();
+        store.cancel_job("old", t0).await.unwrap();
+        store.enqueue(&part("p2", "v_1/scene_001/baseline", t0)).await.unwrap();
+        store.enqueue(&part("p1", "v_1/scene_000/baseline", t0 + 1)).await.unwrap();
+        // `_` is not a wildcard: v_10 and v21 are other releases.
+        store.enqueue(&part("other", "v_10/scene_000/baseline", t0)).await.unwrap();
+        store.enqueue(&part("another", "v21/scene_000/baseline", t0)).await.unwrap();
+        store.enqueue(&job("score", t0)).await.unwrap();
+        let found: Vec<String> = store.jobs_of("render_sequence", "v_1/", t0).await.unwrap().into_iter().map(|j| j.id).collect();
+        assert_eq!(found, ["p1", "p2"], "{}", store.backend());
+        assert_eq!(store.jobs_of("render_sequence", "v_1/", t0 - 10).await.unwrap().len(), 3, "{}", store.backend());
     }
     stores.drop_all().await;
 }

@@ -99,8 +99,11 @@ fn hostile_uploads(backend: Backend) {
 
     // Oversized body: declared (refused before reading) and streamed without a length
     // (refused once the limit is passed).
-    let big = vec![7u8; 20_000_001];
-    problem(server.upload(&token, &big, ""), 413, "payload_too_large");
+    // The declared case is sent raw (headers only): the answer must come before any byte of
+    // the body, and a client still writing a body it was refused may see a broken pipe first.
+    let answer = declared_upload_answer(&server.url, &token, 20_000_001);
+    assert!(answer.starts_with("HTTP/1.1 413 "), "{answer}");
+    assert!(answer.contains("\"code\":\"payload_too_large\""), "{answer}");
     let chunked = reqwest::blocking::Body::new(std::io::Cursor::new(vec![7u8; 25_000_000]));
     let response = server.post("/api/v1/submissions").bearer_auth(&token).body(chunked).send();
     match response {
@@ -155,3 +158,19 @@ fn hostile_uploads(backend: Backend) {
 }
 
 on_both_backends!(hostile_uploads_are_refused_and_change_nothing, super::hostile_uploads);
+
+/// The raw answer to an upload that declares `length` bytes and sends none of them.
+fn declared_upload_answer(url: &str, token: &str, length: u64) -> String {
+    use std::io::{Read, Write};
+    let address = url.trim_start_matches("http://");
+    let mut stream = std::net::TcpStream::connect(address).unwrap();
+    stream.set_read_timeout(Some(std::time::Duration::from_secs(30))).unwrap();
+    write!(
+        stream,
+        "POST /api/v1/submissions HTTP/1.1\r\nHost: {address}\r\nAuthorization: Bearer {token}\r\nContent-Type: application/x-tar\r\nContent-Length: {length}\r\n\r\n"
+    )
+    .unwrap();
+    let mut answer = Vec::new();
+    let _ = stream.read_to_end(&mut answer);
+    String::from_utf8_lossy(&answer).into_owned()
+}

@@ -5,6 +5,7 @@
 mod access;
 mod hostile;
 mod journey;
+mod regeneration;
 mod workers;
 
 use std::io::{BufRead, BufReader};
@@ -229,7 +230,7 @@ pub fn content_digest(bytes: &[u8]) -> String {
     format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(bytes)))
 }
 
-const TEST_RELEASE_CONFIG: &str = r#"version = "e2e-1"
+pub const TEST_RELEASE_CONFIG: &str = r#"version = "e2e-1"
 created = "2026-11-22"
 seed = 7
 

@@ -1,0 +1,67 @@
+//! Admin regeneration: a release built through the API, its rendering fanned out as one
+//! job per scene and lighting over the workers, ends bit-identical to the same config
+//! built in one go by `osmab release build`, and is published.
+
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+use super::{Backend, Deployment, TEST_RELEASE_CONFIG, on_both_backends, test_release};
+
+fn a_release_built_through_the_api_fans_out_its_rendering(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_WORKERS", "0"), ("OSMAB_POLL_MS", "20")]);
+    let server = deployment.serve();
+    let mut workers: Vec<_> = (0..2).map(|i| deployment.spawn(&["worker"], &format!("worker-{i}"))).collect();
+    let config = TEST_RELEASE_CONFIG.replace("version = \"e2e-1\"", "version = \"regen-1\"");
+    let response = server.admin(server.post("/api/v1/admin/releases").json(&json!({"config": config, "publish": true})));
+    assert_eq!(response.status(), 202, "{}", response.text().unwrap());
+    let url = response.json::<Value>().unwrap()["url"].as_str().unwrap().to_string();
+
+    // The build job shows its rendering stage while the sequences are rendered.
+    let started = Instant::now();
+    let mut saw_rendering = None;
+    let job = loop {
+        let job: Value = server.admin(server.get(&url)).json().unwrap();
+        if job["progress"]["stage"] == "rendering" && job["progress"]["fanned_out"].is_array() {
+            saw_rendering.get_or_insert(job["progress"].clone());
+        }
+        if ["succeeded", "failed"].contains(&job["state"].as_str().unwrap()) {
+            break job;
+        }
+        assert!(started.elapsed() < Duration::from_secs(300), "the build is stuck: {job}\n{}", deployment.log("worker-0"));
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(job["state"], "succeeded", "{job}\n{}\n{}", deployment.log("worker-0"), deployment.log("worker-1"));
+    assert_eq!(job["attempts"], 1, "waiting for the render jobs costs no attempt: {job}");
+    let rendering = saw_rendering.expect("the rendering stage was visible");
+    let mut fanned_out: Vec<&str> = rendering["fanned_out"].as_array().unwrap().iter().map(|s| s.as_str().unwrap()).collect();
+    fanned_out.sort();
+    let mut expected: Vec<String> = Vec::new();
+    for scene in ["scene_000", "scene_001"] {
+        for lighting in ["baseline", "camera", "dynamic_lights", "no_lights"] {
+            expected.push(format!("regen-1/{scene}/{lighting}"));
+        }
+    }
+    expected.sort();
+    assert_eq!(fanned_out, expected, "one render job per scene and lighting");
+
+    // Every render job ran once and succeeded.
+    let jobs: Value = server.admin(server.get("/api/v1/admin/jobs")).json().unwrap();
+    let renders: Vec<&Value> = jobs["jobs"].as_array().unwrap().iter().filter(|j| j["kind"] == "render_sequence").collect();
+    assert_eq!(renders.len(), 8, "{jobs}");
+    assert!(renders.iter().all(|j| j["state"] == "succeeded" && j["attempts"] == 1), "{renders:?}");
+
+    // The result is the release `osmab release build` makes of the same config, published.
+    let built: Value = serde_json::from_slice(&std::fs::read(test_release().join("manifest.json")).unwrap()).unwrap();
+    let release: Value = server.get("/api/v1/releases/regen-1").send().unwrap().json().unwrap();
+    assert_eq!(release["digest"], built["digest"], "{release}");
+    assert_eq!(release["state"], "published", "{release}");
+    assert_eq!(release["current"], true, "{release}");
+
+    for worker in &mut workers {
+        let _ = worker.kill();
+        let _ = worker.wait();
+    }
+}
+
+on_both_backends!(a_release_built_through_the_api_fans_out_its_rendering, super::a_release_built_through_the_api_fans_out_its_rendering);

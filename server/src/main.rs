@@ -8,6 +8,7 @@ mod config;
 mod intake;
 mod jobs;
 mod leaderboard;
+mod llm;
 mod metrics;
 mod problem;
 mod rate_limit;

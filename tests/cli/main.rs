@@ -1,6 +1,7 @@
 //! End-to-end tests of the `osmab` binary: real files in, real processes, real output.
 
 mod service;
+mod vqa;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,4 +1,4 @@
-//! `osmab eval metrics` and `osmab eval semseg`.
+//! `osmab eval metrics`, `osmab eval lightings` and `osmab eval semseg` (`osmab eval vqa` is in eval_vqa.rs).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -30,6 +30,8 @@ pub enum EvalCommand {
     },
     /// Score one map against one ground-truth directory.
     Semseg(SemsegArgs),
+    /// Judge OSMa-Bench VQA answer files and print one metrics.csv row per file.
+    Vqa(super::eval_vqa::VqaArgs),
 }
 
 #[derive(Debug, Args)]
@@ -61,6 +63,7 @@ pub fn run(cmd: EvalCommand) -> anyhow::Result<()> {
         EvalCommand::Metrics { dir } => metrics(&dir),
         EvalCommand::Lightings { dir, baseline } => lightings(&dir, &baseline),
         EvalCommand::Semseg(args) => semseg(&args),
+        EvalCommand::Vqa(args) => super::eval_vqa::run(&args),
     }
 }
 

@@ -3,6 +3,7 @@
 mod baseline;
 mod bench;
 mod eval;
+mod eval_vqa;
 mod gt;
 mod loadgen;
 mod release;

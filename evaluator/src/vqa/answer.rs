@@ -1,0 +1,201 @@
+//! The deterministic symbolic answerer: a question's machine-readable form evaluated
+//! against a scene graph. Nodes are matched to release classes by [`node_class`];
+//! relations come from the boxes (y is up): `on` = the subject's bottom within 15 cm of
+//! the object's top over its footprint, `under` = below it within its footprint,
+//! `inside` = centre within the box, `next to` = footprints within 50 cm, `near` and the
+//! viewpoint-dependent relations (behind, in front of, left, right — a graph has no
+//! viewer) = centres within 2 m.
+
+use serde::{Deserialize, Serialize};
+
+use super::graph::{GraphObject, SceneGraph, node_class};
+use super::{QuestionForm, Relation};
+
+/// Colour words the answerer looks for in node texts (and the generator names).
+pub const COLOURS: [&str; 12] = ["black", "white", "grey", "gray", "red", "orange", "yellow", "green", "blue", "purple", "pink", "brown"];
+
+/// What the answerer says when the graph cannot answer.
+pub const NO_ANSWER: &str = "No answer";
+
+/// Who produced an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AnsweredBy {
+    /// The team, in `answers/`.
+    Team,
+    /// The symbolic answerer, from the scene graph.
+    Symbolic,
+    /// The LLM answerer, from the scene graph.
+    Llm,
+    /// Nobody (no graph, no form, no LLM): counted as wrong.
+    None,
+}
+
+/// A scene graph with every node's class resolved once.
+pub struct ClassifiedGraph<'g> {
+    nodes: Vec<(&'g GraphObject, Option<String>)>,
+}
+
+const ON_GAP: f64 = 0.15;
+const NEXT_TO_GAP: f64 = 0.5;
+const NEAR: f64 = 2.0;
+
+fn footprints_overlap(a: &GraphObject, b: &GraphObject) -> bool {
+    [0, 2].iter().all(|&axis| a.min(axis) < b.max(axis) && b.min(axis) < a.max(axis))
+}
+
+fn footprint_gap(a: &GraphObject, b: &GraphObject) -> f64 {
+    let gap = |axis: usize| (a.min(axis) - b.max(axis)).max(b.min(axis) - a.max(axis)).max(0.0);
+    (gap(0).powi(2) + gap(2).powi(2)).sqrt()
+}
+
+/// Whether `subject` stands in `relation` to `object`, by their boxes.
+pub fn related(subject: &GraphObject, relation: Relation, object: &GraphObject) -> bool {
+    match relation {
+        Relation::On => footprints_overlap(subject, object) && (subject.min(1) - object.max(1)).abs() <= ON_GAP,
+        Relation::Under => footprints_overlap(subject, object) && subject.center[1] < object.center[1] && subject.max(1) <= object.max(1),
+        Relation::Inside => (0..3).all(|a| subject.center[a] >= object.min(a) && subject.center[a] <= object.max(a)),
+        Relation::NextTo => footprint_gap(subject, object) <= NEXT_TO_GAP,
+        Relation::Near | Relation::Behind | Relation::InFrontOf | Relation::LeftOf | Relation::RightOf => subject.distance(object) <= NEAR,
+    }
+}
+
+impl<'g> ClassifiedGraph<'g> {
+    pub fn new(graph: &'g SceneGraph, classes: &[String]) -> Self {
+        ClassifiedGraph { nodes: graph.objects.iter().map(|o| (o, node_class(o, classes).map(str::to_string))).collect() }
+    }
+
+    fn of(&self, class: &str) -> impl Iterator<Item = &'g GraphObject> + '_ {
+        let class = class.to_string();
+        self.nodes.iter().filter(move |(_, c)| c.as_deref() == Some(class.as_str())).map(|(o, _)| *o)
+    }
+
+    fn class_of(&self, object: &GraphObject) -> Option<&str> {
+        self.nodes.iter().find(|(o, _)| std::ptr::eq(*o, object)).and_then(|(_, c)| c.as_deref())
+    }
+
+    fn count(&self, class: &str) -> usize {
+        self.of(class).count()
+    }
+
+    /// The colour a node of `class` is described with, if any.
+    fn colour(&self, class: &str) -> Option<&'static str> {
+        self.of(class).find_map(|o| {
+            o.texts.iter().find_map(|t| {
+                let words: Vec<&str> = t.split(|c: char| !c.is_alphanumeric()).collect();
+                COLOURS.iter().copied().find(|c| words.contains(c)).map(|c| if c == "gray" { "grey" } else { c })
+            })
+        })
+    }
+
+    /// The answer of `form` from this graph.
+    pub fn answer(&self, form: &QuestionForm) -> String {
+        let yes_no = |b: bool| if b { "Yes".to_string() } else { "No".to_string() };
+        match form {
+            QuestionForm::Exists { class } => yes_no(self.count(class) > 0),
+            QuestionForm::ExistsAll { classes } => yes_no(classes.iter().all(|c| self.count(c) > 0)),
+            QuestionForm::ExistsAny { classes } => yes_no(classes.iter().any(|c| self.count(c) > 0)),
+            QuestionForm::Count { class } => self.count(class).to_string(),
+            QuestionForm::Related { subject, relation, object } => {
+                yes_no(self.of(subject).any(|s| self.of(object).any(|o| !std::ptr::eq(s, o) && related(s, *relation, o))))
+            }
+            QuestionForm::MoreThan { more, fewer } => yes_no(self.count(more) > self.count(fewer)),
+            QuestionForm::Larger { a, b } => {
+                let largest = |class: &str| self.of(class).map(GraphObject::volume).fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+                match (largest(a), largest(b)) {
+                    (Some(va), Some(vb)) => {
+                        if va >= vb {
+                            a.clone()
+                        } else {
+                            b.clone()
+                        }
+                    }
+                    (Some(_), None) => a.clone(),
+                    (None, Some(_)) => b.clone(),
+                    (None, None) => NO_ANSWER.into(),
+                }
+            }
+            QuestionForm::Colour { class } => self.colour(class).map_or(NO_ANSWER.into(), str::to_string),
+            QuestionForm::HasColour { class, colour } => {
+                yes_no(self.of(class).any(|o| o.texts.iter().any(|t| t.split(|c: char| !c.is_alphanumeric()).any(|w| w == colour))))
+            }
+            QuestionForm::Nearest { class } => {
+                let Some(subject) = self.of(class).next() else { return NO_ANSWER.into() };
+                self.nodes
+                    .iter()
+                    .filter(|(o, c)| !std::ptr::eq(*o, subject) && c.is_some() && c.as_deref() != Some(class.as_str()))
+                    .min_by(|(a, _), (b, _)| subject.distance(a).total_cmp(&subject.distance(b)))
+                    .and_then(|(_, c)| c.clone())
+                    .unwrap_or_else(|| NO_ANSWER.into())
+            }
+            QuestionForm::Support { class } => {
+                let Some(subject) = self.of(class).next() else { return NO_ANSWER.into() };
+                self.nodes
+                    .iter()
+                    .filter(|(o, c)| !std::ptr::eq(*o, subject) && c.is_some() && related(subject, Relation::On, o))
+                    .max_by(|(a, _), (b, _)| a.max(1).total_cmp(&b.max(1)))
+                    .map(|(o, _)| self.class_of(o).unwrap_or(NO_ANSWER).to_string())
+                    .unwrap_or_else(|| "floor".into())
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn graph() -> SceneGraph {
+        SceneGraph::parse(
+            &json!({"objects": [
+                {"id": "t", "label": "table", "bbox_center": [0, 0.375, 0], "bbox_extent": [1.2, 0.75, 0.8]},
+                {"id": "c1", "label": "chair", "caption": "a red chair", "bbox_center": [0.9, 0.45, 0], "bbox_extent": [0.5, 0.9, 0.5]},
+                {"id": "c2", "label": "chairs", "bbox_center": [-0.9, 0.45, 0], "bbox_extent": [0.5, 0.9, 0.5]},
+                {"id": "m", "label": "mug", "bbox_center": [0.1, 0.8, 0.1], "bbox_extent": [0.1, 0.1, 0.1]},
+                {"id": "s", "label": "sofa", "bbox_center": [0, 0.4, -4], "bbox_extent": [2, 0.8, 0.9]}
+            ]}),
+            "g.json",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn forms_are_answered_from_the_boxes_and_labels() {
+        let classes: Vec<String> = ["table", "chair", "mug", "sofa", "bed"].map(String::from).to_vec();
+        let g = graph();
+        let answerer = ClassifiedGraph::new(&g, &classes);
+        let s = |x: &str| x.to_string();
+        let cases = [
+            (QuestionForm::Exists { class: s("sofa") }, "Yes"),
+            (QuestionForm::Exists { class: s("bed") }, "No"),
+            (QuestionForm::ExistsAll { classes: vec![s("sofa"), s("bed")] }, "No"),
+            (QuestionForm::ExistsAny { classes: vec![s("sofa"), s("bed")] }, "Yes"),
+            (QuestionForm::Count { class: s("chair") }, "2"),
+            (QuestionForm::Related { subject: s("mug"), relation: Relation::On, object: s("table") }, "Yes"),
+            (QuestionForm::Related { subject: s("mug"), relation: Relation::On, object: s("sofa") }, "No"),
+            (QuestionForm::Related { subject: s("chair"), relation: Relation::NextTo, object: s("table") }, "Yes"),
+            (QuestionForm::Related { subject: s("sofa"), relation: Relation::NextTo, object: s("table") }, "No"),
+            (QuestionForm::MoreThan { more: s("chair"), fewer: s("table") }, "Yes"),
+            (QuestionForm::Larger { a: s("mug"), b: s("sofa") }, "sofa"),
+            (QuestionForm::Colour { class: s("chair") }, "red"),
+            (QuestionForm::Colour { class: s("sofa") }, NO_ANSWER),
+            (QuestionForm::HasColour { class: s("chair"), colour: s("blue") }, "No"),
+            (QuestionForm::Nearest { class: s("sofa") }, "table"),
+            (QuestionForm::Support { class: s("mug") }, "table"),
+            (QuestionForm::Support { class: s("table") }, "floor"),
+        ];
+        for (form, want) in cases {
+            assert_eq!(answerer.answer(&form), want, "{form:?}");
+        }
+    }
+
+    #[test]
+    fn an_empty_graph_knows_nothing_exists() {
+        let empty = SceneGraph::default();
+        let classes = vec!["chair".to_string()];
+        let answerer = ClassifiedGraph::new(&empty, &classes);
+        assert_eq!(answerer.answer(&QuestionForm::Count { class: "chair".into() }), "0");
+        assert_eq!(answerer.answer(&QuestionForm::Nearest { class: "chair".into() }), NO_ANSWER);
+    }
+}

@@ -1,0 +1,219 @@
+//! Scene graphs as submissions carry them (product.md section 5): osmab's
+//! `{"objects": [...], "edges"?: [...]}`, or ConceptGraphs' and BBQ's own node lists. A
+//! node is matched to a release class by its label, or else by the class names its
+//! texts (tag, caption, description, possible tags) mention.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::InputError;
+
+/// One node of a scene graph.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GraphObject {
+    pub id: String,
+    /// The node's texts, most specific first: label, object_tag, description, caption,
+    /// then possible tags; lower case.
+    pub texts: Vec<String>,
+    /// Box centre and extent in the release's world frame (y up).
+    pub center: [f64; 3],
+    pub extent: [f64; 3],
+}
+
+impl GraphObject {
+    pub fn min(&self, axis: usize) -> f64 {
+        self.center[axis] - self.extent[axis] / 2.0
+    }
+    pub fn max(&self, axis: usize) -> f64 {
+        self.center[axis] + self.extent[axis] / 2.0
+    }
+    pub fn volume(&self) -> f64 {
+        self.extent.iter().product()
+    }
+    pub fn distance(&self, other: &GraphObject) -> f64 {
+        (0..3).map(|a| (self.center[a] - other.center[a]).powi(2)).sum::<f64>().sqrt()
+    }
+}
+
+/// A relation edge, if the graph has any.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Edge {
+    pub source: String,
+    pub target: String,
+    pub relation: String,
+}
+
+/// A parsed scene graph.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SceneGraph {
+    pub objects: Vec<GraphObject>,
+    pub edges: Vec<Edge>,
+}
+
+fn triple(value: Option<&Value>, name: &str, field: String) -> Result<Option<[f64; 3]>, InputError> {
+    let Some(value) = value else { return Ok(None) };
+    let numbers: Option<Vec<f64>> = value.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect());
+    match numbers {
+        Some(n) if n.len() == 3 && value.as_array().is_some_and(|a| a.len() == 3) && n.iter().all(|x| x.is_finite()) => Ok(Some([n[0], n[1], n[2]])),
+        _ => Err(InputError::new(name, field, "expected three finite numbers")),
+    }
+}
+
+impl SceneGraph {
+    /// Parse a scene graph JSON value; `name` is the file as the participant knows it.
+    pub fn parse(value: &Value, name: &str) -> Result<SceneGraph, InputError> {
+        let nodes = match value {
+            Value::Array(list) => list,
+            Value::Object(map) => match map.get("objects") {
+                Some(Value::Array(list)) => list,
+                _ => return Err(InputError::new(name, "objects", "expected {\"objects\": [...]} or a list of nodes")),
+            },
+            _ => return Err(InputError::new(name, "(json)", "expected {\"objects\": [...]} or a list of nodes")),
+        };
+        let mut objects = Vec::with_capacity(nodes.len());
+        for (i, node) in nodes.iter().enumerate() {
+            let Some(fields) = node.as_object() else {
+                return Err(InputError::new(name, format!("objects[{i}]"), "expected an object"));
+            };
+            let id = match fields.get("id") {
+                Some(Value::String(s)) => s.clone(),
+                Some(Value::Number(n)) => n.to_string(),
+                None => i.to_string(),
+                Some(_) => return Err(InputError::new(name, format!("objects[{i}].id"), "expected a string or an integer")),
+            };
+            let mut texts = Vec::new();
+            for key in ["label", "object_tag", "description", "caption"] {
+                match fields.get(key) {
+                    Some(Value::String(s)) if !s.trim().is_empty() => texts.push(s.trim().to_lowercase()),
+                    Some(Value::String(_) | Value::Null) | None => {}
+                    Some(_) => return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected a string")),
+                }
+            }
+            if let Some(tags) = fields.get("possible_tags") {
+                let Some(list) = tags.as_array() else {
+                    return Err(InputError::new(name, format!("objects[{i}].possible_tags"), "expected a list of strings"));
+                };
+                texts.extend(list.iter().filter_map(Value::as_str).map(|s| s.trim().to_lowercase()).filter(|s| !s.is_empty()));
+            }
+            let center = triple(fields.get("bbox_center"), name, format!("objects[{i}].bbox_center"))?;
+            let extent = triple(fields.get("bbox_extent"), name, format!("objects[{i}].bbox_extent"))?;
+            let (Some(center), Some(extent)) = (center, extent) else {
+                return Err(InputError::new(name, format!("objects[{i}]"), "every node needs bbox_center and bbox_extent (three numbers each)"));
+            };
+            if extent.iter().any(|&e| e < 0.0) {
+                return Err(InputError::new(name, format!("objects[{i}].bbox_extent"), "extents cannot be negative"));
+            }
+            objects.push(GraphObject { id, texts, center, extent });
+        }
+        let mut edges = Vec::new();
+        if let Some(list) = value.get("edges") {
+            let Some(list) = list.as_array() else {
+                return Err(InputError::new(name, "edges", "expected a list of {\"source\", \"target\", \"relation\"}"));
+            };
+            for (i, edge) in list.iter().enumerate() {
+                let text = |key: &str| match edge.get(key) {
+                    Some(Value::String(s)) => Some(s.clone()),
+                    Some(Value::Number(n)) => Some(n.to_string()),
+                    _ => None,
+                };
+                match (text("source"), text("target"), text("relation")) {
+                    (Some(source), Some(target), Some(relation)) => edges.push(Edge { source, target, relation: relation.to_lowercase() }),
+                    _ => return Err(InputError::new(name, format!("edges[{i}]"), "expected {\"source\", \"target\", \"relation\"}")),
+                }
+            }
+        }
+        Ok(SceneGraph { objects, edges })
+    }
+
+    /// Read a scene graph file.
+    pub fn read(path: &Path, name: &str) -> Result<SceneGraph, InputError> {
+        let bytes = std::fs::read(path).map_err(|e| InputError::io(name, &e))?;
+        let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))?;
+        SceneGraph::parse(&value, name)
+    }
+}
+
+/// Lower-case words of `text`.
+fn words(text: &str) -> Vec<String> {
+    text.to_lowercase().split(|c: char| !c.is_alphanumeric()).filter(|w| !w.is_empty()).map(str::to_string).collect()
+}
+
+/// A word and its plural forms agree ("chair"/"chairs", "box"/"boxes", "shelf"/"shelves").
+fn same_word(word: &str, class_word: &str) -> bool {
+    word == class_word
+        || word.strip_suffix('s') == Some(class_word)
+        || word.strip_suffix("es") == Some(class_word)
+        || (class_word.ends_with('y') && word.strip_suffix("ies") == Some(&class_word[..class_word.len() - 1]))
+        || (class_word.ends_with('f') && word.strip_suffix("ves") == Some(&class_word[..class_word.len() - 1]))
+}
+
+/// Whether `text` names `class` (its words in order, the last one possibly plural;
+/// underscores in class names count as spaces).
+pub fn mentions_class(text: &str, class: &str) -> bool {
+    let class_words = words(&class.replace('_', " "));
+    let text_words = words(text);
+    if class_words.is_empty() || text_words.len() < class_words.len() {
+        return false;
+    }
+    text_words.windows(class_words.len()).any(|window| {
+        let n = class_words.len();
+        window[..n - 1] == class_words[..n - 1] && same_word(&window[n - 1], &class_words[n - 1])
+    })
+}
+
+/// The release class a node stands for: the first of its texts that names a class
+/// decides, and within it the longest class name ("dining chair" over "chair").
+pub fn node_class<'c>(object: &GraphObject, classes: &'c [String]) -> Option<&'c str> {
+    for text in &object.texts {
+        let best = classes.iter().filter(|c| mentions_class(text, c)).max_by_key(|c| (words(&c.replace('_', " ")).len(), c.len()));
+        if let Some(class) = best {
+            return Some(class);
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn class_names_match_whole_words_and_plurals() {
+        assert!(mentions_class("two wooden chairs", "chair"));
+        assert!(mentions_class("bookshelves", "bookshelf"));
+        assert!(mentions_class("a dining chair", "dining_chair"));
+        assert!(!mentions_class("armchair", "chair"));
+        assert!(!mentions_class("chair", "dining chair"));
+        assert!(mentions_class("boxes on a shelf", "box"));
+    }
+
+    #[test]
+    fn every_format_parses_and_finds_its_classes() {
+        let classes: Vec<String> = ["chair", "dining chair", "table", "sofa"].map(String::from).to_vec();
+        let osmab = json!({"objects": [{"id": "a", "label": "Dining Chair", "bbox_center": [0, 0.5, 0], "bbox_extent": [0.5, 1, 0.5]}]});
+        let concept_graphs = json!([{"id": 3, "object_tag": "wooden table", "caption": "a table with a cup", "possible_tags": ["table"], "bbox_center": [1, 0.4, 0], "bbox_extent": [1.2, 0.8, 0.6]}]);
+        let bbq = json!([{"id": 0, "description": "a grey sofa with cushions", "bbox_center": [0, 0, 0], "bbox_extent": [2, 1, 1]}]);
+        for (graph, want) in [(osmab, "dining chair"), (concept_graphs, "table"), (bbq, "sofa")] {
+            let parsed = SceneGraph::parse(&graph, "graphs/baseline/scene_000.json").unwrap();
+            assert_eq!(node_class(&parsed.objects[0], &classes), Some(want));
+        }
+    }
+
+    #[test]
+    fn malformed_graphs_are_refused_with_the_field() {
+        let name = "graphs/camera/scene_001.json";
+        for (graph, field) in [
+            (json!({"nodes": []}), "objects"),
+            (json!([{"id": 1, "bbox_center": [0, 0], "bbox_extent": [1, 1, 1]}]), "objects[0].bbox_center"),
+            (json!([{"id": 1, "bbox_center": [0, 0, 0]}]), "objects[0]"),
+            (json!([{"id": 1, "label": 5, "bbox_center": [0, 0, 0], "bbox_extent": [1, 1, 1]}]), "objects[0].label"),
+            (json!([{"id": 1, "bbox_center": [0, 0, 0], "bbox_extent": [1, -1, 1]}]), "objects[0].bbox_extent"),
+            (json!({"objects": [], "edges": [{"source": 1}]}), "edges[0]"),
+        ] {
+            let e = SceneGraph::parse(&graph, name).unwrap_err();
+            assert_eq!((e.file.as_str(), e.field.as_str()), (name, field), "{e}");
+        }
+    }
+}

@@ -15,6 +15,7 @@ use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
 
+use crate::questions::SceneObject;
 use crate::release::GROUND_TRUTH;
 
 /// The baselines, by name.
@@ -50,6 +51,12 @@ pub fn lighting_severity(lighting: &str) -> f64 {
         "no_lights" => 1.8,
         _ => 1.0,
     }
+}
+
+/// The pose-drift baseline's motion of a point: a 1.5° yaw and an 8 cm shift, times `severity`.
+fn pose_drift(p: [f64; 3], severity: f64) -> [f64; 3] {
+    let (s, c) = (1.5 * severity).to_radians().sin_cos();
+    [c * p[0] + s * p[2] + 0.08 * severity, p[1], -s * p[0] + c * p[2] + 0.03 * severity]
 }
 
 /// The map of baseline `name` for one scene's ground truth under a lighting of `severity`.
@@ -129,11 +136,9 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
         "pose-drift" => {
             // A 1.5° yaw and 8 cm shift of the whole map (more under harder lightings):
             // geometry near boundaries mislabels.
-            let (s, c) = (1.5 * severity).to_radians().sin_cos();
             for p in &mut points {
-                let (x, z) = (p[0] as f64, p[2] as f64);
-                p[0] = (c * x + s * z + 0.08 * severity) as f32;
-                p[2] = (-s * x + c * z + 0.03 * severity) as f32;
+                let moved = pose_drift([p[0] as f64, p[1] as f64, p[2] as f64], severity);
+                *p = moved.map(|v| v as f32);
             }
         }
         other => return Err(InputError::new("(baseline)", "name", format!("unknown baseline '{other}' (expected one of {})", BASELINES.join(", ")))),
@@ -142,7 +147,41 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
     Ok(PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: objects.labels } })
 }
 
-/// The scene graph of a map: one node per object with its class name and box.
+/// The scene graph of a baseline from the objects the trajectory saw (the release's
+/// hidden `objects/<scene>.json`): each object takes the majority class of the
+/// baseline's map points in its box (moved by the drift for pose-drift; its own class
+/// when that has a quarter of them), and objects whose box holds no map point are
+/// missed, so the graph degrades with the map.
+fn graph_from_seen(name: &str, seen: &[SceneObject], map: &PredictedMap, classes: &ClassList, severity: f64) -> Value {
+    let MapSemantics::ObjectLabels { object_ids, labels } = &map.semantics else { return json!({"objects": []}) };
+    let round = |v: f64| (v * 1000.0).round() / 1000.0;
+    let objects: Vec<Value> = seen
+        .iter()
+        .filter(|o| o.seen())
+        .filter_map(|o| {
+            let center = if name == "pose-drift" { pose_drift(o.bbox_center, severity) } else { o.bbox_center };
+            let inside = |p: &[f32; 3]| (0..3).all(|a| (p[a] as f64 - center[a]).abs() <= o.bbox_extent[a] / 2.0 + 0.05);
+            let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
+            for (p, &object) in map.points.iter().zip(object_ids) {
+                if inside(p) {
+                    *votes.entry(labels[object as usize]).or_default() += 1;
+                }
+            }
+            // Its own class wins with a quarter of the points: a mug's box also holds the
+            // table top it stands on.
+            let total: usize = votes.values().sum();
+            let own = votes.iter().find(|(l, _)| classes.name(**l) == Some(o.label.as_str())).filter(|(_, n)| 4 * **n >= total).map(|(l, _)| *l);
+            let class = own.or_else(|| votes.iter().max_by_key(|(l, n)| (**n, std::cmp::Reverse(**l))).map(|(l, _)| *l))?;
+            let label = classes.name(class).unwrap_or("other").to_string();
+            let caption = if label == o.label { o.caption.clone() } else { format!("a {label}") };
+            Some(json!({"id": o.id, "label": label, "caption": caption, "bbox_center": center.map(round), "bbox_extent": o.bbox_extent.map(round)}))
+        })
+        .collect();
+    json!({"objects": objects})
+}
+
+/// The scene graph of a map: one node per object with its class name and box (for
+/// releases without the seen objects).
 fn scene_graph(map: &PredictedMap, classes: &ClassList) -> Value {
     let MapSemantics::ObjectLabels { object_ids, labels } = &map.semantics else { return json!({"objects": []}) };
     let mut boxes = vec![([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]); labels.len()];
@@ -188,9 +227,21 @@ pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
         let gt_dir = release.join(GROUND_TRUTH).join(scene);
         let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
         let gt = GroundTruth::read(&gt_dir, &classes)?;
+        let seen_path = release.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json"));
+        let seen: Option<Vec<SceneObject>> = match std::fs::read(&seen_path) {
+            Ok(bytes) => {
+                let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(&seen_path, "(json)", e.to_string()))?;
+                Some(serde_json::from_value(value["objects"].clone()).map_err(|e| InputError::new(&seen_path, "objects", e.to_string()))?)
+            }
+            Err(_) => None,
+        };
         for lighting in &lightings {
-            let map = baseline_map(name, &gt, 1000 + i as u64, lighting_severity(lighting))?;
-            let graph = scene_graph(&map, &classes);
+            let severity = lighting_severity(lighting);
+            let map = baseline_map(name, &gt, 1000 + i as u64, severity)?;
+            let graph = match &seen {
+                Some(seen) => graph_from_seen(name, seen, &map, &classes, severity),
+                None => scene_graph(&map, &classes),
+            };
             let map_path = out.join("maps").join(lighting).join(format!("{scene}.npz"));
             std::fs::create_dir_all(map_path.parent().expect("nested")).map_err(|e| InputError::io(&map_path, &e))?;
             map.write(&map_path, true)?;

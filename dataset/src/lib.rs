@@ -8,6 +8,7 @@ pub mod embedding;
 pub mod external;
 pub mod openai;
 pub mod prompts;
+pub mod questions;
 pub mod release;
 pub mod render;
 pub mod selection;

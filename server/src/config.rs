@@ -77,6 +77,10 @@ pub struct Settings {
     pub rate_burst: f64,
     /// `text` or `json` logs (`OSMAB_LOG_FORMAT`).
     pub log_format: String,
+    /// OpenAI-compatible endpoint and model of the optional VQA answerer and judge
+    /// (`OSMAB_LLM_URL`, `OSMAB_LLM_MODEL`; the key in `OSMAB_LLM_API_KEY`, never in files).
+    pub llm_url: Option<String>,
+    pub llm_model: Option<String>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -98,6 +102,8 @@ struct FileSettings {
     rate_limit: Option<f64>,
     rate_burst: Option<f64>,
     log_format: Option<String>,
+    llm_url: Option<String>,
+    llm_model: Option<String>,
 }
 
 impl Settings {
@@ -154,6 +160,8 @@ impl Settings {
             rate_limit: layer!("OSMAB_RATE_LIMIT", from_file.rate_limit, 20.0),
             rate_burst: layer!("OSMAB_RATE_BURST", from_file.rate_burst, 60.0),
             log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format.clone(), "text".to_string()),
+            llm_url: env("OSMAB_LLM_URL").filter(|s| !s.trim().is_empty()).or(from_file.llm_url.clone()),
+            llm_model: env("OSMAB_LLM_MODEL").filter(|s| !s.trim().is_empty()).or(from_file.llm_model.clone()),
         };
         settings.check()?;
         Ok(settings)
@@ -166,6 +174,7 @@ impl Settings {
         anyhow::ensure!(self.poll_ms >= 10, "poll_ms must be at least 10");
         anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
+        anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");
         if let Some(token) = &self.admin_token {
             let text = token.expose();
             anyhow::ensure!(

@@ -6,6 +6,7 @@
 
 use osmab_dataset::openai::{ServiceClient, ServiceConfig};
 use osmab_evaluator::vqa::judge::{OpenJudge, Pending};
+use osmab_evaluator::vqa::score::OpenAnswerer;
 use serde_json::{Value, json};
 
 /// The endpoint from `--llm-url`/`--llm-model` and `OSMAB_LLM_API_KEY`.
@@ -57,7 +58,26 @@ impl OpenJudge for LlmJudge {
     }
 }
 
-/// The LLM answerer: `questions` (id, text) about `scene_graph`; answers by id.
+/// The LLM answerer.
+pub struct LlmAnswerer {
+    pub client: ServiceClient,
+}
+
+impl OpenAnswerer for LlmAnswerer {
+    fn answer(&self, graph: &Value, questions: &[(String, String)]) -> Vec<Option<String>> {
+        answer_with_llm(&self.client, graph, questions)
+    }
+}
+
+/// The LLM answerer and judge of the service's settings, if configured.
+pub fn from_settings(settings: &crate::config::Settings) -> anyhow::Result<Option<(LlmAnswerer, LlmJudge)>> {
+    match (&settings.llm_url, &settings.llm_model) {
+        (Some(url), Some(model)) => Ok(Some((LlmAnswerer { client: client(url, model)? }, LlmJudge { client: client(url, model)? }))),
+        _ => Ok(None),
+    }
+}
+
+/// `questions` (id, text) about `scene_graph`, answered in batches of 10; answers by id.
 pub fn answer_with_llm(client: &ServiceClient, scene_graph: &Value, questions: &[(String, String)]) -> Vec<Option<String>> {
     let mut answers = vec![None; questions.len()];
     for (chunk_index, chunk) in questions.chunks(10).enumerate() {

@@ -131,3 +131,109 @@ fn malformed_answer_files_are_refused_with_file_and_entry() {
         assert!(stderr.contains(name) && stderr.contains(expected), "{stderr}");
     }
 }
+
+mod release_questions {
+    //! The questions of a built release, answered from scene graphs.
+
+    use std::collections::BTreeMap;
+
+    use osmab_evaluator::submission::release::ReleaseIndex;
+    use osmab_evaluator::submission::validate::{SubmissionLimits, validate};
+    use osmab_evaluator::vqa::answer::ClassifiedGraph;
+    use osmab_evaluator::vqa::graph::SceneGraph;
+    use osmab_evaluator::vqa::is_prompt_grounded;
+    use osmab_evaluator::vqa::judge::judge_without_llm;
+    use osmab_evaluator::vqa::score::{OpenBackends, score_vqa};
+    use serde_json::Value;
+
+    use crate::service::test_release;
+
+    /// (correct, total) of the prompt-grounded and the standard questions over every scene
+    /// when answered symbolically from `graph_of(scene)`.
+    fn accuracy(graph_of: &dyn Fn(&str) -> SceneGraph) -> [(usize, usize); 2] {
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let classes = index.class_names();
+        let mut tally = [(0, 0); 2];
+        for scene in &index.scenes {
+            let questions = index.answered_questions(&scene.id).unwrap().expect("the release has questions");
+            let graph = graph_of(&scene.id);
+            let answerer = ClassifiedGraph::new(&graph, &classes);
+            for q in &questions.questions {
+                let predicted = answerer.answer(q.form.as_ref().expect("every generated question has a form"));
+                let verdict = judge_without_llm(&Value::from(q.answer.clone().unwrap()), &Value::from(predicted), q.form.as_ref(), None);
+                let slot = &mut tally[usize::from(!is_prompt_grounded(&q.category))];
+                slot.0 += usize::from(verdict.expect("every generated answer can be judged without an LLM").correct);
+                slot.1 += 1;
+            }
+        }
+        tally
+    }
+
+    fn ground_truth_graph(scene: &str) -> SceneGraph {
+        let path = test_release().join("ground_truth/objects").join(format!("{scene}.json"));
+        SceneGraph::read(&path, "objects.json").unwrap()
+    }
+
+    #[test]
+    fn every_scene_has_prompt_grounded_and_standard_questions_with_hidden_answers() {
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        for scene in &index.scenes {
+            let public = index.public_questions(&scene.id).unwrap().expect("public questions");
+            let answered = index.answered_questions(&scene.id).unwrap().expect("answers with the ground truth");
+            assert_eq!(public, answered.without_answers());
+            assert!(public.questions.iter().all(|q| q.answer.is_none() && q.form.is_some()));
+            let mut per: BTreeMap<&str, usize> = BTreeMap::new();
+            for q in &answered.questions {
+                *per.entry(q.category.as_str()).or_default() += 1;
+                let answer = q.answer.as_deref().unwrap();
+                if is_prompt_grounded(&q.category) {
+                    assert!(answer == "Yes" || answer == "No" || answer.bytes().all(|b| b.is_ascii_digit()), "{q:?}");
+                }
+            }
+            assert!(per["PromptGT-Measurement"] >= 3 && per["PromptGT-Relations"] >= 3, "{}: {per:?}", scene.id);
+            assert!((1..=4).contains(&per["PromptGT-Existence"]), "{}: {per:?}", scene.id);
+            assert!(per.keys().filter(|c| !is_prompt_grounded(c)).count() >= 6, "{}: standard categories {per:?}", scene.id);
+            let manifest: Value = serde_json::from_slice(&std::fs::read(test_release().join("manifest.json")).unwrap()).unwrap();
+            let listed = manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == format!("questions/{}.json", scene.id));
+            assert!(listed, "the public questions are release files");
+            assert!(!manifest["files"].as_array().unwrap().iter().any(|f| f["path"].as_str().unwrap().starts_with("ground_truth")));
+        }
+    }
+
+    #[test]
+    fn the_ground_truth_scene_graph_answers_the_prompt_and_an_empty_one_almost_nothing() {
+        let [(right, total), (std_right, std_total)] = accuracy(&ground_truth_graph);
+        eprintln!("ground-truth graph: prompt-grounded {right}/{total}, standard {std_right}/{std_total}");
+        assert!(right as f64 >= 0.95 * total as f64, "the ground-truth graph answers {right} of {total} prompt-grounded questions");
+        let [(right, total), (std_right, std_total)] = accuracy(&|_| SceneGraph::default());
+        eprintln!("empty graph: prompt-grounded {right}/{total}, standard {std_right}/{std_total}");
+        assert!(right as f64 <= 0.25 * total as f64, "an empty graph answers {right} of {total} prompt-grounded questions");
+        assert!(std_right as f64 <= 0.5 * std_total as f64, "an empty graph answers {std_right} of {std_total} standard questions");
+    }
+
+    /// Pooled VQA accuracy of a baseline under every lighting.
+    fn baseline_vqa(name: &str) -> BTreeMap<String, f64> {
+        let dir = tempfile::tempdir().unwrap();
+        let out = crate::osmab(&["baseline", name, "--release", crate::path(test_release()), "--out", crate::path(dir.path())]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let valid = validate(dir.path(), &index, SubmissionLimits::default()).unwrap();
+        let vqa = score_vqa(&valid, &index, OpenBackends::default()).unwrap().expect("baselines carry scene graphs");
+        vqa["lightings"].as_object().unwrap().iter().map(|(l, v)| (l.clone(), v["overall"]["accuracy"].as_f64().unwrap())).collect()
+    }
+
+    #[test]
+    fn degraded_baselines_answer_worse_than_the_oracle_and_worse_under_harder_lighting() {
+        let oracle = baseline_vqa("oracle");
+        let scored: BTreeMap<&str, BTreeMap<String, f64>> =
+            ["drop-small", "merge", "label-noise", "pose-drift"].iter().map(|n| (*n, baseline_vqa(n))).collect();
+        eprintln!("VQA accuracy per lighting: oracle {oracle:?}, {scored:?}");
+        for (name, by_lighting) in &scored {
+            for (lighting, accuracy) in by_lighting {
+                assert!(*accuracy <= oracle[lighting], "{name} under {lighting}: {accuracy} > the oracle's {}", oracle[lighting]);
+            }
+            assert!(by_lighting["no_lights"] <= by_lighting["baseline"], "{name}: {by_lighting:?}");
+        }
+        assert!(scored.values().any(|l| l["baseline"] < oracle["baseline"]), "some degradation costs answers: {scored:?} vs {oracle:?}");
+    }
+}

@@ -23,9 +23,11 @@ use serde_json::{Value, json};
 use crate::convert::habitat::ConversionReport;
 use crate::convert::lexicon::normalise_name;
 use crate::prompts::ScenePrompt;
+use crate::questions::{scene_objects, scene_questions};
 use crate::render::sequence::SequenceSummary;
 use crate::spec::Regime;
 use manifest::{digest, list_files};
+use osmab_evaluator::vqa::is_prompt_grounded;
 use stages::{Build, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK};
 
@@ -87,6 +89,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
 
     // 3–6. Per scene: synthesis, conversion, sequences, ground truth.
     let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
+    let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
     for (i, prompt) in prompts.iter().enumerate() {
@@ -110,13 +113,28 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             &out.join("scenes").join(&scene).join("prompt.json"),
             &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}),
         )?;
-        scenes_json.push(json!({"id": scene, "subset": prompt.spec.regime, "prompt": prompt.text}));
+        scenes_json.push(json!({"id": scene, "subset": prompt.spec.regime, "prompt": prompt.text, "questions": format!("questions/{scene}.json")}));
 
         // Quality: what the prompt asked for, what the scene has, what the camera saw.
         let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
         let baseline = summaries.get("baseline").or_else(|| summaries.values().next()).cloned().unwrap_or_default();
         let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
         let gt = GroundTruth::read(&gt_dir, &classes)?;
+
+        // Questions: prompt-grounded and standard, public without their answers; the
+        // answers and the scene objects stay with the ground truth.
+        let objects = scene_objects(&conversion, &gt);
+        let questions = scene_questions(&scene, &prompt.spec, &objects, &lexicon, config.seed.wrapping_add(i as u64));
+        write_json(&out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
+        write_json(&out.join(GROUND_TRUTH).join("questions").join(format!("{scene}.json")), &questions)?;
+        write_json(&out.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json")), &json!({"scene": scene, "objects": objects}))?;
+        progress(&format!(
+            "{scene}: {} questions ({} prompt-grounded), {} objects seen",
+            questions.questions.len(),
+            questions.questions.iter().filter(|q| is_prompt_grounded(&q.category)).count(),
+            objects.iter().filter(|o| o.seen()).count()
+        ));
+
         let mut gt_points: BTreeMap<i64, u64> = BTreeMap::new();
         for &l in &gt.labels {
             *gt_points.entry(l).or_default() += 1;
@@ -163,13 +181,16 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("quality/quality_report.json"), &json!({"scenes": quality.len(), "full_match": full, "per_scene": quality}))?;
     let scene_names: Vec<&str> = quality.iter().map(|q| q.scene.as_str()).collect();
     let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
-    let gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
+    let mut gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
+    for scene in &scene_names {
+        gt_expected.extend([format!("questions/{scene}.json"), format!("objects/{scene}.json")]);
+    }
     refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
     let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into()];
     for scene in &scene_names {
-        expected.push(format!("scenes/{scene}/"));
+        expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
         for lighting in &lightings {
             expected.extend([format!("sequences/{lighting}/{scene}/"), format!("quality/contact_sheets/{lighting}/{scene}.png")]);
         }

@@ -70,6 +70,30 @@ impl ReleaseIndex {
         self.scenes.iter().all(|s| self.ground_truth_dir(&s.id).join("semantic.npy").is_file())
     }
 
+    /// The questions of `scene` with their answers (`ground_truth/questions/<scene>.json`),
+    /// or `None` for a release built without questions or a copy without ground truth.
+    pub fn answered_questions(&self, scene: &str) -> Result<Option<crate::vqa::SceneQuestions>> {
+        let path = self.root.join(GROUND_TRUTH_DIR).join("questions").join(format!("{scene}.json"));
+        if !path.is_file() {
+            return Ok(None);
+        }
+        crate::vqa::SceneQuestions::read(&path).map(Some)
+    }
+
+    /// The public questions of `scene` (`questions/<scene>.json`), if the release has them.
+    pub fn public_questions(&self, scene: &str) -> Result<Option<crate::vqa::SceneQuestions>> {
+        let path = self.root.join("questions").join(format!("{scene}.json"));
+        if !path.is_file() {
+            return Ok(None);
+        }
+        crate::vqa::SceneQuestions::read(&path).map(Some)
+    }
+
+    /// The release's class names, in id order.
+    pub fn class_names(&self) -> Vec<String> {
+        self.classes.entries().into_iter().map(|c| c.name).collect()
+    }
+
     /// The class list of `scene`'s ground truth.
     pub fn scene_classes(&self, scene: &str) -> Result<ClassList> {
         ClassList::read(&self.ground_truth_dir(scene).join("embed_semseg_classes.json"))

@@ -38,7 +38,15 @@ fn aggregates(table: &MetricsTable) -> Map<String, Value> {
 
 /// Score `submission` against the ground truth in `release`; `progress` hears of each
 /// (lighting, scene) done and the number in all.
-pub fn score_submission(submission: &ValidSubmission, release: &ReleaseIndex, limits: SubmissionLimits, progress: &dyn Fn(usize, usize)) -> Result<Value> {
+/// VQA is scored from the graphs and answers (see [`crate::vqa::score`]) with `open`'s
+/// optional LLM answerer and judge.
+pub fn score_submission(
+    submission: &ValidSubmission,
+    release: &ReleaseIndex,
+    limits: SubmissionLimits,
+    open: crate::vqa::score::OpenBackends,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Value> {
     if !release.has_ground_truth() {
         return Err(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against"));
     }
@@ -93,6 +101,7 @@ pub fn score_submission(submission: &ValidSubmission, release: &ReleaseIndex, li
             );
         }
     }
+    let vqa = crate::vqa::score::score_vqa(submission, release, open)?;
     Ok(json!({
         "release": release.version,
         "evaluator_version": EVALUATOR_VERSION,
@@ -100,5 +109,6 @@ pub fn score_submission(submission: &ValidSubmission, release: &ReleaseIndex, li
         "missing_maps": submission.missing_maps,
         "semseg": semseg,
         "relative_change": relative_change,
+        "vqa": vqa,
     }))
 }

@@ -154,49 +154,14 @@ fn read_json(path: &Path, name: &str, limits: SubmissionLimits) -> Result<Value,
     serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))
 }
 
-fn finite_triple(value: &Value) -> bool {
-    value.as_array().is_some_and(|a| a.len() == 3 && a.iter().all(|v| v.as_f64().is_some_and(f64::is_finite)))
-}
-
 /// A scene graph: `{"objects": [...], "edges"?: [...]}` or a bare node list (ConceptGraphs, BBQ).
 fn check_graph(value: &Value, name: &str) -> Result<(), InputError> {
-    let objects = match value {
-        Value::Array(list) => list,
-        Value::Object(map) => match map.get("objects") {
-            Some(Value::Array(list)) => list,
-            _ => return Err(InputError::new(name, "objects", "expected {\"objects\": [...]} or a list of nodes")),
-        },
-        _ => return Err(InputError::new(name, "(json)", "expected {\"objects\": [...]} or a list of nodes")),
-    };
-    for (i, object) in objects.iter().enumerate() {
-        let Some(fields) = object.as_object() else {
-            return Err(InputError::new(name, format!("objects[{i}]"), "expected an object"));
-        };
-        for key in ["bbox_center", "bbox_extent"] {
-            if let Some(v) = fields.get(key)
-                && !finite_triple(v)
-            {
-                return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected three finite numbers"));
-            }
-        }
-        for key in ["label", "caption"] {
-            if let Some(v) = fields.get(key)
-                && !(v.is_string() || v.is_null())
-            {
-                return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected a string"));
-            }
-        }
-    }
-    if let Some(edges) = value.get("edges")
-        && !edges.is_array()
-    {
-        return Err(InputError::new(name, "edges", "expected a list of {\"source\", \"target\", \"relation\"}"));
-    }
-    Ok(())
+    crate::vqa::graph::SceneGraph::parse(value, name).map(|_| ())
 }
 
-/// Answers: `[{"question_id", "answer"}]` with unique ids.
-fn check_answers(value: &Value, name: &str) -> Result<(), InputError> {
+/// Answers: `[{"question_id", "answer"}]` with unique ids, each a question of the scene
+/// when the release lists them (`known`).
+fn check_answers(value: &Value, name: &str, scene: &str, known: Option<&BTreeSet<String>>) -> Result<(), InputError> {
     let Some(list) = value.as_array() else {
         return Err(InputError::new(name, "(json)", "expected a list of {\"question_id\": str, \"answer\": str}"));
     };
@@ -208,6 +173,13 @@ fn check_answers(value: &Value, name: &str) -> Result<(), InputError> {
             (Some(id), Some(Value::String(_) | Value::Number(_) | Value::Bool(_))) => {
                 if !seen.insert(id.to_string()) {
                     return Err(InputError::new(name, format!("[{i}].question_id"), format!("question '{id}' is answered twice")));
+                }
+                if known.is_some_and(|ids| !ids.contains(id)) {
+                    return Err(InputError::new(
+                        name,
+                        format!("[{i}].question_id"),
+                        format!("'{id}' is not a question of {scene}; the release lists them in questions/{scene}.json"),
+                    ));
                 }
             }
             _ => return Err(InputError::new(name, format!("[{i}]"), "expected {\"question_id\": str, \"answer\": str}")),
@@ -391,7 +363,13 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
                 entry.graph = Some(path);
             }
             _ => {
-                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_answers(&v, name)) {
+                let known = release
+                    .public_questions(scene)
+                    .ok()
+                    .flatten()
+                    .or_else(|| release.answered_questions(scene).ok().flatten())
+                    .map(|questions| questions.questions.into_iter().map(|q| q.id).collect::<BTreeSet<String>>());
+                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_answers(&v, name, scene, known.as_ref())) {
                     problems.push(e);
                 }
                 entry.answers = Some(path);

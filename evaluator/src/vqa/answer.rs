@@ -1,10 +1,11 @@
 //! The deterministic symbolic answerer: a question's machine-readable form evaluated
 //! against a scene graph. Nodes are matched to release classes by [`node_class`];
-//! relations come from the boxes (y is up): `on` = the subject's bottom within 15 cm of
-//! the object's top over its footprint, `under` = below it within its footprint,
-//! `inside` = centre within the box, `next to` = footprints within 50 cm, `near` and the
-//! viewpoint-dependent relations (behind, in front of, left, right — a graph has no
-//! viewer) = centres within 2 m.
+//! relations come from the boxes (y is up), with the distances the scene synthesizer
+//! places by: `on` = the subject's bottom within 15 cm of the object's top over its
+//! footprint, `under` = below it within its footprint, `inside` = centre within the box,
+//! `next to` = footprints within 50 cm, `near` = within 1.2 m; behind, in front of, left
+//! and right need a facing or a viewer, which a graph does not have, so they are checked
+//! as footprints within 1.5 m.
 
 use serde::{Deserialize, Serialize};
 
@@ -38,7 +39,8 @@ pub struct ClassifiedGraph<'g> {
 
 const ON_GAP: f64 = 0.15;
 const NEXT_TO_GAP: f64 = 0.5;
-const NEAR: f64 = 2.0;
+const NEAR_GAP: f64 = 1.2;
+const DIRECTIONAL_GAP: f64 = 1.5;
 
 fn footprints_overlap(a: &GraphObject, b: &GraphObject) -> bool {
     [0, 2].iter().all(|&axis| a.min(axis) < b.max(axis) && b.min(axis) < a.max(axis))
@@ -56,7 +58,8 @@ pub fn related(subject: &GraphObject, relation: Relation, object: &GraphObject) 
         Relation::Under => footprints_overlap(subject, object) && subject.center[1] < object.center[1] && subject.max(1) <= object.max(1),
         Relation::Inside => (0..3).all(|a| subject.center[a] >= object.min(a) && subject.center[a] <= object.max(a)),
         Relation::NextTo => footprint_gap(subject, object) <= NEXT_TO_GAP,
-        Relation::Near | Relation::Behind | Relation::InFrontOf | Relation::LeftOf | Relation::RightOf => subject.distance(object) <= NEAR,
+        Relation::Near => footprint_gap(subject, object) <= NEAR_GAP,
+        Relation::Behind | Relation::InFrontOf | Relation::LeftOf | Relation::RightOf => footprint_gap(subject, object) <= DIRECTIONAL_GAP,
     }
 }
 

@@ -9,6 +9,7 @@ pub mod answer;
 pub mod graph;
 pub mod judge;
 pub mod osma;
+pub mod score;
 pub mod text;
 
 use serde::{Deserialize, Serialize};

@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission, unpack, validate};
+use osmab_evaluator::vqa::score::OpenBackends;
 use osmab_evaluator::{EVALUATOR_VERSION, InputError};
 use serde_json::json;
 
@@ -41,6 +42,7 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     let release = release_dir(&state.blobs, &submission.release)?;
     let unpack_to = Scratch(state.blobs.scratch("score"));
     let max_unpacked = state.settings.max_unpacked_bytes;
+    let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
     let blocking_ctx = ctx.clone();
     let body = tokio::task::spawn_blocking(move || -> Result<serde_json::Value, JobError> {
         let root = unpack_to.0.clone();
@@ -52,7 +54,11 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
         let progress = |done: usize, total: usize| {
             blocking_ctx.progress_blocking(&json!({"stage": "scoring", "done": done, "total": total, "message": format!("scored {done} of {total} maps")}));
         };
-        let scored = score_submission(&valid, &index, SubmissionLimits::default(), &progress).map_err(|e| classify(e, &valid.root));
+        let open = match &llm {
+            Some((answerer, judge)) => OpenBackends { answerer: Some(answerer), judge: Some(judge) },
+            None => OpenBackends::default(),
+        };
+        let scored = score_submission(&valid, &index, SubmissionLimits::default(), open, &progress).map_err(|e| classify(e, &valid.root));
         drop(unpack_to);
         scored
     })

@@ -1,0 +1,161 @@
+//! The VQA part of a submission's score: for every (lighting, scene) with a scene graph
+//! or answers, every question of the scene answered (the team's own answer, else the
+//! symbolic answerer on the graph, else the optional LLM answerer) and judged, then
+//! pooled as the paper does. Which answerer and which judge decided is recorded.
+
+use std::collections::BTreeMap;
+
+use serde_json::{Value, json};
+
+use super::aggregate::{JudgedQuestion, summarize};
+use super::answer::{AnsweredBy, ClassifiedGraph, NO_ANSWER};
+use super::graph::SceneGraph;
+use super::judge::{JudgedBy, OpenJudge, Pending, Verdict, judge_without_llm};
+use crate::error::{InputError, Result};
+use crate::submission::release::ReleaseIndex;
+use crate::submission::validate::ValidSubmission;
+
+/// An answerer for questions without a machine-readable form (an LLM).
+pub trait OpenAnswerer {
+    /// Answers to `questions` (id, text) from `graph` (the file's JSON), by position.
+    fn answer(&self, graph: &Value, questions: &[(String, String)]) -> Vec<Option<String>>;
+}
+
+/// The optional open answerer and judge.
+#[derive(Default, Clone, Copy)]
+pub struct OpenBackends<'a> {
+    pub answerer: Option<&'a dyn OpenAnswerer>,
+    pub judge: Option<&'a dyn OpenJudge>,
+}
+
+struct Answered {
+    id: String,
+    answer: String,
+    by: AnsweredBy,
+    verdict: Option<Verdict>,
+}
+
+fn team_answers(path: &std::path::Path, name: &str) -> Result<BTreeMap<String, Value>> {
+    let bytes = std::fs::read(path).map_err(|e| InputError::io(name, &e))?;
+    let list: Vec<Value> = serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", e.to_string()))?;
+    Ok(list.into_iter().filter_map(|item| Some((item.get("question_id")?.as_str()?.to_string(), item.get("answer")?.clone()))).collect())
+}
+
+/// Score the VQA of `submission`; `None` when the release has no questions or the
+/// submission no graphs or answers.
+pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> Result<Option<Value>> {
+    let classes = release.class_names();
+    let mut judged = Vec::new();
+    let mut answered_by: BTreeMap<&'static str, u64> = BTreeMap::new();
+    let mut judged_by: BTreeMap<&'static str, u64> = BTreeMap::new();
+    let mut per_scene: BTreeMap<String, serde_json::Map<String, Value>> = BTreeMap::new();
+    let mut questions_cache = BTreeMap::new();
+    for entry in submission.entries.iter().filter(|e| e.graph.is_some() || e.answers.is_some()) {
+        if !questions_cache.contains_key(&entry.scene) {
+            questions_cache.insert(entry.scene.clone(), release.answered_questions(&entry.scene)?);
+        }
+        let Some(questions) = &questions_cache[&entry.scene] else { continue };
+        let subset = release.scene(&entry.scene).map(|s| s.subset.clone()).unwrap_or_default();
+        let team = match &entry.answers {
+            Some(path) => team_answers(path, &format!("answers/{}/{}.json", entry.lighting, entry.scene))?,
+            None => BTreeMap::new(),
+        };
+        let graph_name = format!("graphs/{}/{}.json", entry.lighting, entry.scene);
+        let graph_json: Option<Value> = match &entry.graph {
+            Some(path) => Some(
+                serde_json::from_slice(&std::fs::read(path).map_err(|e| InputError::io(&graph_name, &e))?)
+                    .map_err(|e| InputError::new(&graph_name, "(json)", e.to_string()))?,
+            ),
+            None => None,
+        };
+        let graph = graph_json.as_ref().map(|g| SceneGraph::parse(g, &graph_name)).transpose()?;
+        let classified = graph.as_ref().map(|g| ClassifiedGraph::new(g, &classes));
+
+        let mut answers: Vec<Answered> = Vec::with_capacity(questions.questions.len());
+        let mut open_questions = Vec::new();
+        for q in &questions.questions {
+            let (answer, by) = if let Some(a) = team.get(&q.id) {
+                (super::text::python_str(a), AnsweredBy::Team)
+            } else if let (Some(g), Some(form)) = (&classified, &q.form) {
+                (g.answer(form), AnsweredBy::Symbolic)
+            } else {
+                if graph_json.is_some() && open.answerer.is_some() {
+                    open_questions.push((answers.len(), q.id.clone(), q.question.clone()));
+                }
+                (NO_ANSWER.to_string(), AnsweredBy::None)
+            };
+            answers.push(Answered { id: q.id.clone(), answer, by, verdict: None });
+        }
+        if let (Some(answerer), Some(g)) = (open.answerer, &graph_json)
+            && !open_questions.is_empty()
+        {
+            let asked: Vec<(String, String)> = open_questions.iter().map(|(_, id, text)| (id.clone(), text.clone())).collect();
+            for ((slot, _, _), reply) in open_questions.iter().zip(answerer.answer(g, &asked)) {
+                if let Some(reply) = reply {
+                    answers[*slot].answer = reply;
+                    answers[*slot].by = AnsweredBy::Llm;
+                }
+            }
+        }
+        let mut pending = Vec::new();
+        for (k, (q, a)) in questions.questions.iter().zip(answers.iter_mut()).enumerate() {
+            let truth = Value::String(q.answer.clone().unwrap_or_default());
+            a.verdict = judge_without_llm(&truth, &Value::String(a.answer.clone()), q.form.as_ref(), None);
+            if a.verdict.is_none() && a.by != AnsweredBy::None {
+                pending.push(k);
+            }
+        }
+        if let Some(judge) = open.judge {
+            for batch in pending.chunks(10) {
+                let items: Vec<Pending> = batch
+                    .iter()
+                    .map(|&k| Pending {
+                        question: questions.questions[k].question.clone(),
+                        answer: questions.questions[k].answer.clone().unwrap_or_default(),
+                        scene_graph_answer: answers[k].answer.clone(),
+                    })
+                    .collect();
+                for (&k, verdict) in batch.iter().zip(judge.judge(&items)) {
+                    answers[k].verdict = verdict.map(|correct| Verdict { correct, by: JudgedBy::Llm });
+                }
+            }
+        }
+        let mut rows = Vec::with_capacity(answers.len());
+        let (mut right, total) = (0u64, answers.len() as u64);
+        for (q, a) in questions.questions.iter().zip(&answers) {
+            let correct = a.verdict.is_some_and(|v| v.correct);
+            right += correct as u64;
+            let by = a.verdict.map_or(JudgedBy::None, |v| v.by);
+            *answered_by.entry(answered_name(a.by)).or_default() += 1;
+            *judged_by.entry(by.name()).or_default() += 1;
+            judged.push(JudgedQuestion {
+                scene: entry.scene.clone(),
+                subset: subset.clone(),
+                lighting: entry.lighting.clone(),
+                category: q.category.clone(),
+                correct,
+            });
+            rows.push(
+                json!({"id": a.id, "category": q.category, "answer": a.answer, "answered_by": answered_name(a.by), "correct": correct, "judged_by": by.name()}),
+            );
+        }
+        per_scene.entry(entry.lighting.clone()).or_default().insert(entry.scene.clone(), json!({"correct": right, "total": total, "answers": rows}));
+    }
+    if judged.is_empty() {
+        return Ok(None);
+    }
+    let mut summary = summarize(&judged, &["furniture", "manipuland"]);
+    summary["answered_by"] = json!(answered_by);
+    summary["judged_by"] = json!(judged_by);
+    summary["scenes"] = json!(per_scene);
+    Ok(Some(summary))
+}
+
+fn answered_name(by: AnsweredBy) -> &'static str {
+    match by {
+        AnsweredBy::Team => "team",
+        AnsweredBy::Symbolic => "symbolic",
+        AnsweredBy::Llm => "llm",
+        AnsweredBy::None => "none",
+    }
+}

@@ -88,7 +88,8 @@ impl Leaderboard {
     }
 
     /// The CSV export: one row per entry, per lighting the pooled and mean metrics and
-    /// the pooled metrics of each subset; empty cells where a value is undefined.
+    /// the pooled metrics of each subset, then per lighting the VQA accuracies; empty
+    /// cells where a value is undefined.
     pub fn to_csv(&self) -> String {
         let mut header = vec!["rank", "submission_id", "team", "method", "baseline", "complete"].into_iter().map(String::from).collect::<Vec<_>>();
         for lighting in &self.lightings {
@@ -103,6 +104,7 @@ impl Leaderboard {
                 }
             }
         }
+        header.extend(crate::leaderboard_vqa::csv_columns(&self.lightings));
         let mut out = header.join(",") + "\n";
         let cell = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
         for (rank, e) in self.entries.iter().enumerate() {
@@ -120,6 +122,7 @@ impl Leaderboard {
                     }
                 }
             }
+            row.extend(crate::leaderboard_vqa::csv_cells(e, &self.lightings).into_iter().map(cell));
             out.push_str(&(row.join(",") + "\n"));
         }
         out

@@ -8,6 +8,7 @@ mod config;
 mod intake;
 mod jobs;
 mod leaderboard;
+mod leaderboard_vqa;
 mod llm;
 mod metrics;
 mod problem;

@@ -75,3 +75,47 @@ pub async fn csv(State(state): State<AppState>, Query(query): Query<LeaderboardQ
     let board = rendered(&state, query.release.as_deref()).await?;
     Ok(respond(&board, &headers, true))
 }
+
+#[derive(Debug, Deserialize)]
+pub struct VqaQuery {
+    /// A release version; the current release by default.
+    pub release: Option<String>,
+    /// `2` or `3`: one table only (the CSV needs one).
+    pub table: Option<u8>,
+}
+
+/// `GET /api/v1/leaderboard/vqa`: the paper's Table II and Table III shapes as JSON.
+pub async fn vqa_tables(State(state): State<AppState>, Query(query): Query<VqaQuery>) -> ApiResult<Response> {
+    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = &board.board;
+    let body = match query.table {
+        Some(2) => serde_json::json!({"release": board.release, "lightings": board.lightings, "table2": crate::leaderboard_vqa::table_two(board)}),
+        Some(3) => serde_json::json!({"release": board.release, "table3": crate::leaderboard_vqa::table_three(board)}),
+        None => serde_json::json!({
+            "release": board.release,
+            "lightings": board.lightings,
+            "table2": crate::leaderboard_vqa::table_two(board),
+            "table3": crate::leaderboard_vqa::table_three(board),
+        }),
+        Some(other) => return Err(Problem::bad_request("invalid_request", format!("table: expected 2 or 3, found {other}"))),
+    };
+    Ok(axum::Json(body).into_response())
+}
+
+/// `GET /api/v1/leaderboard/vqa.csv?table=2|3`: one of the tables as CSV.
+pub async fn vqa_table_csv(State(state): State<AppState>, Query(query): Query<VqaQuery>) -> ApiResult<Response> {
+    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = &board.board;
+    let text = match query.table {
+        Some(2) => crate::leaderboard_vqa::table_csv(&crate::leaderboard_vqa::table_two(board), &crate::leaderboard_vqa::table_two_columns(&board.lightings)),
+        Some(3) => crate::leaderboard_vqa::table_csv(&crate::leaderboard_vqa::table_three(board), &crate::leaderboard_vqa::TABLE_THREE_COLUMNS),
+        _ => {
+            return Err(Problem::bad_request(
+                "invalid_request",
+                "table: expected ?table=2 (prompt-grounded per lighting) or ?table=3 (standard against prompt-grounded)",
+            ));
+        }
+    };
+    let disposition = format!("inline; filename=\"vqa-table{}-{}.csv\"", query.table.unwrap_or(0), board.release);
+    Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
+}

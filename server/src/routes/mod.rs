@@ -8,6 +8,7 @@ mod jobs;
 mod leaderboard;
 mod openapi;
 mod pages;
+mod pages_vqa;
 mod releases;
 mod submissions;
 
@@ -122,6 +123,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/submissions/{id}/cancel", post(submissions::cancel))
         .route("/api/v1/leaderboard", get(leaderboard::json_or_csv))
         .route("/api/v1/leaderboard.csv", get(leaderboard::csv))
+        .route("/api/v1/leaderboard/vqa", get(leaderboard::vqa_tables))
+        .route("/api/v1/leaderboard/vqa.csv", get(leaderboard::vqa_table_csv))
         .route("/api/v1/jobs/{id}", get(jobs::show))
         .route("/api/v1/admin/teams", post(admin::create_team).get(admin::list_teams))
         .route("/api/v1/admin/teams/{id}", axum::routing::patch(admin::update_team))

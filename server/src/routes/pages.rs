@@ -34,7 +34,7 @@ fn metric_label(metric: &str) -> &'static str {
 }
 
 /// A metric in percent with one decimal, or an en dash where undefined.
-fn percent(v: Option<f64>) -> String {
+pub(super) fn percent(v: Option<f64>) -> String {
     v.map(|x| format!("{:.1}", 100.0 * x)).unwrap_or_else(|| "–".into())
 }
 
@@ -42,7 +42,7 @@ fn signed_percent(v: Option<f64>) -> String {
     v.map(|x| format!("{:+.1}%", 100.0 * x)).unwrap_or_else(|| "–".into())
 }
 
-fn escape_xml(text: &str) -> String {
+pub(super) fn escape_xml(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
@@ -97,6 +97,7 @@ pub struct LeaderboardPage {
     pub chart: String,
     pub csv_link: String,
     pub json_link: String,
+    pub vqa: Option<super::pages_vqa::VqaView>,
 }
 
 #[derive(Template, WebTemplate)]
@@ -111,7 +112,7 @@ fn link(release: &str, agg: &str, subset: &str, sort: &str) -> String {
 }
 
 /// A short name of a lighting for narrow column headers.
-fn lighting_short(lighting: &str) -> String {
+pub(super) fn lighting_short(lighting: &str) -> String {
     match lighting {
         "camera" => "Camera".into(),
         "dynamic_lights" => "Dynamic".into(),
@@ -286,6 +287,7 @@ fn board_page(board: &crate::leaderboard::Leaderboard, agg: &str, subset: &str, 
         chart,
         csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
         json_link: format!("/api/v1/leaderboard?release={release}"),
+        vqa: super::pages_vqa::vqa_view(release, &board.lightings, &entries, (subset != "all").then_some(subset)),
     }
 }
 
@@ -422,6 +424,8 @@ pub struct SubmissionPage {
     pub complete: bool,
     pub history: Vec<EventView>,
     pub results: Vec<LightingResult>,
+    pub vqa: Vec<super::pages_vqa::VqaLighting>,
+    pub vqa_sources: String,
     pub evaluator_version: String,
     pub refresh: bool,
 }
@@ -442,10 +446,10 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, Path(id):
         .collect();
     let scores = &view["scores"];
     let mut results = Vec::new();
+    let release = state.store.release(&s.release).await?;
+    let manifest: Value = serde_json::from_str(&release.manifest).unwrap_or_default();
+    let order: Vec<String> = manifest["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str().map(String::from)).collect();
     if let Some(semseg) = scores["semseg"].as_object() {
-        let release = state.store.release(&s.release).await?;
-        let manifest: Value = serde_json::from_str(&release.manifest).unwrap_or_default();
-        let order: Vec<String> = manifest["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str().map(String::from)).collect();
         for lighting in order.iter().filter(|l| semseg.contains_key(l.as_str())) {
             let table = &semseg[lighting.as_str()];
             let triple = |v: &Value| METRICS.iter().map(|m| percent(v[m].as_f64())).collect::<Vec<_>>();
@@ -472,6 +476,8 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, Path(id):
         complete: s.complete,
         history,
         results,
+        vqa: super::pages_vqa::submission_vqa(&scores["vqa"], &order),
+        vqa_sources: super::pages_vqa::vqa_sources(&scores["vqa"]),
         evaluator_version: scores["evaluator_version"].as_str().unwrap_or("").into(),
     }
     .into_response())

@@ -645,12 +645,39 @@ def main() -> int:
                 svg = dom.find("svg", cls="chart")
                 expect(svg is not None, "no <svg class=chart>")
                 expect(len(svg.find_all("rect")) >= EXPECTED_ENTRIES, "the chart has no bars")
-                (sw, sh), = page.boxes("svg.chart") or [(0, 0)]
+                sw, sh = (page.boxes("svg.chart") or [(0, 0)])[0]  # the robustness chart comes first
                 expect(sw > 300 and sh > 100, f"the chart renders at {sw:.0f}x{sh:.0f} px")
                 (tw, _), = page.boxes("#leaderboard")
-                (ww, _), = page.boxes(".table-wrap")
+                ww = page.boxes(".table-wrap")[0][0]  # the segmentation table's wrapper comes first
                 overflow = f"; table {tw:.0f}px wide in a {ww:.0f}px wrapper (scrolls sideways)" if tw > ww + 1 else ""
                 return f"{summary}; chart {sw:.0f}x{sh:.0f}; {shot}{overflow}"
+            finally:
+                page.close()
+
+        def leaderboard_vqa():
+            page, dom, shot = load("/", "10-leaderboard-vqa")
+            try:
+                table = dom.find(id="vqa-board")
+                expect(table is not None, "no question-answering table (#vqa-board)")
+                rows = table.find("tbody").kids("tr")
+                with_vqa = [e for e in board["entries"] if isinstance(e["scores"].get("vqa"), dict)]
+                expect(len(rows) == len(with_vqa) == EXPECTED_ENTRIES, f"{len(rows)} VQA rows for {len(with_vqa)} entries with VQA scores")
+                checked = 0
+                for tr, entry in zip(rows, with_vqa):
+                    tds = [td.clean() for td in tr.kids("td")]
+                    expect(tds[0] == entry["method"], f"VQA row {tds[0]!r}, expected {entry['method']!r}")
+                    cells = iter(tds[1:])
+                    for lighting in board["lightings"]:
+                        at = entry["scores"]["vqa"]["lightings"][lighting]
+                        for question_set in ("prompt_grounded", "standard"):
+                            for group in ("Measurements", "Relations"):
+                                want = pct(at[question_set]["groups"][group]["accuracy"])
+                                got = next(cells)
+                                expect(got == want, f"{entry['method']} {lighting} {question_set} {group}: page {got}, API {want}")
+                                checked += 1
+                charts = page.boxes(".charts svg")
+                expect(len(charts) == 4 and all(w > 200 and h > 100 for w, h in charts), f"the VQA charts render at {charts}")
+                return f"{len(rows)} rows, {checked} cells equal to the API, 4 charts; {shot}"
             finally:
                 page.close()
 
@@ -783,6 +810,7 @@ def main() -> int:
 
         run("JavaScript disabled", js_is_off)
         run("leaderboard (default)", leaderboard_default)
+        run("leaderboard question answering", leaderboard_vqa)
         run("leaderboard sort=no_lights.macc agg=overall_mean", leaderboard_sorted)
         run("leaderboard subset=manipuland", leaderboard_manipuland)
         run("follow a sort link from the leaderboard", follow_sort_link)

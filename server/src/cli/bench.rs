@@ -109,6 +109,21 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 40)]
         timed_frames: usize,
     },
+    /// Time the symbolic VQA answerer and the judge on a full-size synthetic submission.
+    Vqa {
+        #[arg(long, default_value_t = 40)]
+        scenes: usize,
+        #[arg(long, default_value_t = 4)]
+        lightings: usize,
+        /// Scene-graph nodes per scene (ConceptGraphs' example has 64).
+        #[arg(long, default_value_t = 64)]
+        objects: usize,
+        /// Questions per scene (OSMa-Bench's ReplicaCAD set has about 184).
+        #[arg(long, default_value_t = 200)]
+        questions: usize,
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+    },
     /// Time index build and queries of the nearest-neighbour association in-process.
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
@@ -168,6 +183,9 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Render { scenesmith, frames, lit, save } => render_frames(&scenesmith, frames, lit, save.as_deref()),
         BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => {
             scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref())
+        }
+        BenchCommand::Vqa { scenes, lightings, objects, questions, repeat } => {
+            super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
             let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });

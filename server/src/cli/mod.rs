@@ -2,6 +2,7 @@
 
 mod baseline;
 mod bench;
+mod bench_vqa;
 mod eval;
 mod eval_vqa;
 mod gt;

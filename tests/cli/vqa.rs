@@ -237,3 +237,59 @@ mod release_questions {
         assert!(scored.values().any(|l| l["baseline"] < oracle["baseline"]), "some degradation costs answers: {scored:?} vs {oracle:?}");
     }
 }
+
+mod team_answers {
+    //! Answers a team supplies are checked against the release's questions and used as given.
+
+    use osmab_evaluator::submission::release::ReleaseIndex;
+    use osmab_evaluator::submission::validate::{SubmissionLimits, validate};
+    use osmab_evaluator::vqa::score::{OpenBackends, score_vqa};
+    use serde_json::{Value, json};
+
+    use crate::service::test_release;
+
+    fn oracle_with_answers(answers: &Value) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        let out = crate::osmab(&["baseline", "oracle", "--release", crate::path(test_release()), "--out", crate::path(dir.path())]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let file = dir.path().join("answers/baseline/scene_000.json");
+        std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+        std::fs::write(&file, serde_json::to_vec(answers).unwrap()).unwrap();
+        dir
+    }
+
+    #[test]
+    fn an_answer_to_a_question_the_scene_does_not_have_is_refused() {
+        let dir = oracle_with_answers(&json!([{"question_id": "scene_000-p01", "answer": "2"}, {"question_id": "scene_001-p01", "answer": "Yes"}]));
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let problems = validate(dir.path(), &index, SubmissionLimits::default()).unwrap_err();
+        assert_eq!(problems.len(), 1, "{problems:?}");
+        let problem = &problems[0];
+        assert_eq!((problem.file.as_str(), problem.field.as_str()), ("answers/baseline/scene_000.json", "[1].question_id"));
+        assert!(problem.message.contains("not a question of scene_000") && problem.message.contains("questions/scene_000.json"), "{problem}");
+    }
+
+    #[test]
+    fn the_team_s_answers_are_used_as_given_and_recorded_as_theirs() {
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let questions = index.answered_questions("scene_000").unwrap().unwrap();
+        // Right answers to every question but the first, which gets a wrong one.
+        let answers: Vec<Value> = questions
+            .questions
+            .iter()
+            .enumerate()
+            .map(|(i, q)| json!({"question_id": q.id, "answer": if i == 0 { "no idea".to_string() } else { q.answer.clone().unwrap() }}))
+            .collect();
+        let dir = oracle_with_answers(&Value::Array(answers));
+        let valid = validate(dir.path(), &index, SubmissionLimits::default()).unwrap();
+        let vqa = score_vqa(&valid, &index, OpenBackends::default()).unwrap().unwrap();
+        let scene = &vqa["scenes"]["baseline"]["scene_000"];
+        let rows = scene["answers"].as_array().unwrap();
+        assert_eq!(rows.len(), questions.questions.len());
+        assert!(rows.iter().all(|r| r["answered_by"] == "team"), "{rows:?}");
+        assert_eq!(rows[0]["correct"], false);
+        assert_eq!(scene["correct"].as_u64().unwrap() as usize, questions.questions.len() - 1);
+        let other = &vqa["scenes"]["camera"]["scene_000"]["answers"];
+        assert!(other.as_array().unwrap().iter().all(|r| r["answered_by"] == "symbolic"), "other lightings are answered from the graph");
+    }
+}

@@ -154,9 +154,31 @@ fn read_json(path: &Path, name: &str, limits: SubmissionLimits) -> Result<Value,
     serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))
 }
 
-/// A scene graph: `{"objects": [...], "edges"?: [...]}` or a bare node list (ConceptGraphs, BBQ).
-fn check_graph(value: &Value, name: &str) -> Result<(), InputError> {
-    crate::vqa::graph::SceneGraph::parse(value, name).map(|_| ())
+/// A scene graph: `{"objects": [...], "edges"?: [...]}` or a bare node list (ConceptGraphs,
+/// BBQ); node features need text_features.npz in the same space.
+fn check_graph(value: &Value, name: &str, text: Option<&TextFeatures>) -> Result<(), InputError> {
+    let graph = crate::vqa::graph::SceneGraph::parse(value, name)?;
+    for (i, node) in graph.objects.iter().enumerate() {
+        let Some(features) = &node.features else { continue };
+        match text {
+            None => {
+                return Err(InputError::new(
+                    name,
+                    format!("objects[{i}].features"),
+                    "nodes carry features, so the submission needs text_features.npz in the same space",
+                ));
+            }
+            Some(t) if t.features.dim != features.len() => {
+                return Err(InputError::new(
+                    name,
+                    format!("objects[{i}].features"),
+                    format!("{} dimensions but text_features.npz has {}; they must share one space", features.len(), t.features.dim),
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 /// Answers: `[{"question_id", "answer"}]` with unique ids, each a question of the scene
@@ -357,7 +379,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
                 entry.map = Some(path);
             }
             "graphs" => {
-                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_graph(&v, name)) {
+                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_graph(&v, name, text.as_ref())) {
                     problems.push(e);
                 }
                 entry.graph = Some(path);

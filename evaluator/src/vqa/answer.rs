@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::graph::{GraphObject, SceneGraph, node_class};
+use super::graph::{FeatureVocabulary, GraphObject, SceneGraph, node_class};
 use super::{QuestionForm, Relation};
 
 /// Colour words the answerer looks for in node texts (and the generator names).
@@ -65,7 +65,12 @@ pub fn related(subject: &GraphObject, relation: Relation, object: &GraphObject) 
 
 impl<'g> ClassifiedGraph<'g> {
     pub fn new(graph: &'g SceneGraph, classes: &[String]) -> Self {
-        ClassifiedGraph { nodes: graph.objects.iter().map(|o| (o, node_class(o, classes).map(str::to_string))).collect() }
+        Self::with_features(graph, classes, None)
+    }
+
+    /// As [`ClassifiedGraph::new`], naming nodes that carry only a feature by `vocabulary`.
+    pub fn with_features(graph: &'g SceneGraph, classes: &[String], vocabulary: Option<&FeatureVocabulary>) -> Self {
+        ClassifiedGraph { nodes: graph.objects.iter().map(|o| (o, node_class(o, classes, vocabulary))).collect() }
     }
 
     fn of(&self, class: &str) -> impl Iterator<Item = &'g GraphObject> + '_ {

@@ -19,6 +19,8 @@ pub struct GraphObject {
     /// Box centre and extent in the release's world frame (y up).
     pub center: [f64; 3],
     pub extent: [f64; 3],
+    /// The node's feature vector, in the space of the submission's text_features.npz.
+    pub features: Option<Vec<f32>>,
 }
 
 impl GraphObject {
@@ -104,7 +106,26 @@ impl SceneGraph {
             if extent.iter().any(|&e| e < 0.0) {
                 return Err(InputError::new(name, format!("objects[{i}].bbox_extent"), "extents cannot be negative"));
             }
-            objects.push(GraphObject { id, texts, center, extent });
+            let features = match fields.get("features") {
+                None | Some(Value::Null) => None,
+                Some(Value::Array(values)) => {
+                    let numbers: Vec<f32> = values.iter().filter_map(Value::as_f64).map(|v| v as f32).collect();
+                    if numbers.len() != values.len()
+                        || numbers.is_empty()
+                        || numbers.len() > crate::formats::map::MAX_FEATURE_DIM
+                        || !numbers.iter().all(|v| v.is_finite())
+                    {
+                        return Err(InputError::new(
+                            name,
+                            format!("objects[{i}].features"),
+                            format!("expected 1 to {} finite numbers", crate::formats::map::MAX_FEATURE_DIM),
+                        ));
+                    }
+                    Some(numbers)
+                }
+                Some(_) => return Err(InputError::new(name, format!("objects[{i}].features"), "expected a list of numbers")),
+            };
+            objects.push(GraphObject { id, texts, center, extent, features });
         }
         let mut edges = Vec::new();
         if let Some(list) = value.get("edges") {
@@ -131,6 +152,47 @@ impl SceneGraph {
         let bytes = std::fs::read(path).map_err(|e| InputError::io(name, &e))?;
         let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))?;
         SceneGraph::parse(&value, name)
+    }
+}
+
+/// Class text features as unit vectors, to name nodes that carry only a feature.
+pub struct FeatureVocabulary {
+    names: Vec<String>,
+    rows: Vec<Vec<f64>>,
+    pub dim: usize,
+}
+
+impl FeatureVocabulary {
+    /// The classes of `text` that `classes` names (the shell and "other" too: a node can
+    /// be a wall).
+    pub fn new(text: &crate::formats::map::TextFeatures, classes: &crate::formats::classes::ClassList) -> Self {
+        let mut names = Vec::new();
+        let mut rows = Vec::new();
+        for (i, id) in text.class_ids.iter().enumerate() {
+            let Some(name) = classes.name(*id) else { continue };
+            let row = text.features.row(i);
+            let norm = row.iter().map(|&v| f64::from(v) * f64::from(v)).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                names.push(name.to_string());
+                rows.push(row.iter().map(|&v| f64::from(v) / norm).collect());
+            }
+        }
+        FeatureVocabulary { names, rows, dim: text.features.dim }
+    }
+
+    /// The class whose text feature is most similar (cosine, the first maximum wins).
+    pub fn classify(&self, features: &[f32]) -> Option<&str> {
+        if features.len() != self.dim {
+            return None;
+        }
+        let mut best: Option<(f64, usize)> = None;
+        for (j, row) in self.rows.iter().enumerate() {
+            let dot: f64 = row.iter().zip(features).map(|(a, &b)| a * f64::from(b)).sum();
+            if best.is_none_or(|(b, _)| dot > b) {
+                best = Some((dot, j));
+            }
+        }
+        best.map(|(_, j)| self.names[j].as_str())
     }
 }
 
@@ -163,15 +225,16 @@ pub fn mentions_class(text: &str, class: &str) -> bool {
 }
 
 /// The release class a node stands for: the first of its texts that names a class
-/// decides, and within it the longest class name ("dining chair" over "chair").
-pub fn node_class<'c>(object: &GraphObject, classes: &'c [String]) -> Option<&'c str> {
+/// decides, and within it the longest class name ("dining chair" over "chair"); a node
+/// without a class name takes the class of its feature, when it has one.
+pub fn node_class(object: &GraphObject, classes: &[String], vocabulary: Option<&FeatureVocabulary>) -> Option<String> {
     for text in &object.texts {
         let best = classes.iter().filter(|c| mentions_class(text, c)).max_by_key(|c| (words(&c.replace('_', " ")).len(), c.len()));
         if let Some(class) = best {
-            return Some(class);
+            return Some(class.clone());
         }
     }
-    None
+    object.features.as_deref().zip(vocabulary).and_then(|(f, v)| v.classify(f)).map(str::to_string)
 }
 
 #[cfg(test)]
@@ -197,8 +260,33 @@ mod tests {
         let bbq = json!([{"id": 0, "description": "a grey sofa with cushions", "bbox_center": [0, 0, 0], "bbox_extent": [2, 1, 1]}]);
         for (graph, want) in [(osmab, "dining chair"), (concept_graphs, "table"), (bbq, "sofa")] {
             let parsed = SceneGraph::parse(&graph, "graphs/baseline/scene_000.json").unwrap();
-            assert_eq!(node_class(&parsed.objects[0], &classes), Some(want));
+            assert_eq!(node_class(&parsed.objects[0], &classes, None).as_deref(), Some(want));
         }
+    }
+
+    #[test]
+    fn a_node_with_only_a_feature_takes_the_most_similar_class() {
+        use crate::formats::classes::{ClassEntry, ClassList};
+        use crate::formats::map::{FeatureMatrix, TextFeatures};
+        let classes = ClassList::new([("other", 0), ("chair", 1), ("table", 2)].map(|(n, id)| ClassEntry { name: n.into(), id })).unwrap();
+        let text = TextFeatures {
+            source: "text_features.npz".into(),
+            class_ids: vec![1, 2],
+            features: FeatureMatrix { rows: 2, dim: 3, values: vec![1.0, 0.0, 0.0, 0.0, 2.0, 0.0] },
+        };
+        let vocabulary = FeatureVocabulary::new(&text, &classes);
+        let graph = SceneGraph::parse(
+            &json!([{"id": 1, "features": [0.1, 0.9, 0.2], "bbox_center": [0, 0, 0], "bbox_extent": [1, 1, 1]},
+                    {"id": 2, "caption": "a chair", "features": [0.0, 1.0, 0.0], "bbox_center": [0, 0, 0], "bbox_extent": [1, 1, 1]},
+                    {"id": 3, "features": [0.1, 0.9], "bbox_center": [0, 0, 0], "bbox_extent": [1, 1, 1]}]),
+            "g.json",
+        )
+        .unwrap();
+        let names: Vec<String> = ["chair", "table"].map(String::from).to_vec();
+        let got: Vec<Option<String>> = graph.objects.iter().map(|o| node_class(o, &names, Some(&vocabulary))).collect();
+        assert_eq!(got, [Some("table".into()), Some("chair".into()), None], "texts first; a feature of another dimension names nothing");
+        let bad = SceneGraph::parse(&json!([{"id": 1, "features": [0.1, "x"], "bbox_center": [0, 0, 0], "bbox_extent": [1, 1, 1]}]), "g.json").unwrap_err();
+        assert_eq!(bad.field, "objects[0].features");
     }
 
     #[test]

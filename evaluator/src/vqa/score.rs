@@ -1,6 +1,7 @@
 //! The VQA part of a submission's score: for every (lighting, scene) with a scene graph
 //! or answers, every question of the scene answered (the team's own answer, else the
-//! symbolic answerer on the graph, else the optional LLM answerer) and judged, then
+//! symbolic answerer on the graph — nodes named by their label or texts, or by their
+//! feature against text_features.npz — else the optional LLM answerer) and judged, then
 //! pooled as the paper does. Which answerer and which judge decided is recorded.
 
 use std::collections::BTreeMap;
@@ -45,6 +46,9 @@ fn team_answers(path: &std::path::Path, name: &str) -> Result<BTreeMap<String, V
 /// submission no graphs or answers.
 pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> Result<Option<Value>> {
     let classes = release.class_names();
+    let text =
+        submission.text_features.as_deref().map(|p| crate::formats::map::TextFeatures::read(p, crate::formats::npy::ReadLimits::default())).transpose()?;
+    let vocabulary = text.as_ref().map(|t| super::graph::FeatureVocabulary::new(t, &release.classes));
     let mut judged = Vec::new();
     let mut answered_by: BTreeMap<&'static str, u64> = BTreeMap::new();
     let mut judged_by: BTreeMap<&'static str, u64> = BTreeMap::new();
@@ -69,7 +73,7 @@ pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: Ope
             None => None,
         };
         let graph = graph_json.as_ref().map(|g| SceneGraph::parse(g, &graph_name)).transpose()?;
-        let classified = graph.as_ref().map(|g| ClassifiedGraph::new(g, &classes));
+        let classified = graph.as_ref().map(|g| ClassifiedGraph::with_features(g, &classes, vocabulary.as_ref()));
 
         let mut answers: Vec<Answered> = Vec::with_capacity(questions.questions.len());
         let mut open_questions = Vec::new();

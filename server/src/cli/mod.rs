@@ -3,6 +3,7 @@
 mod baseline;
 mod bench;
 mod bench_vqa;
+mod client;
 mod eval;
 mod eval_vqa;
 mod gt;
@@ -29,6 +30,9 @@ enum Command {
     Worker(service::WorkerArgs),
     /// Apply the database migrations.
     Migrate(service::ServiceArgs),
+    /// The participant's tools: login, download, validate, submit, status, results, leaderboard.
+    #[command(subcommand)]
+    Client(client::ClientCommand),
     /// Score maps and confusion matrices.
     #[command(subcommand)]
     Eval(eval::EvalCommand),
@@ -54,6 +58,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Serve(args) => service::serve(args),
         Command::Worker(args) => service::worker(args),
         Command::Migrate(args) => service::migrate(args),
+        Command::Client(cmd) => client::run(cmd),
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),
         Command::Scene(cmd) => scene::run(cmd),

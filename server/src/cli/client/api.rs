@@ -1,0 +1,140 @@
+//! The service's HTTP API as the client uses it: bearer token, JSON, and every error
+//! shown as the problem+json title, detail and what to do — never as a raw body.
+
+use std::time::Duration;
+
+use anyhow::anyhow;
+use reqwest::StatusCode;
+use reqwest::blocking::{Client, RequestBuilder, Response};
+use serde_json::Value;
+
+use super::session::Session;
+
+/// A connection to one server.
+pub struct Api {
+    pub session: Session,
+    pub client: Client,
+}
+
+/// What to do about an error code, beyond the server's own words.
+fn advice(code: &str) -> Option<&'static str> {
+    Some(match code {
+        "token_expired" | "token_revoked" | "token_invalid" | "unauthenticated" => {
+            "ask the organisers for a new team token, then run `osmab client login --token …`"
+        }
+        "quota_exceeded" => "wait until the time in Retry-After, or validate offline meanwhile with `osmab client validate` (free)",
+        "invalid_submission" => "fix the files listed and run `osmab client validate` before submitting again",
+        "digest_mismatch" | "upload_incomplete" => "the upload was damaged in transit; submit again",
+        "payload_too_large" => "store features as float32 and leave out background points, or ask the organisers",
+        "rate_limited" => "wait a moment and try again",
+        _ => return None,
+    })
+}
+
+/// An error answer of the service, in words.
+pub fn problem_message(status: StatusCode, body: &str, retry_after: Option<&str>) -> String {
+    let parsed: Option<Value> = serde_json::from_str(body).ok();
+    let Some(problem) = parsed.filter(|p| p.get("title").is_some() || p.get("detail").is_some()) else {
+        let text: String = body.chars().filter(|c| !c.is_control()).take(200).collect();
+        return format!("the server answered {status}{}", if text.is_empty() { String::new() } else { format!(" ({text})") });
+    };
+    let title = problem["title"].as_str().unwrap_or("Error");
+    let detail = problem["detail"].as_str().unwrap_or("");
+    let code = problem["code"].as_str().unwrap_or("");
+    let mut message = format!("{title}: {detail}");
+    if let Some(errors) = problem["errors"].as_array() {
+        for e in errors.iter().take(20) {
+            message.push_str(&format!(
+                "\n  - {}: {}: {}",
+                e["file"].as_str().unwrap_or("?"),
+                e["field"].as_str().unwrap_or("?"),
+                e["message"].as_str().unwrap_or("")
+            ));
+        }
+        if errors.len() > 20 {
+            message.push_str(&format!("\n  … and {} more", errors.len() - 20));
+        }
+    }
+    if let Some(at) = retry_after {
+        message.push_str(&format!("\n  (retry after {at} s)"));
+    }
+    if let Some(todo) = advice(code) {
+        message.push_str(&format!("\n  What to do: {todo}."));
+    }
+    if !code.is_empty() {
+        message.push_str(&format!(" [{code}, HTTP {}]", status.as_u16()));
+    }
+    message
+}
+
+impl Api {
+    pub fn new(session: Session) -> anyhow::Result<Api> {
+        let client =
+            Client::builder().connect_timeout(Duration::from_secs(15)).timeout(None).user_agent(concat!("osmab-client/", env!("CARGO_PKG_VERSION"))).build()?;
+        Ok(Api { session, client })
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{path}", self.session.url)
+    }
+
+    pub fn get(&self, path: &str) -> RequestBuilder {
+        let request = self.client.get(self.url(path)).timeout(Duration::from_secs(60));
+        match &self.session.token {
+            Some(t) => request.bearer_auth(t),
+            None => request,
+        }
+    }
+
+    /// Send `request`; an error status becomes the service's problem in words.
+    pub fn send(&self, request: RequestBuilder) -> anyhow::Result<Response> {
+        let response = request.send().map_err(|e| anyhow!("cannot reach {}: {}", self.session.url, describe(&e)))?;
+        checked(response)
+    }
+
+    /// GET `path` as JSON.
+    pub fn get_json(&self, path: &str) -> anyhow::Result<Value> {
+        let response = self.send(self.get(path))?;
+        response.json().map_err(|e| anyhow!("{path}: the server's answer is not JSON: {e}"))
+    }
+}
+
+/// An error status as the service's problem in words.
+pub fn checked(response: Response) -> anyhow::Result<Response> {
+    if response.status().is_success() || response.status() == StatusCode::NOT_MODIFIED {
+        return Ok(response);
+    }
+    let status = response.status();
+    let retry_after = response.headers().get("retry-after").and_then(|v| v.to_str().ok()).map(str::to_string);
+    let body = response.text().unwrap_or_default();
+    Err(anyhow!(problem_message(status, &body, retry_after.as_deref())))
+}
+
+/// A transport error in words (the source chain, not reqwest's debug form).
+pub fn describe(e: &reqwest::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        text.push_str(&format!(": {s}"));
+        source = s.source();
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn problems_are_shown_as_title_detail_and_advice() {
+        let body = r#"{"type":"https://osmab/problems/token_expired","title":"Authentication required","status":401,"detail":"This token expired at 2026-11-01T00:00:00Z.","code":"token_expired"}"#;
+        let text = problem_message(StatusCode::UNAUTHORIZED, body, None);
+        assert!(text.starts_with("Authentication required: This token expired at 2026-11-01T00:00:00Z."), "{text}");
+        assert!(text.contains("What to do: ask the organisers for a new team token"), "{text}");
+        assert!(text.ends_with("[token_expired, HTTP 401]"), "{text}");
+        let listed = r#"{"title":"Invalid submission","detail":"2 problems","code":"invalid_submission","errors":[{"file":"maps/baseline/scene_000.npz","field":"points","message":"NaN at row 3"}]}"#;
+        assert!(problem_message(StatusCode::UNPROCESSABLE_ENTITY, listed, None).contains("\n  - maps/baseline/scene_000.npz: points: NaN at row 3"));
+        let html = problem_message(StatusCode::BAD_GATEWAY, "<html>\n<body>bad gateway</body></html>", None);
+        assert_eq!(html, "the server answered 502 Bad Gateway (<html><body>bad gateway</body></html>)");
+    }
+}

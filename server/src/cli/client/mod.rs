@@ -1,0 +1,171 @@
+//! `osmab client`: what a team runs on its own machine — log in once, download the
+//! release (parallel, resumable, verified), validate offline with the server's own code,
+//! submit with a declared checksum, follow the evaluation, read results and the
+//! leaderboard. Server errors are shown as the problem's title, detail and what to do.
+
+mod api;
+mod download;
+mod offline;
+mod session;
+mod submit;
+mod view;
+
+use std::path::PathBuf;
+
+use anyhow::bail;
+use clap::Subcommand;
+
+use api::Api;
+use session::Session;
+
+#[derive(Debug, Subcommand)]
+pub enum ClientCommand {
+    /// Store the server URL and your team token (owner-only file in your configuration folder).
+    Login {
+        #[arg(long)]
+        url: Option<String>,
+        /// The team token (`osmab_…`); read from OSMAB_TOKEN when not given.
+        #[arg(long)]
+        token: Option<String>,
+    },
+    /// Download a release: manifest, then files and sequence archives, resumed and verified.
+    Download {
+        #[arg(long)]
+        release: Option<String>,
+        /// Only this lighting (repeatable).
+        #[arg(long)]
+        lighting: Vec<String>,
+        /// Only this scene (repeatable).
+        #[arg(long)]
+        scene: Vec<String>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Parallel connections.
+        #[arg(long, default_value_t = 4)]
+        jobs: usize,
+        #[arg(long)]
+        url: Option<String>,
+    },
+    /// Validate a submission (folder or archive) offline, and score it when the release folder has ground truth.
+    Validate {
+        submission: PathBuf,
+        /// A downloaded release; without it the release facts are fetched from the server.
+        #[arg(long)]
+        release_dir: Option<PathBuf>,
+        #[arg(long)]
+        url: Option<String>,
+    },
+    /// Upload a submission (folder or archive) and print its id.
+    Submit {
+        submission: PathBuf,
+        /// Validate on the server only; costs no quota.
+        #[arg(long)]
+        dry_run: bool,
+        /// Keep it off the public leaderboard.
+        #[arg(long)]
+        private: bool,
+        /// Follow the evaluation until it ends.
+        #[arg(long)]
+        watch: bool,
+        #[arg(long)]
+        url: Option<String>,
+    },
+    /// Show a submission's state and history; --watch follows it until scored or failed.
+    Status {
+        id: String,
+        #[arg(long)]
+        watch: bool,
+        #[arg(long)]
+        url: Option<String>,
+    },
+    /// Print a scored submission's tables.
+    Results {
+        id: String,
+        #[arg(long)]
+        url: Option<String>,
+    },
+    /// Print the leaderboard.
+    Leaderboard {
+        #[arg(long)]
+        release: Option<String>,
+        #[arg(long)]
+        lighting: Option<String>,
+        #[arg(long)]
+        url: Option<String>,
+    },
+}
+
+fn api(url: Option<&str>) -> anyhow::Result<Api> {
+    Api::new(Session::load(url)?)
+}
+
+pub fn run(command: ClientCommand) -> anyhow::Result<()> {
+    match command {
+        ClientCommand::Login { url, token } => {
+            let mut session = Session::load(url.as_deref())?;
+            if let Some(token) = token {
+                session.token = Some(token);
+            }
+            let Some(token) = session.token.clone() else { bail!("give --token osmab_… (or set OSMAB_TOKEN)") };
+            if !token.starts_with("osmab_") {
+                bail!("that is not an osmab token: team tokens start with 'osmab_'; copy the whole token you were given");
+            }
+            let api = Api::new(session.clone())?;
+            let me = api.get_json("/api/v1/me")?;
+            let path = session.save()?;
+            let quota = &me["quota"];
+            println!(
+                "Logged in to {} as team {} (token {}); {} of {} submissions left today. Saved to {} (owner-only).",
+                session.url,
+                me["team"]["name"].as_str().unwrap_or("?"),
+                session::hint(&token),
+                quota["remaining"],
+                quota["limit"],
+                path.display()
+            );
+            Ok(())
+        }
+        ClientCommand::Download { release, lighting, scene, out, jobs, url } => {
+            let api = api(url.as_deref())?;
+            let selection = download::Selection { release, lightings: lighting, scenes: scene, jobs };
+            let (fetched, skipped) = download::download(&api, &selection, &out)?;
+            println!("{fetched} downloads done, {skipped} files already present and verified; the release is in {}", out.display());
+            Ok(())
+        }
+        ClientCommand::Validate { submission, release_dir, url } => {
+            let api = if release_dir.is_none() { Some(api(url.as_deref())?) } else { None };
+            if offline::validate_offline(&submission, release_dir.as_deref(), api.as_ref())? { Ok(()) } else { std::process::exit(1) }
+        }
+        ClientCommand::Submit { submission, dry_run, private, watch, url } => {
+            let api = api(url.as_deref())?;
+            let packed = submit::pack(&submission)?;
+            eprintln!("{}: {} bytes, SHA-256 {}", submission.display(), packed.size, packed.sha256_hex());
+            let answer = submit::upload(&api, &packed, dry_run, !private)?;
+            if dry_run {
+                let covered = answer["entries"].as_array().map_or(0, Vec::len);
+                println!(
+                    "Valid on the server (dry run, no quota used): {covered} scene-lighting pairs, {}, {} points",
+                    if answer["complete"] == true { "complete" } else { "incomplete" },
+                    answer["points"]
+                );
+                return Ok(());
+            }
+            let id = answer["id"].as_str().unwrap_or_default().to_string();
+            println!("{id}");
+            eprintln!("Submitted as {id} ({}); follow it with `osmab client status {id} --watch`.", answer["state"].as_str().unwrap_or("?"));
+            if watch && view::status(&api, &id, true)? != "scored" {
+                std::process::exit(1);
+            }
+            Ok(())
+        }
+        ClientCommand::Status { id, watch, url } => {
+            let state = view::status(&api(url.as_deref())?, &id, watch)?;
+            if watch && state != "scored" {
+                std::process::exit(1);
+            }
+            Ok(())
+        }
+        ClientCommand::Results { id, url } => view::results(&api(url.as_deref())?, &id),
+        ClientCommand::Leaderboard { release, lighting, url } => view::leaderboard(&api(url.as_deref())?, release.as_deref(), lighting.as_deref()),
+    }
+}

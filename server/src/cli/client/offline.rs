@@ -1,0 +1,107 @@
+//! `osmab client validate`: the server's own validation, offline — and, when the release
+//! folder holds the ground truth, the server's own scoring — so a team knows what the
+//! server will say before spending quota. Without `--release-dir`, the public release
+//! facts (manifest, classes, questions) are fetched from the server.
+
+use std::path::Path;
+
+use anyhow::{Context, anyhow};
+use osmab_evaluator::submission::archive::{ArchiveLimits, unpack};
+use osmab_evaluator::submission::release::ReleaseIndex;
+use osmab_evaluator::submission::score_submission;
+use osmab_evaluator::submission::validate::{SubmissionLimits, validate};
+use serde_json::Value;
+
+use super::api::Api;
+
+/// Fetch the public facts of `version` (or of the release the submission names) into `dir`.
+fn fetch_release_facts(api: &Api, submission_release: &str, dir: &Path) -> anyhow::Result<()> {
+    let manifest_text = api.send(api.get(&format!("/api/v1/releases/{submission_release}/manifest.json")))?.text()?;
+    let manifest: Value = serde_json::from_str(&manifest_text)?;
+    std::fs::write(dir.join("manifest.json"), &manifest_text)?;
+    for file in manifest["files"].as_array().into_iter().flatten() {
+        let path = file["path"].as_str().unwrap_or_default();
+        let wanted = path == "classes.json" || (path.starts_with("questions/") && !path[10..].contains('/'));
+        if wanted {
+            let bytes = api.send(api.get(&format!("/api/v1/releases/{submission_release}/files/{path}")))?.bytes()?;
+            let target = dir.join(path);
+            std::fs::create_dir_all(target.parent().expect("nested"))?;
+            std::fs::write(target, bytes)?;
+        }
+    }
+    Ok(())
+}
+
+/// The release a submission folder names in its submission.json.
+fn named_release(root: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(root.join("submission.json")).ok()?;
+    serde_json::from_str::<Value>(&text).ok()?["release"].as_str().map(str::to_string)
+}
+
+/// Validate (and, with ground truth, score) `submission`; prints the report, returns
+/// whether it is valid.
+pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Option<&Api>) -> anyhow::Result<bool> {
+    let unpacked;
+    let root = if submission.is_dir() {
+        submission.to_path_buf()
+    } else {
+        unpacked = tempfile::tempdir()?;
+        unpack(submission, unpacked.path(), ArchiveLimits { max_entries: 20_000, max_total_bytes: 64 << 30 }).map_err(|e| anyhow!("{e}"))?;
+        unpacked.path().to_path_buf()
+    };
+    let facts;
+    let release_root = match release_dir {
+        Some(dir) => dir.to_path_buf(),
+        None => {
+            let api = api.context("give --release-dir (a downloaded release) or log in so the release facts can be fetched")?;
+            let version = named_release(&root).context("submission.json is missing or names no release")?;
+            facts = tempfile::tempdir()?;
+            fetch_release_facts(api, &version, facts.path())?;
+            facts.path().to_path_buf()
+        }
+    };
+    let index = ReleaseIndex::read(&release_root).map_err(|e| anyhow!("{e}"))?;
+    let valid = match validate(&root, &index, SubmissionLimits::default()) {
+        Ok(valid) => valid,
+        Err(problems) => {
+            println!("The submission is not valid; the server would refuse it with these {} problem(s):", problems.len());
+            for p in &problems {
+                println!("  - {}: {}: {}", p.file, p.field, p.message);
+            }
+            return Ok(false);
+        }
+    };
+    let maps = valid.entries.iter().filter(|e| e.map.is_some()).count();
+    let graphs = valid.entries.iter().filter(|e| e.graph.is_some()).count();
+    let answers = valid.entries.iter().filter(|e| e.answers.is_some()).count();
+    println!(
+        "Valid for release {}: {maps} maps, {graphs} scene graphs, {answers} answer files, {} points; {}",
+        index.version,
+        valid.points,
+        if valid.complete { "every scene and lighting covered".to_string() } else { format!("incomplete, no map for {}", valid.missing_maps.join(", ")) }
+    );
+    if index.has_ground_truth() {
+        let scores = score_submission(&valid, &index, SubmissionLimits::default(), Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
+        println!("Scored against the local ground truth (what the server will compute):");
+        for (lighting, table) in scores["semseg"].as_object().into_iter().flatten() {
+            let m = &table["overall"];
+            println!(
+                "  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}",
+                m["miou"].as_f64().unwrap_or(f64::NAN) * 100.0,
+                m["fmiou"].as_f64().unwrap_or(f64::NAN) * 100.0,
+                m["macc"].as_f64().unwrap_or(f64::NAN) * 100.0
+            );
+        }
+        for (lighting, v) in scores["vqa"]["lightings"].as_object().into_iter().flatten() {
+            println!(
+                "  {lighting}: VQA accuracy {:.1} % ({} of {} questions)",
+                v["overall"]["accuracy"].as_f64().unwrap_or(0.0) * 100.0,
+                v["overall"]["correct"],
+                v["overall"]["total"]
+            );
+        }
+    } else {
+        println!("(The release folder has no ground truth, so scores are computed on the server only.)");
+    }
+    Ok(true)
+}

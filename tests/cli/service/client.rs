@@ -1,0 +1,133 @@
+//! `osmab client` against a real `osmab serve` on a real socket: login, an interrupted
+//! download resumed and verified, a corrupted file fetched again, offline validation,
+//! submit and watch to `scored`, results, the leaderboard, and a revoked token explained.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+use super::{Backend, Deployment, baseline_dir};
+
+/// Run `osmab client …` with its own configuration file.
+fn client(config: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_osmab"))
+        .arg("client")
+        .args(args)
+        .env_clear()
+        .env("PATH", std::env::var("PATH").unwrap_or_default())
+        .env("OSMAB_CLIENT_CONFIG", config)
+        .output()
+        .expect("osmab runs")
+}
+
+fn ok(out: &Output) -> String {
+    assert!(out.status.success(), "osmab client failed:\n{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn sha256(path: &Path) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(std::fs::read(path).unwrap()).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[test]
+fn a_team_downloads_validates_submits_and_follows_with_the_client() {
+    let deployment = Deployment::new(Backend::Sqlite, &[]);
+    let server = deployment.serve();
+    let version = server.import_test_release();
+    let token = server.team("Team Client");
+    let home = tempfile::tempdir().unwrap();
+    let config = home.path().join("osmab/client.toml");
+
+    // Login stores the server and token owner-only.
+    let said = ok(&client(&config, &["login", "--url", &server.url, "--token", &token]));
+    assert!(said.contains("as team Team Client") && !said.contains(&token), "{said}");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        assert_eq!(std::fs::metadata(&config).unwrap().permissions().mode() & 0o777, 0o600);
+    }
+    let bad = client(&config, &["login", "--token", "not-a-token"]);
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("start with 'osmab_'"));
+
+    // A download interrupted halfway (a .part file with the first half) resumes with Range.
+    let out = tempfile::tempdir().unwrap();
+    let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
+    let classes = manifest["files"].as_array().unwrap().iter().find(|f| f["path"] == "classes.json").unwrap().clone();
+    let full = server.get(&format!("/api/v1/releases/{version}/files/classes.json")).send().unwrap().bytes().unwrap();
+    std::fs::write(out.path().join("classes.json.part"), &full[..full.len() / 2]).unwrap();
+    let dl = client(&config, &["download", "--out", out.path().to_str().unwrap(), "--scene", "scene_000", "--lighting", "camera"]);
+    ok(&dl);
+    assert!(
+        String::from_utf8_lossy(&dl.stderr).contains(&format!("classes.json: resuming at byte {}", full.len() / 2)),
+        "{}",
+        String::from_utf8_lossy(&dl.stderr)
+    );
+    assert_eq!(sha256(&out.path().join("classes.json")), classes["sha256"].as_str().unwrap());
+    assert!(!out.path().join("classes.json.part").exists());
+    let metrics = server.get("/metrics").send().unwrap().text().unwrap();
+    assert!(metrics.contains("status=\"206\""), "the resumed request was a range request");
+    // Only the chosen sequence, every file verified against the manifest.
+    let sequence_files: Vec<&Value> =
+        manifest["files"].as_array().unwrap().iter().filter(|f| f["path"].as_str().unwrap().starts_with("sequences/camera/scene_000/")).collect();
+    assert!(!sequence_files.is_empty());
+    for f in &sequence_files {
+        assert_eq!(sha256(&out.path().join(f["path"].as_str().unwrap())), f["sha256"].as_str().unwrap());
+    }
+    assert!(!out.path().join("sequences/baseline").exists() && !out.path().join("sequences/camera/scene_001").exists());
+    assert!(!out.path().join(".osmab-downloads").exists(), "archives are removed once unpacked");
+
+    // A corrupted file is noticed and fetched again; correct files are skipped.
+    let victim = out.path().join(sequence_files[0]["path"].as_str().unwrap());
+    std::fs::write(&victim, b"corrupted").unwrap();
+    let again = client(&config, &["download", "--out", out.path().to_str().unwrap(), "--scene", "scene_000", "--lighting", "camera"]);
+    let said = ok(&again);
+    assert_eq!(sha256(&victim), sequence_files[0]["sha256"].as_str().unwrap());
+    assert!(said.contains("1 downloads done"), "only the damaged sequence is fetched again: {said}");
+    let third = ok(&client(&config, &["download", "--out", out.path().to_str().unwrap(), "--scene", "scene_000", "--lighting", "camera"]));
+    assert!(third.starts_with("0 downloads done"), "{third}");
+
+    // Offline validation with the downloaded release; a broken submission is explained.
+    let submission = baseline_dir("label-noise");
+    let valid = ok(&client(&config, &["validate", submission.path().to_str().unwrap(), "--release-dir", out.path().to_str().unwrap()]));
+    assert!(valid.contains("Valid for release"), "{valid}");
+    let broken = baseline_dir("label-noise");
+    std::fs::write(broken.path().join("maps/baseline/scene_000.npz"), b"not an npz").unwrap();
+    let refused = client(&config, &["validate", broken.path().to_str().unwrap()]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&refused.stdout).contains("maps/baseline/scene_000.npz"), "{}", String::from_utf8_lossy(&refused.stdout));
+
+    // Submit, follow to scored, read the results and the leaderboard.
+    let submitted = client(&config, &["submit", submission.path().to_str().unwrap(), "--watch"]);
+    let said = ok(&submitted);
+    let id = said.lines().next().unwrap().trim().to_string();
+    assert!(id.starts_with("sub_"), "{said}");
+    assert!(said.contains("scored"), "{said}");
+    let view: Value = server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().json().unwrap();
+    assert_eq!(view["state"], "scored");
+    let results = ok(&client(&config, &["results", &id]));
+    let pooled = view["scores"]["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap();
+    assert!(results.contains(&format!("{:.1}", pooled * 100.0)) && results.contains("Question answering"), "{results}");
+    let board = ok(&client(&config, &["leaderboard"]));
+    assert!(board.contains("baseline-label-noise") && board.contains("Team Client"), "{board}");
+
+    // A revoked token is explained with what to do, not shown as a raw body.
+    let tokens: Value = server.admin(server.get("/api/v1/admin/teams")).json().unwrap();
+    let team_id = tokens["teams"].as_array().unwrap().iter().find(|t| t["name"] == "Team Client").unwrap()["id"].as_str().unwrap().to_string();
+    let listed: Value = server.admin(server.get(&format!("/api/v1/admin/teams/{team_id}/tokens"))).json().unwrap();
+    for t in listed["tokens"].as_array().unwrap() {
+        let response = server.admin(server.client.delete(format!("{}/api/v1/admin/tokens/{}", server.url, t["id"].as_str().unwrap())));
+        assert!(response.status().is_success(), "{}", response.text().unwrap());
+    }
+    let denied = client(&config, &["status", &id]);
+    assert!(!denied.status.success());
+    let said = String::from_utf8_lossy(&denied.stderr);
+    assert!(
+        said.contains("This token was revoked at")
+            && said.contains("What to do: ask the organisers for a new team token")
+            && said.contains("[token_revoked, HTTP 401]"),
+        "{said}"
+    );
+    assert!(!said.contains("{\""), "no raw JSON: {said}");
+}

@@ -94,7 +94,7 @@ class SafeUnpickler(pickle.Unpickler):
     """Rebuilds NumPy arrays and PyTorch tensors; everything else becomes a Stand_in."""
 
     def find_class(self, module, name):
-        if module.split(".")[0] == "numpy":
+        if module.split(".")[0] == "numpy" and name in ("_reconstruct", "ndarray", "dtype", "scalar", "_frombuffer"):
             import importlib
             import warnings
             with warnings.catch_warnings():

@@ -68,25 +68,9 @@ fn pick_release(api: &Api, wanted: Option<&str>) -> anyhow::Result<String> {
         .ok_or_else(|| anyhow!("the server has no current release yet; name one with --release"))
 }
 
-fn hash_file(path: &Path) -> std::io::Result<(u64, String)> {
-    let mut file = std::fs::File::open(path)?;
-    let mut hasher = Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    let mut size = 0;
-    loop {
-        let n = file.read(&mut buf)?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-        size += n as u64;
-    }
-    Ok((size, hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()))
-}
-
 /// Whether `path` holds exactly the manifest's bytes.
 fn is_correct(path: &Path, size: u64, sha256: &str) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| m.len() == size) && hash_file(path).is_ok_and(|(_, h)| h == sha256)
+    std::fs::metadata(path).is_ok_and(|m| m.len() == size) && osmab_dataset::release::manifest::hash_file(path).is_ok_and(|(_, h)| h == sha256)
 }
 
 /// A path of the manifest, checked to stay inside the output folder.

@@ -15,8 +15,10 @@ use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
 
-use crate::questions::SceneObject;
+use crate::questions::{SceneObject, oracle_graph};
 use crate::release::GROUND_TRUTH;
+use crate::release::stages::INSTANCES_NPY;
+use osmab_evaluator::formats::npy::{ReadLimits, read_npy_file};
 
 /// The baselines, by name.
 pub const BASELINES: [&str; 5] = ["oracle", "drop-small", "merge", "label-noise", "pose-drift"];
@@ -59,8 +61,10 @@ fn pose_drift(p: [f64; 3], severity: f64) -> [f64; 3] {
     [c * p[0] + s * p[2] + 0.08 * severity, p[1], -s * p[0] + c * p[2] + 0.03 * severity]
 }
 
-/// The map of baseline `name` for one scene's ground truth under a lighting of `severity`.
-fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Result<PredictedMap> {
+/// The map of baseline `name` for one scene's ground truth under a lighting of `severity`,
+/// and for each of its points the ground-truth point it came from.
+fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Result<(PredictedMap, Vec<usize>)> {
+    let mut origin: Vec<usize> = (0..gt.points.len()).collect();
     let mut rng = Rng::new(seed);
     let mut points = gt.points.clone();
     let mut labels = gt.labels.clone();
@@ -79,6 +83,7 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
             }
             points = points.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect();
             labels = labels.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+            origin = origin.iter().zip(&keep).filter(|(_, k)| **k).map(|(o, _)| *o).collect();
         }
         "merge" => {
             // The smaller half of the classes (at least one, never the largest) take the label
@@ -127,11 +132,9 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
             let next = |l: i64| vocabulary[(vocabulary.iter().position(|&v| v == l).unwrap_or(0) + 1) % vocabulary.len()];
             let is_noisy = |i: usize| i % 4 == phase || (i % 4 == (phase + 2) % 4 && (i / 4) % 10 < extra_tenths);
             let noisy: Vec<i64> = objects.labels.iter().enumerate().map(|(i, &l)| if is_noisy(i) { next(l) } else { l }).collect();
-            return Ok(PredictedMap {
-                source: gt.source.clone(),
-                points,
-                semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy },
-            });
+            let map =
+                PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy } };
+            return Ok((map, origin));
         }
         "pose-drift" => {
             // A 1.5° yaw and 8 cm shift of the whole map (more under harder lightings):
@@ -144,40 +147,50 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
         other => return Err(InputError::new("(baseline)", "name", format!("unknown baseline '{other}' (expected one of {})", BASELINES.join(", ")))),
     }
     let objects = objects_of(&points, &labels);
-    Ok(PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: objects.labels } })
+    let map =
+        PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: objects.labels } };
+    Ok((map, origin))
 }
 
-/// The scene graph of a baseline from the objects the trajectory saw (the release's
-/// hidden `objects/<scene>.json`): each object takes the majority class of the
-/// baseline's map points in its box (moved by the drift for pose-drift; its own class
-/// when that has a quarter of them), and objects whose box holds no map point are
-/// missed, so the graph degrades with the map.
-fn graph_from_seen(name: &str, seen: &[SceneObject], map: &PredictedMap, classes: &ClassList, severity: f64) -> Value {
+/// The scene graph of a baseline from the scene's objects (the release's hidden
+/// `objects/<scene>.json`) and the instance of every ground-truth point: the oracle's is
+/// the seen objects as they are; a degraded baseline names each seen object by the
+/// majority label its map gives the object's own points (so a merged or mislabelled
+/// object is named wrongly, a dropped one is missing) and, for pose-drift, moves its box
+/// by the drift.
+fn graph_from_objects(
+    name: &str,
+    objects: &[SceneObject],
+    map: &PredictedMap,
+    origin: &[usize],
+    instances: &[i64],
+    classes: &ClassList,
+    severity: f64,
+) -> Value {
+    if name == "oracle" {
+        return oracle_graph(objects);
+    }
     let MapSemantics::ObjectLabels { object_ids, labels } = &map.semantics else { return json!({"objects": []}) };
+    let mut votes: BTreeMap<i64, BTreeMap<i64, usize>> = BTreeMap::new();
+    for (k, &o) in origin.iter().enumerate() {
+        if let Some(&instance) = instances.get(o) {
+            *votes.entry(instance).or_default().entry(labels[object_ids[k] as usize]).or_default() += 1;
+        }
+    }
     let round = |v: f64| (v * 1000.0).round() / 1000.0;
-    let objects: Vec<Value> = seen
+    let nodes: Vec<Value> = objects
         .iter()
         .filter(|o| o.seen())
         .filter_map(|o| {
-            let center = if name == "pose-drift" { pose_drift(o.bbox_center, severity) } else { o.bbox_center };
-            let inside = |p: &[f32; 3]| (0..3).all(|a| (p[a] as f64 - center[a]).abs() <= o.bbox_extent[a] / 2.0 + 0.05);
-            let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
-            for (p, &object) in map.points.iter().zip(object_ids) {
-                if inside(p) {
-                    *votes.entry(labels[object as usize]).or_default() += 1;
-                }
-            }
-            // Its own class wins with a quarter of the points: a mug's box also holds the
-            // table top it stands on.
-            let total: usize = votes.values().sum();
-            let own = votes.iter().find(|(l, _)| classes.name(**l) == Some(o.label.as_str())).filter(|(_, n)| 4 * **n >= total).map(|(l, _)| *l);
-            let class = own.or_else(|| votes.iter().max_by_key(|(l, n)| (**n, std::cmp::Reverse(**l))).map(|(l, _)| *l))?;
+            let instance: i64 = o.id.trim_start_matches("obj_").parse().ok()?;
+            let class = votes.get(&instance)?.iter().max_by_key(|(l, n)| (**n, std::cmp::Reverse(**l))).map(|(l, _)| *l)?;
             let label = classes.name(class).unwrap_or("other").to_string();
             let caption = if label == o.label { o.caption.clone() } else { format!("a {label}") };
+            let center = if name == "pose-drift" { pose_drift(o.bbox_center, severity) } else { o.bbox_center };
             Some(json!({"id": o.id, "label": label, "caption": caption, "bbox_center": center.map(round), "bbox_extent": o.bbox_extent.map(round)}))
         })
         .collect();
-    json!({"objects": objects})
+    json!({"objects": nodes})
 }
 
 /// The scene graph of a map: one node per object with its class name and box (for
@@ -227,19 +240,31 @@ pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
         let gt_dir = release.join(GROUND_TRUTH).join(scene);
         let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
         let gt = GroundTruth::read(&gt_dir, &classes)?;
-        let seen_path = release.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json"));
-        let seen: Option<Vec<SceneObject>> = match std::fs::read(&seen_path) {
-            Ok(bytes) => {
-                let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(&seen_path, "(json)", e.to_string()))?;
-                Some(serde_json::from_value(value["objects"].clone()).map_err(|e| InputError::new(&seen_path, "objects", e.to_string()))?)
+        // The scene's objects and the instance of every ground-truth point, when the
+        // release has them.
+        let objects_path = release.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json"));
+        let instances_path = gt_dir.join(INSTANCES_NPY);
+        let known: Option<(Vec<SceneObject>, Vec<i64>)> = match (std::fs::read(&objects_path), instances_path.is_file()) {
+            (Ok(bytes), true) => {
+                let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(&objects_path, "(json)", e.to_string()))?;
+                let objects = serde_json::from_value(value["objects"].clone()).map_err(|e| InputError::new(&objects_path, "objects", e.to_string()))?;
+                let instances = read_npy_file(&instances_path, ReadLimits::default())?.into_i64_vec(&instances_path, "instances")?;
+                if instances.len() != gt.points.len() {
+                    return Err(InputError::new(
+                        &instances_path,
+                        "instances",
+                        format!("expected one per ground-truth point ({}), found {}", gt.points.len(), instances.len()),
+                    ));
+                }
+                Some((objects, instances))
             }
-            Err(_) => None,
+            _ => None,
         };
         for lighting in &lightings {
             let severity = lighting_severity(lighting);
-            let map = baseline_map(name, &gt, 1000 + i as u64, severity)?;
-            let graph = match &seen {
-                Some(seen) => graph_from_seen(name, seen, &map, &classes, severity),
+            let (map, origin) = baseline_map(name, &gt, 1000 + i as u64, severity)?;
+            let graph = match &known {
+                Some((objects, instances)) => graph_from_objects(name, objects, &map, &origin, instances, &classes, severity),
                 None => scene_graph(&map, &classes),
             };
             let map_path = out.join("maps").join(lighting).join(format!("{scene}.npz"));

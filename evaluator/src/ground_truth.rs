@@ -112,10 +112,7 @@ impl GroundTruth {
                 "must be a normal float32 number (Open3D divides by it in float32)",
             ));
         }
-        let frames: Vec<usize> = (0..sequence.len().saturating_sub(1)).step_by(FRAME_STRIDE).collect();
-        if frames.is_empty() {
-            return Err(InputError::new(&sequence.dir, "results", "a ground truth needs at least two frames (the last one is never used)"));
-        }
+        let frames = ground_truth_frames(sequence)?;
         let mut cloud = FrameCloud::default();
         let mut seen = 0usize; // points of the concatenated cloud before the current frame
         for batch in frames.chunks(FRAMES_PER_BATCH) {
@@ -146,6 +143,39 @@ impl GroundTruth {
         check_labels(&cloud.labels, &classes, &sequence.dir.join("results"))?;
         Ok(Self { source: sequence.dir.clone(), points: cloud.points, colors: Some(cloud.colors), labels: cloud.labels })
     }
+}
+
+/// The frames the ground truth uses: 0, 5, 10, ... without the last frame.
+fn ground_truth_frames(sequence: &Sequence) -> Result<Vec<usize>> {
+    let frames: Vec<usize> = (0..sequence.len().saturating_sub(1)).step_by(FRAME_STRIDE).collect();
+    if frames.is_empty() {
+        return Err(InputError::new(&sequence.dir, "results", "a ground truth needs at least two frames (the last one is never used)"));
+    }
+    Ok(frames)
+}
+
+/// The valid (depth > 0) pixels of a frame that survive the every-10th thinning of the
+/// concatenated cloud, given that the frame's first valid pixel is number `first` of
+/// the thinning's phase: row-major pixel indices.
+fn kept_in_frame(depth: &GrayImage16, first: usize) -> impl Iterator<Item = usize> + '_ {
+    depth.pixels.iter().enumerate().filter(|(_, d)| **d > 0).map(|(pixel, _)| pixel).skip(first).step_by(POINT_STRIDE)
+}
+
+/// The pixels behind the ground-truth points of `sequence`, in the order of the cloud's
+/// points: per used frame, its index and the row-major indices of its kept pixels.
+/// (What [`GroundTruth::build`] back-projects; for labelling points with more than
+/// their class.)
+pub fn kept_pixels(sequence: &Sequence) -> Result<Vec<(usize, Vec<u32>)>> {
+    let camera = &sequence.camera;
+    let mut seen = 0usize;
+    let mut out = Vec::new();
+    for f in ground_truth_frames(sequence)? {
+        let depth = read_png_gray16(&sequence.depth_frames[f], Some((camera.image_width, camera.image_height)))?;
+        let first = (POINT_STRIDE - seen % POINT_STRIDE) % POINT_STRIDE;
+        seen += depth.pixels.iter().filter(|&&d| d > 0).count();
+        out.push((f, kept_in_frame(&depth, first).map(|p| p as u32).collect()));
+    }
+    Ok(out)
 }
 
 /// Every ground-truth label must be a class of the release.
@@ -181,8 +211,7 @@ fn back_project(sequence: &Sequence, index: usize, depth: &GrayImage16, first: u
     let scale = camera.png_depth_scale as f32;
     let w = camera.image_width as usize;
     let mut cloud = FrameCloud::default();
-    let valid = depth.pixels.iter().enumerate().filter(|(_, d)| **d > 0).map(|(pixel, _)| pixel);
-    for pixel in valid.skip(first).step_by(POINT_STRIDE) {
+    for pixel in kept_in_frame(depth, first) {
         let (u, v) = (pixel % w, pixel / w);
         let z = (depth.pixels[pixel] as f32 / scale) as f64;
         let x = (u as f64 - camera.cx) * z / camera.fx;

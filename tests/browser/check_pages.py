@@ -724,8 +724,18 @@ def main() -> int:
                     status, headers, body = http_get(base + img.attrs["src"])
                     ctype = headers.get("content-type", "")
                     expect(status == 200 and ctype.startswith("image/jpeg") and body[:2] == b"\xff\xd8", f"{img.attrs['src']}: HTTP {status} {ctype}")
+                    expect(img.attrs["src"].endswith(scene["preview"]), f"{scene['id']}: the thumbnail is not the manifest's preview frame")
                 rendered = page.boxes(".scene img")
                 expect(len(rendered) == 3 and all(w > 100 and h > 50 for w, h in rendered), f"thumbnails render at {rendered}")
+                # The overview: every scene (rows) under every lighting (columns), one PNG.
+                overview = dom.find("figure", cls="overview")
+                expect(overview is not None and overview.find("img") is not None, "no overview figure")
+                status, headers, body = http_get(base + overview.find("img").attrs["src"])
+                expect(status == 200 and body[:8] == b"\x89PNG\r\n\x1a\n", f"overview: HTTP {status}")
+                width, height = struct.unpack(">II", body[16:24])
+                expect(width > 4 * 190 and height > 3 * 100, f"overview is {width}x{height}, expected 4 lightings x 3 scenes of thumbnails")
+                shown = page.boxes(".overview img")
+                expect(len(shown) == 1 and shown[0][0] > 400, f"overview renders at {shown}")
                 archive_table = [t for t in dom.find_all("table") if "SHA-256" in t.find("thead").clean()]
                 expect(archive_table, "no archive table")
                 rows = archive_table[0].find("tbody").kids("tr")

@@ -4,7 +4,6 @@
 //! names, a navigable-area map, lighting layouts for the four conditions, and a
 //! report of everything that needed attention.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
@@ -14,6 +13,7 @@ use serde_json::{Value, json};
 
 use super::gltf::read_gltf;
 use super::lexicon::{class_id, classes, normalise_name};
+use super::lighting::{habitat_lighting, lighting};
 use super::primitives::{box_mesh, cylinder_mesh, mtl, sphere_mesh};
 use super::scene::{DrakeScene, PlacedModel};
 use super::sdf::Geometry;
@@ -54,6 +54,23 @@ pub struct ConvertedObject {
     /// World-space bounds in Habitat axes (y up).
     pub bbox_min: [f64; 3],
     pub bbox_max: [f64; 3],
+}
+
+impl ConvertedObject {
+    /// An object of `class` with instance id `id` spanning `lo`..`hi`, for tests.
+    #[cfg(test)]
+    pub(crate) fn spanning(id: i64, class: &str, lo: [f64; 3], hi: [f64; 3]) -> Self {
+        Self {
+            instance_id: id,
+            class: class.into(),
+            class_id: 0,
+            model: String::new(),
+            name: String::new(),
+            description: String::new(),
+            bbox_min: lo,
+            bbox_max: hi,
+        }
+    }
 }
 
 /// What the conversion did and what needs attention.
@@ -397,53 +414,6 @@ fn write_png8(path: &Path, width: usize, height: usize, data: &[u8]) -> Result<(
     let mut w = encoder.write_header().map_err(err)?;
     w.write_image_data(data).map_err(err)?;
     w.finish().map_err(err)
-}
-
-/// A HaDaGe light-settings file as a Habitat lighting config (`camera` lights become
-/// point lights attached to the camera; life intervals do not exist there).
-fn habitat_lighting(hadage: &Value) -> Value {
-    let mut lights = serde_json::Map::new();
-    for (id, light) in hadage["lights"].as_object().into_iter().flatten() {
-        let camera = light["type"] == "camera";
-        lights.insert(
-            id.clone(),
-            json!({"type": "point", "position": light["position"], "intensity": light["intensity"], "color": light["color"], "position_model": if camera { "camera" } else { "global" }}),
-        );
-    }
-    json!({"lights": lights})
-}
-
-/// The four lighting conditions as HaDaGe light settings, laid out for this room:
-/// ceiling lights on a grid (baseline), one camera light (camera), the same ceiling
-/// lights on only for the first navigation goal (dynamic_lights), none (no_lights).
-fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'static str, Value> {
-    let (lo, hi) = floor;
-    let nx = ((hi[0] - lo[0]) / 2.5).ceil().clamp(1.0, 64.0) as usize;
-    let nz = ((hi[2] - lo[2]) / 2.5).ceil().clamp(1.0, 64.0) as usize;
-    let y = hi[1] + ceiling_height - 0.3;
-    let ceiling = |life: Value| -> Value {
-        let mut lights = serde_json::Map::new();
-        for i in 0..nx {
-            for k in 0..nz {
-                let x = lo[0] + (hi[0] - lo[0]) * (i as f64 + 0.5) / nx as f64;
-                let z = lo[2] + (hi[2] - lo[2]) * (k as f64 + 0.5) / nz as f64;
-                lights.insert(
-                    (lights.len()).to_string(),
-                    json!({"type": "point", "position": [x, y, z], "intensity": 0.6, "color": [1.0, 0.96, 0.9], "life_intervals": life.clone()}),
-                );
-            }
-        }
-        json!({"lights": lights})
-    };
-    BTreeMap::from([
-        ("baseline", ceiling(json!([[null, null]]))),
-        (
-            "camera",
-            json!({"lights": {"0": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 5.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}}),
-        ),
-        ("dynamic_lights", ceiling(json!([[null, 1]]))),
-        ("no_lights", json!({"lights": {}})),
-    ])
 }
 
 /// Convert `scene` into `out`.

@@ -4,6 +4,10 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Classes of the room's shell (and "other", names that matched nothing): not objects
+/// a trajectory must observe or a question asks about.
+pub const SHELL_CLASSES: [&str; 6] = ["other", "floor", "wall", "ceiling", "door", "window"];
+
 /// Canonical classes in id order (id = position; 0 is "other"), each with synonyms.
 pub const CLASSES: &[(&str, &[&str])] = &[
     ("other", &[]),

@@ -1,28 +1,40 @@
-//! The questions of a release, part of every build (issue 6): prompt-grounded questions
-//! from each scene's prompt specification ([`prompt`]), and standard view-dependent
-//! questions from what the rendered trajectory shows ([`standard`]) — the objects whose
-//! ground-truth points the camera captured, their colours in the baseline frames, their
-//! boxes. Both sets carry machine-readable forms, so the symbolic answerer and the rule
-//! judge handle them without an LLM. The seen objects are kept, hidden, with the ground
-//! truth: they are the scene graph an oracle would build.
+//! The questions of a release, part of every build: prompt-grounded questions from each
+//! scene's prompt specification ([`prompt`]), and standard view-dependent questions
+//! from what the rendered trajectory shows ([`standard`]) — the objects whose
+//! ground-truth points the camera captured (counted per instance, exactly), their
+//! colours (their albedo where the camera saw them), their boxes and what they
+//! physically rest on ([`support`]). Both sets carry machine-readable forms, so the
+//! symbolic answerer and the rule judge handle them without an LLM, and every question
+//! is one a perfect map answers: the seen objects are kept, hidden, with the ground
+//! truth, as the scene graph an oracle builds.
 
 pub mod prompt;
 pub mod standard;
+pub mod support;
 
 use std::collections::BTreeMap;
 
-use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::vqa::SceneQuestions;
 use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
 
 use crate::convert::habitat::ConversionReport;
+pub use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
 use crate::spec::SceneSpec;
+use support::Support;
 
-/// Classes questions never ask about: the room's shell.
-pub const STRUCTURAL: [&str; 6] = ["other", "floor", "wall", "ceiling", "door", "window"];
-
-/// Ground-truth points an object needs to count as seen by the trajectory.
+/// Ground-truth points an object needs to count as seen (mapped) by the trajectory.
 pub const MIN_SEEN_POINTS: usize = 10;
+
+/// What the ground truth holds of one object instance.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct InstancePoints {
+    /// Its ground-truth points.
+    pub points: usize,
+    /// The mean albedo (sRGB, 0–255) of its surface where those points lie.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<[f64; 3]>,
+}
 
 /// An object of the scene (not its shell) and how much of it the trajectory saw.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,11 +46,14 @@ pub struct SceneObject {
     pub bbox_extent: [f64; 3],
     /// Its ground-truth points (0: the camera never saw it).
     pub points: usize,
-    /// The colour name of its mean colour in the baseline frames, when clear.
+    /// The colour name of its albedo where it was seen, when clear.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub colour: Option<String>,
     /// A caption in the style of ConceptGraphs' (`a red chair`).
     pub caption: String,
+    /// What it rests on: another object's id, `floor`, or nothing known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rests_on: Option<String>,
 }
 
 impl SceneObject {
@@ -102,49 +117,64 @@ pub fn colour_name(rgb: [f64; 3]) -> Option<&'static str> {
     })
 }
 
-/// The scene's objects (not the shell), each with the ground-truth points of its class
-/// inside its box and their mean colour.
-pub fn scene_objects(report: &ConversionReport, gt: &GroundTruth) -> Vec<SceneObject> {
-    const MARGIN: f64 = 0.05;
-    let candidates: Vec<_> = report.objects.iter().filter(|o| !STRUCTURAL.contains(&o.class.as_str())).collect();
-    let mut tallies = vec![(0usize, [0f64; 3]); candidates.len()];
-    for (i, (p, &label)) in gt.points.iter().zip(&gt.labels).enumerate() {
-        let p = p.map(f64::from);
-        for (k, o) in candidates.iter().enumerate() {
-            if o.class_id == label && (0..3).all(|a| p[a] >= o.bbox_min[a] - MARGIN && p[a] <= o.bbox_max[a] + MARGIN) {
-                tallies[k].0 += 1;
-                if let Some(colours) = &gt.colors {
-                    for (a, c) in colours[i].iter().enumerate() {
-                        tallies[k].1[a] += f64::from(*c);
-                    }
-                }
-                break;
-            }
-        }
-    }
-    candidates
+/// The scene's objects (not the shell), each with its ground-truth points (`instances`,
+/// by instance id), the colour of its albedo and what it rests on (`supports`).
+pub fn scene_objects(report: &ConversionReport, instances: &BTreeMap<i64, InstancePoints>, supports: &BTreeMap<i64, Support>) -> Vec<SceneObject> {
+    report
+        .objects
         .iter()
-        .zip(tallies)
-        .map(|(o, (n, sum))| {
-            let colour = gt.colors.as_ref().filter(|_| n >= MIN_SEEN_POINTS).and_then(|_| colour_name(sum.map(|s| s / n as f64))).map(str::to_string);
+        .filter(|o| !STRUCTURAL.contains(&o.class.as_str()))
+        .map(|o| {
+            let seen = instances.get(&o.instance_id).cloned().unwrap_or_default();
+            let colour = seen.albedo.filter(|_| seen.points >= MIN_SEEN_POINTS).and_then(colour_name).map(str::to_string);
             let center = std::array::from_fn(|a| (o.bbox_min[a] + o.bbox_max[a]) / 2.0);
             let extent = std::array::from_fn(|a| o.bbox_max[a] - o.bbox_min[a]);
             let caption = match &colour {
                 Some(c) => format!("a {c} {}", o.class),
                 None => format!("a {}", o.class),
             };
-            SceneObject { id: format!("obj_{}", o.instance_id), label: o.class.clone(), bbox_center: center, bbox_extent: extent, points: n, colour, caption }
+            let rests_on = match supports.get(&o.instance_id) {
+                Some(Support::Floor) => Some("floor".to_string()),
+                Some(Support::Object(id)) => Some(object_id(*id)),
+                Some(Support::Nothing) | None => None,
+            };
+            SceneObject {
+                id: object_id(o.instance_id),
+                label: o.class.clone(),
+                bbox_center: center,
+                bbox_extent: extent,
+                points: seen.points,
+                colour,
+                caption,
+                rests_on,
+            }
         })
         .collect()
+}
+
+/// The scene graph a perfect map builds: every seen object with its class, caption and
+/// box (to the millimetre, as a submission would carry it).
+pub fn oracle_graph(objects: &[SceneObject]) -> Value {
+    let mm = |v: [f64; 3]| v.map(|x| (x * 1000.0).round() / 1000.0);
+    let nodes: Vec<Value> = objects
+        .iter()
+        .filter(|o| o.seen())
+        .map(|o| json!({"id": o.id, "label": o.label, "caption": o.caption, "bbox_center": mm(o.bbox_center), "bbox_extent": mm(o.bbox_extent)}))
+        .collect();
+    json!({"objects": nodes})
+}
+
+/// The id of the object with instance id `instance`.
+pub fn object_id(instance: i64) -> String {
+    format!("obj_{instance}")
 }
 
 /// Every question of one scene: the prompt-grounded ones, then the standard ones about
 /// the objects the trajectory saw.
 pub fn scene_questions(scene: &str, spec: &SceneSpec, objects: &[SceneObject], lexicon: &[String], seed: u64) -> SceneQuestions {
-    let mut questions = prompt::prompt_questions(scene, spec, lexicon, seed);
-    let seen: Vec<SceneObject> = objects.iter().filter(|o| o.seen()).cloned().collect();
     let present: Vec<String> = objects.iter().map(|o| o.label.clone()).collect();
-    questions.extend(standard::standard_questions(scene, &seen, &present, lexicon, seed));
+    let mut questions = prompt::prompt_questions(scene, spec, &present, lexicon, seed);
+    questions.extend(standard::standard_questions(scene, objects, lexicon, seed));
     SceneQuestions { scene: scene.to_string(), questions }
 }
 
@@ -182,6 +212,25 @@ pub fn plural(name: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn objects_carry_their_exact_points_albedo_colour_and_support() {
+        use crate::convert::habitat::ConvertedObject;
+        let o = |id: i64, class: &str| ConvertedObject::spanning(id, class, [0.0, 0.0, 0.0], [1.0, 0.5, 2.0]);
+        let report = ConversionReport { objects: vec![o(1, "floor"), o(2, "table"), o(3, "mug"), o(4, "chair")], ..Default::default() };
+        let instances = BTreeMap::from([
+            (2, InstancePoints { points: 500, albedo: Some([120.0, 80.0, 40.0]) }),
+            (3, InstancePoints { points: 12, albedo: Some([200.0, 30.0, 30.0]) }),
+            (4, InstancePoints { points: 9, albedo: Some([200.0, 30.0, 30.0]) }),
+        ]);
+        let supports = BTreeMap::from([(2, Support::Floor), (3, Support::Object(2)), (4, Support::Nothing)]);
+        let objects = scene_objects(&report, &instances, &supports);
+        assert_eq!(objects.iter().map(|o| o.id.as_str()).collect::<Vec<_>>(), ["obj_2", "obj_3", "obj_4"], "the shell is not an object");
+        assert_eq!((objects[0].caption.as_str(), objects[0].rests_on.as_deref()), ("a brown table", Some("floor")));
+        assert_eq!((objects[1].colour.as_deref(), objects[1].rests_on.as_deref(), objects[1].seen()), (Some("red"), Some("obj_2"), true));
+        assert_eq!((objects[2].colour.as_deref(), objects[2].seen()), (None, false), "unseen objects get no colour");
+        assert_eq!((objects[0].bbox_center, objects[0].bbox_extent), ([0.5, 0.25, 1.0], [1.0, 0.5, 2.0]));
+    }
 
     #[test]
     fn colours_are_named_only_when_clear() {

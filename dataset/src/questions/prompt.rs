@@ -1,8 +1,12 @@
 //! Prompt-grounded (PromptGT) questions, as OSMa-Bench++ asks them: counts, relations and
 //! existence taken from the scene's prompt specification, answered by the prompt itself
-//! (digits; Yes/No). At least 3 Measurement questions (when the prompt counts three
-//! classes), at least 3 Relations, 1–3 Existence, no duplicates; most answers are Yes, so
-//! a method that maps nothing scores little.
+//! (digits; Yes/No) — which the release's quality control verified the scene to satisfy
+//! (every prompted instance present and mapped, every relation met). At least 3
+//! Measurement questions (when the prompt counts three classes), at least 3 Relations,
+//! 1–3 Existence, no duplicates; most answers are Yes, so a method that maps nothing
+//! scores little. Relations a scene graph's boxes cannot decide (behind, in front of:
+//! they need an object's facing) are not asked; classes answered "No" are absent from
+//! the scene, not only from the prompt.
 
 use std::collections::BTreeMap;
 
@@ -13,8 +17,9 @@ use super::{STRUCTURAL, plural, with_article};
 use crate::convert::lexicon::normalise_name;
 use crate::spec::{RelationKind, SceneSpec};
 
-/// The question form of a prompt relation, when it has one (`around` is `next to`;
-/// `facing`, `between`, `opposite`, `parallel to` and the wall relations have none).
+/// The question form of a prompt relation, when boxes decide it (`around` is `next
+/// to`; `behind` and `in front of` need the target's facing, `facing`, `between`,
+/// `opposite`, `parallel to` and the wall relations have no form).
 fn relation_form(kind: RelationKind) -> Option<Relation> {
     Some(match kind {
         RelationKind::On => Relation::On,
@@ -22,8 +27,6 @@ fn relation_form(kind: RelationKind) -> Option<Relation> {
         RelationKind::Inside => Relation::Inside,
         RelationKind::NextTo | RelationKind::Around => Relation::NextTo,
         RelationKind::Near => Relation::Near,
-        RelationKind::Behind => Relation::Behind,
-        RelationKind::InFrontOf => Relation::InFrontOf,
         _ => return None,
     })
 }
@@ -38,7 +41,9 @@ pub fn scene_seed(scene: &str, seed: u64) -> u64 {
     scene.bytes().fold(seed ^ 0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
 
-pub fn prompt_questions(scene: &str, spec: &SceneSpec, lexicon: &[String], seed: u64) -> Vec<Question> {
+/// The PromptGT questions of a scene whose prompt has `spec` and whose objects are of
+/// the classes `present`.
+pub fn prompt_questions(scene: &str, spec: &SceneSpec, present: &[String], lexicon: &[String], seed: u64) -> Vec<Question> {
     let mut rng = Rng::new(scene_seed(scene, seed));
     let room = spec.room.as_str();
     let mut out: Vec<(String, String, String, QuestionForm)> = Vec::new();
@@ -79,7 +84,8 @@ pub fn prompt_questions(scene: &str, spec: &SceneSpec, lexicon: &[String], seed:
         }
     }
     let stated_classes: Vec<&str> = counts.keys().copied().collect();
-    let unmentioned: Vec<&String> = lexicon.iter().filter(|c| !STRUCTURAL.contains(&c.as_str()) && !counts.contains_key(c.as_str())).collect();
+    let unmentioned: Vec<&String> =
+        lexicon.iter().filter(|c| !STRUCTURAL.contains(&c.as_str()) && !counts.contains_key(c.as_str()) && !present.contains(c)).collect();
     for subject in stated_classes.iter().take(3) {
         if let Some(other) = (!unmentioned.is_empty()).then(|| unmentioned[(rng.next_u64() % unmentioned.len() as u64) as usize]) {
             let text = format!("Is there {} next to {} in the {room}?", with_article(subject), with_article(other));
@@ -94,12 +100,13 @@ pub fn prompt_questions(scene: &str, spec: &SceneSpec, lexicon: &[String], seed:
     let stated_relations = out.iter().filter(|q| q.0 == "PromptGT-Relations").count();
     out.extend(fills.into_iter().take(3usize.saturating_sub(stated_relations)));
 
-    // Existence: two stated classes (Yes) and one the prompt does not mention (No).
+    // Existence: two different stated classes (Yes) and one the scene does not have (No).
     let mut pick = |from: usize| (from > 0).then(|| (rng.next_u64() % from as u64) as usize);
     let mut existence = Vec::new();
+    let mut stated: Vec<&str> = stated_classes.clone();
     for _ in 0..2 {
-        if let Some(i) = pick(stated_classes.len()) {
-            existence.push((stated_classes[i].to_string(), "Yes"));
+        if let Some(i) = pick(stated.len()) {
+            existence.push((stated.remove(i).to_string(), "Yes"));
         }
     }
     if let Some(i) = pick(unmentioned.len()) {
@@ -147,7 +154,8 @@ mod tests {
             ],
         };
         let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
-        let questions = prompt_questions("scene_003", &spec, &lexicon, 42);
+        let present: Vec<String> = ["dining table", "dining chair", "mug", "lamp"].map(String::from).to_vec();
+        let questions = prompt_questions("scene_003", &spec, &present, &lexicon, 42);
         let of = |c: &str| questions.iter().filter(|q| q.category == c).collect::<Vec<_>>();
         let measurement = of("PromptGT-Measurement");
         assert_eq!(measurement.len(), 3);
@@ -169,6 +177,7 @@ mod tests {
         assert!(
             questions.iter().all(|q| matches!(q.answer.as_deref(), Some("Yes" | "No")) || q.answer.as_deref().unwrap().bytes().all(|b| b.is_ascii_digit()))
         );
-        assert_eq!(questions, prompt_questions("scene_003", &spec, &lexicon, 42), "deterministic");
+        assert!(questions.iter().all(|q| !q.question.contains("lamp")), "a class the scene has is never answered No");
+        assert_eq!(questions, prompt_questions("scene_003", &spec, &present, &lexicon, 42), "deterministic");
     }
 }

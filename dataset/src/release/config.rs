@@ -59,9 +59,17 @@ pub struct RenderConfig {
     pub hfov: f64,
     #[serde(default = "default_sensor_height")]
     pub sensor_height: f64,
-    /// Navigation goals per furniture and per manipuland scene (OSMa-Bench++: 5 and 10).
+    /// Camera tilt in degrees, negative looking down (HaDaGe's `camera_pitch_deg`).
+    #[serde(default)]
+    pub camera_pitch_deg: f64,
+    /// Navigation goals at least per furniture and per manipuland scene (OSMa-Bench++:
+    /// 5 and 10); the coverage planner adds viewpoints until every object is observed.
     pub goals_furniture: usize,
     pub goals_manipuland: usize,
+    /// Frames per action (HaDaGe's move and turn frequency multipliers): 2 in
+    /// OSMa-Bench (3 cm or 2° a frame), 1 in its `velocity` variant (6 cm or 4°).
+    #[serde(default = "default_frames_per_action")]
+    pub frames_per_action: u32,
     pub max_frames: usize,
     pub lightings: Vec<String>,
     /// An external renderer (HaDaGe) run per scene and lighting; the built-in one when
@@ -76,7 +84,26 @@ pub struct RenderConfig {
 impl RenderConfig {
     /// The camera these settings describe.
     pub fn sensor(&self) -> SensorSettings {
-        SensorSettings { width: self.width, height: self.height, hfov: self.hfov, sensor_height: self.sensor_height, ..Default::default() }
+        SensorSettings {
+            width: self.width,
+            height: self.height,
+            hfov: self.hfov,
+            sensor_height: self.sensor_height,
+            camera_pitch_deg: self.camera_pitch_deg,
+            ..Default::default()
+        }
+    }
+}
+
+fn default_frames_per_action() -> u32 {
+    2
+}
+
+impl RenderConfig {
+    /// The motion of scene `index` of `regime` (HaDaGe's steps, this config's budget).
+    pub fn motion(&self, regime: crate::spec::Regime, seed: u64) -> crate::render::trajectory::MotionSettings {
+        let goals = if regime == crate::spec::Regime::Furniture { self.goals_furniture } else { self.goals_manipuland };
+        crate::render::trajectory::MotionSettings { goals, seed, max_frames: self.max_frames, sub_steps: self.frames_per_action, ..Default::default() }
     }
 }
 
@@ -89,6 +116,71 @@ fn default_hfov() -> f64 {
 }
 fn default_sensor_height() -> f64 {
     1.0
+}
+
+/// What every scene of a release must reach (product issue 12's bar); a scene that
+/// misses it is replaced from the selection's spare prompts, and a build that cannot
+/// replace it fails naming the scene and the measure.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QualityConfig {
+    /// Fail the build on a miss (false: report the misses only, for quick test builds).
+    #[serde(default = "yes")]
+    pub enforce: bool,
+    /// Frames dominated by one class (> 85 % of pixels) or short of depth (< 50 %).
+    #[serde(default = "default_degenerate")]
+    pub max_degenerate_fraction: f64,
+    /// Median share of saturated pixels of a frame, in every lighting.
+    #[serde(default = "default_saturated")]
+    pub max_median_saturated: f64,
+    /// Frames of `dynamic_lights` that must differ from `baseline`.
+    #[serde(default = "default_dynamic")]
+    pub min_dynamic_changed_fraction: f64,
+    /// Metres the camera travels at least.
+    #[serde(default = "default_travel")]
+    pub min_travel: f64,
+    /// The oracle's VQA accuracy at least, per question group.
+    #[serde(default = "default_oracle_vqa")]
+    pub min_oracle_vqa: f64,
+    /// Spare prompts tried for a scene that misses the bar before the build fails.
+    #[serde(default = "default_replacements")]
+    pub replacements: usize,
+}
+
+fn yes() -> bool {
+    true
+}
+fn default_degenerate() -> f64 {
+    0.10
+}
+fn default_saturated() -> f64 {
+    0.05
+}
+fn default_dynamic() -> f64 {
+    0.20
+}
+fn default_travel() -> f64 {
+    2.0
+}
+fn default_oracle_vqa() -> f64 {
+    0.98
+}
+fn default_replacements() -> usize {
+    6
+}
+
+impl Default for QualityConfig {
+    fn default() -> Self {
+        Self {
+            enforce: true,
+            max_degenerate_fraction: default_degenerate(),
+            max_median_saturated: default_saturated(),
+            min_dynamic_changed_fraction: default_dynamic(),
+            min_travel: default_travel(),
+            min_oracle_vqa: default_oracle_vqa(),
+            replacements: default_replacements(),
+        }
+    }
 }
 
 /// The environment variable holding the LLM's API key for release builds.
@@ -109,6 +201,8 @@ pub struct ReleaseConfig {
     #[serde(default)]
     pub synthesis: SynthesisConfig,
     pub render: RenderConfig,
+    #[serde(default)]
+    pub quality: QualityConfig,
 }
 
 impl ReleaseConfig {
@@ -123,6 +217,23 @@ impl ReleaseConfig {
         let sensor = config.render.sensor();
         if let Some((field, expectation)) = sensor.problem() {
             return bad(&format!("render.{field}"), expectation);
+        }
+        let q = &config.quality;
+        for (field, value) in [
+            ("quality.max_degenerate_fraction", q.max_degenerate_fraction),
+            ("quality.max_median_saturated", q.max_median_saturated),
+            ("quality.min_dynamic_changed_fraction", q.min_dynamic_changed_fraction),
+            ("quality.min_oracle_vqa", q.min_oracle_vqa),
+        ] {
+            if !(0.0..=1.0).contains(&value) {
+                return bad(field, "a fraction in [0, 1]");
+            }
+        }
+        if !(q.min_travel >= 0.0 && q.min_travel < 1000.0) {
+            return bad("quality.min_travel", "metres in [0, 1000)");
+        }
+        if !(1..=8).contains(&config.render.frames_per_action) {
+            return bad("render.frames_per_action", "1 to 8 frames per move or turn");
         }
         if config.render.lightings.is_empty() {
             return bad("render.lightings", "at least one lighting");

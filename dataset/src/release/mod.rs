@@ -7,7 +7,9 @@
 
 pub mod config;
 pub mod contact;
+pub mod instances;
 pub mod manifest;
+pub mod quality;
 pub mod stages;
 
 use std::collections::BTreeMap;
@@ -17,47 +19,35 @@ use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::{InputError, Result};
-use serde::Serialize;
 use serde_json::{Value, json};
 
 use crate::convert::habitat::ConversionReport;
-use crate::convert::lexicon::normalise_name;
-use crate::prompts::ScenePrompt;
+use crate::questions::support::resting_on;
 use crate::questions::{scene_objects, scene_questions};
+use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
-use crate::spec::Regime;
+use instances::InstanceLabels;
 use manifest::{digest, list_files};
 use osmab_evaluator::vqa::is_prompt_grounded;
-use stages::{Build, read_json, scene_name, write_json};
+use quality::{Rendered, SceneQuality, oracle_ceiling};
+use stages::{Build, INSTANCES_JSON, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK};
 
 /// Ground truth, kept by the server and never served (not in the public manifest).
 pub const GROUND_TRUTH: &str = "ground_truth";
-
-/// What one scene of the release holds and how well it matches its prompt.
-#[derive(Debug, Clone, Serialize)]
-pub struct SceneQuality {
-    pub scene: String,
-    pub subset: Regime,
-    pub prompt_id: String,
-    /// Per prompted category: class, expected and present counts, whether seen in a frame.
-    pub objects: Vec<Value>,
-    pub unmet_relations: Vec<String>,
-    /// Pixels per class over the baseline sequence, and ground-truth points per class.
-    pub class_pixels: BTreeMap<u16, u64>,
-    pub gt_points: BTreeMap<i64, u64>,
-    pub full_match: bool,
-}
+/// Every scene's preview frame under every lighting, one row per scene.
+pub const OVERVIEW: &str = "quality/contact_sheets/overview.png";
 
 /// Stages 1–4 of the build of `config_path` into `out` (prompts, selection, and every
-/// scene's synthesis and conversion); returns every sequence of the release and
+/// scene's synthesis, conversion and trajectory, each scene settled on a prompt that
+/// passes the planned quality check); returns every sequence of the release and
 /// whether it is rendered already.
 pub fn prepare_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Vec<(SequenceUnit, bool)>> {
     let build = Build::open(config_path, out)?;
-    let prompts = build.prompts(progress)?;
+    let selection = build.prompts(progress)?;
     let mut units = Vec::new();
-    for (index, prompt) in prompts.iter().enumerate() {
-        build.scene_assets(index, prompt, progress)?;
+    for index in 0..selection.scenes.len() {
+        build.settle_scene(index, &selection, progress)?;
         for lighting in &build.config.render.lightings {
             let unit = SequenceUnit { scene_index: index, scene: scene_name(index), lighting: lighting.clone() };
             let done = build.sequence_rendered(&unit)?;
@@ -70,14 +60,10 @@ pub fn prepare_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) 
 /// Stage 5 for one sequence of a prepared build (see [`prepare_release`]).
 pub fn render_release_sequence(config_path: &Path, out: &Path, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
     let build = Build::open(config_path, out)?;
-    let prompts: Vec<ScenePrompt> = read_json(&build.work.join("selection/final_prompts.json"))?;
-    let prompt = prompts.get(unit.scene_index).ok_or_else(|| {
-        InputError::new(config_path, "(selection)", format!("the selection has {} scenes; there is no scene {}", prompts.len(), unit.scene_index))
-    })?;
     if !build.config.render.lightings.contains(&unit.lighting) {
         return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
     }
-    build.render_sequence(unit, prompt.spec.regime, progress).map(|_| ())
+    build.render_sequence(unit, progress).map(|_| ())
 }
 
 /// Build the release of `config_path` into `out`.
@@ -85,27 +71,26 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     let build = Build::open(config_path, out)?;
     let (config, config_text) = (&build.config, &build.config_text);
     let work = &build.work;
-    let prompts = build.prompts(progress)?;
+    let selection = build.prompts(progress)?;
 
-    // 3–6. Per scene: synthesis, conversion, sequences, ground truth.
+    // 3–6. Per scene: synthesis, conversion, trajectory, sequences, ground truth, questions.
     let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
     let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
-    for (i, prompt) in prompts.iter().enumerate() {
+    let mut previews: Vec<(String, usize)> = Vec::new();
+    for i in 0..selection.scenes.len() {
         let scene = scene_name(i);
-        build.scene_assets(i, prompt, progress)?;
-        let unmet_path = build.unmet_path(i);
+        let settled = build.settle_scene(i, &selection, progress)?;
+        let prompt = &settled.prompt;
         let habitat = build.habitat_dir(i);
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
         for lighting in &lightings {
             let unit = SequenceUnit { scene_index: i, scene: scene.clone(), lighting: lighting.to_string() };
-            let summary = build.render_sequence(&unit, prompt.spec.regime, progress)?;
+            let summary = build.render_sequence(&unit, progress)?;
             let sequence_dir = out.join("sequences").join(lighting).join(&scene);
             let sheet = out.join("quality/contact_sheets").join(lighting).join(format!("{scene}.png"));
-            if !sheet.exists() {
-                contact::write_contact_sheet(&sequence_dir, summary.frames, &sheet)?;
-            }
+            contact::write_contact_sheet(&sequence_dir, &summary, &sheet)?;
             summaries.insert(lighting.to_string(), summary);
         }
         let gt_dir = build.ground_truth(i, progress)?;
@@ -113,73 +98,89 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             &out.join("scenes").join(&scene).join("prompt.json"),
             &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}),
         )?;
-        scenes_json.push(json!({"id": scene, "subset": prompt.spec.regime, "prompt": prompt.text, "questions": format!("questions/{scene}.json")}));
+        let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
+        let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
+        previews.push((scene.clone(), preview));
+        scenes_json.push(json!({
+            "id": scene,
+            "subset": prompt.spec.regime,
+            "prompt": prompt.text,
+            "questions": format!("questions/{scene}.json"),
+            "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
+        }));
 
-        // Quality: what the prompt asked for, what the scene has, what the camera saw.
+        // The scene's objects: what the ground truth holds of each, what it rests on.
         let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
-        let baseline = summaries.get("baseline").or_else(|| summaries.values().next()).cloned().unwrap_or_default();
         let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
         let gt = GroundTruth::read(&gt_dir, &classes)?;
+        let labels: InstanceLabels = read_json(&gt_dir.join(INSTANCES_JSON))?;
+        let world = World::load_habitat_scene(&habitat, &scene)?;
+        let objects = scene_objects(&conversion, &labels.instances, &resting_on(&world, &conversion));
 
         // Questions: prompt-grounded and standard, public without their answers; the
         // answers and the scene objects stay with the ground truth.
-        let objects = scene_objects(&conversion, &gt);
         let questions = scene_questions(&scene, &prompt.spec, &objects, &lexicon, config.seed.wrapping_add(i as u64));
         write_json(&out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
         write_json(&out.join(GROUND_TRUTH).join("questions").join(format!("{scene}.json")), &questions)?;
         write_json(&out.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json")), &json!({"scene": scene, "objects": objects}))?;
+
+        let unmet: Vec<String> = read_json(&build.unmet_path(i))?;
+        let rendered = Rendered {
+            spec: &prompt.spec,
+            conversion: &conversion,
+            unmet: &unmet,
+            summaries: &summaries,
+            instances: &labels,
+            gt_labels: &gt.labels,
+            objects: &objects,
+            questions: &questions,
+            lexicon: &lexicon,
+        };
+        let measured = SceneQuality::measure(&scene, &prompt.id, settled.replaced.clone(), &rendered, &config.quality);
         progress(&format!(
-            "{scene}: {} questions ({} prompt-grounded), {} objects seen",
+            "{scene}: {} frames, {:.1} m, {} questions ({} prompt-grounded), {} of {} objects mapped{}",
+            measured.frames,
+            measured.travelled_m,
             questions.questions.len(),
             questions.questions.iter().filter(|q| is_prompt_grounded(&q.category)).count(),
-            objects.iter().filter(|o| o.seen()).count()
+            objects.iter().filter(|o| o.seen()).count(),
+            objects.len(),
+            if measured.problems.is_empty() { String::new() } else { format!("; misses: {}", measured.problems.join("; ")) }
         ));
-
-        let mut gt_points: BTreeMap<i64, u64> = BTreeMap::new();
-        for &l in &gt.labels {
-            *gt_points.entry(l).or_default() += 1;
-        }
-        let mut full_match = true;
-        let objects: Vec<Value> = prompt
-            .spec
-            .objects
-            .iter()
-            .map(|o| {
-                // A category outside the lexicon cannot be checked: it is reported unmatched.
-                let Some(class) = normalise_name(&o.category).filter(|c| crate::convert::lexicon::class_id(c).is_some_and(|id| id != 0)) else {
-                    full_match = false;
-                    return json!({"category": o.category, "class": null, "expected": o.count, "present": 0, "visible": false, "match": false});
-                };
-                let class_id = crate::convert::lexicon::class_id(class).unwrap_or(0);
-                let expected: u32 = prompt.spec.objects.iter().filter(|p| normalise_name(&p.category) == Some(class)).map(|p| p.count).sum();
-                let present = conversion.objects.iter().filter(|c| c.class == class).count() as u32;
-                let visible = baseline.class_pixels.get(&(class_id as u16)).copied().unwrap_or(0) > 0;
-                let ok = present == expected && visible;
-                full_match &= ok;
-                json!({"category": o.category, "class": class, "expected": expected, "present": present, "visible": visible, "match": ok})
-            })
-            .collect();
-        let unmet_relations: Vec<String> = read_json(&unmet_path)?;
-        full_match &= unmet_relations.is_empty();
-        quality.push(SceneQuality {
-            scene: scene.clone(),
-            subset: prompt.spec.regime,
-            prompt_id: prompt.id.clone(),
-            objects,
-            unmet_relations,
-            class_pixels: baseline.class_pixels,
-            gt_points,
-            full_match,
-        });
+        quality.push(measured);
     }
 
-    // The public tree: classes, quality report, manifest.
+    // The bar: every scene, and the oracle's answers over all of them.
+    let (oracle_accuracy, oracle_problems) = oracle_ceiling(&quality, config.quality.min_oracle_vqa);
+    let mut failures: Vec<String> = quality.iter().flat_map(|q| q.problems.iter().map(move |p| format!("{}: {p}", q.scene))).collect();
+    failures.extend(oracle_problems.iter().cloned());
+
+    // The public tree: classes, quality report and overview, manifest.
+    contact::write_overview(out, &previews, &lightings, &out.join(OVERVIEW))?;
     let classes_json: Value =
         read_json(&work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
     write_json(&out.join("classes.json"), &classes_json)?;
     let full = quality.iter().filter(|q| q.full_match).count();
-    write_json(&out.join("quality/quality_report.json"), &json!({"scenes": quality.len(), "full_match": full, "per_scene": quality}))?;
-    let scene_names: Vec<&str> = quality.iter().map(|q| q.scene.as_str()).collect();
+    write_json(
+        &out.join("quality/quality_report.json"),
+        &json!({
+            "scenes": quality.len(),
+            "full_match": full,
+            "passed": quality.iter().filter(|q| q.problems.is_empty()).count(),
+            "bar": config.quality,
+            "oracle_vqa": oracle_accuracy,
+            "problems": failures,
+            "per_scene": quality,
+        }),
+    )?;
+    if config.quality.enforce && !failures.is_empty() {
+        return Err(InputError::new(
+            out.join("quality/quality_report.json"),
+            "quality",
+            format!("the release misses its quality bar (nothing was published): {}", failures.join("; ")),
+        ));
+    }
+    let scene_names: Vec<String> = quality.iter().map(|q| q.scene.clone()).collect();
     let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
     let mut gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
     for scene in &scene_names {
@@ -188,7 +189,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
-    let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into()];
+    let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
     for scene in &scene_names {
         expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
         for lighting in &lightings {
@@ -237,16 +238,46 @@ fn refuse_leftovers(root: &Path, files: &[manifest::FileEntry], expected: &[Stri
     }
 }
 
-/// Frames and class pixels of a sequence on disk (one rendered by an external tool).
+/// The summary of a sequence on disk (one rendered by an external tool): frames, class
+/// pixels and every frame's measures, read from its images (instances are unknown).
 pub fn summarize_sequence(dir: &Path) -> Result<SequenceSummary> {
+    use crate::render::sequence::FrameMeasures;
+    use crate::render::view::{digest64, exposure, visible_classes};
     let sequence = Sequence::open(dir)?;
     let mut summary = SequenceSummary { frames: sequence.len(), ..Default::default() };
     let size = Some((sequence.camera.image_width, sequence.camera.image_height));
-    for path in &sequence.semantic_frames {
-        for &c in &osmab_evaluator::formats::image::read_png_gray16(path, size)?.pixels {
+    for i in 0..sequence.len() {
+        let semantic = osmab_evaluator::formats::image::read_png_gray16(&sequence.semantic_frames[i], size)?;
+        let depth = osmab_evaluator::formats::image::read_png_gray16(&sequence.depth_frames[i], size)?;
+        let colour = osmab_evaluator::formats::image::read_jpeg_rgb(&sequence.color_frames[i], size)?;
+        let n = semantic.pixels.len().max(1);
+        let mut per_class: BTreeMap<u16, u64> = BTreeMap::new();
+        let mut valid = 0usize;
+        let min_pixels = crate::render::coverage::CoverageGoals::default().viewpoint_rule(semantic.width, semantic.height).min_pixels;
+        for (&c, &d) in semantic.pixels.iter().zip(&depth.pixels) {
             *summary.class_pixels.entry(c).or_default() += 1;
+            if d > 0 {
+                valid += 1;
+                *per_class.entry(c).or_default() += 1;
+            }
         }
+        let (saturated, luma) = exposure(&colour.pixels);
+        let classes = visible_classes(&semantic.pixels, &depth.pixels, min_pixels);
+        let mut geometry: Vec<u8> = depth.pixels.iter().flat_map(|d| d.to_le_bytes()).collect();
+        geometry.extend(semantic.pixels.iter().flat_map(|c| c.to_le_bytes()));
+        summary.per_frame.push(FrameMeasures {
+            saturated: saturated as f32,
+            luma: luma as f32,
+            dominant: (per_class.values().copied().max().unwrap_or(0) as f64 / n as f64) as f32,
+            valid_depth: (valid as f64 / n as f64) as f32,
+            objects: classes,
+            classes,
+            colour_digest: digest64(&colour.pixels),
+            geometry_digest: digest64(&geometry),
+        });
     }
+    let poses = &sequence.trajectory.poses;
+    summary.travelled = poses.windows(2).map(|w| ((w[1][(0, 3)] - w[0][(0, 3)]).powi(2) + (w[1][(2, 3)] - w[0][(2, 3)]).powi(2)).sqrt()).sum();
     Ok(summary)
 }
 

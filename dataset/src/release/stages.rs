@@ -3,25 +3,30 @@
 //! sequence can be rendered by itself (a fan-out job) between the shared stages before
 //! it and the assembly after it.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use osmab_evaluator::formats::npy::{NpyArray, write_npy_file};
+use osmab_evaluator::formats::sequence::Sequence;
+use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use super::config::ReleaseConfig;
+use super::instances::label_instances;
 use super::manifest::{self, digest, list_files};
-use crate::convert::habitat::{ConvertOptions, write_habitat_scene};
+use super::quality::{Replaced, planned_problems};
+use crate::convert::habitat::{ConversionReport, ConvertOptions, write_habitat_scene};
 use crate::convert::scene::load_scene;
 use crate::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
 use crate::openai::ServiceClient;
 use crate::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
+use crate::render::coverage::{CoverageGoals, Plan};
+use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
-use crate::render::trajectory::MotionSettings;
 use crate::selection::select;
 use crate::spec::Regime;
-use osmab_evaluator::formats::sequence::Sequence;
-use osmab_evaluator::ground_truth::GroundTruth;
 
 /// Where the build keeps its intermediate stages (not part of the release).
 pub const WORK: &str = ".work";
@@ -97,6 +102,21 @@ pub struct SequenceUnit {
     pub lighting: String,
 }
 
+/// The selected prompts (one per scene, furniture first) and the spares of each regime
+/// that replace a scene missing the quality bar, in farthest-first order.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Selection {
+    pub scenes: Vec<ScenePrompt>,
+    pub spares: BTreeMap<Regime, Vec<ScenePrompt>>,
+}
+
+/// The prompt a scene was settled on, and the candidates replaced before it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SettledScene {
+    pub prompt: ScenePrompt,
+    pub replaced: Vec<Replaced>,
+}
+
 /// A release build in progress: its config and folders.
 pub struct Build {
     pub config: ReleaseConfig,
@@ -112,6 +132,11 @@ pub fn scene_name(index: usize) -> String {
     format!("scene_{index:03}")
 }
 
+/// Spare prompts selected beyond the wanted number, per regime.
+fn spare_count(wanted: usize) -> usize {
+    (wanted / 2).max(4)
+}
+
 impl Build {
     /// Open the build of `config_path` into `out`.
     pub fn open(config_path: &Path, out: &Path) -> Result<Build> {
@@ -122,8 +147,8 @@ impl Build {
         Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs })
     }
 
-    /// Stages 1 and 2: the prompt pools and the selected prompts, one per scene.
-    pub fn prompts(&self, progress: &dyn Fn(&str)) -> Result<Vec<ScenePrompt>> {
+    /// Stages 1 and 2: the prompt pools, then the selected prompts with their spares.
+    pub fn prompts(&self, progress: &dyn Fn(&str)) -> Result<Selection> {
         let (config, config_path, work) = (&self.config, &self.config_path, &self.work);
         let mut pools: Vec<PromptPool> = Vec::new();
         for (regime, count) in [(Regime::Furniture, config.prompts.furniture_pool), (Regime::Manipuland, config.prompts.manipuland_pool)] {
@@ -142,8 +167,8 @@ impl Build {
             pools.push(read_json(&path)?);
         }
 
-        let selected_path = work.join("selection/final_prompts.json");
-        staged(&work.join("selection/.done"), &self.inputs, &selected_path, || {
+        let selected_dir = work.join("selection/out");
+        staged(&work.join("selection/.done"), &self.inputs, &selected_dir, || {
             progress("selection: removing near-duplicates, choosing diverse scenes");
             let embedder: Box<dyn Embedder> = match &config.selection.embeddings {
                 Some(e) => Box::new(ServiceEmbedder {
@@ -152,30 +177,94 @@ impl Build {
                 }),
                 None => Box::new(HashingEmbedder::default()),
             };
-            let mut chosen: Vec<ScenePrompt> = Vec::new();
-            let mut reports = std::collections::BTreeMap::new();
+            let mut selection = Selection { scenes: Vec::new(), spares: BTreeMap::new() };
+            let mut reports = BTreeMap::new();
             for (pool, target) in pools.iter().zip([config.selection.furniture, config.selection.manipuland]) {
                 let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
                 let keys: Vec<String> = pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect();
                 let embeddings = embedder.embed(&texts).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?;
-                let report = select(&keys, &embeddings, target, config.selection.threshold);
-                if report.shortfall > 0 {
+                // Farthest-first is greedy: the first `target` are the selection, the rest spares.
+                let report = select(&keys, &embeddings, target + spare_count(target), config.selection.threshold);
+                if report.selected.len() < target {
                     return Err(InputError::new(
                         config_path,
                         "selection",
                         format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), pool.regime.name()),
                     ));
                 }
-                for s in &report.selected {
+                for (k, s) in report.selected.iter().enumerate() {
                     let index: usize = s.id.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
-                    chosen.push(pool.accepted[index].clone());
+                    let prompt = pool.accepted[index].clone();
+                    if k < target {
+                        selection.scenes.push(prompt);
+                    } else {
+                        selection.spares.entry(pool.regime).or_default().push(prompt);
+                    }
                 }
                 reports.insert(pool.regime.name(), report);
             }
-            write_json(&work.join("selection/selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
-            write_json(&selected_path, &chosen)
+            write_json(&selected_dir.join("selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
+            write_json(&selected_dir.join("final_prompts.json"), &selection.scenes)?;
+            write_json(&selected_dir.join("spare_prompts.json"), &selection.spares)
         })?;
-        read_json(&selected_path)
+        Ok(Selection { scenes: read_json(&selected_dir.join("final_prompts.json"))?, spares: read_json(&selected_dir.join("spare_prompts.json"))? })
+    }
+
+    /// The inputs of a scene's stages: the config's content and the scene's prompt.
+    fn scene_inputs(&self, prompt: &ScenePrompt) -> String {
+        format!("{} prompt {}", self.inputs, prompt.id)
+    }
+
+    fn settled_path(&self, index: usize) -> PathBuf {
+        self.work.join("scenes").join(format!("{}.json", scene_name(index)))
+    }
+
+    /// The settled prompt of scene `index` (see [`Build::settle_scene`]).
+    pub fn settled(&self, index: usize) -> Result<SettledScene> {
+        let path = self.settled_path(index);
+        if !self.work.join("scenes").join(format!("{}.done", scene_name(index))).is_file() {
+            return Err(InputError::new(&path, "(scene)", "the scene is not settled yet; the build's preparation runs before rendering"));
+        }
+        read_json(&path)
+    }
+
+    /// Stages 3 and 4 and the trajectory plan for scene `index`, settled on the first
+    /// candidate — the selected prompt, then the spares of its regime not used by an
+    /// earlier scene — that passes the planned quality check. Scenes must be settled
+    /// in order.
+    pub fn settle_scene(&self, index: usize, selection: &Selection, progress: &dyn Fn(&str)) -> Result<SettledScene> {
+        let scene = scene_name(index);
+        let selected = selection.scenes.get(index).ok_or_else(|| {
+            InputError::new(&self.config_path, "(selection)", format!("the selection has {} scenes; there is no scene {index}", selection.scenes.len()))
+        })?;
+        let path = self.settled_path(index);
+        staged(&self.work.join("scenes").join(format!("{scene}.done")), &self.inputs, &path, || {
+            // Spares taken or rejected by earlier scenes are not tried again.
+            let mut used: Vec<String> = Vec::new();
+            for earlier in 0..index {
+                let settled = self.settled(earlier)?;
+                used.push(settled.prompt.id);
+                used.extend(settled.replaced.into_iter().map(|r| r.prompt_id));
+            }
+            let spares = selection.spares.get(&selected.spec.regime).map(Vec::as_slice).unwrap_or(&[]);
+            let candidates = std::iter::once(selected).chain(spares.iter().filter(|p| !used.contains(&p.id))).take(1 + self.config.quality.replacements);
+            let mut replaced = Vec::new();
+            for candidate in candidates {
+                self.scene_assets(index, candidate, progress)?;
+                let plan = self.plan(index, candidate, progress)?;
+                let conversion: ConversionReport = read_json(&self.habitat_dir(index).join("conversion_report.json"))?;
+                let unmet: Vec<String> = read_json(&self.unmet_path(index))?;
+                let problems = planned_problems(&candidate.spec, &conversion, &unmet, &plan, &self.config.quality);
+                if problems.is_empty() || !self.config.quality.enforce {
+                    return write_json(&path, &SettledScene { prompt: candidate.clone(), replaced });
+                }
+                progress(&format!("{scene}: {} misses the bar ({}); trying a spare prompt", candidate.id, problems.join("; ")));
+                replaced.push(Replaced { prompt_id: candidate.id.clone(), problems });
+            }
+            let tried: Vec<String> = replaced.iter().map(|r| format!("{}: {}", r.prompt_id, r.problems.join("; "))).collect();
+            Err(InputError::new(&path, "quality", format!("no prompt for {scene} passes the quality check; tried {}", tried.join(" | "))))
+        })?;
+        read_json(&path)
     }
 
     /// The SceneSmith-format folder of scene `index`.
@@ -193,12 +282,18 @@ impl Build {
         self.work.join("habitat").join(scene_name(index))
     }
 
-    /// Stages 3 and 4 for scene `index`: synthesis and conversion.
+    /// The planned trajectory of scene `index`.
+    pub fn plan_path(&self, index: usize) -> PathBuf {
+        self.work.join("plans").join(format!("{}.json", scene_name(index)))
+    }
+
+    /// Stages 3 and 4 for scene `index` from `prompt`: synthesis and conversion.
     pub fn scene_assets(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<()> {
         let (config, scene) = (&self.config, scene_name(index));
+        let inputs = self.scene_inputs(prompt);
         let scenesmith = self.scenesmith_dir(index);
         let unmet_path = self.unmet_path(index);
-        staged(&self.work.join("scenesmith").join(format!("{scene}.done")), &self.inputs, &scenesmith, || {
+        staged(&self.work.join("scenesmith").join(format!("{scene}.done")), &inputs, &scenesmith, || {
             progress(&format!("{scene}: synthesis ({})", prompt.id));
             let unmet = if config.synthesis.command.is_empty() {
                 crate::synthesis::synthesize(prompt, config.seed.wrapping_add(index as u64), &scenesmith, config.synthesis.ceiling)?
@@ -214,13 +309,29 @@ impl Build {
             write_json(&unmet_path, &unmet)
         })?;
         let habitat = self.habitat_dir(index);
-        staged(&self.work.join("habitat").join(format!("{scene}.done")), &self.inputs, &habitat, || {
+        staged(&self.work.join("habitat").join(format!("{scene}.done")), &inputs, &habitat, || {
             progress(&format!("{scene}: conversion"));
             let mut loaded = load_scene(&scenesmith)?;
             loaded.name = scene.clone();
             write_habitat_scene(&loaded, &habitat, &ConvertOptions::default()).map(|_| ())
         })?;
         Ok(())
+    }
+
+    /// The trajectory of scene `index` (one for all its lightings), planned to observe
+    /// every object, the prompted ones first.
+    pub fn plan(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<Plan> {
+        let (config, scene) = (&self.config, scene_name(index));
+        let path = self.plan_path(index);
+        staged(&self.work.join("plans").join(format!("{scene}.done")), &self.scene_inputs(prompt), &path, || {
+            progress(&format!("{scene}: planning the trajectory"));
+            let motion = config.render.motion(prompt.spec.regime, config.seed.wrapping_add(index as u64));
+            let coverage = CoverageGoals { min_travel: config.quality.min_travel, ..Default::default() };
+            let prompted: Vec<String> = prompt.spec.objects.iter().map(|o| o.category.clone()).collect();
+            let plan = crate::render::plan_scene(&self.habitat_dir(index), &scene, &config.render.sensor(), &motion, &prompted, &coverage)?;
+            write_json(&path, &plan)
+        })?;
+        read_json(&path)
     }
 
     fn sequence_paths(&self, unit: &SequenceUnit) -> (PathBuf, PathBuf, PathBuf) {
@@ -232,29 +343,27 @@ impl Build {
         )
     }
 
-    /// Whether `unit` is rendered (its marker matches the config and what is on disk).
+    /// Whether `unit` is rendered (its marker matches the config, the scene's prompt and
+    /// what is on disk).
     pub fn sequence_rendered(&self, unit: &SequenceUnit) -> Result<bool> {
+        let prompt = self.settled(unit.scene_index)?.prompt;
         let (sequence_dir, _, marker) = self.sequence_paths(unit);
-        Ok(std::fs::read_to_string(&marker).is_ok_and(|recorded| marker_text(&self.inputs, &sequence_dir).is_ok_and(|now| now == recorded)))
+        Ok(std::fs::read_to_string(&marker).is_ok_and(|recorded| marker_text(&self.scene_inputs(&prompt), &sequence_dir).is_ok_and(|now| now == recorded)))
     }
 
-    /// Stage 5 for one sequence (the scene's assets must be built); returns its summary.
-    pub fn render_sequence(&self, unit: &SequenceUnit, regime: Regime, progress: &dyn Fn(&str)) -> Result<SequenceSummary> {
+    /// Stage 5 for one sequence (its scene must be settled); returns its summary.
+    pub fn render_sequence(&self, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<SequenceSummary> {
         let config = &self.config;
         let (scene, lighting) = (&unit.scene, unit.lighting.as_str());
+        let prompt = self.settled(unit.scene_index)?.prompt;
         let habitat = self.habitat_dir(unit.scene_index);
-        if !self.work.join("habitat").join(format!("{scene}.done")).is_file() {
-            return Err(InputError::new(&habitat, "(scene)", "the scene is not converted yet; its synthesis and conversion run before rendering"));
-        }
         let (sequence_dir, summary_path, marker) = self.sequence_paths(unit);
         let sensor = config.render.sensor();
-        let goals = if regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
-        let motion =
-            MotionSettings { goals, seed: config.seed.wrapping_add(unit.scene_index as u64), max_frames: config.render.max_frames, ..Default::default() };
-        staged(&marker, &self.inputs, &sequence_dir, || {
+        staged(&marker, &self.scene_inputs(&prompt), &sequence_dir, || {
             progress(&format!("{scene}: rendering {lighting}"));
+            let plan: Plan = read_json(&self.plan_path(unit.scene_index))?;
             if config.render.command.is_empty() {
-                let rendered = crate::render::render_scene(&habitat, scene, &[lighting], &sensor, &motion, &self.out.join("sequences"))?;
+                let rendered = crate::render::render_scene(&habitat, scene, &[lighting], &sensor, &plan.frames, &self.out.join("sequences"))?;
                 return write_json(&summary_path, &rendered[0].1);
             }
             let substitutions = [
@@ -264,8 +373,9 @@ impl Build {
                 ("out", sequence_dir.display().to_string()),
                 ("width", sensor.width.to_string()),
                 ("height", sensor.height.to_string()),
-                ("goals", motion.goals.to_string()),
-                ("seed", motion.seed.to_string()),
+                ("goals", plan.goals.to_string()),
+                ("seed", config.seed.wrapping_add(unit.scene_index as u64).to_string()),
+                ("trajectory", self.plan_path(unit.scene_index).display().to_string()),
             ];
             std::fs::create_dir_all(&sequence_dir).map_err(|e| InputError::io(&sequence_dir, &e))?;
             let log = self.work.join("rendered").join(lighting).join(format!("{scene}.log"));
@@ -276,20 +386,33 @@ impl Build {
         read_json(&summary_path)
     }
 
-    /// Stage 6 for scene `index`: the ground truth from the baseline sequence.
+    /// Stage 6 for scene `index`: the ground truth from the baseline sequence, with the
+    /// object instance of every point.
     pub fn ground_truth(&self, index: usize, progress: &dyn Fn(&str)) -> Result<PathBuf> {
         let scene = scene_name(index);
+        let prompt = self.settled(index)?.prompt;
         let lightings = &self.config.render.lightings;
         let gt_dir = self.out.join(super::GROUND_TRUTH).join(&scene);
         let source = if lightings.iter().any(|l| l == "baseline") { "baseline" } else { lightings[0].as_str() };
         let gt_source = self.out.join("sequences").join(source).join(&scene);
-        staged(&self.work.join("gt").join(format!("{scene}.done")), &self.inputs, &gt_dir, || {
+        let habitat = self.habitat_dir(index);
+        staged(&self.work.join("gt").join(format!("{scene}.done")), &self.scene_inputs(&prompt), &gt_dir, || {
             progress(&format!("{scene}: ground truth"));
             let sequence = Sequence::open(&gt_source)?;
             let gt = GroundTruth::build(&sequence)?;
             gt.write(&gt_dir)?;
-            sequence.classes()?.write(&gt_dir.join("embed_semseg_classes.json"))
+            sequence.classes()?.write(&gt_dir.join("embed_semseg_classes.json"))?;
+            let world = World::load_habitat_scene(&habitat, &scene)?;
+            let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
+            let labels = label_instances(&world, &sequence, &gt, &conversion)?;
+            write_npy_file(&gt_dir.join(INSTANCES_NPY), &NpyArray::from_i64(labels.per_point.clone()))?;
+            write_json(&gt_dir.join(INSTANCES_JSON), &labels)
         })?;
         Ok(gt_dir)
     }
 }
+
+/// Per ground-truth point, its object instance id (int64; 0 unknown).
+pub const INSTANCES_NPY: &str = "instances.npy";
+/// Per instance, its ground-truth points and albedo, and how the points were labelled.
+pub const INSTANCES_JSON: &str = "instances.json";

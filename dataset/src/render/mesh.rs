@@ -28,6 +28,8 @@ pub struct Triangle {
     pub surface: u32,
     /// Class id written to semantic images.
     pub class_id: u16,
+    /// The object instance it belongs to (the template's `semantic_id`; 0 for none).
+    pub instance_id: u16,
 }
 
 /// Everything a camera can see.
@@ -58,6 +60,7 @@ impl World {
                 .map_err(|e| InputError::new(&template_path, "(json)", e.to_string()))?;
             let asset = dir.join("objects").join(template["render_asset"].as_str().ok_or_else(|| InputError::new(&template_path, "render_asset", "missing"))?);
             let class_id = template["user_defined"]["class_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16;
+            let instance_id = template["semantic_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16;
             let (t, q, s) = (
                 floats(&object["translation"], 3).unwrap_or(vec![0.0; 3]),
                 floats(&object["rotation"], 4).unwrap_or(vec![1.0, 0.0, 0.0, 0.0]),
@@ -91,7 +94,14 @@ impl World {
                     let n = e1.cross(&e2);
                     let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
                     let uvs = corners.map(|(_, t)| t.map_or([0.0; 2], |t| obj.uvs[t as usize]));
-                    world.triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs, surface: base + *material as u32, class_id });
+                    world.triangles.push(Triangle {
+                        positions: p,
+                        normals: [[n.x, n.y, n.z]; 3],
+                        uvs,
+                        surface: base + *material as u32,
+                        class_id,
+                        instance_id,
+                    });
                 }
             } else {
                 let gltf = read_gltf(&asset)?;
@@ -121,6 +131,7 @@ impl World {
                             uvs: k.map(|k| mesh.uvs.as_ref().map_or([0.0; 2], |uv| uv[k])),
                             surface,
                             class_id,
+                            instance_id,
                         });
                     }
                 }

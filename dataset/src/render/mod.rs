@@ -1,43 +1,82 @@
 //! The built-in CPU renderer: RGB, planar depth and semantic images of a converted
-//! Habitat-style scene, with Habitat's lighting model.
+//! Habitat-style scene along a trajectory planned for coverage, with Habitat's
+//! lighting model.
 
+pub mod coverage;
+pub mod loaders;
 pub mod mesh;
+pub mod navigation;
 pub mod obj;
 pub mod raster;
 pub mod sequence;
 pub mod trajectory;
+pub mod view;
 
 use std::path::Path;
 
 use osmab_evaluator::formats::classes::{ClassEntry, ClassList};
 use osmab_evaluator::{InputError, Result};
 
+use crate::convert::habitat::ConversionReport;
+use crate::convert::lexicon::{SHELL_CLASSES, normalise_name};
+use coverage::{CoverageGoals, Plan, Target};
+use navigation::NavGrid;
 use sequence::{SensorSettings, SequenceSummary, render_sequence};
-use trajectory::{MotionSettings, NavGrid, trajectory};
+use trajectory::{AgentState, MotionSettings};
 
 /// The four lighting conditions of OSMa-Bench++.
 pub const LIGHTINGS: [&str; 4] = ["baseline", "camera", "dynamic_lights", "no_lights"];
 
-/// Render the converted scene `scene` in `habitat_dir` under each of `lightings`, all
-/// along the same trajectory, into `out/<lighting>/<scene>/`.
+/// The objects of a converted scene a trajectory must observe: everything but the
+/// room's shell, those of `prompted` categories (names or classes) marked first.
+pub fn scene_targets(report: &ConversionReport, prompted: &[String]) -> Vec<Target> {
+    let prompted: Vec<&str> = prompted.iter().filter_map(|p| normalise_name(p)).collect();
+    report
+        .objects
+        .iter()
+        .filter(|o| !SHELL_CLASSES.contains(&o.class.as_str()))
+        .map(|o| Target { instance_id: o.instance_id.clamp(0, u16::MAX as i64) as u16, class: o.class.clone(), prompted: prompted.contains(&o.class.as_str()) })
+        .collect()
+}
+
+/// Plan the trajectory of the converted scene `scene` in `habitat_dir` (one for all
+/// its lightings), observing its objects, those of the `prompted` categories first.
+pub fn plan_scene(
+    habitat_dir: &Path,
+    scene: &str,
+    sensor: &SensorSettings,
+    motion: &MotionSettings,
+    prompted: &[String],
+    goals: &CoverageGoals,
+) -> Result<Plan> {
+    let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
+    let grid = NavGrid::read(habitat_dir, scene)?;
+    let report_path = habitat_dir.join("conversion_report.json");
+    let report: ConversionReport = serde_json::from_slice(&std::fs::read(&report_path).map_err(|e| InputError::io(&report_path, &e))?)
+        .map_err(|e| InputError::new(&report_path, "(json)", e.to_string()))?;
+    let plan = coverage::plan(&world, &grid, sensor, motion, &scene_targets(&report, prompted), goals);
+    if plan.frames.is_empty() {
+        return Err(InputError::new(habitat_dir.join("navigation"), scene, "no trajectory: the navigable area is empty or the frame budget is too small"));
+    }
+    Ok(plan)
+}
+
+/// Render the converted scene `scene` in `habitat_dir` along `states` under each of
+/// `lightings` into `out/<lighting>/<scene>/`.
 pub fn render_scene(
     habitat_dir: &Path,
     scene: &str,
     lightings: &[&str],
     sensor: &SensorSettings,
-    motion: &MotionSettings,
+    states: &[AgentState],
     out: &Path,
 ) -> Result<Vec<(String, SequenceSummary)>> {
     let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
     let grid = NavGrid::read(habitat_dir, scene)?;
-    let states = trajectory(&grid, motion);
-    if states.is_empty() {
-        return Err(InputError::new(habitat_dir.join("navigation"), scene, "no trajectory: the navigable area is empty or no goal is reachable"));
-    }
     let classes_path = habitat_dir.join("semantics/classes.json");
     let classes = ClassList::read(&classes_path)?;
     let classes = ClassList::new(classes.entries().into_iter().map(|c| ClassEntry { name: c.name, id: c.id })).expect("unique");
-    let settings = serde_json::json!({"scene_name": scene, "sensor": sensor, "motion": motion});
+    let settings = serde_json::json!({"scene_name": scene, "sensor": sensor});
     let mut out_list = Vec::new();
     for lighting in lightings {
         let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
@@ -45,7 +84,7 @@ pub fn render_scene(
             .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
         let mut settings = settings.clone();
         settings["label"] = serde_json::json!(lighting);
-        let summary = render_sequence(&world, &states, grid.floor_height, sensor, &lights, &classes, &settings, &out.join(lighting).join(scene))?;
+        let summary = render_sequence(&world, states, grid.floor_height, sensor, &lights, &classes, &settings, &out.join(lighting).join(scene))?;
         out_list.push((lighting.to_string(), summary));
     }
     Ok(out_list)

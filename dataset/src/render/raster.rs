@@ -43,6 +43,18 @@ pub enum Shading {
 
 /// Habitat's hard-coded ambient term of its Phong shading.
 pub const AMBIENT: f32 = 0.4;
+const INV_255: f32 = 1.0 / 255.0;
+
+/// The fractional part of `x` (in [0, 1)), without libm's `floorf` (a call on baseline
+/// x86-64, once per textured pixel).
+fn fract(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        let f = x - (x as i32) as f32;
+        if f < 0.0 { f + 1.0 } else { f }
+    } else {
+        0.0
+    }
+}
 /// Nothing nearer than this is drawn.
 const NEAR: f32 = 0.01;
 /// Rows per parallel band.
@@ -59,9 +71,11 @@ pub struct Frame {
     pub depth: Vec<f32>,
     /// Class ids; 0 where nothing is hit.
     pub semantic: Vec<u16>,
+    /// Object instance ids (the scene's semantic ids); 0 where nothing is hit.
+    pub instance: Vec<u16>,
     /// Per pixel: index of the visible (clipped) triangle and its weights.
-    hit: Vec<u32>,
-    weights: Vec<[f32; 2]>,
+    pub(super) hit: Vec<u32>,
+    pub(super) weights: Vec<[f32; 2]>,
 }
 
 impl Frame {
@@ -72,6 +86,7 @@ impl Frame {
         self.rgb.resize(n * 3, 0);
         self.depth.resize(n, 0.0);
         self.semantic.resize(n, 0);
+        self.instance.resize(n, 0);
         self.hit.resize(n, u32::MAX);
         self.weights.resize(n, [0.0; 2]);
     }
@@ -134,8 +149,22 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
     }
 }
 
-/// Render `world` seen by `camera` into `frame`.
+/// Render `world` seen by `camera` into `frame`: colour, depth, classes and instances.
 pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
+    let screen = rasterize(world, camera, frame);
+    resolve(world, camera, &screen, Some(shading), frame);
+}
+
+/// Depth, classes and instances of what `camera` sees, without colour: what a planner
+/// needs to know before choosing a view (the colour image is left as it was).
+pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
+    let screen = rasterize(world, camera, frame);
+    resolve(world, camera, &screen, None, frame);
+}
+
+/// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weights`,
+/// `frame.depth`); returns the clipped, projected triangles the hits index.
+fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTriangle> {
     frame.resize(camera.width, camera.height);
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
     let mut screen = Vec::with_capacity(world.triangles.len());
@@ -247,12 +276,38 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                 }
             }
         });
-    // Shading, per pixel, from what is visible.
+    screen
+}
+
+/// One row's surface attributes, for shading it all at once: albedo, world position and
+/// unit normal (facing the camera) of each pixel, structure-of-arrays, so the loop over
+/// lights runs across pixels (independent, vectorisable) rather than as one long chain
+/// per pixel.
+#[derive(Default)]
+struct RowScratch {
+    albedo: [Vec<f32>; 3],
+    position: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+    light: [Vec<f32>; 3],
+}
+
+impl RowScratch {
+    fn resize(&mut self, w: usize) {
+        for v in self.albedo.iter_mut().chain(&mut self.position).chain(&mut self.normal).chain(&mut self.light) {
+            v.resize(w, 0.0);
+        }
+    }
+}
+
+/// Per pixel, from what is visible: depth (0 for no hit), class, instance and, with a
+/// shading, colour.
+fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: Option<&Shading>, frame: &mut Frame) {
+    let w = camera.width as usize;
     let pose = camera.pose;
     let camera_origin = [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32];
     let lights: Vec<Light> = match shading {
-        Shading::Flat => Vec::new(),
-        Shading::Lit(lights) => lights
+        None | Some(Shading::Flat) => Vec::new(),
+        Some(Shading::Lit(lights)) => lights
             .iter()
             .map(|l| {
                 if l.attached_to_camera {
@@ -265,27 +320,30 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
             })
             .collect(),
     };
-    let lit = matches!(shading, Shading::Lit(_));
+    let lit = matches!(shading, Some(Shading::Lit(_)));
+    let coloured = shading.is_some();
     let r: [[f32; 4]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32));
     let (cx, cy, inv_fx, inv_fy) = (camera.cx as f32, camera.cy as f32, 1.0 / camera.fx as f32, 1.0 / camera.fy as f32);
-    struct Point {
-        x: f32,
-        y: f32,
-        z: f32,
-    }
     frame
         .rgb
         .par_chunks_mut(w * 3)
-        .zip(frame.semantic.par_chunks_mut(w))
+        .zip(frame.semantic.par_chunks_mut(w).zip(frame.instance.par_chunks_mut(w)))
         .zip(frame.depth.par_chunks_mut(w))
         .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
         .enumerate()
-        .for_each(|(py, (((rgb, semantic), depth), (hit, weights)))| {
+        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
+            row.resize(w);
+            // 1. What each pixel shows: class, instance, depth and (when coloured) its
+            //    albedo, position and normal.
             for px in 0..w {
                 if hit[px] == u32::MAX {
-                    rgb[3 * px..3 * px + 3].fill(0);
                     semantic[px] = 0;
+                    instance[px] = 0;
                     depth[px] = 0.0;
+                    for c in 0..3 {
+                        row.albedo[c][px] = 0.0;
+                        row.normal[c][px] = 0.0;
+                    }
                     continue;
                 }
                 let st = &screen[hit[px] as usize];
@@ -295,55 +353,67 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
                 // Barycentrics in the source triangle.
                 let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
                 semantic[px] = tri.class_id;
+                instance[px] = tri.instance_id;
+                if !coloured {
+                    continue;
+                }
                 let surface = &world.surfaces[tri.surface as usize];
                 let mut albedo = surface.color;
                 if let Some(tex) = &surface.texture {
                     let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
                     let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
                     let (tw, th) = (tex.width as usize, tex.height as usize);
-                    let tx = (((u - u.floor()) * tw as f32) as usize).min(tw - 1);
-                    let ty = (((v - v.floor()) * th as f32) as usize).min(th - 1);
+                    let tx = ((fract(u) * tw as f32) as usize).min(tw - 1);
+                    let ty = ((fract(v) * th as f32) as usize).min(th - 1);
                     let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
-                    albedo = [albedo[0] * t[0] as f32 / 255.0, albedo[1] * t[1] as f32 / 255.0, albedo[2] * t[2] as f32 / 255.0];
+                    albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
                 }
-                let color = if lit {
+                for c in 0..3 {
+                    row.albedo[c][px] = albedo[c];
+                }
+                if lit {
                     let z = depth[px];
                     let cam = [(px as f32 - cx) * inv_fx * z, (py as f32 - cy) * inv_fy * z, z];
-                    let p = Point {
-                        x: r[0][0] * cam[0] + r[0][1] * cam[1] + r[0][2] * cam[2] + r[0][3],
-                        y: r[1][0] * cam[0] + r[1][1] * cam[1] + r[1][2] * cam[2] + r[1][3],
-                        z: r[2][0] * cam[0] + r[2][1] * cam[1] + r[2][2] * cam[2] + r[2][3],
-                    };
-                    let mut n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
-                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
-                    n = n.map(|c| c / len);
-                    // Two-sided: the side that faces the camera.
-                    let to_camera = [camera_origin[0] - p.x, camera_origin[1] - p.y, camera_origin[2] - p.z];
-                    if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 {
-                        n = n.map(|c| -c);
+                    let p: [f32; 3] = std::array::from_fn(|i| r[i][0] * cam[0] + r[i][1] * cam[1] + r[i][2] * cam[2] + r[i][3]);
+                    // Two-sided: the normal of the side that faces the camera, unit length.
+                    let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                    let to_camera = [camera_origin[0] - p[0], camera_origin[1] - p[1], camera_origin[2] - p[2]];
+                    let side = if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 { -1.0 } else { 1.0 };
+                    let unit = side / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
+                    for c in 0..3 {
+                        row.position[c][px] = p[c];
+                        row.normal[c][px] = n[c] * unit;
                     }
-                    let mut light = [AMBIENT; 3];
-                    for l in &lights {
-                        let d = [l.position[0] - p.x, l.position[1] - p.y, l.position[2] - p.z];
-                        let facing = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-                        if facing <= 0.0 {
-                            continue; // the light is behind the surface
-                        }
-                        // Lambert (n·d / |d|) times Magnum PhongGL's attenuation 1/(1 + |d|²)
-                        // for an unbounded range, with one division.
-                        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                        let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
-                        for k in 0..3 {
-                            light[k] += factor * l.color[k];
-                        }
-                    }
-                    std::array::from_fn(|k| albedo[k] * light[k].max(0.0))
-                } else {
-                    albedo
-                };
-                for k in 0..3 {
-                    // Round half up without libm's roundf (not inlined on baseline x86-64).
-                    rgb[3 * px + k] = (color[k].clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+                }
+            }
+            if !coloured {
+                return;
+            }
+            // 2. Light: ambient plus, light by light across the row, Lambert (n·d / |d|)
+            //    times Magnum PhongGL's attenuation 1/(1 + |d|²) for an unbounded range;
+            //    a light behind the surface adds nothing.
+            let RowScratch { position, normal, light, .. } = row;
+            for c in light.iter_mut() {
+                c.fill(if lit { AMBIENT } else { 1.0 });
+            }
+            for l in &lights {
+                let ([px_, py_, pz_], [nx, ny, nz], [lr, lg, lb]) = (position.each_ref(), normal.each_ref(), light.each_mut());
+                for i in 0..w {
+                    let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
+                    let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
+                    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                    let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
+                    lr[i] += factor * l.color[0];
+                    lg[i] += factor * l.color[1];
+                    lb[i] += factor * l.color[2];
+                }
+            }
+            // 3. Colour: albedo times light, clipped, rounded half up (without libm's
+            //    roundf, which is not inlined on baseline x86-64).
+            for c in 0..3 {
+                let (albedo, light) = (&row.albedo[c], &row.light[c]);
+                for px in 0..w {
+                    rgb[3 * px + c] = ((albedo[px] * light[px].max(0.0)).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
                 }
             }
         });

@@ -17,9 +17,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use super::coverage::CoverageGoals;
 use super::mesh::World;
 use super::raster::{Camera, Frame, Light, Shading, render};
 use super::trajectory::AgentState;
+use super::view::{Observed, View, digest64, exposure, visible_classes};
 
 /// Camera and image settings (HaDaGe / OSMa-Bench++ defaults).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -31,11 +33,15 @@ pub struct SensorSettings {
     pub depth_scale: f64,
     /// Pillow's default JPEG quality.
     pub jpeg_quality: u8,
+    /// Camera tilt about its x axis, degrees; negative looks down (the OSMa-Bench++
+    /// HaDaGe patch's `camera_pitch_deg`, 0 by default).
+    #[serde(default)]
+    pub camera_pitch_deg: f64,
 }
 
 impl Default for SensorSettings {
     fn default() -> Self {
-        Self { width: 1200, height: 680, hfov: 90.0, sensor_height: 1.0, depth_scale: 6553.5, jpeg_quality: 75 }
+        Self { width: 1200, height: 680, hfov: 90.0, sensor_height: 1.0, depth_scale: 6553.5, jpeg_quality: 75, camera_pitch_deg: 0.0 }
     }
 }
 
@@ -48,18 +54,45 @@ impl SensorSettings {
             Some(("hfov", "a horizontal field of view in degrees, in (0, 180)"))
         } else if !(self.sensor_height > 0.0 && self.sensor_height < 1.5) {
             Some(("sensor_height", "metres above the floor, in (0, 1.5) (below the agent's height)"))
+        } else if !(self.camera_pitch_deg >= -60.0 && self.camera_pitch_deg <= 60.0) {
+            Some(("camera_pitch_deg", "degrees in [-60, 60] (negative looks down)"))
         } else {
             None
         }
     }
+
+    /// The intrinsics HaDaGe derives from the field of view.
+    pub fn intrinsics(&self) -> CameraParams {
+        CameraParams::from_hfov(self.width, self.height, self.hfov, self.depth_scale)
+    }
+
+    /// The camera at `pose` (camera-to-world, OpenCV axes).
+    pub fn camera(&self, pose: Matrix4<f64>) -> Camera {
+        let p = self.intrinsics();
+        Camera { width: self.width, height: self.height, fx: p.fx, fy: p.fy, cx: p.cx, cy: p.cy, pose }
+    }
+
+    /// The same camera with a smaller image `width` pixels wide (same field of view).
+    pub fn scaled_to(&self, width: u32) -> SensorSettings {
+        let width = width.min(self.width).max(8);
+        let height = ((self.height as f64 * width as f64 / self.width as f64).round() as u32).max(4);
+        SensorSettings { width, height, ..self.clone() }
+    }
 }
 
 /// The camera-to-world pose (OpenCV axes) of an agent state, as HaDaGe writes it:
-/// Habitat's camera rotation with its y and z columns negated.
-pub fn camera_pose(state: &AgentState, floor_height: f64, sensor_height: f64) -> Matrix4<f64> {
+/// Habitat's camera rotation (yaw about +y, then the sensor's pitch about its x axis)
+/// with its y and z columns negated.
+pub fn camera_pose(state: &AgentState, floor_height: f64, sensor: &SensorSettings) -> Matrix4<f64> {
     let (s, c) = state.yaw.sin_cos();
-    // Habitat camera: x right = (cos, 0, −sin), y up, looks along −z = (−sin, 0, −cos).
-    Matrix4::new(c, 0.0, -s, state.x, 0.0, -1.0, 0.0, floor_height + sensor_height, -s, 0.0, -c, state.z, 0.0, 0.0, 0.0, 1.0)
+    let (sp, cp) = sensor.camera_pitch_deg.to_radians().sin_cos();
+    // Habitat camera, level: x right = (cos, 0, −sin), y up, looks along −z = (−sin, 0, −cos).
+    // Pitched by p about x: y = (s·sin p, cos p, c·sin p), z = (s·cos p, −sin p, c·cos p).
+    let (x, y, z) = ([c, 0.0, -s], [s * sp, cp, c * sp], [s * cp, -sp, c * cp]);
+    let t = [state.x, floor_height + sensor.sensor_height, state.z];
+    // `+ 0.0` turns the −0.0 of negated zeros into 0.0, so traj.txt never prints "-0".
+    let m = Matrix4::new(x[0], -y[0], -z[0], t[0], x[1], -y[1], -z[1], t[1], x[2], -y[2], -z[2], t[2], 0.0, 0.0, 0.0, 1.0);
+    m.map(|v| v + 0.0)
 }
 
 /// A HaDaGe light-settings file as the renderer's lights for navigation segment `goal`
@@ -89,12 +122,63 @@ pub fn lights_for_goal(settings: &Value, goal: usize) -> Vec<Light> {
     lights
 }
 
+/// Measures of one frame, for the quality report.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameMeasures {
+    /// Share of pixels with every channel at 250 or more.
+    pub saturated: f32,
+    /// Mean luma (Rec. 601, 0–255).
+    pub luma: f32,
+    /// Largest share of the image one class covers.
+    pub dominant: f32,
+    /// Share of pixels with depth.
+    pub valid_depth: f32,
+    /// Objects (instances, or classes when instances are unknown) covering at least
+    /// 0.05 % of the image.
+    #[serde(default)]
+    pub objects: u16,
+    /// Classes covering at least 0.05 % of the image with depth, counted from the
+    /// images as written ([`super::view::visible_classes`]).
+    #[serde(default)]
+    pub classes: u16,
+    /// Digests of the colour image and of the depth and semantic images, as written:
+    /// two lightings of one trajectory must share the second and may differ in the first.
+    pub colour_digest: u64,
+    pub geometry_digest: u64,
+}
+
+impl FrameMeasures {
+    /// Dominated by one class, or short of depth.
+    pub fn degenerate(&self) -> bool {
+        self.dominant as f64 > super::view::DOMINANT_CLASS_LIMIT || (self.valid_depth as f64) < super::view::MIN_VALID_DEPTH
+    }
+}
+
+impl SequenceSummary {
+    /// The frame that shows the most classes (the first of them), for a preview: counted
+    /// from the written images, so an external renderer's identical sequence previews
+    /// the same frame.
+    pub fn preview_frame(&self) -> usize {
+        self.per_frame.iter().enumerate().max_by_key(|(i, m)| (m.classes, std::cmp::Reverse(*i))).map_or(0, |(i, _)| i)
+    }
+}
+
 /// What a rendered sequence holds.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct SequenceSummary {
     pub frames: usize,
     /// Pixels of each class over all frames.
     pub class_pixels: BTreeMap<u16, u64>,
+    /// Every frame's measures, in order.
+    #[serde(default)]
+    pub per_frame: Vec<FrameMeasures>,
+    /// How each object instance was observed (known when the built-in renderer drew
+    /// the sequence; an external renderer's images carry classes, not instances).
+    #[serde(default)]
+    pub objects: BTreeMap<u16, Observed>,
+    /// Metres the camera travelled.
+    #[serde(default)]
+    pub travelled: f64,
 }
 
 /// Render `states` of `world` lit by `light_settings` into `dir` (HaDaGe's layout).
@@ -114,7 +198,7 @@ pub fn render_sequence(
         std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
     }
     std::fs::create_dir_all(&results).map_err(|e| InputError::io(&results, &e))?;
-    let params = CameraParams::from_hfov(sensor.width, sensor.height, sensor.hfov, sensor.depth_scale);
+    let params = sensor.intrinsics();
     params.write(&dir.join("camera_params.yaml"))?;
     std::fs::write(
         dir.join("camera_params.txt"),
@@ -125,19 +209,22 @@ pub fn render_sequence(
     )
     .map_err(|e| InputError::io(dir, &e))?;
     classes.write(&dir.join("embed_semseg_classes.json"))?;
+    super::loaders::write_loader_configs(dir, &params)?;
     let configs = dir.join("configs");
     for (sub, value) in [("sim_settings/settings.json", settings_copy), ("lighting/light_settings.json", light_settings)] {
         let path = configs.join(sub);
         std::fs::create_dir_all(path.parent().expect("nested")).map_err(|e| InputError::io(&path, &e))?;
         std::fs::write(&path, serde_json::to_string_pretty(value).expect("json")).map_err(|e| InputError::io(&path, &e))?;
     }
-    let poses: Vec<Matrix4<f64>> = states.iter().map(|s| camera_pose(s, floor_height, sensor.sensor_height)).collect();
+    let poses: Vec<Matrix4<f64>> = states.iter().map(|s| camera_pose(s, floor_height, sensor)).collect();
     Trajectory { poses: poses.clone() }.write(&dir.join("traj.txt"))?;
     let log: String = states.iter().enumerate().map(|(i, s)| format!("[{i:06}] Action: {}\n", s.action.name())).collect();
     std::fs::write(dir.join("log.txt"), log).map_err(|e| InputError::io(dir, &e))?;
 
-    let mut summary = SequenceSummary { frames: states.len(), ..Default::default() };
+    let travelled = states.windows(2).map(|w| ((w[1].x - w[0].x).powi(2) + (w[1].z - w[0].z).powi(2)).sqrt()).sum();
+    let mut summary = SequenceSummary { frames: states.len(), travelled, ..Default::default() };
     let mut pixel_counts = vec![0u64; 1 << 16];
+    let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
     // A lighting without any light is flat; one whose lights are all off in a segment
     // is lit by the ambient term only (never brighter than with them on).
     let flat = has_no_lights(light_settings);
@@ -146,25 +233,51 @@ pub fn render_sequence(
     for start in (0..states.len()).step_by(BATCH) {
         let end = (start + BATCH).min(states.len());
         for (k, i) in (start..end).enumerate() {
-            let camera = Camera { width: sensor.width, height: sensor.height, fx: params.fx, fy: params.fy, cx: params.cx, cy: params.cy, pose: poses[i] };
             let lights = lights_for_goal(light_settings, states[i].goal_index);
             let shading = if flat { Shading::Flat } else { Shading::Lit(lights) };
-            render(world, &camera, &shading, &mut frames[k]);
+            render(world, &sensor.camera(poses[i]), &shading, &mut frames[k]);
             for &c in &frames[k].semantic {
                 pixel_counts[c as usize] += 1;
             }
         }
-        // Encoding is the slow part of writing: all frames of the batch at once.
-        frames[..end - start].par_iter().enumerate().try_for_each(|(k, f)| -> Result<()> {
-            let i = start + k;
-            let (w, h) = (sensor.width, sensor.height);
-            write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: w, height: h, pixels: f.rgb.clone() }, sensor.jpeg_quality)?;
-            let scale = sensor.depth_scale as f32;
-            // HaDaGe: float metres × scale, truncated (Pillow's f2i), clipped to 16 bits.
-            let depth = f.depth.iter().map(|&z| (z * scale).clamp(0.0, 65535.0) as u16).collect();
-            write_png_gray16(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth })?;
-            write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })
-        })?;
+        // Encoding is the slow part of writing: all frames of the batch at once, each
+        // measured as it is encoded.
+        let measured: Vec<(FrameMeasures, View)> = frames[..end - start]
+            .par_iter()
+            .enumerate()
+            .map(|(k, f)| -> Result<(FrameMeasures, View)> {
+                let i = start + k;
+                let (w, h) = (sensor.width, sensor.height);
+                write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: w, height: h, pixels: f.rgb.clone() }, sensor.jpeg_quality)?;
+                let scale = sensor.depth_scale as f32;
+                // HaDaGe: float metres × scale, truncated (Pillow's f2i), clipped to 16 bits.
+                let depth: Vec<u16> = f.depth.iter().map(|&z| (z * scale).clamp(0.0, 65535.0) as u16).collect();
+                let view = View::of(f);
+                let (saturated, luma) = exposure(&f.rgb);
+                let mut geometry: Vec<u8> = depth.iter().flat_map(|d| d.to_le_bytes()).collect();
+                geometry.extend(f.semantic.iter().flat_map(|c| c.to_le_bytes()));
+                let measures = FrameMeasures {
+                    saturated: saturated as f32,
+                    luma: luma as f32,
+                    dominant: view.dominant_fraction as f32,
+                    valid_depth: view.valid_fraction as f32,
+                    objects: view.objects.iter().filter(|v| v.pixels as f64 >= rule.min_pixels).count().min(u16::MAX as usize) as u16,
+                    classes: visible_classes(&f.semantic, &depth, rule.min_pixels),
+                    colour_digest: digest64(&f.rgb),
+                    geometry_digest: digest64(&geometry),
+                };
+                write_png_gray16(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth })?;
+                write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })?;
+                Ok((measures, view))
+            })
+            .collect::<Result<_>>()?;
+        for (k, (measures, view)) in measured.into_iter().enumerate() {
+            let state = &states[start + k];
+            summary.per_frame.push(measures);
+            for v in &view.objects {
+                summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
+            }
+        }
     }
     summary.class_pixels = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
     Ok(summary)

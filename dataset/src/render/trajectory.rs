@@ -1,172 +1,19 @@
-//! Trajectories as HaDaGe makes them: a seeded random navigable start and goals on the
-//! navigable-area map, shortest paths on its grid, and a greedy follower that only
-//! moves forward 0.06 m or turns 4°, each action split into sub-steps with one frame
-//! per sub-step. Unreachable goals are skipped; the camera never leaves free space.
+//! Motion as HaDaGe makes it: the agent only moves forward 0.06 m or turns 4°, each
+//! action split into sub-steps with one frame per sub-step, and never leaves the
+//! navigable area. [`Walker`] turns a plan (paths, headings to face, sweeps to look
+//! around) into those frames; `coverage` decides the plan.
 
-use std::collections::BinaryHeap;
-use std::path::Path;
-
-use osmab_evaluator::synthetic::Rng;
-use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 
-/// The navigable-area map written by the converter.
-#[derive(Debug, Clone)]
-pub struct NavGrid {
-    pub origin_xz: [f64; 2],
-    pub cell_size: f64,
-    pub width: usize,
-    pub height: usize,
-    pub floor_height: f64,
-    /// 255 navigable, 0 blocked; rows along +z.
-    pub cells: Vec<u8>,
-}
+use super::navigation::NavGrid;
 
-#[derive(Deserialize)]
-struct NavMeta {
-    origin_xz: [f64; 2],
-    cell_size: f64,
-    width: usize,
-    height: usize,
-    floor_height: f64,
-    png: String,
-}
-
-impl NavGrid {
-    /// Read `navigation/<scene>.navigable.json` and its PNG.
-    pub fn read(dir: &Path, scene: &str) -> Result<Self> {
-        let meta_path = dir.join("navigation").join(format!("{scene}.navigable.json"));
-        let meta: NavMeta = serde_json::from_slice(&std::fs::read(&meta_path).map_err(|e| InputError::io(&meta_path, &e))?)
-            .map_err(|e| InputError::new(&meta_path, "(json)", e.to_string()))?;
-        let png_path = dir.join("navigation").join(&meta.png);
-        let file = std::fs::File::open(&png_path).map_err(|e| InputError::io(&png_path, &e))?;
-        let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().map_err(|e| InputError::new(&png_path, "(png)", e.to_string()))?;
-        let mut cells = vec![0; reader.output_buffer_size().ok_or_else(|| InputError::new(&png_path, "(png)", "too large"))?];
-        reader.next_frame(&mut cells).map_err(|e| InputError::new(&png_path, "(png)", e.to_string()))?;
-        if cells.len() != meta.width * meta.height {
-            return Err(InputError::new(&png_path, "size", format!("expected {}x{} one-byte cells", meta.width, meta.height)));
-        }
-        Ok(Self { origin_xz: meta.origin_xz, cell_size: meta.cell_size, width: meta.width, height: meta.height, floor_height: meta.floor_height, cells })
-    }
-
-    fn cell_of(&self, x: f64, z: f64) -> Option<usize> {
-        let (c, r) = ((x - self.origin_xz[0]) / self.cell_size, (z - self.origin_xz[1]) / self.cell_size);
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.width && (r as usize) < self.height).then(|| r as usize * self.width + c as usize)
-    }
-
-    /// Whether the agent may stand at (x, z).
-    pub fn navigable(&self, x: f64, z: f64) -> bool {
-        self.cell_of(x, z).is_some_and(|i| self.cells[i] == 255)
-    }
-
-    fn centre(&self, i: usize) -> [f64; 2] {
-        [self.origin_xz[0] + ((i % self.width) as f64 + 0.5) * self.cell_size, self.origin_xz[1] + ((i / self.width) as f64 + 0.5) * self.cell_size]
-    }
-
-    /// The free cells of the largest connected free region, ascending. (With diagonals
-    /// unable to cut corners, the agent's 8-connected moves connect what 4-neighbours do.)
-    fn largest_region(&self) -> Vec<usize> {
-        let mut region_of = vec![usize::MAX; self.cells.len()];
-        let mut best: Vec<usize> = Vec::new();
-        for seed in 0..self.cells.len() {
-            if self.cells[seed] != 255 || region_of[seed] != usize::MAX {
-                continue;
-            }
-            let mut region = vec![seed];
-            region_of[seed] = seed;
-            let mut next = 0;
-            while next < region.len() {
-                let i = region[next];
-                next += 1;
-                let (c, r) = (i % self.width, i / self.width);
-                let neighbours = [
-                    (c > 0).then(|| i - 1),
-                    (c + 1 < self.width).then(|| i + 1),
-                    (r > 0).then(|| i - self.width),
-                    (r + 1 < self.height).then(|| i + self.width),
-                ];
-                for j in neighbours.into_iter().flatten() {
-                    if self.cells[j] == 255 && region_of[j] == usize::MAX {
-                        region_of[j] = seed;
-                        region.push(j);
-                    }
-                }
-            }
-            if region.len() > best.len() {
-                best = region;
-            }
-        }
-        best.sort_unstable();
-        best
-    }
-
-    /// Shortest 8-connected path of cell centres from `a` to `b` (A*), if any.
-    fn path(&self, a: [f64; 2], b: [f64; 2]) -> Option<Vec<[f64; 2]>> {
-        let (start, goal) = (self.cell_of(a[0], a[1])?, self.cell_of(b[0], b[1])?);
-        let mut cost = vec![f64::INFINITY; self.cells.len()];
-        let mut from = vec![usize::MAX; self.cells.len()];
-        let h = |i: usize| {
-            let (dc, dr) = ((i % self.width) as f64 - (goal % self.width) as f64, (i / self.width) as f64 - (goal / self.width) as f64);
-            (dc * dc + dr * dr).sqrt()
-        };
-        #[derive(PartialEq)]
-        struct Entry(f64, usize);
-        impl Eq for Entry {}
-        impl PartialOrd for Entry {
-            fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-                Some(self.cmp(o))
-            }
-        }
-        impl Ord for Entry {
-            fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-                o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-            }
-        }
-        let mut open = BinaryHeap::from([Entry(h(start), start)]);
-        cost[start] = 0.0;
-        while let Some(Entry(_, i)) = open.pop() {
-            if i == goal {
-                let mut path = vec![self.centre(goal)];
-                let mut k = goal;
-                while from[k] != usize::MAX {
-                    k = from[k];
-                    path.push(self.centre(k));
-                }
-                path.reverse();
-                return Some(path);
-            }
-            let (c, r) = ((i % self.width) as i64, (i / self.width) as i64);
-            for (dc, dr) in [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)] {
-                let (nc, nr) = (c + dc, r + dr);
-                if nc < 0 || nr < 0 || nc >= self.width as i64 || nr >= self.height as i64 {
-                    continue;
-                }
-                let j = nr as usize * self.width + nc as usize;
-                // Diagonals may not cut a blocked corner.
-                let corner_free = dc == 0
-                    || dr == 0
-                    || (self.cells[r as usize * self.width + nc as usize] == 255 && self.cells[nr as usize * self.width + c as usize] == 255);
-                if self.cells[j] != 255 || !corner_free {
-                    continue;
-                }
-                let step = if dc != 0 && dr != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
-                if cost[i] + step < cost[j] {
-                    cost[j] = cost[i] + step;
-                    from[j] = i;
-                    open.push(Entry(cost[j] + h(j), j));
-                }
-            }
-        }
-        None
-    }
-}
-
-/// Motion settings (HaDaGe's defaults).
+/// Motion settings (HaDaGe's defaults) and the frame budget.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 pub struct MotionSettings {
     pub move_amount: f64,
     pub turn_degrees: f64,
     pub sub_steps: u32,
+    /// Navigation goals at least (the planner adds viewpoints until there are this many).
     pub goals: usize,
     pub seed: u64,
     /// Frames at most, over all goals.
@@ -179,19 +26,33 @@ impl Default for MotionSettings {
     }
 }
 
+impl MotionSettings {
+    /// Metres moved per frame.
+    pub fn step_per_frame(&self) -> f64 {
+        self.move_amount / self.sub_steps as f64
+    }
+
+    /// Radians turned per frame.
+    pub fn turn_per_frame(&self) -> f64 {
+        (self.turn_degrees / self.sub_steps as f64).to_radians()
+    }
+}
+
 /// One frame's agent state: position on the floor, heading, which goal it heads for,
 /// and the action it is part of.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AgentState {
     pub x: f64,
     pub z: f64,
     /// Rotation about +y; 0 looks along −z.
     pub yaw: f64,
+    /// The navigation goal (segment) the frame belongs to; lights switch by it.
     pub goal_index: usize,
     pub action: Action,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Action {
     MoveForward,
     TurnLeft,
@@ -208,60 +69,222 @@ impl Action {
     }
 }
 
-/// The frames of a trajectory through `grid`.
-pub fn trajectory(grid: &NavGrid, settings: &MotionSettings) -> Vec<AgentState> {
-    let mut rng = Rng::new(settings.seed);
-    // Start and goals in the largest free region: an isolated pocket would reach no goal.
-    let region = grid.largest_region();
-    if region.is_empty() {
-        return Vec::new();
+/// The heading (yaw) that looks from `from` towards `to`.
+pub fn heading_towards(from: [f64; 2], to: [f64; 2]) -> f64 {
+    (-(to[0] - from[0])).atan2(-(to[1] - from[1]))
+}
+
+/// `angle` wrapped to (−π, π].
+pub fn wrap(angle: f64) -> f64 {
+    let a = (angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    if a == -std::f64::consts::PI { std::f64::consts::PI } else { a }
+}
+
+/// The agent walking a plan into frames, within the frame budget.
+pub struct Walker<'a> {
+    grid: &'a NavGrid,
+    settings: MotionSettings,
+    pub x: f64,
+    pub z: f64,
+    pub yaw: f64,
+    /// The goal the next frames belong to.
+    pub goal: usize,
+    pub frames: Vec<AgentState>,
+    /// Metres walked.
+    pub travelled: f64,
+}
+
+impl<'a> Walker<'a> {
+    pub fn new(grid: &'a NavGrid, settings: MotionSettings, start: [f64; 2], yaw: f64) -> Self {
+        Self { grid, settings, x: start[0], z: start[1], yaw, goal: 0, frames: Vec::new(), travelled: 0.0 }
     }
-    let mut random_point = || grid.centre(region[rng.below(region.len())]);
-    let start = random_point();
-    let goals: Vec<[f64; 2]> = (0..settings.goals).map(|_| random_point()).collect();
-    let (mut x, mut z, mut yaw) = (start[0], start[1], 0.0f64);
-    let mut frames = Vec::new();
-    let step = settings.move_amount / settings.sub_steps as f64;
-    let turn = (settings.turn_degrees / settings.sub_steps as f64).to_radians();
-    for (g, goal) in goals.iter().enumerate() {
-        let Some(path) = grid.path([x, z], *goal) else { continue };
+
+    pub fn position(&self) -> [f64; 2] {
+        [self.x, self.z]
+    }
+
+    /// Frames left in the budget.
+    pub fn budget_left(&self) -> usize {
+        self.settings.max_frames.saturating_sub(self.frames.len())
+    }
+
+    /// One action: its sub-steps, one frame each. False when the budget is spent (no
+    /// frame of it is taken) or a forward move would leave the navigable area.
+    fn act(&mut self, action: Action) -> bool {
+        let s = &self.settings;
+        if self.frames.len() + s.sub_steps as usize > s.max_frames {
+            return false;
+        }
+        if action == Action::MoveForward && !self.grid.navigable(self.x - self.yaw.sin() * s.move_amount, self.z - self.yaw.cos() * s.move_amount) {
+            return false;
+        }
+        let (step, turn) = (s.step_per_frame(), s.turn_per_frame());
+        for _ in 0..s.sub_steps {
+            match action {
+                Action::MoveForward => {
+                    self.x -= self.yaw.sin() * step;
+                    self.z -= self.yaw.cos() * step;
+                    self.travelled += step;
+                }
+                Action::TurnLeft => self.yaw += turn,
+                Action::TurnRight => self.yaw -= turn,
+            }
+            self.frames.push(AgentState { x: self.x, z: self.z, yaw: self.yaw, goal_index: self.goal, action });
+        }
+        true
+    }
+
+    /// Half a turn step, with room for the rounding of the sub-steps' angles: a heading
+    /// error within it is as close as turning gets (without the room, an error of exactly
+    /// half a step could be turned back and forth for ever).
+    fn half_turn(&self) -> f64 {
+        self.settings.turn_degrees.to_radians() / 2.0 + 1e-9
+    }
+
+    /// Turn in place until facing `heading` within half a turn step. False when the
+    /// budget ran out.
+    pub fn turn_to(&mut self, heading: f64) -> bool {
+        let half_turn = self.half_turn();
+        // Half a circle at most is ever needed.
+        for _ in 0..=(180.0 / self.settings.turn_degrees).ceil() as usize + 1 {
+            let error = wrap(heading - self.yaw);
+            if error.abs() <= half_turn {
+                return true;
+            }
+            if !self.act(if error > 0.0 { Action::TurnLeft } else { Action::TurnRight }) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Turn in place towards `heading` the way given (left or right), until facing it
+    /// within half a turn step. False when the budget ran out.
+    pub fn turn_towards(&mut self, heading: f64, left: bool) -> bool {
+        let half_turn = self.half_turn();
+        let action = if left { Action::TurnLeft } else { Action::TurnRight };
+        for _ in 0..=(360.0 / self.settings.turn_degrees).ceil() as usize + 1 {
+            if wrap(heading - self.yaw).abs() <= half_turn {
+                return true;
+            }
+            if !self.act(action) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Turn by `radians` (positive: left), in whole turn actions.
+    pub fn turn_by(&mut self, radians: f64) -> bool {
+        let actions = (radians.abs() / self.settings.turn_degrees.to_radians()).round() as usize;
+        let action = if radians > 0.0 { Action::TurnLeft } else { Action::TurnRight };
+        (0..actions).all(|_| self.act(action))
+    }
+
+    /// Look around the current heading: `half` radians left, back past it to the right,
+    /// and back to where it started.
+    pub fn sweep(&mut self, half: f64) -> bool {
+        self.turn_by(half) && self.turn_by(-2.0 * half) && self.turn_by(half)
+    }
+
+    /// Follow `path` (points (x, z), starting near the agent) as HaDaGe's greedy
+    /// follower does: aim at the first waypoint at least 15 cm ahead, turn when the
+    /// heading is off by more than half a turn, otherwise move forward. Stops at the
+    /// last waypoint, when the budget is spent, or when forward moves keep failing.
+    pub fn follow(&mut self, path: &[[f64; 2]]) -> bool {
+        let Some(&last) = path.last() else { return true };
+        let s = self.settings;
+        let half_turn = self.half_turn();
+        let length: f64 = path.windows(2).map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt()).sum();
+        // Actions enough for the path's length and a half turn at each waypoint, and then some.
+        let max_actions = 4 * ((length / s.move_amount) as usize + path.len() * (180.0 / s.turn_degrees) as usize) + 100;
         let mut next = 0;
         let mut stuck = 0;
-        while frames.len() < settings.max_frames && stuck < 200 {
-            // Aim at the first waypoint at least 15 cm ahead.
-            while next + 1 < path.len() && ((path[next][0] - x).powi(2) + (path[next][1] - z).powi(2)).sqrt() < 0.15 {
+        for _ in 0..max_actions {
+            if stuck >= 200 {
+                break;
+            }
+            while next + 1 < path.len() && ((path[next][0] - self.x).powi(2) + (path[next][1] - self.z).powi(2)).sqrt() < 0.15 {
                 next += 1;
             }
             let target = path[next];
-            let (dx, dz) = (target[0] - x, target[1] - z);
-            if next + 1 == path.len() && (dx * dx + dz * dz).sqrt() < 0.75 * settings.move_amount + grid.cell_size {
-                break;
+            let (dx, dz) = (target[0] - self.x, target[1] - self.z);
+            let distance = (dx * dx + dz * dz).sqrt();
+            if next + 1 == path.len() && distance < 0.75 * s.move_amount + self.grid.cell_size {
+                return true;
             }
-            // Heading error: forward is (−sin yaw, −cos yaw).
-            let desired = (-dx).atan2(-dz);
-            let error = (desired - yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-            let action = if error.abs() > settings.turn_degrees.to_radians() / 2.0 {
-                if error > 0.0 { Action::TurnLeft } else { Action::TurnRight }
-            } else {
-                Action::MoveForward
-            };
-            if action == Action::MoveForward && !grid.navigable(x - yaw.sin() * settings.move_amount, z - yaw.cos() * settings.move_amount) {
+            let error = wrap(heading_towards([self.x, self.z], target) - self.yaw);
+            let action = if error.abs() > half_turn { if error > 0.0 { Action::TurnLeft } else { Action::TurnRight } } else { Action::MoveForward };
+            if !self.act(action) {
+                if self.budget_left() < s.sub_steps as usize {
+                    return false;
+                }
                 stuck += 1;
                 next = (next + 1).min(path.len() - 1);
-                continue;
-            }
-            for _ in 0..settings.sub_steps {
-                match action {
-                    Action::MoveForward => {
-                        x -= yaw.sin() * step;
-                        z -= yaw.cos() * step;
-                    }
-                    Action::TurnLeft => yaw += turn,
-                    Action::TurnRight => yaw -= turn,
-                }
-                frames.push(AgentState { x, z, yaw, goal_index: g, action });
             }
         }
+        ((last[0] - self.x).powi(2) + (last[1] - self.z).powi(2)).sqrt() < 0.3
     }
-    frames
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open_room() -> NavGrid {
+        NavGrid::new([-2.0, -2.0], 0.05, 80, 80, 0.0, vec![255; 6400])
+    }
+
+    #[test]
+    fn frames_move_3_cm_or_turn_2_degrees_and_stay_in_the_budget() {
+        let grid = open_room();
+        let settings = MotionSettings { max_frames: 400, ..Default::default() };
+        let mut w = Walker::new(&grid, settings, [0.0, 0.0], 0.0);
+        assert!(w.follow(&[[0.0, 0.0], [1.0, 1.0]]));
+        assert!(((w.x - 1.0).powi(2) + (w.z - 1.0).powi(2)).sqrt() < 0.1, "reached ({}, {})", w.x, w.z);
+        assert!(w.turn_to(0.0));
+        assert!(w.sweep(20f64.to_radians()));
+        let mut previous = AgentState { x: 0.0, z: 0.0, yaw: 0.0, goal_index: 0, action: Action::MoveForward };
+        for f in &w.frames {
+            let moved = ((f.x - previous.x).powi(2) + (f.z - previous.z).powi(2)).sqrt();
+            let turned = wrap(f.yaw - previous.yaw).abs();
+            match f.action {
+                Action::MoveForward => assert!((moved - 0.03).abs() < 1e-9 && turned < 1e-12),
+                _ => assert!(moved < 1e-12 && (turned - 2f64.to_radians()).abs() < 1e-9),
+            }
+            previous = *f;
+        }
+        assert!(wrap(w.yaw).abs() < 2f64.to_radians() + 1e-9, "the sweep ends where it started");
+        let mut short = Walker::new(&grid, MotionSettings { max_frames: 10, ..settings }, [0.0, 0.0], 0.0);
+        assert!(!short.follow(&[[0.0, 0.0], [1.5, 0.0]]));
+        assert_eq!(short.frames.len(), 10);
+    }
+
+    #[test]
+    fn a_heading_half_a_step_away_is_reached_not_turned_around_for_ever() {
+        let grid = open_room();
+        // 28° reached in fourteen 2° sub-steps (with their rounding), heading 30°: either
+        // neighbour of 30° is as close as turning gets.
+        let yaw = (0..14).fold(0.0f64, |y, _| y + 2f64.to_radians());
+        for heading in [30f64, 26.0, 30.000000001, 29.99999999] {
+            let mut w = Walker::new(&grid, MotionSettings { max_frames: 10_000, ..Default::default() }, [0.0, 0.0], yaw);
+            assert!(w.turn_to(heading.to_radians()));
+            assert!(w.frames.len() <= 2, "{heading}°: {} frames", w.frames.len());
+            assert!(w.follow(&[[0.0, 0.0], [-(heading.to_radians().sin()), -(heading.to_radians().cos())]]));
+            assert!(w.frames.len() < 100, "{heading}°: {} frames to walk 1 m", w.frames.len());
+        }
+    }
+
+    #[test]
+    fn forward_moves_never_leave_the_navigable_area() {
+        let mut cells = vec![255u8; 6400];
+        for r in 0..80 {
+            cells[r * 80 + 60] = 0; // a wall at x = 1.0
+        }
+        let grid = NavGrid::new([-2.0, -2.0], 0.05, 80, 80, 0.0, cells);
+        let mut w = Walker::new(&grid, MotionSettings { max_frames: 600, ..Default::default() }, [0.0, 0.0], 0.0);
+        w.follow(&[[0.0, 0.0], [1.8, 0.0]]);
+        assert!(w.frames.iter().all(|f| grid.navigable(f.x, f.z)));
+        assert!(w.x < 1.0);
+    }
 }

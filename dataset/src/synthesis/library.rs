@@ -50,6 +50,9 @@ pub struct SupportSurface {
     pub max: [f64; 2],
     /// Whether it is inside the object (a shelf in a cabinet) rather than on top.
     pub inside: bool,
+    /// Whether it can be seen and reached from outside: the top of anything, the shelves
+    /// of open-fronted shelving; not the shelves behind a cabinet's doors.
+    pub open: bool,
     /// Free height above the surface (unbounded on top of an object).
     pub clear_height: f64,
 }
@@ -101,6 +104,7 @@ fn table(category: &str, w: f64, d: f64, h: f64, top: Material, leg: Material) -
             min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
             max: [w / 2.0 - 0.05, d / 2.0 - 0.05],
             inside: false,
+            open: true,
             clear_height: f64::INFINITY,
         }],
         clearance: h - t - 0.02,
@@ -124,6 +128,7 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
         min: [-w / 2.0 + 0.03, -d / 2.0 + 0.03],
         max: [w / 2.0 - 0.03, d / 2.0 - 0.03],
         inside: false,
+        open: true,
         clear_height: f64::INFINITY,
     }];
     // Levels: the bottom panel (top at 0.1), each shelf, and the underside of the top panel.
@@ -136,6 +141,7 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
             min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
             max: [w / 2.0 - 0.05, d / 2.0 - 0.06],
             inside: true,
+            open: open_front,
             clear_height: spacing - t - 0.01,
         });
     }
@@ -144,6 +150,7 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
         min: [-w / 2.0 + 0.05, -d / 2.0 + 0.05],
         max: [w / 2.0 - 0.05, d / 2.0 - 0.06],
         inside: true,
+        open: open_front,
         clear_height: spacing - t / 2.0 - 0.01,
     });
     if !open_front {
@@ -199,6 +206,7 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
             min: [-(w - 0.3) / 2.0, -d / 2.0 + 0.05],
             max: [(w - 0.3) / 2.0, d / 2.0 - 0.2],
             inside: false,
+            open: true,
             clear_height: f64::INFINITY,
         }],
         clearance: 0.0,
@@ -250,7 +258,8 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             let mut a = cabinet(category, w, d, h - 0.04, WHITE, METAL, 1, false);
             a.parts.push(bx([0.0, 0.0, h - 0.02], [w + 0.04, d + 0.04, 0.04], STONE));
             a.size = [w + 0.04, d + 0.04, h];
-            a.supports[0] = SupportSurface { height: h, min: [-w / 2.0, -d / 2.0], max: [w / 2.0, d / 2.0], inside: false, clear_height: f64::INFINITY };
+            a.supports[0] =
+                SupportSurface { height: h, min: [-w / 2.0, -d / 2.0], max: [w / 2.0, d / 2.0], inside: false, open: true, clear_height: f64::INFINITY };
             a.description = format!("A {category} with a stone top over cabinets.");
             a
         }
@@ -296,6 +305,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                     min: [-w / 2.0 + 0.1, -d / 2.0 + 0.1],
                     max: [w / 2.0 - 0.1, d / 2.0 - 0.5],
                     inside: false,
+                    open: true,
                     clear_height: f64::INFINITY,
                 }],
                 clearance: 0.0,

@@ -58,6 +58,10 @@ pub struct Layout {
 }
 
 const GAP: f64 = 0.08;
+/// Small objects go on surfaces at most this high, where a robot's camera (about 1 m up)
+/// sees them, at about [`REST_HEIGHT`] when the host offers a choice.
+pub const MAX_REST_HEIGHT: f64 = 1.25;
+const REST_HEIGHT: f64 = 0.75;
 const TRIES: usize = 200;
 
 fn overlaps(a: ([f64; 2], [f64; 2]), b: ([f64; 2], [f64; 2])) -> bool {
@@ -306,25 +310,26 @@ impl Placer<'_> {
             (RelationKind::Under, Some((lo, hi))) if host.asset.clearance > asset.size[2] + 0.02 => vec![(0.0, lo, hi)],
             (RelationKind::Under, _) => return None,
             _ => {
-                let inside = kind == RelationKind::Inside;
-                let mut s: Vec<_> = host
-                    .asset
-                    .supports
-                    .iter()
-                    .filter(|s| s.inside == inside && s.clear_height >= asset.size[2] + 0.01)
-                    .map(|s| (s.height, s.min, s.max))
-                    .collect();
-                s.sort_by(|a, b| a.0.total_cmp(&b.0));
+                // Inside: a shelf in it; on: its top, or a shelf of open shelving — only
+                // surfaces a camera sees and an arm reaches (open, not too high).
+                let fits = |s: &&super::library::SupportSurface| {
+                    let relation = if kind == RelationKind::Inside { s.inside } else { !s.inside || s.open };
+                    relation && s.open && s.height <= MAX_REST_HEIGHT && s.clear_height >= asset.size[2] + 0.01
+                };
+                let mut s: Vec<_> = host.asset.supports.iter().filter(fits).map(|s| (s.height, s.min, s.max)).collect();
+                s.sort_by(|a, b| (a.0 - REST_HEIGHT).abs().total_cmp(&(b.0 - REST_HEIGHT).abs()).then(a.0.total_cmp(&b.0)));
                 s
             }
         };
         let a = host.yaw_deg.to_radians();
         let (c, s) = (a.cos(), a.sin());
+        // Aligned with the host, or turned a quarter when only that fits (a book across a
+        // shallow shelf).
+        let orientations = [(0.0, asset.size[0] / 2.0, asset.size[1] / 2.0), (90.0, asset.size[1] / 2.0, asset.size[0] / 2.0)];
         for (height, lo, hi) in surfaces {
-            let (hw, hd) = (asset.size[0] / 2.0, asset.size[1] / 2.0);
-            if hi[0] - lo[0] < 2.0 * hw || hi[1] - lo[1] < 2.0 * hd {
+            let Some(&(turn, hw, hd)) = orientations.iter().find(|(_, hw, hd)| hi[0] - lo[0] >= 2.0 * hw && hi[1] - lo[1] >= 2.0 * hd) else {
                 continue;
-            }
+            };
             let mut fallback = None;
             for _ in 0..TRIES {
                 let local = [self.rng.range(lo[0] + hw, hi[0] - hw), self.rng.range(lo[1] + hd, hi[1] - hd)];
@@ -335,7 +340,7 @@ impl Placer<'_> {
                     kind: ObjectKind::Manipuland,
                     asset: asset.clone(),
                     position: p,
-                    yaw_deg: host.yaw_deg,
+                    yaw_deg: host.yaw_deg + turn,
                     host: Some(host.object_id.clone()),
                 };
                 let fp = candidate.footprint();

@@ -41,7 +41,7 @@ pub fn holds(kind: RelationKind, s: &PlacedObject, targets: &[&PlacedObject], ro
         (RelationKind::On, [t]) => {
             s.host.as_deref() == Some(t.object_id.as_str())
                 && s.position[2] > 0.01
-                && t.asset.supports.iter().any(|x| !x.inside && (x.height - s.position[2]).abs() < 1e-6)
+                && t.asset.supports.iter().any(|x| (!x.inside || x.open) && (x.height - s.position[2]).abs() < 1e-6)
         }
         (RelationKind::Inside, [t]) => {
             s.host.as_deref() == Some(t.object_id.as_str()) && t.asset.supports.iter().any(|x| x.inside && (x.height - s.position[2]).abs() < 1e-6)

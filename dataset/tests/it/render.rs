@@ -4,7 +4,7 @@ use nalgebra::Matrix4;
 use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
 use osmab_dataset::convert::scene::load_scene;
 use osmab_dataset::render::mesh::{Surface, Triangle, World};
-use osmab_dataset::render::raster::{AMBIENT, Camera, Frame, Light, Shading, render};
+use osmab_dataset::render::raster::{AMBIENT, Camera, Frame, Light, Shading, render, render_visibility};
 
 const QUANTUM: f32 = 1.0 / 6553.5;
 
@@ -15,7 +15,7 @@ fn camera(pose: Matrix4<f64>) -> Camera {
 /// Two triangles making the rectangle [x0, x1] × [y0, y1] at depth z (camera = world).
 fn quad(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, surface: u32, class_id: u16) -> [Triangle; 2] {
     let n = [[0.0, 0.0, -1.0]; 3];
-    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface, class_id };
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface, class_id, instance_id: class_id };
     [tri([[x0, y0, z], [x1, y0, z], [x1, y1, z]]), tri([[x0, y0, z], [x1, y1, z], [x0, y1, z]])]
 }
 
@@ -38,7 +38,7 @@ fn a_tilted_plane_has_the_planar_depth_of_each_pixel() {
     let (x0, x1) = (-3.0f32, 7.0f32);
     let z = |x: f32| 3.0 + 0.5 * x;
     let n = [[0.0, 0.0, -1.0]; 3];
-    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 1 };
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 1, instance_id: 1 };
     let w = world(vec![tri([[x0, -6.0, z(x0)], [x1, -6.0, z(x1)], [x1, 6.0, z(x1)]]), tri([[x0, -6.0, z(x0)], [x1, 6.0, z(x1)], [x0, 6.0, z(x0)]])]);
     let mut frame = Frame::default();
     let cam = camera(Matrix4::identity());
@@ -73,10 +73,16 @@ fn a_box_in_front_of_a_wall_covers_exactly_its_projection() {
             }
         }
     }
+    // Each pixel also knows its object instance; a visibility render (the planner's
+    // probe) finds the same classes, instances and depths without drawing colour.
+    assert!(frame.semantic.iter().zip(&frame.instance).all(|(c, i)| c == i), "the quads' instance ids are their classes here");
+    let mut probe = Frame::default();
+    render_visibility(&w, &camera(Matrix4::identity()), &mut probe);
+    assert_eq!((&probe.semantic, &probe.instance, &probe.depth), (&frame.semantic, &frame.instance, &frame.depth));
     // Nothing behind the camera or outside the scene is drawn: depth 0, class 0.
     let empty = world(quad(-1.0, 1.0, -1.0, 1.0, -2.0, 0, 5).to_vec());
     render(&empty, &camera(Matrix4::identity()), &Shading::Flat, &mut frame);
-    assert!(frame.depth.iter().all(|&d| d == 0.0) && frame.semantic.iter().all(|&s| s == 0));
+    assert!(frame.depth.iter().all(|&d| d == 0.0) && frame.semantic.iter().all(|&s| s == 0) && frame.instance.iter().all(|&i| i == 0));
 }
 
 #[test]
@@ -138,8 +144,8 @@ fn a_box_seen_at_an_angle_has_the_ray_cast_depth() {
     for f in faces {
         let p = f.map(|(x, y, z)| corner(x, y, z));
         let n = [[0.0, 0.0, -1.0]; 3];
-        triangles.push(Triangle { positions: [p[0], p[1], p[2]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 });
-        triangles.push(Triangle { positions: [p[0], p[2], p[3]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 });
+        triangles.push(Triangle { positions: [p[0], p[1], p[2]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3, instance_id: 7 });
+        triangles.push(Triangle { positions: [p[0], p[2], p[3]], normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3, instance_id: 7 });
     }
     let w = world(triangles);
     let mut frame = Frame::default();
@@ -187,7 +193,7 @@ fn a_floor_reaching_behind_the_camera_keeps_its_depth_to_the_quantum() {
     let (w, h) = (1200usize, 680usize);
     let cam = Camera { width: w as u32, height: h as u32, fx: 600.0, fy: 600.0, cx: 599.5, cy: 339.5, pose: Matrix4::identity() };
     let n = [[0.0, -1.0, 0.0]; 3];
-    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3 };
+    let tri = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: n, uvs: [[0.0; 2]; 3], surface: 0, class_id: 3, instance_id: 7 };
     let (y, e) = (1.5f32, 20.0f32);
     let floor = world(vec![tri([[-e, y, -e], [e, y, -e], [e, y, e]]), tri([[-e, y, -e], [e, y, e], [-e, y, e]])]);
     let mut frame = Frame::default();

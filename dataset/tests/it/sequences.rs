@@ -5,9 +5,12 @@ use std::path::Path;
 use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
 use osmab_dataset::convert::scene::load_scene;
 use osmab_dataset::prompts::grammar_pool;
-use osmab_dataset::render::sequence::SensorSettings;
-use osmab_dataset::render::trajectory::{Action, MotionSettings, NavGrid, trajectory};
-use osmab_dataset::render::{LIGHTINGS, render_scene};
+use osmab_dataset::render::coverage::{CoverageGoals, Plan, plan};
+use osmab_dataset::render::mesh::World;
+use osmab_dataset::render::navigation::NavGrid;
+use osmab_dataset::render::sequence::{SensorSettings, camera_pose};
+use osmab_dataset::render::trajectory::{Action, AgentState, MotionSettings};
+use osmab_dataset::render::{LIGHTINGS, plan_scene, render_scene};
 use osmab_dataset::spec::Regime;
 use osmab_dataset::synthesis::synthesize;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
@@ -25,7 +28,15 @@ fn converted_scene(dir: &Path) -> String {
 }
 
 fn small() -> (SensorSettings, MotionSettings) {
-    (SensorSettings { width: 96, height: 64, ..Default::default() }, MotionSettings { goals: 3, max_frames: 120, ..Default::default() })
+    (
+        SensorSettings { width: 96, height: 64, camera_pitch_deg: -20.0, ..Default::default() },
+        MotionSettings { goals: 3, max_frames: 120, ..Default::default() },
+    )
+}
+
+/// The trajectory of the converted scene `name` in `dir/habitat`.
+fn planned(dir: &Path, name: &str, sensor: &SensorSettings, motion: &MotionSettings) -> Plan {
+    plan_scene(&dir.join("habitat"), name, sensor, motion, &[], &CoverageGoals::default()).unwrap()
 }
 
 #[test]
@@ -33,8 +44,9 @@ fn trajectories_take_habitats_steps_through_free_space() {
     let dir = tempfile::tempdir().unwrap();
     let name = converted_scene(dir.path());
     let grid = NavGrid::read(&dir.path().join("habitat"), &name).unwrap();
+    let (sensor, _) = small();
     let motion = MotionSettings { goals: 4, ..Default::default() };
-    let states = trajectory(&grid, &motion);
+    let states = planned(dir.path(), &name, &sensor, &motion).frames;
     assert!(states.len() > 20, "{} frames", states.len());
     for pair in states.windows(2) {
         let (a, b) = (pair[0], pair[1]);
@@ -46,7 +58,53 @@ fn trajectories_take_habitats_steps_through_free_space() {
             _ => assert!(moved < 1e-9 && (turned - 2.0).abs() < 1e-9, "a turn sub-step is 2°"),
         }
     }
-    assert_eq!(states, trajectory(&grid, &motion), "seeded");
+    assert_eq!(states, planned(dir.path(), &name, &sensor, &motion).frames, "deterministic");
+}
+
+#[test]
+fn planned_trajectories_observe_every_object_from_two_viewpoints_and_travel() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = converted_scene(dir.path());
+    let sensor = SensorSettings { width: 320, height: 180, camera_pitch_deg: -20.0, ..Default::default() };
+    let motion = MotionSettings { goals: 3, max_frames: 600, sub_steps: 1, ..Default::default() };
+    let goals = CoverageGoals::default();
+    let plan = planned(dir.path(), &name, &sensor, &motion);
+    assert!(plan.coverage.len() >= 3, "{:?}", plan.coverage);
+    for c in &plan.coverage {
+        assert!(c.satisfied(&goals), "{} (instance {}) planned: {c:?}", c.class, c.instance_id);
+    }
+    assert!(plan.travelled >= goals.min_travel, "{} m", plan.travelled);
+    assert!(plan.goals >= motion.goals, "{} goals", plan.goals);
+    assert!(plan.frames.len() < motion.max_frames, "covered within the budget: {} frames", plan.frames.len());
+    assert!(plan.degenerate_frames * 10 <= plan.frames.len(), "{} of {} frames degenerate", plan.degenerate_frames, plan.frames.len());
+    // Goals are numbered in order from the look-around at the start (goal 0).
+    assert_eq!(plan.frames[0].goal_index, 0);
+    assert!(plan.frames.windows(2).all(|w| w[1].goal_index == w[0].goal_index || w[1].goal_index == w[0].goal_index + 1));
+
+    // What the rendered sequence shows agrees: every object from two separate places.
+    let rendered = render_scene(&dir.path().join("habitat"), &name, &["no_lights"], &sensor, &plan.frames, &dir.path().join("seq")).unwrap();
+    let summary = &rendered[0].1;
+    for c in &plan.coverage {
+        let seen = summary.objects.get(&c.instance_id).unwrap_or_else(|| panic!("{} never drawn", c.class));
+        assert!(seen.viewpoints.len() >= 2, "{}: {seen:?}", c.class);
+        assert!(seen.points >= 10.0, "{}: {seen:?}", c.class);
+    }
+    assert!((summary.travelled - plan.travelled).abs() < 1e-6);
+}
+
+#[test]
+fn a_pitched_camera_looks_down_and_level_poses_print_no_negative_zeros() {
+    let state = AgentState { x: 1.0, z: 2.0, yaw: 0.3, goal_index: 0, action: Action::TurnLeft };
+    let level = camera_pose(&state, 0.0, &SensorSettings::default());
+    let pitched = camera_pose(&state, 0.0, &SensorSettings { camera_pitch_deg: -20.0, ..Default::default() });
+    // OpenCV axes: column 2 is the viewing direction, column 1 points down in the image.
+    assert!(level[(1, 2)].abs() < 1e-15, "a level camera looks horizontally");
+    assert!((pitched[(1, 2)] - (-20f64).to_radians().sin()).abs() < 1e-12, "20° down");
+    assert_eq!((pitched[(0, 3)], pitched[(1, 3)], pitched[(2, 3)]), (1.0, 1.0, 2.0), "the camera sits at the sensor height");
+    let r = pitched.fixed_view::<3, 3>(0, 0);
+    assert!((r.transpose() * r - nalgebra::Matrix3::identity()).norm() < 1e-12, "a rotation");
+    let straight = camera_pose(&AgentState { yaw: 0.0, ..state }, 0.0, &SensorSettings::default());
+    assert!(straight.iter().all(|v| !(*v == 0.0 && v.is_sign_negative())), "{straight}");
 }
 
 #[test]
@@ -55,7 +113,8 @@ fn rendered_sequences_are_hadage_sequences_the_evaluator_reads() {
     let name = converted_scene(dir.path());
     let (sensor, motion) = small();
     let out = dir.path().join("sequences");
-    let summaries = render_scene(&dir.path().join("habitat"), &name, &LIGHTINGS, &sensor, &motion, &out).unwrap();
+    let states = planned(dir.path(), &name, &sensor, &motion).frames;
+    let summaries = render_scene(&dir.path().join("habitat"), &name, &LIGHTINGS, &sensor, &states, &out).unwrap();
     assert_eq!(summaries.len(), 4);
     let trajectories: Vec<String> = LIGHTINGS.iter().map(|l| std::fs::read_to_string(out.join(l).join(&name).join("traj.txt")).unwrap()).collect();
     assert!(trajectories.windows(2).all(|t| t[0] == t[1]), "the same trajectory under every lighting");
@@ -71,6 +130,16 @@ fn rendered_sequences_are_hadage_sequences_the_evaluator_reads() {
     assert_ne!(frame("baseline", "frame", "jpg"), frame("no_lights", "frame", "jpg"));
     assert_eq!(frame("baseline", "depth", "png"), frame("camera", "depth", "png"));
     assert_eq!(frame("baseline", "semantic", "png"), frame("no_lights", "semantic", "png"));
+    // Every frame's depth and semantics are the same under every lighting; the colours of
+    // dynamic_lights differ from baseline's from the first goal on.
+    for (_, s) in &summaries[1..] {
+        assert!(s.per_frame.iter().zip(&summaries[0].1.per_frame).all(|(a, b)| a.geometry_digest == b.geometry_digest));
+    }
+    let dynamic = &summaries.iter().find(|(l, _)| l == "dynamic_lights").unwrap().1;
+    let differing = dynamic.per_frame.iter().zip(&summaries[0].1.per_frame).filter(|(a, b)| a.colour_digest != b.colour_digest).count();
+    assert!(differing * 10 >= 8 * dynamic.frames, "{differing} of {} frames differ", dynamic.frames);
+    // ConceptGraphs' dataconfig sits beside camera_params.yaml.
+    assert!(baseline.join(osmab_dataset::render::loaders::CONCEPTGRAPHS_CONFIG).is_file());
 
     // Ground truth from the rendered sequence, and the oracle map made from it, score 1.
     let classes = sequence.classes().unwrap();
@@ -93,7 +162,8 @@ fn rendering_twice_gives_identical_files() {
     let (sensor, motion) = small();
     let motion = MotionSettings { max_frames: 24, ..motion };
     for run in ["a", "b"] {
-        render_scene(&dir.path().join("habitat"), &name, &["dynamic_lights"], &sensor, &motion, &dir.path().join(run)).unwrap();
+        let states = planned(dir.path(), &name, &sensor, &motion).frames;
+        render_scene(&dir.path().join("habitat"), &name, &["dynamic_lights"], &sensor, &states, &dir.path().join(run)).unwrap();
     }
     let read = |run: &str| {
         let root = dir.path().join(run).join("dynamic_lights").join(&name).join("results");
@@ -132,10 +202,13 @@ fn trajectories_start_and_stay_in_the_largest_free_region() {
     let cells = (0..width * height)
         .map(|i| if (1..39).contains(&(i / width)) && ((1..40).contains(&(i % width)) || (45..48).contains(&(i % width))) { 255 } else { 0 })
         .collect();
-    let grid = NavGrid { origin_xz: [0.0, 0.0], cell_size: cell, width, height, floor_height: 0.0, cells };
-    for seed in 0..40 {
-        let states = trajectory(&grid, &MotionSettings { goals: 2, seed, ..Default::default() });
+    let grid = NavGrid::new([0.0, 0.0], cell, width, height, 0.0, cells);
+    let sensor = SensorSettings { width: 32, height: 18, ..Default::default() };
+    for seed in 0..20 {
+        let motion = MotionSettings { goals: 2, seed, max_frames: 400, ..Default::default() };
+        let states = plan(&World::default(), &grid, &sensor, &motion, &[], &CoverageGoals::default()).frames;
         assert!(!states.is_empty(), "seed {seed}: no frames");
         assert!(states.iter().all(|s| s.x < 4.0), "seed {seed}: the pocket behind the wall was used");
+        assert!(states.iter().all(|s| grid.navigable(s.x, s.z)));
     }
 }

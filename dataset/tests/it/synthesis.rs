@@ -11,7 +11,7 @@ use osmab_dataset::prompts::grammar_pool;
 use osmab_dataset::spec::{ObjectKind, Regime};
 use osmab_dataset::synthesis::external::run_external;
 use osmab_dataset::synthesis::library::make_asset;
-use osmab_dataset::synthesis::placement::place;
+use osmab_dataset::synthesis::placement::{MAX_REST_HEIGHT, place};
 use osmab_dataset::synthesis::{export::write_asset_gltf, synthesize};
 use osmab_evaluator::synthetic::Rng;
 
@@ -71,7 +71,37 @@ fn furniture_never_interpenetrates_and_small_objects_rest_on_their_hosts() {
             );
             let z = small.position[2];
             assert!(z == 0.0 || host.asset.supports.iter().any(|s| (s.height - z).abs() < 1e-9), "{} floats at {z}", small.object_id);
+            assert!(z <= MAX_REST_HEIGHT, "{} rests at {z} m, above what a robot's camera sees: {}", small.object_id, prompt.text);
+            assert!(host.asset.supports.iter().any(|s| (s.height - z).abs() < 1e-9 && s.open) || z == 0.0, "{} is behind doors", small.object_id);
         }
+    }
+}
+
+#[test]
+fn small_objects_rest_where_a_camera_sees_them_or_the_prompt_is_not_placeable() {
+    use osmab_dataset::spec::{ObjectSpec, Relation, RelationKind, SceneSpec};
+    let spec = |kind: RelationKind, host: &str| SceneSpec {
+        regime: Regime::Manipuland,
+        room: "study".into(),
+        objects: vec![
+            ObjectSpec { category: host.into(), count: 1, kind: ObjectKind::Furniture },
+            ObjectSpec { category: "book".into(), count: 3, kind: ObjectKind::Manipuland },
+        ],
+        relations: vec![
+            Relation { subject: host.into(), kind: RelationKind::AgainstWall, targets: vec![] },
+            Relation { subject: "book".into(), kind, targets: vec![host.into()] },
+        ],
+    };
+    for seed in 0..5 {
+        // On a bookshelf (1.6–2 m tall): on its open shelves, not on its top.
+        let layout = place(&spec(RelationKind::On, "bookshelf"), seed);
+        assert!(layout.unmet.is_empty(), "{:?}", layout.unmet);
+        for book in layout.objects.iter().filter(|o| o.category == "book") {
+            assert!(book.position[2] > 0.1 && book.position[2] <= MAX_REST_HEIGHT, "a book at {} m", book.position[2]);
+        }
+        // Inside a wardrobe (doors): nowhere a camera sees, so the relation is unmet.
+        let closed = place(&spec(RelationKind::Inside, "wardrobe"), seed);
+        assert!(closed.unmet.iter().any(|u| u.contains("book inside wardrobe")), "{:?}", closed.unmet);
     }
 }
 

@@ -1,11 +1,13 @@
 //! The deterministic symbolic answerer: a question's machine-readable form evaluated
 //! against a scene graph. Nodes are matched to release classes by [`node_class`];
 //! relations come from the boxes (y is up), with the distances the scene synthesizer
-//! places by: `on` = the subject's bottom within 15 cm of the object's top over its
-//! footprint, `under` = below it within its footprint, `inside` = centre within the box,
-//! `next to` = footprints within 50 cm, `near` = within 1.2 m; behind, in front of, left
-//! and right need a facing or a viewer, which a graph does not have, so they are checked
-//! as footprints within 1.5 m.
+//! places by: `on` = the subject's centre over the object's footprint and its base on a
+//! surface of the object (at least 5 cm above the object's base, so not on the floor
+//! beside or under it, and at most 15 cm above its top: a seat or a shelf supports as
+//! well as a top), `under` = below it within its footprint, `inside` = centre within
+//! the box, `next to` = footprints within 50 cm, `near` = within 1.2 m; behind, in
+//! front of, left and right need a facing or a viewer, which a graph does not have, so
+//! they are checked as footprints within 1.5 m (release questions do not ask them).
 
 use serde::{Deserialize, Serialize};
 
@@ -38,6 +40,8 @@ pub struct ClassifiedGraph<'g> {
 }
 
 const ON_GAP: f64 = 0.15;
+/// A subject resting on an object's surface sits at least this far above its base.
+const ON_LIFT: f64 = 0.05;
 const NEXT_TO_GAP: f64 = 0.5;
 const NEAR_GAP: f64 = 1.2;
 const DIRECTIONAL_GAP: f64 = 1.5;
@@ -54,7 +58,10 @@ fn footprint_gap(a: &GraphObject, b: &GraphObject) -> f64 {
 /// Whether `subject` stands in `relation` to `object`, by their boxes.
 pub fn related(subject: &GraphObject, relation: Relation, object: &GraphObject) -> bool {
     match relation {
-        Relation::On => footprints_overlap(subject, object) && (subject.min(1) - object.max(1)).abs() <= ON_GAP,
+        Relation::On => {
+            let over = [0, 2].iter().all(|&a| subject.center[a] >= object.min(a) && subject.center[a] <= object.max(a));
+            over && subject.min(1) >= object.min(1) + ON_LIFT && subject.min(1) <= object.max(1) + ON_GAP
+        }
         Relation::Under => footprints_overlap(subject, object) && subject.center[1] < object.center[1] && subject.max(1) <= object.max(1),
         Relation::Inside => (0..3).all(|a| subject.center[a] >= object.min(a) && subject.center[a] <= object.max(a)),
         Relation::NextTo => footprint_gap(subject, object) <= NEXT_TO_GAP,
@@ -138,10 +145,12 @@ impl<'g> ClassifiedGraph<'g> {
             }
             QuestionForm::Support { class } => {
                 let Some(subject) = self.of(class).next() else { return NO_ANSWER.into() };
+                // Of the objects it is on, the one whose base is highest (a mug on a tray on
+                // a table rests on the tray).
                 self.nodes
                     .iter()
                     .filter(|(o, c)| !std::ptr::eq(*o, subject) && c.is_some() && related(subject, Relation::On, o))
-                    .max_by(|(a, _), (b, _)| a.max(1).total_cmp(&b.max(1)))
+                    .max_by(|(a, _), (b, _)| a.min(1).total_cmp(&b.min(1)).then(a.max(1).total_cmp(&b.max(1))))
                     .map(|(o, _)| self.class_of(o).unwrap_or(NO_ANSWER).to_string())
                     .unwrap_or_else(|| "floor".into())
             }
@@ -161,7 +170,8 @@ mod tests {
                 {"id": "c1", "label": "chair", "caption": "a red chair", "bbox_center": [0.9, 0.45, 0], "bbox_extent": [0.5, 0.9, 0.5]},
                 {"id": "c2", "label": "chairs", "bbox_center": [-0.9, 0.45, 0], "bbox_extent": [0.5, 0.9, 0.5]},
                 {"id": "m", "label": "mug", "bbox_center": [0.1, 0.8, 0.1], "bbox_extent": [0.1, 0.1, 0.1]},
-                {"id": "s", "label": "sofa", "bbox_center": [0, 0.4, -4], "bbox_extent": [2, 0.8, 0.9]}
+                {"id": "s", "label": "sofa", "bbox_center": [0, 0.45, -4], "bbox_extent": [2, 0.9, 0.9]},
+                {"id": "b", "label": "book", "bbox_center": [0.3, 0.47, -3.9], "bbox_extent": [0.2, 0.04, 0.3]}
             ]}),
             "g.json",
         )
@@ -170,7 +180,7 @@ mod tests {
 
     #[test]
     fn forms_are_answered_from_the_boxes_and_labels() {
-        let classes: Vec<String> = ["table", "chair", "mug", "sofa", "bed"].map(String::from).to_vec();
+        let classes: Vec<String> = ["table", "chair", "mug", "sofa", "bed", "book"].map(String::from).to_vec();
         let g = graph();
         let answerer = ClassifiedGraph::new(&g, &classes);
         let s = |x: &str| x.to_string();
@@ -189,9 +199,14 @@ mod tests {
             (QuestionForm::Colour { class: s("chair") }, "red"),
             (QuestionForm::Colour { class: s("sofa") }, NO_ANSWER),
             (QuestionForm::HasColour { class: s("chair"), colour: s("blue") }, "No"),
-            (QuestionForm::Nearest { class: s("sofa") }, "table"),
+            (QuestionForm::Nearest { class: s("sofa") }, "book"),
             (QuestionForm::Support { class: s("mug") }, "table"),
             (QuestionForm::Support { class: s("table") }, "floor"),
+            (QuestionForm::Support { class: s("book") }, "sofa"),
+            (QuestionForm::Related { subject: s("book"), relation: Relation::On, object: s("sofa") }, "Yes"),
+            (QuestionForm::Related { subject: s("sofa"), relation: Relation::On, object: s("book") }, "No"),
+            (QuestionForm::Related { subject: s("table"), relation: Relation::On, object: s("mug") }, "No"),
+            (QuestionForm::Related { subject: s("chair"), relation: Relation::On, object: s("table") }, "No"),
         ];
         for (form, want) in cases {
             assert_eq!(answerer.answer(&form), want, "{form:?}");

@@ -224,6 +224,40 @@ pub fn mentions_class(text: &str, class: &str) -> bool {
     })
 }
 
+/// `text` with every mention of `class` blanked out (for telling "chair" from "dining
+/// chair": a mention of the shorter name inside the longer one is not a mention).
+pub fn without_mentions(text: &str, class: &str) -> String {
+    let class_words = words(&class.replace('_', " "));
+    let text_words = words(text);
+    let n = class_words.len();
+    if n == 0 {
+        return text_words.join(" ");
+    }
+    let mut kept = Vec::with_capacity(text_words.len());
+    let mut i = 0;
+    while i < text_words.len() {
+        let window = &text_words[i..(i + n).min(text_words.len())];
+        if window.len() == n && window[..n - 1] == class_words[..n - 1] && same_word(&window[n - 1], &class_words[n - 1]) {
+            kept.push("|".to_string());
+            i += n;
+        } else {
+            kept.push(text_words[i].clone());
+            i += 1;
+        }
+    }
+    kept.join(" ")
+}
+
+/// Whether `text` names `class` itself, not only as part of the longer name of one of
+/// `candidates` ("the dining chair" names "dining chair", not "chair").
+pub fn names_class(text: &str, class: &str, candidates: &[&str]) -> bool {
+    let mut rest = text.to_string();
+    for longer in candidates.iter().filter(|c| **c != class && mentions_class(c, class)) {
+        rest = without_mentions(&rest, longer);
+    }
+    mentions_class(&rest, class)
+}
+
 /// The release class a node stands for: the first of its texts that names a class
 /// decides, and within it the longest class name ("dining chair" over "chair"); a node
 /// without a class name takes the class of its feature, when it has one.

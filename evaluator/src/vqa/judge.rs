@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::QuestionForm;
-use super::graph::mentions_class;
+use super::graph::{mentions_class, names_class};
 use super::text::{is_number, is_yes_no, normalise};
 
 /// Who decided a verdict.
@@ -62,7 +62,8 @@ pub fn judge_by_form(form: &QuestionForm, answer: &str, predicted: &str) -> Opti
     match form {
         QuestionForm::Larger { a, b } => {
             let other = if answer == *a { b } else { a };
-            Some(mentions_class(&predicted, &answer) && !mentions_class(&predicted, other))
+            let both = [a.as_str(), b.as_str()];
+            Some(names_class(&predicted, &answer, &both) && !names_class(&predicted, other, &both))
         }
         QuestionForm::Nearest { .. } | QuestionForm::Support { .. } => Some(mentions_class(&predicted, &answer)),
         QuestionForm::Colour { .. } => Some(predicted.split(|c: char| !c.is_alphanumeric()).any(|w| w == answer)),
@@ -128,6 +129,13 @@ mod tests {
         assert_eq!(judge_by_form(&larger, "sofa", "The sofa"), Some(true));
         assert_eq!(judge_by_form(&larger, "sofa", "sofa and chair"), Some(false), "naming both candidates is no answer");
         assert_eq!(judge_by_form(&larger, "sofa", "chairs"), Some(false));
+        // One name inside the other: "dining chair" names the dining chair, not the chair.
+        let nested = QuestionForm::Larger { a: "chair".into(), b: "dining chair".into() };
+        assert_eq!(judge_by_form(&nested, "dining chair", "the dining chair"), Some(true));
+        assert_eq!(judge_by_form(&nested, "dining chair", "the chair"), Some(false));
+        assert_eq!(judge_by_form(&nested, "chair", "the chair"), Some(true));
+        assert_eq!(judge_by_form(&nested, "chair", "the dining chair"), Some(false));
+        assert_eq!(judge_by_form(&nested, "chair", "the chair, not the dining chair"), Some(false), "naming both is no answer");
         let colour = QuestionForm::Colour { class: "sofa".into() };
         assert_eq!(judge_by_form(&colour, "red", "It is red."), Some(true));
         assert_eq!(judge_by_form(&colour, "red", "reddish"), Some(false));

@@ -346,7 +346,7 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     use osmab_dataset::embedding::{Embedder, HashingEmbedder};
     use osmab_dataset::prompts::grammar_pool;
     use osmab_dataset::release::config::ReleaseConfig;
-    use osmab_dataset::render::trajectory::{MotionSettings, NavGrid, trajectory};
+    use osmab_dataset::render::coverage::CoverageGoals;
     use osmab_dataset::selection::select;
     use osmab_dataset::spec::Regime;
 
@@ -370,7 +370,7 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     let work = std::env::temp_dir().join(format!("osmab-release-estimate-{}", std::process::id()));
     let sensor = config.render.sensor();
     let (mut scene_seconds, mut frames_total, mut per_frame) = (0.0, 0usize, Vec::new());
-    println!("| sampled scene | regime | synthesis + conversion s | frames per lighting | s per frame (render + write) |");
+    println!("| sampled scene | regime | synthesis + conversion + planning s | frames per lighting | s per frame (render + write) |");
     println!("|---|---|---:|---:|---:|");
     for &i in &picks {
         let prompt = &chosen[i];
@@ -380,13 +380,15 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
         let mut loaded = load_scene(&work.join("ss").join(&name))?;
         loaded.name = name.clone();
         write_habitat_scene(&loaded, &work.join("hab").join(&name), &ConvertOptions::default())?;
+        let motion = config.render.motion(prompt.spec.regime, config.seed.wrapping_add(i as u64));
+        let prompted: Vec<String> = prompt.spec.objects.iter().map(|o| o.category.clone()).collect();
+        let coverage = CoverageGoals { min_travel: config.quality.min_travel, ..Default::default() };
+        let plan = osmab_dataset::render::plan_scene(&work.join("hab").join(&name), &name, &sensor, &motion, &prompted, &coverage)?;
         let prepare = clock.elapsed().as_secs_f64();
-        let goals = if prompt.spec.regime == Regime::Furniture { config.render.goals_furniture } else { config.render.goals_manipuland };
-        let motion = MotionSettings { goals, seed: config.seed.wrapping_add(i as u64), max_frames: config.render.max_frames, ..Default::default() };
-        let frames = trajectory(&NavGrid::read(&work.join("hab").join(&name), &name)?, &motion).len();
-        let timed = MotionSettings { max_frames: timed_frames.min(frames.max(1)), ..motion };
+        let frames = plan.frames.len();
+        let timed = &plan.frames[..timed_frames.min(frames)];
         let clock = Instant::now();
-        let rendered = osmab_dataset::render::render_scene(&work.join("hab").join(&name), &name, &["baseline"], &sensor, &timed, &work.join("seq"))?;
+        let rendered = osmab_dataset::render::render_scene(&work.join("hab").join(&name), &name, &["baseline"], &sensor, timed, &work.join("seq"))?;
         let seconds = clock.elapsed().as_secs_f64() / rendered[0].1.frames.max(1) as f64;
         println!("| {name} | {} | {prepare:.2} | {frames} | {seconds:.4} |", prompt.spec.regime.name());
         scene_seconds += prepare;

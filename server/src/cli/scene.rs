@@ -57,10 +57,16 @@ pub enum SceneCommand {
         /// Camera height above the floor, metres.
         #[arg(long, default_value_t = 1.0)]
         sensor_height: f64,
-        /// Navigation goals after the start.
+        /// Camera tilt, degrees (negative looks down).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        pitch: f64,
+        /// Navigation goals at least (the planner adds viewpoints until every object is observed).
         #[arg(long, default_value_t = 5)]
         goals: usize,
-        /// Seed of start and goals.
+        /// Object categories the trajectory observes first (comma-separated; the prompt's).
+        #[arg(long, default_value = "")]
+        prompted: String,
+        /// Seed of the start among the best ones.
         #[arg(long, default_value_t = 73)]
         seed: u64,
         /// Frames at most.
@@ -155,8 +161,8 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
-        SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, goals, seed, max_frames } => {
-            let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, ..Default::default() };
+        SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, pitch, goals, prompted, seed, max_frames } => {
+            let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, camera_pitch_deg: pitch, ..Default::default() };
             if let Some((field, expectation)) = sensor.problem() {
                 bail!("--{}: {expectation}", field.replace('_', "-"));
             }
@@ -166,7 +172,25 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
                 bail!("unknown lighting '{bad}' (expected some of {})", osmab_dataset::render::LIGHTINGS.join(", "));
             }
             let scene = scene_name(&habitat)?;
-            for (lighting, summary) in osmab_dataset::render::render_scene(&habitat, &scene, &lightings, &sensor, &motion, &out)? {
+            let prompted: Vec<String> = prompted.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::to_string).collect();
+            let coverage = osmab_dataset::render::coverage::CoverageGoals::default();
+            let plan = osmab_dataset::render::plan_scene(&habitat, &scene, &sensor, &motion, &prompted, &coverage)?;
+            let unobserved: Vec<String> =
+                plan.coverage.iter().filter(|c| !c.satisfied(&coverage)).map(|c| format!("{} (instance {})", c.class, c.instance_id)).collect();
+            println!(
+                "trajectory: {} frames, {} goals, {:.1} m; {} of {} objects observed as planned{}",
+                plan.frames.len(),
+                plan.goals,
+                plan.travelled,
+                plan.coverage.len() - unobserved.len(),
+                plan.coverage.len(),
+                if unobserved.is_empty() { String::new() } else { format!(" (short: {})", unobserved.join(", ")) }
+            );
+            let plan_path = out.join("trajectories").join(format!("{scene}.json"));
+            std::fs::create_dir_all(out.join("trajectories")).with_context(|| format!("{}: cannot create", out.display()))?;
+            write_json(&plan_path, &plan)?;
+            println!("{}: the planned trajectory, its viewpoints and predicted coverage", plan_path.display());
+            for (lighting, summary) in osmab_dataset::render::render_scene(&habitat, &scene, &lightings, &sensor, &plan.frames, &out)? {
                 println!("{}: {} frames", out.join(&lighting).join(&scene).display(), summary.frames);
             }
             Ok(())

@@ -325,6 +325,8 @@ pub struct ReleasePage {
     pub total_size: String,
     pub manifest_link: String,
     pub lightings: Vec<String>,
+    /// Every scene under every lighting in one picture, when the release has it.
+    pub overview: Option<String>,
     pub scenes: Vec<SceneView>,
     pub archives: Vec<ArchiveView>,
 }
@@ -354,7 +356,8 @@ pub async fn release(State(state): State<AppState>, caller: Caller, Path(version
         .flatten()
         .map(|s| {
             let id = s["id"].as_str().unwrap_or("").to_string();
-            let frame = format!("sequences/{thumbnail_lighting}/{id}/results/frame000000.jpg");
+            // The frame that shows the most of the scene (releases name it), else the first.
+            let frame = s["preview"].as_str().map(str::to_string).unwrap_or_else(|| format!("sequences/{thumbnail_lighting}/{id}/results/frame000000.jpg"));
             SceneView {
                 subset: s["subset"].as_str().unwrap_or("").to_string(),
                 prompt: s["prompt"].as_str().unwrap_or("").to_string(),
@@ -384,6 +387,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, Path(version
         total_size: human_size(files.iter().filter_map(|f| f["size"].as_u64()).sum()),
         manifest_link: format!("/api/v1/releases/{version}/manifest.json"),
         lightings: manifest["lightings"].as_array().into_iter().flatten().filter_map(Value::as_str).map(lighting_label).collect(),
+        overview: has(osmab_dataset::release::OVERVIEW).then(|| format!("/api/v1/releases/{version}/files/{}", osmab_dataset::release::OVERVIEW)),
         scenes,
         archives,
     }

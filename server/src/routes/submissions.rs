@@ -5,6 +5,7 @@ use axum::body::Body;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use futures_util::StreamExt;
 use serde::Deserialize;
 use serde_json::{Value, json};
 
@@ -59,21 +60,49 @@ pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> 
 }
 
 /// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
+/// Bodies up to this size are read and dropped before an early refusal is sent.
+const DRAIN_LIMIT: u64 = 64 << 20;
+
+/// `problem`, after reading and dropping `body` when it is declared no larger than
+/// [`DRAIN_LIMIT`] (for at most 30 s); a larger or undeclared one is left unread.
+async fn drain_then(body: Body, declared_length: Option<u64>, problem: Problem) -> Problem {
+    if declared_length.is_some_and(|n| n <= DRAIN_LIMIT) {
+        let mut stream = body.into_data_stream();
+        let mut read = 0u64;
+        let drain = async {
+            while let Some(Ok(chunk)) = stream.next().await {
+                read += chunk.len() as u64;
+                if read > DRAIN_LIMIT {
+                    break;
+                }
+            }
+        };
+        let _ = tokio::time::timeout(std::time::Duration::from_secs(30), drain).await;
+    }
+    problem
+}
+
 pub async fn create(
     State(state): State<AppState>,
-    TeamCaller(team): TeamCaller,
+    caller: Result<TeamCaller, Problem>,
     Query(query): Query<UploadQuery>,
     headers: HeaderMap,
     body: Body,
 ) -> ApiResult<Response> {
+    let max = state.settings.max_upload_bytes;
+    let declared_length = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok());
+    // Refusals before the upload is read still read (and drop) a modest body first:
+    // a client answered while it is still sending sees a broken pipe, not the answer.
+    let TeamCaller(team) = match caller {
+        Ok(caller) => caller,
+        Err(problem) => return Err(drain_then(body, declared_length, problem).await),
+    };
     if !query.dry_run {
         let q = quota(&state, &team).await?;
         if q.1 >= q.0 {
-            return Err(quota_exceeded(q));
+            return Err(drain_then(body, declared_length, quota_exceeded(q)).await);
         }
     }
-    let max = state.settings.max_upload_bytes;
-    let declared_length = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok());
     if declared_length.is_some_and(|n| n > max) {
         return Err(too_large(max));
     }

@@ -251,9 +251,11 @@ width = 160
 height = 90
 hfov = 90.0
 sensor_height = 1.0
-goals_furniture = 1
-goals_manipuland = 1
-max_frames = 30
+camera_pitch_deg = -20.0
+goals_furniture = 2
+goals_manipuland = 2
+frames_per_action = 1
+max_frames = 300
 lightings = ["baseline", "camera", "dynamic_lights", "no_lights"]
 "#;
 

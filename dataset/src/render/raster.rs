@@ -333,57 +333,69 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
         .enumerate()
         .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
             row.resize(w);
+            let RowScratch { albedo: row_albedo, position, normal, light } = row;
             // 1. What each pixel shows: class, instance, depth and (when coloured) its
-            //    albedo, position and normal.
-            for px in 0..w {
-                if hit[px] == u32::MAX {
-                    semantic[px] = 0;
-                    instance[px] = 0;
-                    depth[px] = 0.0;
-                    for c in 0..3 {
-                        row.albedo[c][px] = 0.0;
-                        row.normal[c][px] = 0.0;
+            //    albedo and interpolated normal (gathered from its triangle).
+            {
+                let [ar, ag, ab] = row_albedo.each_mut().map(|v| &mut v[..w]);
+                let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
+                let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
+                for px in 0..w {
+                    if hit[px] == u32::MAX {
+                        semantic[px] = 0;
+                        instance[px] = 0;
+                        depth[px] = 0.0;
+                        (ar[px], ag[px], ab[px]) = (0.0, 0.0, 0.0);
+                        (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
+                        continue;
                     }
-                    continue;
+                    let st = &screen[hit[px] as usize];
+                    let tri: &Triangle = &world.triangles[st.source as usize];
+                    let [w1, w2] = weights[px];
+                    let w0 = 1.0 - w1 - w2;
+                    // Barycentrics in the source triangle.
+                    let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
+                    semantic[px] = tri.class_id;
+                    instance[px] = tri.instance_id;
+                    if !coloured {
+                        continue;
+                    }
+                    let surface = &world.surfaces[tri.surface as usize];
+                    let mut albedo = surface.color;
+                    if let Some(tex) = &surface.texture {
+                        let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
+                        let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
+                        let (tw, th) = (tex.width as usize, tex.height as usize);
+                        let tx = ((fract(u) * tw as f32) as usize).min(tw - 1);
+                        let ty = ((fract(v) * th as f32) as usize).min(th - 1);
+                        let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
+                        albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
+                    }
+                    (ar[px], ag[px], ab[px]) = (albedo[0], albedo[1], albedo[2]);
+                    if lit {
+                        let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                        (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
+                    }
                 }
-                let st = &screen[hit[px] as usize];
-                let tri: &Triangle = &world.triangles[st.source as usize];
-                let [w1, w2] = weights[px];
-                let w0 = 1.0 - w1 - w2;
-                // Barycentrics in the source triangle.
-                let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
-                semantic[px] = tri.class_id;
-                instance[px] = tri.instance_id;
-                if !coloured {
-                    continue;
-                }
-                let surface = &world.surfaces[tri.surface as usize];
-                let mut albedo = surface.color;
-                if let Some(tex) = &surface.texture {
-                    let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
-                    let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
-                    let (tw, th) = (tex.width as usize, tex.height as usize);
-                    let tx = ((fract(u) * tw as f32) as usize).min(tw - 1);
-                    let ty = ((fract(v) * th as f32) as usize).min(th - 1);
-                    let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
-                    albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
-                }
-                for c in 0..3 {
-                    row.albedo[c][px] = albedo[c];
-                }
-                if lit {
+            }
+            // 1b. Lit: world positions from depth, and the normals turned to the camera's
+            //     side (two-sided) and made unit length — across the row, branch-free, so
+            //     it vectorises. A pixel without a hit has a zero normal: it gets no light.
+            if lit {
+                let [px_, py_, pz_] = position.each_mut().map(|v| &mut v[..w]);
+                let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
+                let depth = &depth[..w];
+                let y = (py as f32 - cy) * inv_fy;
+                for px in 0..w {
                     let z = depth[px];
-                    let cam = [(px as f32 - cx) * inv_fx * z, (py as f32 - cy) * inv_fy * z, z];
+                    let cam = [(px as f32 - cx) * inv_fx * z, y * z, z];
                     let p: [f32; 3] = std::array::from_fn(|i| r[i][0] * cam[0] + r[i][1] * cam[1] + r[i][2] * cam[2] + r[i][3]);
-                    // Two-sided: the normal of the side that faces the camera, unit length.
-                    let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                    let n = [nx[px], ny[px], nz[px]];
                     let to_camera = [camera_origin[0] - p[0], camera_origin[1] - p[1], camera_origin[2] - p[2]];
                     let side = if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 { -1.0 } else { 1.0 };
                     let unit = side / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
-                    for c in 0..3 {
-                        row.position[c][px] = p[c];
-                        row.normal[c][px] = n[c] * unit;
-                    }
+                    (px_[px], py_[px], pz_[px]) = (p[0], p[1], p[2]);
+                    (nx[px], ny[px], nz[px]) = (n[0] * unit, n[1] * unit, n[2] * unit);
                 }
             }
             if !coloured {
@@ -392,12 +404,13 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
             // 2. Light: ambient plus, light by light across the row, Lambert (n·d / |d|)
             //    times Magnum PhongGL's attenuation 1/(1 + |d|²) for an unbounded range;
             //    a light behind the surface adds nothing.
-            let RowScratch { position, normal, light, .. } = row;
             for c in light.iter_mut() {
                 c.fill(if lit { AMBIENT } else { 1.0 });
             }
             for l in &lights {
-                let ([px_, py_, pz_], [nx, ny, nz], [lr, lg, lb]) = (position.each_ref(), normal.each_ref(), light.each_mut());
+                // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
+                let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
+                let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
                 for i in 0..w {
                     let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
                     let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
@@ -410,11 +423,12 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
             }
             // 3. Colour: albedo times light, clipped, rounded half up (without libm's
             //    roundf, which is not inlined on baseline x86-64).
-            for c in 0..3 {
-                let (albedo, light) = (&row.albedo[c], &row.light[c]);
-                for px in 0..w {
-                    rgb[3 * px + c] = ((albedo[px] * light[px].max(0.0)).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-                }
+            let ([ar, ag, ab], [lr, lg, lb]) = (row_albedo.each_ref().map(|v| &v[..w]), light.each_ref().map(|v| &v[..w]));
+            let channel = |albedo: f32, light: f32| ((albedo * light.max(0.0)).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+            for (px, out) in rgb[..3 * w].chunks_exact_mut(3).enumerate() {
+                out[0] = channel(ar[px], lr[px]);
+                out[1] = channel(ag[px], lg[px]);
+                out[2] = channel(ab[px], lb[px]);
             }
         });
 }

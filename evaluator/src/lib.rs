@@ -14,6 +14,7 @@ pub mod numeric;
 pub mod semseg;
 pub mod submission;
 pub mod synthetic;
+pub mod text;
 pub mod vqa;
 
 pub use error::{InputError, Result};

@@ -56,6 +56,16 @@ impl Caller {
             Caller::Anonymous => false,
         }
     }
+
+    /// May the caller `action` (e.g. "edit a submission") a record of `team_id`: the team
+    /// itself or an admin; anyone else is refused, 401 without a token, 403 with another.
+    pub fn may_change(&self, team_id: &str, action: &str) -> Result<(), Problem> {
+        match self {
+            Caller::Anonymous => Err(unauthenticated("unauthenticated", &format!("To {action}, send the team's token: 'Authorization: Bearer osmab_…'."))),
+            _ if self.can_see_team(team_id) => Ok(()),
+            _ => Err(Problem::forbidden(format!("Only the submitting team (or an admin) can {action}."))),
+        }
+    }
 }
 
 fn unauthenticated(code: &'static str, detail: &str) -> Problem {
@@ -104,11 +114,27 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
     }
 }
 
+/// The caller of a request resolved once (by the rate limiter, then reused by the
+/// handler's extractor).
+#[derive(Clone)]
+struct Resolved(Caller);
+
+/// Who sent the request: its token looked up once per request (a failure is not kept, so
+/// it is looked up again, and answered, by the handler).
+pub async fn caller_of(parts: &mut Parts, state: &AppState) -> Result<Caller, Problem> {
+    if let Some(Resolved(caller)) = parts.extensions.get::<Resolved>() {
+        return Ok(caller.clone());
+    }
+    let caller = resolve(parts, state).await?;
+    parts.extensions.insert(Resolved(caller.clone()));
+    Ok(caller)
+}
+
 impl FromRequestParts<AppState> for Caller {
     type Rejection = Problem;
 
     async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
-        resolve(parts, state).await
+        caller_of(parts, state).await
     }
 }
 
@@ -120,7 +146,7 @@ impl FromRequestParts<AppState> for TeamCaller {
     type Rejection = Problem;
 
     async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
-        match resolve(parts, state).await? {
+        match caller_of(parts, state).await? {
             Caller::Team(team) => Ok(TeamCaller(team)),
             Caller::Admin => Err(Problem::forbidden("This needs a team token; admin tokens act for no team.")),
             Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs a team token: send 'Authorization: Bearer osmab_…'.")),
@@ -136,7 +162,7 @@ impl FromRequestParts<AppState> for AdminCaller {
     type Rejection = Problem;
 
     async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
-        match resolve(parts, state).await? {
+        match caller_of(parts, state).await? {
             Caller::Admin => Ok(AdminCaller),
             Caller::Team(_) => Err(Problem::forbidden("This needs an admin token; team tokens cannot manage the service.")),
             Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs an admin token: send 'Authorization: Bearer osmab_…'.")),

@@ -3,6 +3,7 @@
 //! exactly as `osmab client validate` does, and only then recorded together with its
 //! scoring job in one transaction. Nothing is recorded for a rejected upload.
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use axum::body::Body;
@@ -148,15 +149,29 @@ fn release_named(unpacked: &Path) -> Option<String> {
     value.get("release")?.as_str().map(str::to_string)
 }
 
-/// Unpack and validate an upload (blocking). `current` is used when submission.json names no release.
-pub fn check(state: &AppState, upload: &Path, unpack_to: &Path, current: Option<&str>) -> Result<(ValidSubmission, ReleaseIndex), Problem> {
+/// The answer to a submission for a release that takes none (a draft, or withdrawn).
+pub fn release_not_open(version: &str) -> Problem {
+    Problem::new(
+        StatusCode::CONFLICT,
+        "release_not_open",
+        "Release not open",
+        format!("Release '{version}' is not published, so it takes no submissions; see GET /api/v1/releases."),
+    )
+}
+
+/// Unpack and validate an upload (blocking). `current` is used when submission.json names
+/// no release. With `open`, a release outside it is refused before anything is validated
+/// against it (so a dry run tells nothing of a draft's scenes).
+pub fn check(
+    state: &AppState,
+    upload: &Path,
+    unpack_to: &Path,
+    current: Option<&str>,
+    open: Option<&BTreeSet<String>>,
+) -> Result<(ValidSubmission, ReleaseIndex), Problem> {
     let limits = ArchiveLimits { max_entries: 20_000, max_total_bytes: state.settings.max_unpacked_bytes };
-    let shown = Path::new("upload");
-    unpack(upload, unpack_to, limits).map_err(|mut e| {
-        if e.file == upload.display().to_string() {
-            e.file = shown.display().to_string();
-        }
-        let problem = invalid(std::slice::from_ref(&e));
+    unpack(upload, unpack_to, limits).map_err(|e| {
+        let problem = invalid(&[as_uploaded(e, upload, unpack_to)]);
         Problem { code: "invalid_archive", title: "Invalid archive".into(), ..problem }
     })?;
     let version = release_named(unpack_to).or(current.map(str::to_string)).unwrap_or_default();
@@ -164,6 +179,9 @@ pub fn check(state: &AppState, upload: &Path, unpack_to: &Path, current: Option<
         return Err(invalid(&[InputError::new("submission.json", "release", format!("'{version}' is not a release of this server"))]));
     }
     let dir = release_dir(&state.blobs, &version).map_err(Problem::internal)?;
+    if open.is_some_and(|open| !open.contains(&version)) && dir.join("manifest.json").is_file() {
+        return Err(release_not_open(&version));
+    }
     if !dir.join("manifest.json").is_file() {
         return Err(invalid(&[InputError::new(
             "submission.json",
@@ -172,8 +190,32 @@ pub fn check(state: &AppState, upload: &Path, unpack_to: &Path, current: Option<
         )]));
     }
     let release = ReleaseIndex::read(&dir).map_err(Problem::internal)?;
-    let submission = validate(unpack_to, &release, SubmissionLimits::default()).map_err(|problems| invalid(&problems))?;
+    let submission = validate(unpack_to, &release, SubmissionLimits::default())
+        .map_err(|problems| invalid(&problems.into_iter().map(|e| as_uploaded(e, upload, unpack_to)).collect::<Vec<_>>()))?;
     Ok((submission, release))
+}
+
+/// An error as the participant must see it: files named by their path inside the upload
+/// (`upload` for the archive itself), never by where the server keeps them.
+fn as_uploaded(mut e: InputError, upload: &Path, unpacked: &Path) -> InputError {
+    let hide = |text: &str| {
+        text.replace(&format!("{}/", unpacked.display()), "")
+            .replace(&unpacked.display().to_string(), "upload")
+            .replace(&upload.display().to_string(), "upload")
+    };
+    let file = Path::new(&e.file);
+    e.file = if file == upload {
+        "upload".to_string()
+    } else if let Ok(inside) = file.strip_prefix(unpacked) {
+        inside.display().to_string()
+    } else if file.is_absolute() {
+        "upload".to_string()
+    } else {
+        e.file
+    };
+    e.field = hide(&e.field);
+    e.message = hide(&e.message);
+    e
 }
 
 /// Record a validated upload as a submission of `team` with its scoring job, storing the

@@ -1,11 +1,12 @@
-//! A token bucket per client (its token's hash, else its address) for requests that
-//! change things (uploads, admin calls). Reads are cheap and cached, so they are not limited.
+//! A token bucket per client key (the middleware in `routes` decides the key: the team
+//! or admin a write's token resolves to, else its address; failed authentications per
+//! address). Successful reads are cheap and cached, so they are not limited.
 
 use std::collections::HashMap;
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// Token buckets keyed by client address.
+/// Token buckets keyed by client.
 #[derive(Debug)]
 pub struct RateLimiter {
     per_second: f64,

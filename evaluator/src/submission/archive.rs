@@ -83,6 +83,12 @@ pub fn safe_relative_path(archive: &Path, name: &str) -> Result<PathBuf> {
     Ok(out)
 }
 
+/// `.`, `./` or `./.` and the like: the archive's root directory, which `tar -C dir .`
+/// writes as its first entry.
+fn is_root(name: &str) -> bool {
+    !name.is_empty() && !name.starts_with('/') && Path::new(name).components().all(|c| c == Component::CurDir)
+}
+
 /// What unpacking wrote.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Unpacked {
@@ -111,9 +117,13 @@ impl Writer<'_> {
     }
 
     fn directory(&mut self, name: &str) -> Result<()> {
+        // `tar -cf sub.tar -C dir .` starts with the archive's own root, `./`.
+        if is_root(name) {
+            self.entries += 1;
+            return Ok(());
+        }
         let relative = self.entry(name)?;
-        let path = self.dest.join(&relative);
-        std::fs::create_dir_all(&path).map_err(|e| InputError::io(&path, &e))
+        std::fs::create_dir_all(self.dest.join(&relative)).map_err(|e| unwritable(self.archive, name, &e))
     }
 
     fn file(&mut self, name: &str, content: &mut dyn Read) -> Result<()> {
@@ -123,9 +133,9 @@ impl Writer<'_> {
         }
         let path = self.dest.join(&relative);
         if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
+            std::fs::create_dir_all(parent).map_err(|e| unwritable(self.archive, name, &e))?;
         }
-        let mut file = File::create(&path).map_err(|e| InputError::io(&path, &e))?;
+        let mut file = File::create(&path).map_err(|e| unwritable(self.archive, name, &e))?;
         let budget = self.limits.max_total_bytes - self.out.bytes;
         // Count what actually arrives: declared sizes in headers can lie.
         let written = std::io::copy(&mut content.take(budget + 1), &mut file).map_err(|e| truncated(self.archive, name, &e))?;
@@ -136,11 +146,21 @@ impl Writer<'_> {
                 format!("the archive unpacks to more than {} bytes (the submission size limit)", self.limits.max_total_bytes),
             ));
         }
-        file.flush().map_err(|e| InputError::io(&path, &e))?;
+        file.flush().map_err(|e| unwritable(self.archive, name, &e))?;
         self.out.bytes += written;
         self.out.files.push(relative);
         Ok(())
     }
+}
+
+/// An entry that cannot be written where it belongs, named inside the archive (never by
+/// the server's own path to it).
+fn unwritable(archive: &Path, name: &str, e: &std::io::Error) -> InputError {
+    InputError::new(
+        archive,
+        name,
+        format!("refused entry: it cannot be written ({}); does the archive use one name for both a file and a directory?", e.kind()),
+    )
 }
 
 fn truncated(archive: &Path, name: &str, e: &std::io::Error) -> InputError {

@@ -53,12 +53,18 @@ pub struct MethodCard {
 impl MethodCard {
     /// Check lengths and links; `file` names the source in messages.
     pub fn check(&self, file: &str) -> Result<(), InputError> {
-        let name = self.name.trim();
-        if name.is_empty() || name.chars().count() > 80 || name.chars().any(char::is_control) {
-            return Err(InputError::new(file, "method.name", "expected a name of 1 to 80 printable characters"));
+        if let Some(problem) = crate::text::display_name_problem(self.name.trim(), 80) {
+            return Err(InputError::new(file, "method.name", problem));
         }
         if self.description.chars().count() > 4000 {
             return Err(InputError::new(file, "method.description", "expected at most 4000 characters"));
+        }
+        if let Some(c) = crate::text::first_hidden_format(&self.description) {
+            return Err(InputError::new(
+                file,
+                "method.description",
+                format!("expected visible text, found U+{:04X} (an invisible formatting character)", c as u32),
+            ));
         }
         for (field, url) in [("method.paper_url", &self.paper_url), ("method.code_url", &self.code_url)] {
             if let Some(url) = url

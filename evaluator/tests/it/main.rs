@@ -1,5 +1,6 @@
 //! The evaluator's specification, as tests. One binary (fast to build on 2 cores).
 
+mod archives;
 mod common;
 mod formats;
 mod golden;

@@ -268,7 +268,7 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         let unpack_to = Scratch(state.blobs.scratch("baseline-check"));
         let (state_for_check, upload_path, unpack_path, current) = (state.clone(), upload.path.clone(), unpack_to.0.clone(), version.to_string());
         let validating_at = now_ms();
-        let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current)))
+        let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current), None))
             .await?
             .map_err(|p| JobError::Permanent(format!("baseline {name}: {}", p.detail)))?;
         crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None).await.map_err(|p| JobError::Retryable(p.detail))?;

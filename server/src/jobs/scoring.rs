@@ -28,7 +28,15 @@ fn classify(e: InputError, unpacked: &Path) -> JobError {
 pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     let state = &ctx.state;
     let submission = state.store.submission(&ctx.job.subject).await?;
-    if !state.store.set_submission_state(&submission.id, &["queued", "scoring"], "scoring", None, now_ms()).await? {
+    // A later attempt says why: a failed one put the submission back in the queue with
+    // its failure as the reason; one that left no reason was lost with its worker.
+    let (attempt, of) = (ctx.job.attempts, ctx.job.max_attempts);
+    let reason = match (attempt, submission.state.as_str(), &submission.reason) {
+        (1, _, _) => None,
+        (_, "queued", Some(_)) => Some(format!("attempt {attempt} of {of}")),
+        _ => Some(format!("attempt {attempt} of {of}: the worker of the previous attempt stopped responding (its lease expired); scoring again")),
+    };
+    if !state.store.set_submission_state(&submission.id, &["queued", "scoring"], "scoring", reason.as_deref(), now_ms()).await? {
         let now = state.store.submission(&submission.id).await?;
         if now.state != "scoring" {
             tracing::info!(state = %now.state, "nothing to score: the submission left the queue");

@@ -1,14 +1,14 @@
 //! Admin endpoints: teams, tokens and quotas; release builds, imports and publication;
 //! re-scoring; lists of submissions and jobs. Every handler takes [`AdminCaller`].
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 use serde_json::{Value, json};
 
-use super::ApiJson;
 use super::jobs::job_json;
+use super::{ApiJson, ApiPath};
 use crate::auth::{AdminCaller, issue_token};
 use crate::clock::{new_id, now_ms, rfc3339};
 use crate::intake::SCORE_JOB;
@@ -31,8 +31,8 @@ fn unprocessable(detail: impl Into<String>) -> Problem {
 /// `POST /api/v1/admin/teams` `{"name"}` → `201 {"id", "name", "token"}` (the token is shown once).
 pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<NewTeam>) -> ApiResult<Response> {
     let name = body.name.trim().to_string();
-    if name.is_empty() || name.chars().count() > 80 || name.chars().any(char::is_control) {
-        return Err(unprocessable("name: expected 1 to 80 printable characters"));
+    if let Some(problem) = osmab_evaluator::text::display_name_problem(&name, 80) {
+        return Err(unprocessable(format!("name: {problem}")));
     }
     if body.daily_quota.is_some_and(|q| q < 0) {
         return Err(unprocessable("daily_quota: expected 0 or more"));
@@ -72,7 +72,7 @@ pub struct TeamUpdate {
 pub async fn update_team(
     State(state): State<AppState>,
     _: AdminCaller,
-    Path(id): Path<String>,
+    ApiPath(id): ApiPath<String>,
     ApiJson(body): ApiJson<TeamUpdate>,
 ) -> ApiResult<axum::Json<Value>> {
     if body.daily_quota.is_some_and(|q| q < 0) {
@@ -91,7 +91,7 @@ pub struct NewToken {
 }
 
 /// `POST /api/v1/admin/teams/{id}/tokens`: another token for a team (shown once).
-pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>, body: axum::body::Bytes) -> ApiResult<Response> {
+pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>, body: axum::body::Bytes) -> ApiResult<Response> {
     let team = state.store.team(&id).await?;
     let request: NewToken = if body.iter().all(u8::is_ascii_whitespace) {
         NewToken::default()
@@ -109,7 +109,7 @@ pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Pat
 }
 
 /// `GET /api/v1/admin/teams/{id}/tokens`: hints and states, never the tokens.
-pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     state.store.team(&id).await?;
     let tokens: Vec<Value> = state
         .store
@@ -122,7 +122,7 @@ pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, Pat
 }
 
 /// `DELETE /api/v1/admin/tokens/{id}`: revoke a token.
-pub async fn revoke_token(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<StatusCode> {
+pub async fn revoke_token(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<StatusCode> {
     state.store.revoke_token(&id, now_ms()).await?;
     tracing::info!(token = %id, "token revoked");
     Ok(StatusCode::NO_CONTENT)
@@ -200,7 +200,7 @@ pub async fn import_release(State(state): State<AppState>, _: AdminCaller, ApiJs
 }
 
 /// `POST /api/v1/admin/releases/{version}/publish`: freeze a draft into the current release.
-pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, Path(version): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, ApiPath(version): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     match state.store.publish_release(&version, now_ms()).await {
         Ok(()) => {}
         Err(StoreError::NotFound) => return Err(Problem::not_found(format!("There is no release '{version}'."))),
@@ -212,7 +212,7 @@ pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, Path
 
 /// `POST /api/v1/admin/submissions/{id}/rescore`: score again with this evaluator; a new
 /// score is added, the old ones stay.
-pub async fn rescore(State(state): State<AppState>, _: AdminCaller, Path(id): Path<String>) -> ApiResult<Response> {
+pub async fn rescore(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let s = state.store.submission(&id).await?;
     let now = now_ms();
     let job = NewJob {

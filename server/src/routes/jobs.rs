@@ -1,8 +1,9 @@
 //! `GET /api/v1/jobs/{id}`: a job's state, attempts, lease and stage progress.
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use serde_json::{Value, json};
 
+use super::ApiPath;
 use crate::auth::Caller;
 use crate::clock::rfc3339;
 use crate::problem::{ApiResult, Problem};
@@ -31,7 +32,7 @@ pub fn job_json(j: &JobRecord, admin: bool) -> Value {
 }
 
 /// `GET /api/v1/jobs/{id}`: admins see every job; teams see the jobs of their submissions.
-pub async fn show(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     let missing = || Problem::not_found(format!("There is no job '{id}' you can see."));
     let job = match state.store.job(&id).await {
         Ok(job) => job,

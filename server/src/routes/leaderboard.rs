@@ -2,11 +2,12 @@
 
 use std::sync::Arc;
 
-use axum::extract::{Query, State};
+use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 
+use super::ApiQuery;
 use crate::leaderboard::Rendered;
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
@@ -64,14 +65,14 @@ fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {
 }
 
 /// `GET /api/v1/leaderboard`.
-pub async fn json_or_csv(State(state): State<AppState>, Query(query): Query<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
+pub async fn json_or_csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
     let board = rendered(&state, query.release.as_deref()).await?;
     let wants_csv = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("text/csv"));
     Ok(respond(&board, &headers, wants_csv))
 }
 
 /// `GET /api/v1/leaderboard.csv`.
-pub async fn csv(State(state): State<AppState>, Query(query): Query<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
+pub async fn csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
     let board = rendered(&state, query.release.as_deref()).await?;
     Ok(respond(&board, &headers, true))
 }
@@ -85,7 +86,7 @@ pub struct VqaQuery {
 }
 
 /// `GET /api/v1/leaderboard/vqa`: the paper's Table II and Table III shapes as JSON.
-pub async fn vqa_tables(State(state): State<AppState>, Query(query): Query<VqaQuery>) -> ApiResult<Response> {
+pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<Response> {
     let board = rendered(&state, query.release.as_deref()).await?;
     let board = &board.board;
     let body = match query.table {
@@ -103,7 +104,7 @@ pub async fn vqa_tables(State(state): State<AppState>, Query(query): Query<VqaQu
 }
 
 /// `GET /api/v1/leaderboard/vqa.csv?table=2|3`: one of the tables as CSV.
-pub async fn vqa_table_csv(State(state): State<AppState>, Query(query): Query<VqaQuery>) -> ApiResult<Response> {
+pub async fn vqa_table_csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<Response> {
     let board = rendered(&state, query.release.as_deref()).await?;
     let board = &board.board;
     let text = match query.table {

@@ -16,7 +16,8 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use axum::Router;
-use axum::extract::{ConnectInfo, DefaultBodyLimit, FromRequest, MatchedPath, Request, State};
+use axum::extract::{ConnectInfo, DefaultBodyLimit, FromRequest, FromRequestParts, MatchedPath, Request, State};
+use axum::http::request::Parts;
 use axum::http::{HeaderName, Method, StatusCode};
 use axum::middleware::{Next, from_fn_with_state};
 use axum::response::{IntoResponse, Response};
@@ -56,6 +57,39 @@ impl<T: DeserializeOwned, S: Send + Sync> FromRequest<S> for ApiJson<T> {
     }
 }
 
+/// Query parameters whose rejections are problem+json (`invalid_query`).
+pub struct ApiQuery<T>(pub T);
+
+impl<T: DeserializeOwned, S: Send + Sync> FromRequestParts<S> for ApiQuery<T> {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
+        match axum::extract::Query::<T>::from_request_parts(parts, state).await {
+            Ok(axum::extract::Query(value)) => Ok(ApiQuery(value)),
+            Err(rejection) => Err(Problem::new(
+                StatusCode::BAD_REQUEST,
+                "invalid_query",
+                "Invalid query parameters",
+                format!("{}; see /api/docs for this route's parameters.", rejection.body_text()),
+            )),
+        }
+    }
+}
+
+/// Path parameters whose rejections are problem+json (`invalid_path`).
+pub struct ApiPath<T>(pub T);
+
+impl<T: DeserializeOwned + Send, S: Send + Sync> FromRequestParts<S> for ApiPath<T> {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
+        match axum::extract::Path::<T>::from_request_parts(parts, state).await {
+            Ok(axum::extract::Path(value)) => Ok(ApiPath(value)),
+            Err(rejection) => Err(Problem::new(StatusCode::BAD_REQUEST, "invalid_path", "Invalid path", rejection.body_text())),
+        }
+    }
+}
+
 async fn count_request(State(state): State<AppState>, request: Request, next: Next) -> Response {
     let started = Instant::now();
     let method = request.method().to_string();
@@ -65,22 +99,32 @@ async fn count_request(State(state): State<AppState>, request: Request, next: Ne
     response
 }
 
-async fn limit_writes(State(state): State<AppState>, request: Request, next: Next) -> Response {
-    if ![Method::GET, Method::HEAD, Method::OPTIONS].contains(request.method()) {
-        // Per token when there is one (clients behind one proxy address stay apart), else per address.
-        let client = match request.headers().get(axum::http::header::AUTHORIZATION) {
-            Some(value) => Some(crate::auth::token_hash(value.to_str().unwrap_or(""))),
-            None => request.extensions().get::<ConnectInfo<SocketAddr>>().map(|c| c.0.ip().to_string()),
-        };
-        if let Some(client) = client
-            && let Err(seconds) = state.limiter.admit(client, Instant::now())
-        {
-            return Problem::new(StatusCode::TOO_MANY_REQUESTS, "rate_limited", "Too many requests", format!("Slow down: retry in {seconds} s."))
-                .retry_after(seconds)
-                .into_response();
-        }
+/// Requests that change things are limited per caller — the team or admin its token
+/// resolves to (however the header is spelled), else its address — and failed
+/// authentications, reads included, per address.
+async fn limit_requests(State(state): State<AppState>, request: Request, next: Next) -> Response {
+    let write = ![Method::GET, Method::HEAD, Method::OPTIONS].contains(request.method());
+    if !write && !request.headers().contains_key(axum::http::header::AUTHORIZATION) {
+        return next.run(request).await;
     }
-    next.run(request).await
+    let address = request.extensions().get::<ConnectInfo<SocketAddr>>().map_or_else(|| "unknown".to_string(), |c| c.0.ip().to_string());
+    let (mut parts, body) = request.into_parts();
+    let client = match crate::auth::caller_of(&mut parts, &state).await {
+        Ok(crate::auth::Caller::Team(team)) => write.then(|| format!("team {}", team.id)),
+        Ok(crate::auth::Caller::Admin) => write.then(|| "admin".to_string()),
+        Ok(crate::auth::Caller::Anonymous) => write.then(|| format!("address {address}")),
+        Err(problem) if problem.status == StatusCode::UNAUTHORIZED => Some(format!("failed authentication from {address}")),
+        // The store is unavailable: the handler answers with its own error.
+        Err(_) => None,
+    };
+    if let Some(client) = client
+        && let Err(seconds) = state.limiter.admit(client, Instant::now())
+    {
+        return Problem::new(StatusCode::TOO_MANY_REQUESTS, "rate_limited", "Too many requests", format!("Slow down: retry in {seconds} s."))
+            .retry_after(seconds)
+            .into_response();
+    }
+    next.run(Request::from_parts(parts, body)).await
 }
 
 /// A request refused with its body unread (an upload without a valid token, over quota
@@ -150,7 +194,7 @@ pub fn router(state: AppState) -> Router {
         .fallback(route_not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))
-        .layer(from_fn_with_state(state.clone(), limit_writes))
+        .layer(from_fn_with_state(state.clone(), limit_requests))
         .layer(axum::middleware::from_fn(close_after_refused_body))
         .layer(from_fn_with_state(state.clone(), count_request))
         .layer(

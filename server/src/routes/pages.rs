@@ -3,12 +3,13 @@
 
 use askama::Template;
 use askama_web::WebTemplate;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 use serde_json::Value;
 
+use super::{ApiPath, ApiQuery};
 use crate::auth::Caller;
 use crate::leaderboard::{Entry, METRICS};
 use crate::problem::{ApiResult, Problem};
@@ -192,7 +193,7 @@ fn change_chart(entries: &[&Entry], others: &[String], changes: &[Vec<Option<f64
 }
 
 /// `GET /`: the leaderboard of the current (or chosen) release.
-pub async fn leaderboard(State(state): State<AppState>, Query(query): Query<BoardQuery>) -> Response {
+pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuery<BoardQuery>) -> Response {
     let rendered = match super::leaderboard::rendered(&state, query.release.as_deref()).await {
         Ok(r) => r,
         Err(problem) => {
@@ -343,7 +344,7 @@ fn human_size(bytes: u64) -> String {
 }
 
 /// `GET /releases/{version}`: downloads, scenes with prompts and thumbnails.
-pub async fn release(State(state): State<AppState>, caller: Caller, Path(version): Path<String>) -> ApiResult<Response> {
+pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<Response> {
     let version = super::releases::resolve(&state, &version).await?;
     let record = super::releases::visible_release(&state, &caller, &version).await?;
     let manifest: Value = serde_json::from_str(&record.manifest).map_err(Problem::internal)?;
@@ -435,7 +436,7 @@ pub struct SubmissionPage {
 }
 
 /// `GET /submissions/{id}`: state history and per-scene results.
-pub async fn submission(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<Response> {
+pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let s = super::submissions::visible_submission(&state, &caller, &id).await?;
     let view = super::submissions::submission_json(&state, &s).await?;
     let history = view["history"]
@@ -490,7 +491,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, Path(id):
 const STYLE: &str = include_str!("../../../static/style.css");
 
 /// `GET /static/{file}`: the vendored assets.
-pub async fn static_file(Path(file): Path<String>) -> Response {
+pub async fn static_file(ApiPath(file): ApiPath<String>) -> Response {
     match file.as_str() {
         "style.css" => ([(header::CONTENT_TYPE, "text/css; charset=utf-8"), (header::CACHE_CONTROL, "public, max-age=3600")], STYLE).into_response(),
         _ => Problem::not_found(format!("There is no static file '{file}'.")).into_response(),

@@ -1,11 +1,12 @@
 //! Releases: the list, one release, its manifest and its public files. Drafts are
 //! visible to admins only; ground truth is never a public file, so it cannot be served.
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{HeaderMap, header};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Value, json};
 
+use super::ApiPath;
 use super::files::serve_blob;
 use crate::auth::Caller;
 use crate::problem::{ApiResult, Problem};
@@ -47,7 +48,7 @@ pub async fn list(State(state): State<AppState>, caller: Caller) -> ApiResult<ax
 }
 
 /// `GET /api/v1/releases/{version}` (`current` names the current release).
-pub async fn show(State(state): State<AppState>, caller: Caller, Path(version): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     let version = resolve(&state, &version).await?;
     Ok(axum::Json(release_json(&visible_release(&state, &caller, &version).await?)))
 }
@@ -64,7 +65,7 @@ pub async fn resolve(state: &AppState, version: &str) -> ApiResult<String> {
 }
 
 /// `GET /api/v1/releases/{version}/manifest.json`.
-pub async fn manifest(State(state): State<AppState>, caller: Caller, Path(version): Path<String>, headers: HeaderMap) -> ApiResult<Response> {
+pub async fn manifest(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>, headers: HeaderMap) -> ApiResult<Response> {
     let version = resolve(&state, &version).await?;
     let release = visible_release(&state, &caller, &version).await?;
     let etag = format!("\"{}\"", release.digest);
@@ -75,7 +76,12 @@ pub async fn manifest(State(state): State<AppState>, caller: Caller, Path(versio
 }
 
 /// `GET /api/v1/releases/{version}/files/{path}`: a manifest file or a sequence archive.
-pub async fn file(State(state): State<AppState>, caller: Caller, Path((version, path)): Path<(String, String)>, headers: HeaderMap) -> ApiResult<Response> {
+pub async fn file(
+    State(state): State<AppState>,
+    caller: Caller,
+    ApiPath((version, path)): ApiPath<(String, String)>,
+    headers: HeaderMap,
+) -> ApiResult<Response> {
     let version = resolve(&state, &version).await?;
     let release = visible_release(&state, &caller, &version).await?;
     let entry = match state.store.release_file(&version, &path).await {

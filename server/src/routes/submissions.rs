@@ -1,18 +1,20 @@
 //! Submissions: upload (or dry-run validate), list, show with history and scores, edit
 //! the method card, cancel.
 
+use std::collections::BTreeSet;
+
 use axum::body::Body;
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use futures_util::StreamExt;
 use serde::Deserialize;
 use serde_json::{Value, json};
 
-use super::ApiJson;
+use super::{ApiJson, ApiPath, ApiQuery};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
-use crate::intake::{Scratch, check, declared_sha256, receive, record, too_large};
+use crate::intake::{Scratch, check, declared_sha256, receive, record, release_not_open, too_large};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 use crate::store::{StoreError, SubmissionRecord, Team};
@@ -85,7 +87,7 @@ async fn drain_then(body: Body, declared_length: Option<u64>, problem: Problem) 
 pub async fn create(
     State(state): State<AppState>,
     caller: Result<TeamCaller, Problem>,
-    Query(query): Query<UploadQuery>,
+    query: Result<ApiQuery<UploadQuery>, Problem>,
     headers: HeaderMap,
     body: Body,
 ) -> ApiResult<Response> {
@@ -95,6 +97,10 @@ pub async fn create(
     // a client answered while it is still sending sees a broken pipe, not the answer.
     let TeamCaller(team) = match caller {
         Ok(caller) => caller,
+        Err(problem) => return Err(drain_then(body, declared_length, problem).await),
+    };
+    let ApiQuery(query) = match query {
+        Ok(query) => query,
         Err(problem) => return Err(drain_then(body, declared_length, problem).await),
     };
     if !query.dry_run {
@@ -131,22 +137,18 @@ pub async fn create(
     }
     let validating_at = now_ms();
     let current = state.store.current_release().await.ok().map(|r| r.version);
+    let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == "published").map(|r| r.version).collect();
     let unpack_to = Scratch(state.blobs.scratch("unpack"));
     let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
     // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
     let _permit = state.validation.acquire().await.map_err(Problem::internal)?;
-    let (valid, _) =
-        tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref())).await.map_err(Problem::internal)??;
+    let (valid, _) = tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref(), Some(&open)))
+        .await
+        .map_err(Problem::internal)??;
+    // Published while this upload was checked is fine; withdrawn meanwhile is not.
     match state.store.release(&valid.release).await {
         Ok(r) if r.state == "published" => {}
-        Ok(_) | Err(StoreError::NotFound) => {
-            return Err(Problem::new(
-                StatusCode::CONFLICT,
-                "release_not_open",
-                "Release not open",
-                format!("Release '{}' is not published, so it takes no submissions; see GET /api/v1/releases.", valid.release),
-            ));
-        }
+        Ok(_) | Err(StoreError::NotFound) => return Err(release_not_open(&valid.release)),
         Err(e) => return Err(e.into()),
     }
     if query.dry_run {
@@ -229,7 +231,7 @@ pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> 
 }
 
 /// `GET /api/v1/submissions/{id}`.
-pub async fn show(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     let s = visible_submission(&state, &caller, &id).await?;
     Ok(axum::Json(submission_json(&state, &s).await?))
 }
@@ -260,13 +262,11 @@ pub struct MethodCardUpdate {
 pub async fn update(
     State(state): State<AppState>,
     caller: Caller,
-    Path(id): Path<String>,
+    ApiPath(id): ApiPath<String>,
     ApiJson(change): ApiJson<MethodCardUpdate>,
 ) -> ApiResult<axum::Json<Value>> {
     let mut s = visible_submission(&state, &caller, &id).await?;
-    if !caller.can_see_team(&s.team_id) {
-        return Err(Problem::forbidden("Only the submitting team (or an admin) can edit a submission."));
-    }
+    caller.may_change(&s.team_id, "edit a submission")?;
     if let Some(name) = change.name {
         s.method_name = name.trim().to_string();
     }
@@ -296,11 +296,9 @@ pub async fn update(
 }
 
 /// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
-pub async fn cancel(State(state): State<AppState>, caller: Caller, Path(id): Path<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
     let s = visible_submission(&state, &caller, &id).await?;
-    if !caller.can_see_team(&s.team_id) {
-        return Err(Problem::forbidden("Only the submitting team (or an admin) can cancel a submission."));
-    }
+    caller.may_change(&s.team_id, "cancel a submission")?;
     let reason = if matches!(caller, Caller::Admin) { "cancelled by an admin" } else { "cancelled by the team" };
     if !state.store.set_submission_state(&id, &["queued"], "cancelled", Some(reason), now_ms()).await? {
         return Err(Problem::conflict(format!("The submission is {}; only queued submissions can be cancelled.", s.state)));

@@ -99,3 +99,80 @@ fn the_openapi_document_lists_only_real_routes() {
     assert!(metrics.contains("osmab_http_requests_total{method=\"GET\",route=\"/api/v1/openapi.json\",status=\"200\"}"), "{metrics}");
     assert!(metrics.contains("# TYPE osmab_jobs gauge"), "{metrics}");
 }
+
+/// Every refusal is problem+json, extractors included; a draft release tells a dry run
+/// nothing; names that display as something else are refused; editing needs a token.
+fn refusals_at_the_edges(backend: Backend) {
+    let deployment = Deployment::new(backend, &[]);
+    let server = deployment.serve();
+    let token = server.team("Team Edges");
+    let archive = tar_of(baseline_dir("drop-small").path());
+
+    // A draft release: a dry run naming it is refused before anything is validated.
+    let draft = server.admin(server.post("/api/v1/admin/releases/import").json(&json!({"path": super::test_release(), "publish": false})));
+    assert_eq!(draft.status(), 201);
+    let body = problem(server.upload(&token, &archive, "?dry_run=true"), 409, "release_not_open");
+    assert!(!body.to_string().contains("scene_0"), "nothing of the draft is shown: {body}");
+    let version = draft.json::<Value>().unwrap()["version"].as_str().unwrap().to_string();
+    assert_eq!(server.admin(server.post(&format!("/api/v1/admin/releases/{version}/publish"))).status(), 200);
+
+    // Query and path parameters that do not parse.
+    problem(server.get("/api/v1/leaderboard/vqa.csv?table=two").send().unwrap(), 400, "invalid_query");
+    problem(server.upload(&token, &archive, "?dry_run=maybe"), 400, "invalid_query");
+    problem(server.get("/api/v1/submissions/%FF%FE").bearer_auth(&token).send().unwrap(), 400, "invalid_path");
+    problem(server.get("/releases/%C0").send().unwrap(), 400, "invalid_path");
+
+    // Names with bidirectional overrides or invisible characters.
+    let body = problem(server.admin(server.post("/api/v1/admin/teams").json(&json!({"name": "Lab\u{202E}evil"}))), 422, "invalid_request");
+    assert!(body["detail"].as_str().unwrap().contains("U+202E"), "{body}");
+    let accepted: Value = server.upload(&token, &archive, "").json().unwrap();
+    let id = accepted["id"].as_str().unwrap();
+    let rename = |name: &str, token: Option<&str>| {
+        let request = server.client.patch(format!("{}/api/v1/submissions/{id}", server.url)).json(&json!({"name": name}));
+        match token {
+            Some(token) => request.bearer_auth(token).send().unwrap(),
+            None => request.send().unwrap(),
+        }
+    };
+    let body = problem(rename("zero\u{200B}width", Some(&token)), 422, "invalid_request");
+    assert!(body["detail"].as_str().unwrap().contains("U+200B"), "{body}");
+
+    // Editing needs the team's token: 401 without one, 403 with another team's.
+    problem(rename("mine now", None), 401, "unauthenticated");
+    let other = server.team("Team Other Edges");
+    problem(rename("mine now", Some(&other)), 403, "forbidden");
+    assert_eq!(rename("A fine name", Some(&token)).status(), 200);
+}
+
+on_both_backends!(refusals_at_the_edges_are_problem_json, super::refusals_at_the_edges);
+
+/// Writes are limited per team however its token header is spelled, and failed
+/// authentications per address, reads included; anonymous reads are not limited.
+fn rate_limits_by_caller(backend: Backend) {
+    // One request per 100 s after a burst of 6: the admin's own setup stays within it.
+    let deployment = Deployment::new(backend, &[("OSMAB_RATE_LIMIT", "0.01"), ("OSMAB_RATE_BURST", "6")]);
+    let server = deployment.serve();
+    let token = server.team("Team Limited");
+    let cancel = |authorization: String| server.post("/api/v1/submissions/sub_none/cancel").header("authorization", authorization).send().unwrap();
+    for spaces in 1..=6 {
+        let response = cancel(format!("Bearer{}{token}", " ".repeat(spaces)));
+        assert_eq!(response.status(), 404, "write {spaces} is admitted (and finds nothing)");
+    }
+    let body = problem(cancel(format!("Bearer       {token}")), 429, "rate_limited");
+    assert!(body["detail"].as_str().unwrap().contains("retry"), "{body}");
+    // Another team is not affected.
+    let other = server.team("Team Unlimited");
+    assert_eq!(cancel(format!("Bearer {other}")).status(), 404);
+
+    for _ in 0..6 {
+        problem(server.get("/api/v1/me").bearer_auth("osmab_0000000000000000000000000000000x").send().unwrap(), 401, "token_invalid");
+    }
+    let refused = server.get("/api/v1/me").bearer_auth("osmab_1111111111111111111111111111111x").send().unwrap();
+    assert!(refused.headers().contains_key("retry-after"));
+    problem(refused, 429, "rate_limited");
+    for _ in 0..10 {
+        assert_eq!(server.get("/api/v1/releases").send().unwrap().status(), 200, "anonymous reads are not limited");
+    }
+}
+
+on_both_backends!(rate_limits_follow_the_caller_not_the_header, super::rate_limits_by_caller);

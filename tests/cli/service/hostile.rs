@@ -66,13 +66,31 @@ fn hostile_uploads(backend: Backend) {
     server.wait_done(&id, &token);
     let before = stored_state(&server, &token);
 
+    // The README's own archive command, literally: `tar -cf sub.tar -C my-submission .`
+    // (its first entry is `./`).
+    let scratch = tempfile::tempdir().unwrap();
+    let made =
+        std::process::Command::new("tar").args(["-cf", "sub.tar", "-C", oracle.path().to_str().unwrap(), "."]).current_dir(scratch.path()).output().unwrap();
+    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+    let readme_tar = std::fs::read(scratch.path().join("sub.tar")).unwrap();
+    let response = server.upload(&token, &readme_tar, "?dry_run=true");
+    assert_eq!(response.status(), 200, "{}", response.text().unwrap());
+
+    // An entry that cannot be written (a file and a directory of one name) is named by its
+    // path inside the upload, never by the server's scratch paths.
+    let submission_json = std::fs::read(oracle.path().join("submission.json")).unwrap();
+    let clash = tar_with(&[("submission.json", &submission_json), ("maps", b"x"), ("maps/baseline/scene_000.npz", b"y")]);
+    let body = problem(server.upload(&token, &clash, ""), 422, "invalid_archive");
+    let shown = body.to_string();
+    assert!(!shown.contains(".incoming") && !shown.contains(deployment.data.path().to_str().unwrap()), "{shown}");
+    assert_eq!((body["errors"][0]["file"].as_str(), body["errors"][0]["field"].as_str()), (Some("upload"), Some("maps/baseline/scene_000.npz")), "{body}");
+
     // Truncated archive.
     let truncated = &good[..good.len() / 2 + 100];
     let body = problem(server.upload(&token, truncated, ""), 422, "invalid_archive");
     assert!(body["detail"].as_str().unwrap().contains("truncated"), "{body}");
 
     // Path traversal.
-    let submission_json = std::fs::read(oracle.path().join("submission.json")).unwrap();
     let evil = tar_with(&[("submission.json", &submission_json), ("../../evil.txt", b"owned")]);
     let body = problem(server.upload(&token, &evil, ""), 422, "invalid_archive");
     assert!(body["errors"][0]["message"].as_str().unwrap().contains(".."), "{body}");

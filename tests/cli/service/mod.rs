@@ -130,9 +130,10 @@ impl Deployment {
     }
 
     /// Start `osmab <args>` with this deployment's environment; its log goes to `name.log`.
-    pub fn spawn(&self, args: &[&str], name: &str) -> Child {
+    /// The process is killed when the handle is dropped (a failing test leaves none behind).
+    pub fn spawn(&self, args: &[&str], name: &str) -> Process {
         let log = std::fs::File::create(self.data.path().join(format!("{name}.log"))).unwrap();
-        Command::new(env!("CARGO_BIN_EXE_osmab"))
+        let child = Command::new(env!("CARGO_BIN_EXE_osmab"))
             .args(args)
             .env_clear()
             .env("PATH", std::env::var("PATH").unwrap_or_default())
@@ -140,7 +141,8 @@ impl Deployment {
             .stdout(Stdio::piped())
             .stderr(Stdio::from(log))
             .spawn()
-            .expect("osmab starts")
+            .expect("osmab starts");
+        Process(child)
     }
 
     pub fn log(&self, name: &str) -> String {
@@ -157,19 +159,35 @@ impl Deployment {
     }
 }
 
+/// A started `osmab` process, killed when dropped.
+pub struct Process(pub Child);
+
+impl std::ops::Deref for Process {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Process {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 /// A running `osmab serve`.
 pub struct Server<'a> {
-    pub child: Child,
+    pub child: Process,
     pub url: String,
     pub deployment: &'a Deployment,
     pub client: Client,
-}
-
-impl Drop for Server<'_> {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 impl Server<'_> {

@@ -5,12 +5,21 @@
 
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Blobs under one local directory.
 #[derive(Debug, Clone)]
 pub struct Blobs {
     root: PathBuf,
+    /// This process's scratch directory under `.incoming/`, owned while `_owner_lock` (an
+    /// exclusive lock on its `.lock` file, released by the OS however the process ends)
+    /// is held: another process that can take the lock knows the owner is gone.
+    scratch_dir: PathBuf,
+    _owner_lock: Arc<std::fs::File>,
 }
+
+/// Scratch directories are `.incoming/owner-<random>/`, each with `owner-<random>.lock`.
+const OWNER_PREFIX: &str = "owner-";
 
 fn check_key(key: &str) -> io::Result<()> {
     let bad = key.is_empty() || key.starts_with('/') || key.split('/').any(|part| part.is_empty() || part == "." || part == "..") || key.contains('\\');
@@ -18,11 +27,17 @@ fn check_key(key: &str) -> io::Result<()> {
 }
 
 impl Blobs {
-    /// A store under `root` (created when missing).
+    /// A store under `root` (created when missing), with a scratch directory of this
+    /// process's own.
     pub fn open(root: &Path) -> io::Result<Self> {
-        std::fs::create_dir_all(root)?;
-        std::fs::create_dir_all(root.join(".incoming"))?;
-        Ok(Self { root: root.to_path_buf() })
+        let incoming = root.join(".incoming");
+        std::fs::create_dir_all(&incoming)?;
+        let owner = format!("{OWNER_PREFIX}{}", crate::clock::random_alphanumeric(12).to_ascii_lowercase());
+        let lock = std::fs::OpenOptions::new().create_new(true).write(true).open(incoming.join(format!("{owner}.lock")))?;
+        lock.lock()?;
+        let scratch_dir = incoming.join(owner);
+        std::fs::create_dir(&scratch_dir)?;
+        Ok(Self { root: root.to_path_buf(), scratch_dir, _owner_lock: Arc::new(lock) })
     }
 
     /// Where `key` lives on disk.
@@ -31,9 +46,10 @@ impl Blobs {
         Ok(self.root.join(key))
     }
 
-    /// A fresh scratch path on the same filesystem (so `put_file` can rename).
+    /// A fresh scratch path on the same filesystem (so `put_file` can rename), in this
+    /// process's scratch directory.
     pub fn scratch(&self, name: &str) -> PathBuf {
-        self.root.join(".incoming").join(format!("{name}-{}", crate::clock::random_alphanumeric(12)))
+        self.scratch_dir.join(format!("{name}-{}", crate::clock::random_alphanumeric(12)))
     }
 
     /// Move `source` (a scratch file) into `key`, atomically replacing nothing: a key is
@@ -79,15 +95,36 @@ impl Blobs {
         }
     }
 
-    /// Remove scratch entries older than `age` (left by processes that died mid-upload);
-    /// returns how many went.
+    /// Remove what no live process owns: the scratch directories of processes that ended
+    /// (their lock can be taken — a process killed with -9 included), and loose entries
+    /// older than `age` (left by versions before owned directories). Returns how many
+    /// entries went.
     pub fn sweep_scratch(&self, age: std::time::Duration) -> usize {
-        let Ok(entries) = std::fs::read_dir(self.root.join(".incoming")) else { return 0 };
+        let incoming = self.root.join(".incoming");
+        let Ok(entries) = std::fs::read_dir(&incoming) else { return 0 };
         let mut removed = 0;
         for entry in entries.flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if path == self.scratch_dir || name == format!("{}.lock", self.scratch_dir.file_name().unwrap_or_default().to_string_lossy()) {
+                continue;
+            }
+            if let Some(owner) = name.strip_prefix(OWNER_PREFIX).and_then(|n| n.strip_suffix(".lock")) {
+                let Ok(lock) = std::fs::OpenOptions::new().write(true).open(&path) else { continue };
+                // Held: its process lives. Taken: nobody owns the directory any more.
+                if lock.try_lock().is_ok() {
+                    let dir = incoming.join(format!("{OWNER_PREFIX}{owner}"));
+                    removed += std::fs::read_dir(&dir).map(|d| d.count()).unwrap_or(0);
+                    let _ = std::fs::remove_dir_all(&dir);
+                    let _ = std::fs::remove_file(&path);
+                }
+                continue;
+            }
+            if name.starts_with(OWNER_PREFIX) {
+                continue; // a directory: swept with its lock
+            }
             let old = entry.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok()).is_some_and(|e| e > age);
             if old {
-                let path = entry.path();
                 let gone = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
                 removed += usize::from(gone.is_ok());
             }
@@ -128,5 +165,25 @@ mod tests {
         std::fs::write(&again, b"two").unwrap();
         assert_eq!(blobs.put_file("a/b", &again).unwrap_err().kind(), io::ErrorKind::AlreadyExists);
         assert_eq!(std::fs::read(blobs.path("a/b").unwrap()).unwrap(), b"one");
+    }
+
+    #[test]
+    fn scratch_of_a_process_that_ended_is_swept_and_a_live_one_s_is_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let live = Blobs::open(dir.path()).unwrap();
+        std::fs::write(live.scratch("upload"), b"in progress").unwrap();
+        let ended = Blobs::open(dir.path()).unwrap();
+        std::fs::write(ended.scratch("upload"), b"left behind").unwrap();
+        std::fs::write(ended.scratch("unpack"), b"left behind").unwrap();
+        drop(ended); // its lock goes as a killed process's would
+        let legacy = dir.path().join(".incoming/unpack-old");
+        std::fs::write(&legacy, b"old layout").unwrap();
+        let restarted = Blobs::open(dir.path()).unwrap();
+        assert_eq!(restarted.sweep_scratch(std::time::Duration::from_secs(3600)), 2, "the ended process's two files");
+        assert!(legacy.exists(), "a young loose entry stays until it is old");
+        assert_eq!(std::fs::read_dir(&live.scratch_dir).unwrap().count(), 1, "the live process's upload is untouched");
+        assert_eq!(restarted.sweep_scratch(std::time::Duration::ZERO), 1, "the loose entry, once old");
+        let left: Vec<_> = std::fs::read_dir(dir.path().join(".incoming")).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left.len(), 4, "two owners, each a directory and a lock: {left:?}");
     }
 }

@@ -19,7 +19,7 @@ use crate::clock::{new_id, now_ms};
 use crate::problem::Problem;
 use crate::releases::release_dir;
 use crate::state::AppState;
-use crate::store::{NewJob, NewSubmission, StoreError, Team};
+use crate::store::{NewJob, NewSubmission, Recorded, StoreError, Team};
 
 /// Kind of the job that scores a submission.
 pub const SCORE_JOB: &str = "score_submission";
@@ -219,8 +219,10 @@ fn as_uploaded(mut e: InputError, upload: &Path, unpacked: &Path) -> InputError 
 }
 
 /// Record a validated upload as a submission of `team` with its scoring job, storing the
-/// archive first so the job always finds it. `quota = Some((limit, since))` is checked in
-/// the same transaction; `Ok(None)` means it was used up.
+/// archive first so the job always finds it — unless it repeats the team's earlier
+/// submission (same archive, or the same `idempotency_key`). `quota = Some((limit,
+/// since))` is checked in the same transaction. Nothing but a `Recorded::New` leaves a
+/// stored archive behind.
 #[allow(clippy::too_many_arguments)]
 pub async fn record(
     state: &AppState,
@@ -231,7 +233,8 @@ pub async fn record(
     baseline: bool,
     validating_at: i64,
     quota: Option<(i64, i64)>,
-) -> Result<Option<String>, Problem> {
+    idempotency_key: Option<&str>,
+) -> Result<Recorded, Problem> {
     let id = new_id("sub");
     let key = format!("submissions/{id}/upload");
     state.blobs.put_file(&key, &upload.path).map_err(Problem::internal)?;
@@ -249,6 +252,7 @@ pub async fn record(
         complete: submission.complete,
         archive_size: upload.size as i64,
         archive_sha256: upload.sha256_hex(),
+        idempotency_key: idempotency_key.map(str::to_string),
         received_at: upload.received_at,
         validating_at,
         queued_at,
@@ -261,15 +265,26 @@ pub async fn record(
         max_attempts: state.settings.job_max_attempts,
         created_at: queued_at,
     };
-    match state.store.create_submission(&new, &job, quota).await {
-        Ok(true) => Ok(Some(id)),
-        outcome => {
-            let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
-            match outcome {
-                Ok(_) => Ok(None),
-                Err(StoreError::NotFound) => Err(Problem::not_found("The release is not registered.")),
-                Err(other) => Err(other.into()),
-            }
-        }
+    let outcome = state.store.create_submission(&new, &job, quota).await;
+    if !matches!(outcome, Ok(Recorded::New(_))) {
+        let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
+    }
+    match outcome {
+        Ok(recorded) => Ok(recorded),
+        Err(StoreError::NotFound) => Err(Problem::not_found("The release is not registered.")),
+        Err(other) => Err(other.into()),
+    }
+}
+
+/// The `Idempotency-Key` request header (draft-ietf-httpapi-idempotency-key-header), if
+/// sent: 1 to 255 visible ASCII characters.
+pub fn idempotency_key(headers: &axum::http::HeaderMap) -> Result<Option<String>, Problem> {
+    let Some(value) = headers.get("idempotency-key") else {
+        return Ok(None);
+    };
+    let key = value.to_str().ok().map(|k| k.trim().trim_matches('"')).filter(|k| (1..=255).contains(&k.len()) && k.bytes().all(|b| b.is_ascii_graphic()));
+    match key {
+        Some(key) => Ok(Some(key.to_string())),
+        None => Err(Problem::bad_request("invalid_idempotency_key", "Idempotency-Key: expected 1 to 255 visible ASCII characters (a UUID, say).")),
     }
 }

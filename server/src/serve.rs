@@ -25,6 +25,8 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     let store = Store::connect(&url).await.with_context(|| format!("cannot open the database {}", redact_url(&url)))?;
     store.migrate().await.context("cannot apply the database migrations")?;
     let blobs = Blobs::open(&settings.data_dir.join("blobs")).context("cannot open the blob storage")?;
+    // Scratch of processes that died (kill -9 included) goes now; loose old-layout
+    // entries after six hours.
     let swept = blobs.sweep_scratch(Duration::from_secs(6 * 3600));
     if swept > 0 {
         tracing::info!(swept, "removed scratch files left by processes that died");

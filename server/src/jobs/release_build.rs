@@ -271,7 +271,7 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current), None))
             .await?
             .map_err(|p| JobError::Permanent(format!("baseline {name}: {}", p.detail)))?;
-        crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None).await.map_err(|p| JobError::Retryable(p.detail))?;
+        crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None, None).await.map_err(|p| JobError::Retryable(p.detail))?;
         queued += 1;
     }
     Ok(queued)

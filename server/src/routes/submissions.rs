@@ -14,10 +14,10 @@ use serde_json::{Value, json};
 use super::{ApiJson, ApiPath, ApiQuery};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
-use crate::intake::{Scratch, check, declared_sha256, receive, record, release_not_open, too_large};
+use crate::intake::{Scratch, check, declared_sha256, idempotency_key, receive, record, release_not_open, too_large};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{StoreError, SubmissionRecord, Team};
+use crate::store::{Recorded, StoreError, SubmissionRecord, Team};
 
 #[derive(Debug, Deserialize)]
 pub struct UploadQuery {
@@ -59,6 +59,34 @@ fn quota_exceeded((limit, used, resets): (i64, i64, i64)) -> Problem {
 pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Value>> {
     let q = quota(&state, &team).await?;
     Ok(axum::Json(json!({"team": {"id": team.id, "name": team.name}, "quota": quota_json(q)})))
+}
+
+/// The answer to an upload that repeats the team's earlier submission: that submission
+/// (200, no quota used), or 422 when its idempotency key was used for another archive.
+async fn answer_repeat(state: &AppState, team: &Team, earlier: Recorded) -> ApiResult<Response> {
+    match earlier {
+        Recorded::Repeat(id) => {
+            let s = state.store.submission(&id).await?;
+            tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
+            let location = format!("/api/v1/submissions/{id}");
+            let body =
+                json!({"id": id, "state": s.state, "complete": s.complete, "repeat": true, "quota": quota_json(quota(state, team).await?), "url": location});
+            Ok((StatusCode::OK, [(header::LOCATION, location)], axum::Json(body)).into_response())
+        }
+        Recorded::KeyReused(id) => Err(Problem::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "idempotency_key_reused",
+            "Idempotency key reused",
+            format!(
+                "This Idempotency-Key was used for submission {id} of another archive. Send a new key for a new upload; nothing was stored and no quota was used."
+            ),
+        )),
+        other => Err(Problem::internal(format!("not a repeat: {other:?}"))),
+    }
+}
+
+fn hex(digest: [u8; 32]) -> String {
+    digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
@@ -103,19 +131,33 @@ pub async fn create(
         Ok(query) => query,
         Err(problem) => return Err(drain_then(body, declared_length, problem).await),
     };
+    let key = match idempotency_key(&headers) {
+        Ok(key) => key,
+        Err(problem) => return Err(drain_then(body, declared_length, problem).await),
+    };
+    let declared_digest = match headers.get("content-digest").and_then(|v| v.to_str().ok()).map(declared_sha256) {
+        Some(Ok(digest)) => digest,
+        Some(Err(problem)) => return Err(drain_then(body, declared_length, problem).await),
+        None => None,
+    };
     if !query.dry_run {
         let q = quota(&state, &team).await?;
-        if q.1 >= q.0 {
+        // A repeat costs no quota: with the quota used up, an upload that names an earlier
+        // submission (its key, or its declared digest) is still read and answered.
+        let may_repeat = match (&key, declared_digest) {
+            (None, None) => false,
+            _ => {
+                let digest = declared_digest.map(hex).unwrap_or_default();
+                state.store.repeated_submission(&team.id, &digest, key.as_deref()).await?.is_some()
+            }
+        };
+        if q.1 >= q.0 && !may_repeat {
             return Err(drain_then(body, declared_length, quota_exceeded(q)).await);
         }
     }
     if declared_length.is_some_and(|n| n > max) {
         return Err(too_large(max));
     }
-    let declared_digest = match headers.get("content-digest").and_then(|v| v.to_str().ok()) {
-        Some(value) => declared_sha256(value)?,
-        None => None,
-    };
     let (upload, _upload_scratch) = receive(&state, body, max).await?;
     if let Some(length) = declared_length
         && length != upload.size
@@ -134,6 +176,11 @@ pub async fn create(
                 upload.sha256_hex()
             ),
         ));
+    }
+    if !query.dry_run
+        && let Some(earlier) = state.store.repeated_submission(&team.id, &upload.sha256_hex(), key.as_deref()).await?
+    {
+        return answer_repeat(&state, &team, earlier).await;
     }
     let validating_at = now_ms();
     let current = state.store.current_release().await.ok().map(|r| r.version);
@@ -170,9 +217,13 @@ pub async fn create(
     if q.1 >= q.0 {
         return Err(quota_exceeded(q));
     }
-    let Some(id) = record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at, Some((q.0, utc_day_start(now_ms())))).await?
-    else {
-        return Err(quota_exceeded(quota(&state, &team).await?));
+    let recorded =
+        record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at, Some((q.0, utc_day_start(now_ms()))), key.as_deref())
+            .await?;
+    let id = match recorded {
+        Recorded::New(id) => id,
+        Recorded::QuotaExceeded => return Err(quota_exceeded(quota(&state, &team).await?)),
+        earlier => return answer_repeat(&state, &team, earlier).await,
     };
     tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
     let location = format!("/api/v1/submissions/{id}");

@@ -141,8 +141,25 @@ pub struct NewSubmission {
     pub complete: bool,
     pub archive_size: i64,
     pub archive_sha256: String,
+    /// The client's `Idempotency-Key`, when it sent one.
+    pub idempotency_key: Option<String>,
     /// When the upload began and when validation began and ended (history timestamps).
     pub received_at: i64,
     pub validating_at: i64,
     pub queued_at: i64,
+}
+
+/// What recording a submission did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Recorded {
+    /// A new submission (its id).
+    New(String),
+    /// Nothing new: the team's earlier submission (its id) of the same archive, still
+    /// active, or made with the same idempotency key and archive.
+    Repeat(String),
+    /// Nothing new: the idempotency key names the team's earlier submission (its id) of
+    /// another archive.
+    KeyReused(String),
+    /// Nothing new: the team's quota is used up.
+    QuotaExceeded,
 }

@@ -1,9 +1,21 @@
 //! Teams, tokens, releases, submissions and scores.
 
 use super::{
-    JobRecord, LeaderboardRow, NewJob, NewSubmission, ReleaseFile, ReleaseRecord, ScoreRecord, Store, StoreError, StoreResult, SubmissionEvent,
+    JobRecord, LeaderboardRow, NewJob, NewSubmission, Recorded, ReleaseFile, ReleaseRecord, ScoreRecord, Store, StoreError, StoreResult, SubmissionEvent,
     SubmissionRecord, Team, TokenRecord, on_pool,
 };
+
+/// A team's earlier submission with the idempotency key `$2` (first) or, active, of the
+/// archive `$3`: its id, archive and key.
+const REPEAT_QUERY: &str = "SELECT id, archive_sha256, idempotency_key FROM submissions \
+     WHERE team_id = $1 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
+     ORDER BY CASE WHEN idempotency_key = $2 THEN 0 ELSE 1 END, created_at LIMIT 1";
+
+/// What an earlier submission `(id, archive, key)` found by [`REPEAT_QUERY`] makes of an
+/// upload of `archive`.
+fn repeat_of((id, earlier_archive, _key): (String, String, Option<String>), archive: &str) -> Recorded {
+    if earlier_archive == archive { Recorded::Repeat(id) } else { Recorded::KeyReused(id) }
+}
 
 const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
 
@@ -187,19 +199,37 @@ impl Store {
             .await)?)
     }
 
+    /// The team's earlier submission a new upload repeats: the one made with the same
+    /// idempotency key (any state), else an active one (not failed or cancelled) of the
+    /// same archive. `Repeat` or `KeyReused` (the key with another archive), if any.
+    pub async fn repeated_submission(&self, team_id: &str, archive_sha256: &str, idempotency_key: Option<&str>) -> StoreResult<Option<Recorded>> {
+        let row: Option<(String, String, Option<String>)> =
+            on_pool!(self, |pool| sqlx::query_as(REPEAT_QUERY).bind(team_id).bind(idempotency_key).bind(archive_sha256).fetch_optional(pool).await)?;
+        Ok(row.map(|row| repeat_of(row, archive_sha256)))
+    }
+
     /// Record a validated submission, its history so far and its scoring job in one
-    /// transaction. With `quota = Some((limit, since))` the submission is only recorded
+    /// transaction — unless it repeats an earlier one ([`Store::repeated_submission`],
+    /// checked inside the transaction, so two parallel uploads of one archive make one
+    /// submission). With `quota = Some((limit, since))` the submission is only recorded
     /// while the team has fewer than `limit` submissions since `since` (counted inside the
-    /// transaction, so parallel uploads cannot overrun it); returns whether it was recorded.
-    pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<bool> {
-        let sql =
-            format!("INSERT INTO submissions ({SUBMISSION_COLUMNS}) VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)");
+    /// transaction, so parallel uploads cannot overrun it).
+    pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<Recorded> {
+        let sql = format!(
+            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key) VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)"
+        );
         let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             if postgres {
                 // Serialise a team's concurrent uploads (SQLite serialises every writer already).
                 sqlx::query("SELECT id FROM teams WHERE id = $1 FOR UPDATE").bind(&s.team_id).execute(&mut *tx).await?;
+            }
+            let earlier: Option<(String, String, Option<String>)> =
+                sqlx::query_as(REPEAT_QUERY).bind(&s.team_id).bind(&s.idempotency_key).bind(&s.archive_sha256).fetch_optional(&mut *tx).await?;
+            if let Some(row) = earlier {
+                tx.rollback().await?;
+                return Ok(repeat_of(row, &s.archive_sha256));
             }
             sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
                 .bind(&s.id)
@@ -216,6 +246,7 @@ impl Store {
                 .bind(&s.archive_sha256)
                 .bind(s.received_at)
                 .bind(s.queued_at)
+                .bind(&s.idempotency_key)
                 .execute(&mut *tx)
                 .await?;
             if let Some((limit, since)) = quota {
@@ -226,7 +257,7 @@ impl Store {
                     .await?;
                 if used > limit {
                     tx.rollback().await?;
-                    return Ok(false);
+                    return Ok(Recorded::QuotaExceeded);
                 }
             }
             for (state, at) in [("received", s.received_at), ("validating", s.validating_at), ("queued", s.queued_at)] {
@@ -238,9 +269,9 @@ impl Store {
                     .await?;
             }
             super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
-            tx.commit().await
-        })?;
-        Ok(true)
+            tx.commit().await?;
+            Ok(Recorded::New(s.id.clone()))
+        })
     }
 
     /// Finish a scoring job: mark the job succeeded (only while `owner` holds its lease),

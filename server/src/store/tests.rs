@@ -168,13 +168,14 @@ async fn submissions_scores_and_releases_keep_their_history() {
             complete: true,
             archive_size: 10,
             archive_sha256: "ab".into(),
+            idempotency_key: None,
             received_at: t,
             validating_at: t + 1,
             queued_at: t + 2,
         };
-        assert!(store.create_submission(&new, &job("js1", t), Some((1, t - 1))).await.unwrap());
-        let second = NewSubmission { id: "sub_2".into(), ..new.clone() };
-        assert!(!store.create_submission(&second, &job("js9", t), Some((1, t - 1))).await.unwrap(), "the quota of 1 is used");
+        assert_eq!(store.create_submission(&new, &job("js1", t), Some((1, t - 1))).await.unwrap(), Recorded::New("sub_1".into()));
+        let second = NewSubmission { id: "sub_2".into(), archive_sha256: "cd".into(), ..new.clone() };
+        assert_eq!(store.create_submission(&second, &job("js9", t), Some((1, t - 1))).await.unwrap(), Recorded::QuotaExceeded, "the quota of 1 is used");
         assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "nothing of the refused submission stays");
         assert!(matches!(store.job("js9").await, Err(StoreError::NotFound)));
         let s = store.submission("sub_1").await.unwrap();
@@ -230,6 +231,7 @@ async fn a_failed_transaction_leaves_no_submission_behind() {
             complete: true,
             archive_size: 1,
             archive_sha256: "00".into(),
+            idempotency_key: None,
             received_at: t,
             validating_at: t,
             queued_at: t,
@@ -279,6 +281,7 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
             complete: true,
             archive_size: 1,
             archive_sha256: "00".into(),
+            idempotency_key: None,
             received_at: t,
             validating_at: t,
             queued_at: t,
@@ -328,6 +331,53 @@ async fn a_coordinator_finds_the_parts_it_fanned_out_by_kind_prefix_and_time() {
         let found: Vec<String> = store.jobs_of("render_sequence", "v_1/", t0).await.unwrap().into_iter().map(|j| j.id).collect();
         assert_eq!(found, ["p1", "p2"], "{}", store.backend());
         assert_eq!(store.jobs_of("render_sequence", "v_1/", t0 - 10).await.unwrap().len(), 3, "{}", store.backend());
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
+async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_records_nothing() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let team = Team { id: "team_r".into(), name: "Team R".into(), daily_quota: None, created_at: now_ms() };
+        store.create_team(&team).await.unwrap();
+        store.insert_release(&release("r1"), &[]).await.unwrap();
+        let t = now_ms();
+        let upload = |id: &str, archive: &str, key: Option<&str>| NewSubmission {
+            id: id.into(),
+            team_id: team.id.clone(),
+            release: "r1".into(),
+            method_name: "M".into(),
+            method_description: String::new(),
+            paper_url: None,
+            code_url: None,
+            public: true,
+            baseline: false,
+            complete: true,
+            archive_size: 1,
+            archive_sha256: archive.into(),
+            idempotency_key: key.map(str::to_string),
+            received_at: t,
+            validating_at: t,
+            queued_at: t,
+        };
+        let quota = Some((1, t - 1));
+        assert_eq!(store.create_submission(&upload("sub_1", "aa", Some("key-1")), &job("j1", t), quota).await.unwrap(), Recorded::New("sub_1".into()));
+        // The same archive again, with the quota used up, with or without a key: the first.
+        for key in [None, Some("key-1"), Some("key-2")] {
+            assert_eq!(store.create_submission(&upload("sub_2", "aa", key), &job("j2", t), quota).await.unwrap(), Recorded::Repeat("sub_1".into()), "{key:?}");
+        }
+        // The key with another archive is a reuse; another archive without it is new.
+        assert_eq!(store.create_submission(&upload("sub_2", "bb", Some("key-1")), &job("j2", t), None).await.unwrap(), Recorded::KeyReused("sub_1".into()));
+        assert_eq!(store.repeated_submission(&team.id, "bb", Some("key-1")).await.unwrap(), Some(Recorded::KeyReused("sub_1".into())));
+        assert_eq!(store.repeated_submission(&team.id, "aa", None).await.unwrap(), Some(Recorded::Repeat("sub_1".into())));
+        assert_eq!(store.repeated_submission(&team.id, "", Some("key-9")).await.unwrap(), None);
+        assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "{}: nothing recorded", store.backend());
+        assert!(matches!(store.job("j2").await, Err(StoreError::NotFound)));
+        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1, "one quota unit");
+        // A cancelled submission's archive may be submitted anew.
+        assert!(store.set_submission_state("sub_1", &["queued"], "cancelled", Some("by the team"), t + 1).await.unwrap());
+        assert_eq!(store.create_submission(&upload("sub_3", "aa", None), &job("j3", t), None).await.unwrap(), Recorded::New("sub_3".into()));
     }
     stores.drop_all().await;
 }

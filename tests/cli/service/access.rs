@@ -34,8 +34,34 @@ fn quotas_and_tokens(backend: Backend) {
     }
     let me: Value = server.get("/api/v1/me").bearer_auth(&token).send().unwrap().json().unwrap();
     assert_eq!((me["quota"]["limit"].as_i64(), me["quota"]["used"].as_i64()), (Some(1), Some(0)));
-    assert_eq!(server.upload(&token, &archive, "").status(), 202);
-    let refused = server.upload(&token, &archive, "");
+    // The same archive again is the same submission, with the quota used up or not, with
+    // or without the idempotency key the first upload was made with (a client's retry);
+    // that key with another archive is refused.
+    let retry = |archive: &[u8], key: &str| {
+        server
+            .post("/api/v1/submissions")
+            .bearer_auth(&token)
+            .header("idempotency-key", key)
+            .header("content-digest", super::content_digest(archive))
+            .body(archive.to_vec())
+            .send()
+            .unwrap()
+    };
+    let first = retry(&archive, "retry-1");
+    assert_eq!(first.status(), 202);
+    let first_id = first.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+    for repeat in [server.upload(&token, &archive, ""), retry(&archive, "retry-1"), retry(&archive, "another-key")] {
+        assert_eq!(repeat.status(), 200);
+        let body: Value = repeat.json().unwrap();
+        assert_eq!((body["id"].as_str(), body["repeat"].as_bool(), body["quota"]["used"].as_i64()), (Some(first_id.as_str()), Some(true), Some(1)), "{body}");
+    }
+    let other_archive = tar_of(baseline_dir("merge").path());
+    let body = problem(retry(&other_archive, "retry-1"), 422, "idempotency_key_reused");
+    assert!(body["detail"].as_str().unwrap().contains(&first_id), "{body}");
+    problem(retry(&other_archive, "bad key with spaces"), 400, "invalid_idempotency_key");
+    let submissions: Value = server.get("/api/v1/submissions").bearer_auth(&token).send().unwrap().json().unwrap();
+    assert_eq!(submissions["submissions"].as_array().unwrap().len(), 1, "one submission: {submissions}");
+    let refused = server.upload(&token, &other_archive, "");
     let retry_after: u64 = refused.headers()["retry-after"].to_str().unwrap().parse().unwrap();
     assert!((1..=86_400).contains(&retry_after));
     let body = problem(refused, 429, "quota_exceeded");
@@ -46,7 +72,7 @@ fn quotas_and_tokens(backend: Backend) {
     let team_id = server.admin(server.get("/api/v1/admin/teams")).json::<Value>().unwrap()["teams"][0]["id"].as_str().unwrap().to_string();
     let raised = server.admin(server.client.patch(format!("{}/api/v1/admin/teams/{team_id}", server.url)).json(&json!({"daily_quota": 3})));
     assert_eq!(raised.status(), 200);
-    assert_eq!(server.upload(&token, &archive, "").status(), 202);
+    assert_eq!(server.upload(&token, &other_archive, "").status(), 202);
 
     // Revoked and expired tokens are explained.
     let issued: Value = server.admin(server.post(&format!("/api/v1/admin/teams/{team_id}/tokens"))).json().unwrap();
@@ -62,7 +88,7 @@ fn quotas_and_tokens(backend: Backend) {
 
     // Private submissions are invisible to other teams.
     let other = server.team("Team Other");
-    let private = server.upload(&token, &archive, "?public=false");
+    let private = server.upload(&token, &tar_of(baseline_dir("label-noise").path()), "?public=false");
     let id = private.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
     problem(server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&other).send().unwrap(), 404, "not_found");
     assert_eq!(server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().status(), 200);

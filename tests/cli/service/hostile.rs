@@ -49,7 +49,11 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
 fn stored_state(server: &super::Server<'_>, token: &str) -> (Value, Value, usize) {
     let submissions: Value = server.get("/api/v1/submissions").bearer_auth(token).send().unwrap().json().unwrap();
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
-    let incoming = std::fs::read_dir(server.deployment.data.path().join("blobs/.incoming")).map(|d| d.count()).unwrap_or(0);
+    // Scratch files: entries of the processes' own scratch directories under .incoming.
+    let incoming = walk(&server.deployment.data.path().join("blobs/.incoming"))
+        .iter()
+        .filter(|p| p.parent().is_some_and(|d| d.is_dir() && d.file_name().is_some_and(|n| n.to_string_lossy().starts_with("owner-"))))
+        .count();
     (submissions, board, incoming)
 }
 

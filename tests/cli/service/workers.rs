@@ -58,6 +58,14 @@ fn a_dead_worker_s_job_is_finished_by_another(backend: Backend) {
         let job = job_of(&server, &id);
         assert_eq!((job["state"].as_str(), job["attempts"].as_i64()), (Some("succeeded"), Some(2)), "{job}");
         assert_eq!(done["score_history"].as_array().unwrap().len(), 1, "one score, not two");
+        // Worker B's start swept what the killed worker A left in its scratch directory.
+        let leftovers: Vec<_> = std::fs::read_dir(deployment.data.path().join("blobs/.incoming"))
+            .unwrap()
+            .flatten()
+            .filter(|e| e.path().is_dir())
+            .flat_map(|d| std::fs::read_dir(d.path()).unwrap().flatten().map(|f| f.path()))
+            .collect();
+        assert!(leftovers.is_empty(), "scratch left after kill -9: {leftovers:?}");
         // The history says why it was scored twice.
         let retried = done["history"].as_array().unwrap().iter().filter(|e| e["state"] == "scoring").last().cloned().unwrap_or_default();
         assert!(retried["reason"].as_str().is_some_and(|r| r.contains("attempt 2") && r.contains("stopped responding")), "{done}");

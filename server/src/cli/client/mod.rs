@@ -152,7 +152,11 @@ pub fn run(command: ClientCommand) -> anyhow::Result<()> {
             }
             let id = answer["id"].as_str().unwrap_or_default().to_string();
             println!("{id}");
-            eprintln!("Submitted as {id} ({}); follow it with `osmab client status {id} --watch`.", answer["state"].as_str().unwrap_or("?"));
+            if answer["repeat"] == true {
+                eprintln!("The server already had this archive as {id} ({}); no quota was used.", answer["state"].as_str().unwrap_or("?"));
+            } else {
+                eprintln!("Submitted as {id} ({}); follow it with `osmab client status {id} --watch`.", answer["state"].as_str().unwrap_or("?"));
+            }
             if watch && view::status(&api, &id, true)? != "scored" {
                 std::process::exit(1);
             }

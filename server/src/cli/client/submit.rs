@@ -1,7 +1,8 @@
 //! `osmab client submit`: pack a folder deterministically (or take an archive as it is),
 //! declare its SHA-256 (`Content-Digest`), upload it with a progress bar, and retry
-//! what the network broke — after checking that the server did not already record the
-//! upload, so a retry never costs a second submission.
+//! what the network broke with the same `Idempotency-Key` (the server answers a repeat
+//! with the submission it already made), after asking whether the server recorded the
+//! upload already (to spare sending it again).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -82,7 +83,9 @@ impl<R: Read> Read for Counted<R> {
     }
 }
 
-/// A recent submission of this team with the same archive, if the server has one.
+/// A recent submission of this team with the same archive, if the server has one (to
+/// skip sending the archive again; when this check fails the retry is still safe: it
+/// carries the same idempotency key).
 fn already_recorded(api: &Api, sha256: &str) -> Option<Value> {
     let list = api.get_json("/api/v1/submissions").ok()?;
     for item in list["submissions"].as_array()?.iter().take(5) {
@@ -108,6 +111,9 @@ pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool) -> anyhow
     }
     let url = format!("{}{}", api.url("/api/v1/submissions"), if query.is_empty() { String::new() } else { format!("?{}", query.join("&")) });
     let kind = content_type(&packed.path)?;
+    // One key for every attempt: the server answers a repeat with the submission the
+    // first attempt made, so a retry never costs a second submission or quota unit.
+    let idempotency_key = format!("osmab-client-{}-{}", &packed.sha256_hex()[..16], crate::clock::random_alphanumeric(16));
     let mut last = None;
     for attempt in 0..4 {
         if attempt > 0 {
@@ -129,6 +135,7 @@ pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool) -> anyhow
             .bearer_auth(&token)
             .header("content-type", kind)
             .header("content-digest", &digest)
+            .header("idempotency-key", &idempotency_key)
             .timeout(Duration::from_secs(6 * 3600))
             .body(body)
             .send();

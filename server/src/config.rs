@@ -75,6 +75,13 @@ pub struct Settings {
     /// `OSMAB_RATE_BURST`; 0 turns rate limiting off.
     pub rate_limit: f64,
     pub rate_burst: f64,
+    /// Seconds a client has to send a request's headers (`OSMAB_HEADER_TIMEOUT_SECS`);
+    /// a connection that trickles them is closed.
+    pub header_timeout_secs: u64,
+    /// Seconds a request body may stay silent between chunks (`OSMAB_BODY_IDLE_TIMEOUT_SECS`).
+    pub body_idle_timeout_secs: u64,
+    /// Connections served at once (`OSMAB_MAX_CONNECTIONS`); more wait in the listen queue.
+    pub max_connections: usize,
     /// `text` or `json` logs (`OSMAB_LOG_FORMAT`).
     pub log_format: String,
     /// OpenAI-compatible endpoint and model of the optional VQA answerer and judge
@@ -101,6 +108,9 @@ struct FileSettings {
     shutdown_grace_secs: Option<u64>,
     rate_limit: Option<f64>,
     rate_burst: Option<f64>,
+    header_timeout_secs: Option<u64>,
+    body_idle_timeout_secs: Option<u64>,
+    max_connections: Option<usize>,
     log_format: Option<String>,
     llm_url: Option<String>,
     llm_model: Option<String>,
@@ -159,6 +169,9 @@ impl Settings {
             shutdown_grace_secs: layer!("OSMAB_SHUTDOWN_GRACE_SECS", from_file.shutdown_grace_secs, 30),
             rate_limit: layer!("OSMAB_RATE_LIMIT", from_file.rate_limit, 20.0),
             rate_burst: layer!("OSMAB_RATE_BURST", from_file.rate_burst, 60.0),
+            header_timeout_secs: layer!("OSMAB_HEADER_TIMEOUT_SECS", from_file.header_timeout_secs, 30),
+            body_idle_timeout_secs: layer!("OSMAB_BODY_IDLE_TIMEOUT_SECS", from_file.body_idle_timeout_secs, 60),
+            max_connections: layer!("OSMAB_MAX_CONNECTIONS", from_file.max_connections, 1024),
             log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format.clone(), "text".to_string()),
             llm_url: env("OSMAB_LLM_URL").filter(|s| !s.trim().is_empty()).or(from_file.llm_url.clone()),
             llm_model: env("OSMAB_LLM_MODEL").filter(|s| !s.trim().is_empty()).or(from_file.llm_model.clone()),
@@ -173,6 +186,8 @@ impl Settings {
         anyhow::ensure!(self.job_max_attempts >= 1, "job_max_attempts must be at least 1");
         anyhow::ensure!(self.poll_ms >= 10, "poll_ms must be at least 10");
         anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
+        anyhow::ensure!(self.header_timeout_secs >= 1 && self.body_idle_timeout_secs >= 1, "header_timeout_secs and body_idle_timeout_secs must be at least 1");
+        anyhow::ensure!(self.max_connections >= 1, "max_connections must be at least 1");
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");
         if let Some(token) = &self.admin_token {

@@ -76,7 +76,16 @@ pub async fn receive(state: &AppState, body: Body, max_bytes: u64) -> Result<(Up
     let mut stream = body.into_data_stream();
     while let Some(chunk) = stream.next().await {
         let chunk = chunk.map_err(|e| {
-            Problem::bad_request("upload_incomplete", format!("The upload ended early after {size} bytes ({e}). Check the connection and upload again."))
+            if crate::http::is_body_timeout(&e) {
+                Problem::new(
+                    StatusCode::REQUEST_TIMEOUT,
+                    "request_timeout",
+                    "Request timeout",
+                    format!("The upload stalled after {size} bytes: nothing arrived for too long. Check the connection and upload again."),
+                )
+            } else {
+                Problem::bad_request("upload_incomplete", format!("The upload ended early after {size} bytes ({e}). Check the connection and upload again."))
+            }
         })?;
         size += chunk.len() as u64;
         if size > max_bytes {

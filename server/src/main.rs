@@ -5,6 +5,7 @@ mod blobs;
 mod cli;
 mod clock;
 mod config;
+mod http;
 mod intake;
 mod jobs;
 mod leaderboard;

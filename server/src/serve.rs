@@ -4,7 +4,6 @@
 //! the grace period and release the rest for other workers.
 
 use std::io::Write;
-use std::net::SocketAddr;
 use std::time::Duration;
 
 use anyhow::Context;
@@ -144,7 +143,7 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     let (stop, stopped) = watch::channel(false);
     let workers = spawn_workers(&state, state.settings.workers, &stopped);
     // One signal stops both: workers stop claiming at once while HTTP drains open requests.
-    let mut http_stopped = stopped.clone();
+    let http_stopped = stopped.clone();
     tokio::spawn(async move {
         shutdown_signal().await;
         let _ = stop.send(true);
@@ -155,11 +154,12 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     println!("osmab listening on http://{address}");
     let _ = std::io::stdout().flush();
     let app = crate::routes::router(state.clone());
-    axum::serve(listener, app.into_make_service_with_connect_info::<SocketAddr>())
-        .with_graceful_shutdown(async move {
-            let _ = http_stopped.wait_for(|stop| *stop).await;
-        })
-        .await?;
+    let limits = crate::http::Limits {
+        header_timeout: Duration::from_secs(state.settings.header_timeout_secs),
+        body_idle_timeout: Duration::from_secs(state.settings.body_idle_timeout_secs),
+        max_connections: state.settings.max_connections,
+    };
+    crate::http::serve(listener, app, limits, http_stopped).await;
     stop_workers(&state, workers).await;
     state.store.close().await;
     tracing::info!("stopped");

@@ -196,3 +196,66 @@ fn declared_upload_answer(url: &str, token: &str, length: u64) -> String {
     let _ = stream.read_to_end(&mut answer);
     String::from_utf8_lossy(&answer).into_owned()
 }
+
+/// Whether the server closes `stream` (end of file or a reset) within `within`, reading
+/// whatever it sends first (an answer) into `answer`.
+fn closed_by_server(stream: &mut std::net::TcpStream, within: std::time::Duration, answer: &mut Vec<u8>) -> bool {
+    use std::io::Read;
+    stream.set_read_timeout(Some(within)).unwrap();
+    let mut buffer = [0u8; 4096];
+    loop {
+        match stream.read(&mut buffer) {
+            Ok(0) => return true,
+            Ok(n) => answer.extend_from_slice(&buffer[..n]),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => return false,
+            Err(_) => return true,
+        }
+    }
+}
+
+/// Slow clients hold nothing: a connection that trickles its headers, or sends none, is
+/// closed at the header deadline; an upload whose body stalls is answered 408; the
+/// service keeps answering others meanwhile.
+fn slow_clients(backend: Backend) {
+    use std::io::Write;
+    use std::time::Duration;
+    let deployment = Deployment::new(backend, &[("OSMAB_HEADER_TIMEOUT_SECS", "1"), ("OSMAB_BODY_IDLE_TIMEOUT_SECS", "1"), ("OSMAB_MAX_CONNECTIONS", "8")]);
+    let server = deployment.serve();
+    let token = server.team("Team Slow");
+    let address = server.url.trim_start_matches("http://").to_string();
+
+    // Headers one byte at a time, slower than the deadline allows in total.
+    let mut trickle = std::net::TcpStream::connect(&address).unwrap();
+    let mut closed = false;
+    for byte in b"GET /api/v1/releases HTTP/1.1\r\nHost: x\r\n".iter() {
+        if trickle.write_all(&[*byte]).is_err() {
+            closed = true;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let mut answer = Vec::new();
+    assert!(closed || closed_by_server(&mut trickle, Duration::from_secs(10), &mut answer), "a trickling client is closed");
+    // Silent connections (all the connection slots) are closed too, and the service answers again.
+    let mut silent: Vec<_> = (0..8).map(|_| std::net::TcpStream::connect(&address).unwrap()).collect();
+    for stream in &mut silent {
+        assert!(closed_by_server(stream, Duration::from_secs(10), &mut Vec::new()), "a silent connection is closed");
+    }
+    assert_eq!(server.get("/api/v1/releases").send().unwrap().status(), 200);
+
+    // An upload that stalls mid-body.
+    let mut stalled = std::net::TcpStream::connect(&address).unwrap();
+    write!(
+        stalled,
+        "POST /api/v1/submissions HTTP/1.1\r\nHost: {address}\r\nAuthorization: Bearer {token}\r\nContent-Type: application/x-tar\r\nContent-Length: 100000\r\n\r\n"
+    )
+    .unwrap();
+    stalled.write_all(&[0u8; 1000]).unwrap();
+    let mut answer = Vec::new();
+    assert!(closed_by_server(&mut stalled, Duration::from_secs(10), &mut answer), "a stalled upload is ended");
+    let answer = String::from_utf8_lossy(&answer);
+    assert!(answer.starts_with("HTTP/1.1 408 "), "{answer}");
+    assert!(answer.contains("\"code\":\"request_timeout\""), "{answer}");
+}
+
+on_both_backends!(slow_clients_are_closed_and_hold_nothing, super::slow_clients);

@@ -103,7 +103,7 @@ def _shape(value, what):
     """A shape: non-negative integers whose product is at most MAX_ELEMENTS; returns (shape, element count)."""
     shape = _ints(value, what)
     if any(n < 0 for n in shape):
-        raise ExportError(f"{what} {shape} has a negative size")
+        raise ExportError(f"{what} {shape}: negative size")
     count = 1
     for n in shape:
         count *= n

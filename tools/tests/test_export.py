@@ -341,7 +341,7 @@ class ExportTest(unittest.TestCase):
             ("legacy-view", LegacyStorage(values, view_metadata=("1", 8, 8)), "elements 8 to 16 of a 12-element storage"),
         ):
             with self.subTest(storage=name):
-                objs = objects(self.rng, 2, 4)
+                objs = objects(self.rng, 2, 12)  # consistent but for the storage: reading past its data would pass
                 objs[1]["clip_ft"] = Tensor(values, storage=storage, size=(1, 12), stride=(12, 1))
                 path = self.write_pickle(f"{name}.pkl.gz", {"objects": objs})
                 self.assert_refused(self.run_exporter("bbq", path), path, reason)

@@ -31,8 +31,7 @@ enum Command {
     /// Apply the database migrations.
     Migrate(service::ServiceArgs),
     /// The participant's tools: login, download, validate, submit, status, results, leaderboard.
-    #[command(subcommand)]
-    Client(client::ClientCommand),
+    Client(client::ClientArgs),
     /// Score maps and confusion matrices.
     #[command(subcommand)]
     Eval(eval::EvalCommand),

@@ -131,3 +131,77 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     );
     assert!(!said.contains("{\""), "no raw JSON: {said}");
 }
+
+/// A server on a loopback port that answers every request 200 `{}` and keeps what it
+/// was sent (request line and headers), to see which token reaches another origin.
+fn recording_server() -> (String, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
+    use std::io::{BufRead, BufReader, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://localhost:{}", listener.local_addr().unwrap().port());
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let kept = seen.clone();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().flatten() {
+            let mut reader = BufReader::new(stream.try_clone().unwrap());
+            let mut head = String::new();
+            loop {
+                let mut line = String::new();
+                if reader.read_line(&mut line).unwrap_or(0) == 0 || line == "\r\n" {
+                    break;
+                }
+                head.push_str(&line);
+            }
+            kept.lock().unwrap().push(head);
+            let body = r#"{"rows": [], "entries": [], "releases": []}"#;
+            let _ = write!(&stream, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}", body.len());
+        }
+    });
+    (url, seen)
+}
+
+#[test]
+fn a_token_goes_only_to_the_server_it_was_issued_for() {
+    let deployment = Deployment::new(Backend::Sqlite, &[]);
+    let server = deployment.serve();
+    server.import_test_release();
+    let token = server.team("Team Origins");
+    let home = tempfile::tempdir().unwrap();
+    let config = home.path().join("osmab/client.toml");
+    ok(&client(&config, &["login", "--url", &server.url, "--token", &token]));
+
+    // Another server, by flag or by OSMAB_URL: public calls carry no token, team calls
+    // have none to send.
+    let (other, seen) = recording_server();
+    let _ = client(&config, &["leaderboard", "--url", &other]);
+    let status = client(&config, &["status", "sub_x", "--url", &other]);
+    assert!(!status.status.success() && String::from_utf8_lossy(&status.stderr).contains("no token"), "{}", String::from_utf8_lossy(&status.stderr));
+    Command::new(env!("CARGO_BIN_EXE_osmab"))
+        .args(["client", "leaderboard"])
+        .env_clear()
+        .env("PATH", std::env::var("PATH").unwrap_or_default())
+        .env("OSMAB_CLIENT_CONFIG", &config)
+        .env("OSMAB_URL", &other)
+        .output()
+        .unwrap();
+    let requests = seen.lock().unwrap().clone();
+    assert!(requests.len() >= 2, "{requests:?}");
+    assert!(requests.iter().all(|r| !r.to_ascii_lowercase().contains("authorization") && !r.contains(&token)), "{requests:?}");
+
+    // Logging in to the other server without a token keeps the first one's and changes nothing.
+    let before = std::fs::read_to_string(&config).unwrap();
+    let login = client(&config, &["login", "--url", &other]);
+    assert!(!login.status.success() && String::from_utf8_lossy(&login.stderr).contains("--token"), "{}", String::from_utf8_lossy(&login.stderr));
+    assert_eq!(std::fs::read_to_string(&config).unwrap(), before);
+    // The home server still has its token: logging in again needs none.
+    let again = ok(&client(&config, &["login", "--url", &server.url]));
+    assert!(again.contains("as team Team Origins"), "{again}");
+}
+
+#[test]
+fn plain_http_to_another_machine_needs_an_explicit_flag() {
+    let home = tempfile::tempdir().unwrap();
+    let config = home.path().join("osmab/client.toml");
+    let refused = client(&config, &["leaderboard", "--url", "http://192.0.2.1:8080"]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && said.contains("--allow-http") && said.contains("unencrypted"), "{said}");
+}

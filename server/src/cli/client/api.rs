@@ -1,4 +1,5 @@
-//! The service's HTTP API as the client uses it: bearer token, JSON, and every error
+//! The service's HTTP API as the client uses it: the team's token on its own routes only
+//! (public routes get none), JSON, and every error
 //! shown as the problem+json title, detail and what to do — never as a raw body.
 
 use std::time::Duration;
@@ -69,6 +70,7 @@ pub fn problem_message(status: StatusCode, body: &str, retry_after: Option<&str>
 
 impl Api {
     pub fn new(session: Session) -> anyhow::Result<Api> {
+        super::session::check_transport(&session.url, session.allow_http)?;
         let client =
             Client::builder().connect_timeout(Duration::from_secs(15)).timeout(None).user_agent(concat!("osmab-client/", env!("CARGO_PKG_VERSION"))).build()?;
         Ok(Api { session, client })
@@ -78,12 +80,14 @@ impl Api {
         format!("{}{path}", self.session.url)
     }
 
+    /// GET a public route (releases, files, the leaderboard): no token is sent.
     pub fn get(&self, path: &str) -> RequestBuilder {
-        let request = self.client.get(self.url(path)).timeout(Duration::from_secs(60));
-        match &self.session.token {
-            Some(t) => request.bearer_auth(t),
-            None => request,
-        }
+        self.client.get(self.url(path)).timeout(Duration::from_secs(60))
+    }
+
+    /// GET a route of the team's own (its submissions, `/me`) with its token.
+    pub fn get_as_team(&self, path: &str) -> anyhow::Result<RequestBuilder> {
+        Ok(self.get(path).bearer_auth(self.session.token()?))
     }
 
     /// Send `request`; an error status becomes the service's problem in words.
@@ -92,9 +96,15 @@ impl Api {
         checked(response)
     }
 
-    /// GET `path` as JSON.
+    /// GET the public `path` as JSON.
     pub fn get_json(&self, path: &str) -> anyhow::Result<Value> {
         let response = self.send(self.get(path))?;
+        response.json().map_err(|e| anyhow!("{path}: the server's answer is not JSON: {e}"))
+    }
+
+    /// GET the team's `path` as JSON, with its token.
+    pub fn get_team_json(&self, path: &str) -> anyhow::Result<Value> {
+        let response = self.send(self.get_as_team(path)?)?;
         response.json().map_err(|e| anyhow!("{path}: the server's answer is not JSON: {e}"))
     }
 }

@@ -18,6 +18,16 @@ use clap::Subcommand;
 use api::Api;
 use session::Session;
 
+#[derive(Debug, clap::Args)]
+pub struct ClientArgs {
+    /// Allow plain http:// to a server that is not this machine (the token and uploads
+    /// travel unencrypted); https, or http to this machine, needs no flag.
+    #[arg(long, global = true)]
+    allow_http: bool,
+    #[command(subcommand)]
+    command: ClientCommand,
+}
+
 #[derive(Debug, Subcommand)]
 pub enum ClientCommand {
     /// Store the server URL and your team token (owner-only file in your configuration folder).
@@ -95,14 +105,13 @@ pub enum ClientCommand {
     },
 }
 
-fn api(url: Option<&str>) -> anyhow::Result<Api> {
-    Api::new(Session::load(url)?)
-}
-
-pub fn run(command: ClientCommand) -> anyhow::Result<()> {
-    match command {
+pub fn run(args: ClientArgs) -> anyhow::Result<()> {
+    let allow_http = args.allow_http;
+    let api = |url: Option<&str>| Api::new(Session::load(url, allow_http)?);
+    match args.command {
         ClientCommand::Login { url, token } => {
-            let mut session = Session::load(url.as_deref())?;
+            // The token given, else OSMAB_TOKEN, else the one stored for this very server.
+            let mut session = Session::load(url.as_deref(), allow_http)?;
             if let Some(token) = token {
                 session.token = Some(token);
             }
@@ -111,7 +120,7 @@ pub fn run(command: ClientCommand) -> anyhow::Result<()> {
                 bail!("that is not an osmab token: team tokens start with 'osmab_'; copy the whole token you were given");
             }
             let api = Api::new(session.clone())?;
-            let me = api.get_json("/api/v1/me")?;
+            let me = api.get_team_json("/api/v1/me")?;
             let path = session.save()?;
             let quota = &me["quota"];
             println!(

@@ -44,7 +44,7 @@ pub fn table(header: &[String], rows: &[Vec<String>]) -> String {
 pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
     let mut shown = 0;
     loop {
-        let view = api.get_json(&format!("/api/v1/submissions/{id}"))?;
+        let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
         let history = view["history"].as_array().cloned().unwrap_or_default();
         if shown == 0 {
             println!(
@@ -74,7 +74,7 @@ pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
 /// `osmab client results ID`: segmentation per lighting (per scene, mean, pooled) and the
 /// VQA groups per lighting.
 pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
-    let view = api.get_json(&format!("/api/v1/submissions/{id}"))?;
+    let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
     let scores = &view["scores"];
     if !scores.is_object() {
         bail!("{id} has no score yet (state: {}); follow it with `osmab client status {id} --watch`", view["state"].as_str().unwrap_or("?"));

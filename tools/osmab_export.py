@@ -26,10 +26,12 @@ import builtins
 import collections
 import contextlib
 import gzip
+import importlib
 import io
 import json
 import os
 import pickle
+import pickletools
 import re
 import sys
 import zipfile
@@ -44,6 +46,7 @@ import numpy as np
 # NumPy's own, and a tensor is only read out of its storage once its size, stride and offset have been checked
 # against the storage (see _TensorRef.to_array). A malformed file ends in an ExportError, never in a view of
 # memory the file did not provide.
+
 
 class ExportError(Exception):
     """A refusal, with the reason in one line."""
@@ -161,7 +164,9 @@ class _DTypeSpec:
             if endian not in ("<", ">", "|", "="):
                 raise ExportError(f"NumPy dtype {spec}: byte order {_shorten(endian)}")
             size = _int(state[5], f"NumPy dtype {spec}: item size")
-        if kind in "SU":
+        if kind == "O":
+            dtype = np.dtype("O")  # O8 here, O4 from a 32-bit machine
+        elif kind in "SU":
             chars = digits if size is None or size < 0 else size // (4 if kind == "U" else 1)
             if chars > 1 << 20:
                 raise ExportError(f"NumPy dtype {spec}: {chars} characters per item")
@@ -287,7 +292,6 @@ def numpy_module(module):
 def _numpy_global(module, name):
     if module.replace("numpy._core", "numpy.core", 1) not in _NUMPY_MODULES or name not in _NUMPY_GLOBALS:
         return Stand_in
-    import importlib
     installed = numpy_module(module)
     try:
         found = hasattr(importlib.import_module(installed), name)
@@ -516,7 +520,7 @@ def _load_torch_zip(data):
             root_storage.fill(archive.read(name))
         return storage
 
-    return _TorchUnpickler(io.BytesIO(archive.read(pkl)), storage_for).load()
+    return unpickle(io.BytesIO(archive.read(pkl)), lambda file: _TorchUnpickler(file, storage_for))
 
 
 def _load_torch_legacy(data):
@@ -524,15 +528,15 @@ def _load_torch_legacy(data):
     the magic number, the protocol version and sys_info, the main pickle (storages as persistent ids), the sorted
     list of storage keys, then per key the element count (int64, little-endian) and the bytes (little-endian)."""
     f = io.BytesIO(data)
-    if SafeUnpickler(f).load() != _TORCH_MAGIC:
+    if unpickle(f) != _TORCH_MAGIC:
         raise ExportError("torch storage bytes without torch.save's magic number")
-    version = SafeUnpickler(f).load()
+    version = unpickle(f)
     if version != _TORCH_LEGACY_PROTOCOL:
         raise ExportError(f"torch.save legacy protocol version {_shorten(version)} is not supported")
-    SafeUnpickler(f).load()  # sys_info: the data is little-endian whatever the machine
+    unpickle(f)  # sys_info: the data is little-endian whatever the machine
     storages = {}
-    result = _TorchUnpickler(f, lambda pid: _storage_from_pid(pid, storages, (5, 6), "<")).load()
-    keys = SafeUnpickler(f).load()
+    result = unpickle(f, lambda file: _TorchUnpickler(file, lambda pid: _storage_from_pid(pid, storages, (5, 6), "<")))
+    keys = unpickle(f)
     if not isinstance(keys, list) or not all(isinstance(k, str) for k in keys):
         raise ExportError(f"torch.save legacy storage keys: {_shorten(keys)}")
     for key in keys:
@@ -587,11 +591,26 @@ class _TorchUnpickler(SafeUnpickler):
         return self._storage_for(pid)
 
 
+def unpickle(f, unpickler=SafeUnpickler):
+    """The next pickle of the in-memory file f, read with the restricted unpickler once pickletools has walked
+    its opcodes: a length the data cannot hold (a corrupt or hostile file) is refused before the unpickler
+    would allocate it."""
+    start = f.tell()
+    try:
+        for _ in pickletools.genops(f):
+            pass
+    except ValueError as e:
+        raise ExportError(f"not a readable pickle: {one_line(e, 200)}") from None
+    f.seek(start)
+    return unpickler(f).load()
+
+
 def load_pickle(path):
     """A .pkl or .pkl.gz file, read with the restricted unpickler."""
     opener = gzip.open if path.endswith(".gz") else open
     with opener(path, "rb") as f:
-        return SafeUnpickler(f).load()
+        data = f.read()
+    return unpickle(io.BytesIO(data))
 
 
 # ---------------------------------------------------------------- the submission layout

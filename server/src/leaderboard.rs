@@ -3,6 +3,7 @@
 //! store at most once per second per release and served from memory as ready JSON and
 //! CSV, so reads stay cheap under load.
 
+use osmab_evaluator::csv_writer::{CsvWriter, LineEnd, spreadsheet_safe};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -105,11 +106,18 @@ impl Leaderboard {
             }
         }
         header.extend(crate::leaderboard_vqa::csv_columns(&self.lightings));
-        let mut out = header.join(",") + "\n";
+        let mut csv = CsvWriter::new(LineEnd::Lf);
+        csv.row(&header);
         let cell = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
         for (rank, e) in self.entries.iter().enumerate() {
-            let mut row =
-                vec![(rank + 1).to_string(), e.submission_id.clone(), csv_text(&e.team), csv_text(&e.method), e.baseline.to_string(), e.complete.to_string()];
+            let mut row = vec![
+                (rank + 1).to_string(),
+                e.submission_id.clone(),
+                spreadsheet_safe(&e.team).into_owned(),
+                spreadsheet_safe(&e.method).into_owned(),
+                e.baseline.to_string(),
+                e.complete.to_string(),
+            ];
             for lighting in &self.lightings {
                 for aggregate in AGGREGATES {
                     for metric in METRICS {
@@ -123,9 +131,9 @@ impl Leaderboard {
                 }
             }
             row.extend(crate::leaderboard_vqa::csv_cells(e, &self.lightings).into_iter().map(cell));
-            out.push_str(&(row.join(",") + "\n"));
+            csv.row(row);
         }
-        out
+        csv.finish()
     }
 }
 
@@ -142,12 +150,6 @@ fn summary(mut scores: Value) -> Value {
     }
     strip(&mut scores);
     scores
-}
-
-fn csv_text(text: &str) -> String {
-    // Quote as RFC 4180, and defuse spreadsheet formulas in participant-chosen names.
-    let text = if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { format!("'{text}") } else { text.to_string() };
-    if text.contains([',', '"', '\n', '\r']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text }
 }
 
 /// A leaderboard ready to serve: its bytes are shared by every response.

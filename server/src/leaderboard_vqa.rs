@@ -4,6 +4,7 @@
 //! prompt-grounded) and Table III (subset × group × method, standard against
 //! prompt-grounded, over all lightings) — as JSON and CSV.
 
+use osmab_evaluator::csv_writer::{CsvWriter, LineEnd, spreadsheet_safe};
 use serde_json::{Value, json};
 
 use crate::leaderboard::{Entry, Leaderboard, SUBSETS};
@@ -77,23 +78,24 @@ pub fn table_three(board: &Leaderboard) -> Vec<Value> {
     rows
 }
 
+/// A table cell: text (team and method names, ids) made safe for spreadsheets, numbers
+/// as JSON writes them, nothing for null.
 fn csv_value(value: &Value) -> String {
     match value {
         Value::Null => String::new(),
-        Value::String(s) if s.contains([',', '"', '\n', '\r']) => format!("\"{}\"", s.replace('"', "\"\"")),
-        Value::String(s) => s.clone(),
+        Value::String(s) => spreadsheet_safe(s).into_owned(),
         other => other.to_string(),
     }
 }
 
 /// Rows of one table as CSV with `columns`.
 pub fn table_csv(rows: &[Value], columns: &[&str]) -> String {
-    let mut out = columns.join(",") + "\n";
+    let mut csv = CsvWriter::new(LineEnd::Lf);
+    csv.row(columns);
     for row in rows {
-        out.push_str(&columns.iter().map(|c| csv_value(&row[*c])).collect::<Vec<_>>().join(","));
-        out.push('\n');
+        csv.row(columns.iter().map(|c| csv_value(&row[*c])));
     }
-    out
+    csv.finish()
 }
 
 /// The columns of Table II for `lightings`.
@@ -116,3 +118,18 @@ pub const TABLE_THREE_COLUMNS: [&str; 12] = [
     "prompt_grounded_ci95_high",
     "prompt_grounded_questions",
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vqa_tables_defuse_formulas_in_names_and_keep_numbers() {
+        let lightings = vec!["baseline".to_string()];
+        let rows = vec![serde_json::json!({
+            "subset": "all", "group": "Binary", "method": "=HYPERLINK(\"http://evil\",\"x\")", "submission_id": "sub_1", "baseline": -0.25
+        })];
+        let csv = table_csv(&rows, &table_two_columns(&lightings));
+        assert_eq!(csv, "subset,group,method,submission_id,baseline\nall,Binary,\"'=HYPERLINK(\"\"http://evil\"\",\"\"x\"\")\",sub_1,-0.25\n");
+    }
+}

@@ -56,6 +56,10 @@ class DoubleStorage:
     pass
 
 
+class BFloat16Storage:
+    pass
+
+
 def _rebuild_tensor_v2(*args):
     raise AssertionError("never called while pickling")
 
@@ -66,7 +70,7 @@ def _load_from_bytes(data):
 
 fake_module("omegaconf")
 fake_module("omegaconf.dictconfig", DictConfig=DictConfig)
-fake_module("torch", FloatStorage=FloatStorage, DoubleStorage=DoubleStorage)
+fake_module("torch", FloatStorage=FloatStorage, DoubleStorage=DoubleStorage, BFloat16Storage=BFloat16Storage)
 fake_module("torch._utils", _rebuild_tensor_v2=_rebuild_tensor_v2)
 fake_module("torch.storage", _load_from_bytes=_load_from_bytes)
 
@@ -294,7 +298,7 @@ class ExportTest(unittest.TestCase):
         header = b"\x80\x02\x8a\x0a" + TORCH_MAGIC.to_bytes(10, "little") + b"." + b"\x80\x02M\xe9\x03."
         self.assertTrue(first.startswith(header), "the magic number, then protocol version 1001, pickled with protocol 2")
         self.assertTrue(first.endswith(struct.pack("<q", d) + base[0].tobytes()), "element count, then the elements")
-        objs = objects(self.rng, 4, d)
+        objs = objects(self.rng, 5, d)
         # a 1×D tensor over a storage of its own, as BBQ's pickled CLIP features are
         objs[0]["clip_ft"] = Tensor(base[0], storage=LegacyStorage(base[0]))
         # every other element from element 3: offset 3, size (D,), stride (2,)
@@ -307,9 +311,13 @@ class ExportTest(unittest.TestCase):
         # a storage view (the legacy view_metadata): elements d to 2d of its root storage
         root = np.concatenate([base[3] + 100, base[3]])
         objs[3]["clip_ft"] = Tensor(base[3], storage=LegacyStorage(root, view_metadata=("94655030453000", d, d)), size=(d,), stride=(1,))
+        # bfloat16: the upper half of a float32
+        bf16 = (base[1].view(np.uint32) >> 16).astype(np.uint16)
+        objs[4]["clip_ft"] = Tensor(base[1], storage=LegacyStorage(bf16, storage_type=BFloat16Storage), size=(d,), stride=(1,))
         path = self.write_pickle("baseline_scene_002_with_feats.pkl.gz", {"objects": objs})
         with self.export("bbq", path) as npz:
-            np.testing.assert_array_equal(npz["features"], np.stack([base[0], wide[3::2], base[2], base[3]]))
+            expected = [base[0], wide[3::2], base[2], base[3], (bf16.astype(np.uint32) << 16).view(np.float32)]
+            np.testing.assert_array_equal(npz["features"], np.stack(expected))
             offset = sum(len(o["pcd_np"]) for o in objs[:2])
             np.testing.assert_array_equal(npz["points"][offset: offset + 30], xyz.T.astype(np.float32))
 

@@ -3,6 +3,7 @@
 
 use super::confusion::ConfusionMatrix;
 use super::metrics::SegmentationMetrics;
+use crate::csv_writer::{CsvWriter, LineEnd};
 use crate::numeric::{nan_skipping_mean, python_repr};
 
 /// The three headline numbers.
@@ -41,12 +42,6 @@ pub struct MetricsTable {
     pub overall: SegmentationMetrics,
 }
 
-/// A CSV field as pandas writes it: quoted (with doubled quotes) when it holds a
-/// comma, a quote or a line break.
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text.to_string() }
-}
-
 /// The reference sorts `<scene>_conf_matrix.pkl` file names; sorting by that key keeps
 /// its row order (and so its summation order) for any scene names.
 fn reference_sort_key(scene: &str) -> String {
@@ -68,14 +63,15 @@ impl MetricsTable {
     /// repr, NaN as an empty field (pandas' default).
     pub fn to_csv(&self) -> String {
         let cell = |v: f64| if v.is_nan() { String::new() } else { python_repr(v) };
-        let line = |t: MetricTriple, name: &str| format!("{},{},{},{}\n", cell(t.miou), cell(t.fmiou), cell(t.macc), csv_field(name));
-        let mut out = String::from("miou,fmiou,macc,scene\n");
+        let mut csv = CsvWriter::new(LineEnd::Lf);
+        csv.row(["miou", "fmiou", "macc", "scene"]);
+        let mut line = |t: MetricTriple, name: &str| csv.row([cell(t.miou), cell(t.fmiou), cell(t.macc), name.to_string()]);
         for (name, metrics) in &self.scenes {
-            out.push_str(&line(metrics.into(), name));
+            line(metrics.into(), name);
         }
-        out.push_str(&line(self.overall_mean, "overall_mean"));
-        out.push_str(&line((&self.overall).into(), "overall"));
-        out
+        line(self.overall_mean, "overall_mean");
+        line((&self.overall).into(), "overall");
+        csv.finish()
     }
 }
 
@@ -102,22 +98,23 @@ impl LightingComparison {
         let cell = |v: f64| if v.is_nan() { String::new() } else { python_repr(v) };
         let rows = |t: &MetricsTable| [("overall", MetricTriple::from(&t.overall)), ("overall_mean", t.overall_mean)];
         let base = rows(&self.lightings[0].1);
-        let mut out = String::from("lighting,aggregate,miou,fmiou,macc,miou_change,fmiou_change,macc_change\n");
+        let mut csv = CsvWriter::new(LineEnd::Lf);
+        csv.row(["lighting", "aggregate", "miou", "fmiou", "macc", "miou_change", "fmiou_change", "macc_change"]);
         for (name, table) in &self.lightings {
             for ((aggregate, value), (_, baseline)) in rows(table).into_iter().zip(base) {
                 let change = value.relative_change(&baseline);
-                out.push_str(&format!(
-                    "{},{aggregate},{},{},{},{},{},{}\n",
-                    csv_field(name),
+                csv.row([
+                    name.clone(),
+                    aggregate.to_string(),
                     cell(value.miou),
                     cell(value.fmiou),
                     cell(value.macc),
                     cell(change.miou),
                     cell(change.fmiou),
-                    cell(change.macc)
-                ));
+                    cell(change.macc),
+                ]);
             }
         }
-        out
+        csv.finish()
     }
 }

@@ -4,6 +4,7 @@
 //! category (sorted; `0.00%` where a file lacks the category), percentages as Python's
 //! `f"{x:.2%}"`, rows ended by `\r\n` as Python's csv writer does.
 
+use crate::csv_writer::{CsvWriter, LineEnd};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -145,23 +146,16 @@ pub fn category_columns<'a>(categories: impl IntoIterator<Item = &'a str>) -> Ve
     all.into_iter().collect()
 }
 
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\r', '\n']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text.to_string() }
-}
-
-/// metrics.csv: the header, then one row per file.
+/// metrics.csv: the header, then one row per file (Python's `csv` module: `\r\n`).
 pub fn metrics_csv(rows: &[FileMetrics], columns: &[String]) -> String {
-    let mut out = String::new();
-    let header: Vec<String> = ["File Name", "Overall Accuracy", "Accuracy (No Spatial)"].iter().map(|s| s.to_string()).chain(columns.iter().cloned()).collect();
-    out.push_str(&header.iter().map(|h| csv_field(h)).collect::<Vec<_>>().join(","));
-    out.push_str("\r\n");
+    let mut csv = CsvWriter::new(LineEnd::CrLf);
+    csv.row(["File Name", "Overall Accuracy", "Accuracy (No Spatial)"].iter().map(|s| s.to_string()).chain(columns.iter().cloned()));
     for row in rows {
-        let mut cells = vec![csv_field(&row.file_name), percent(row.overall), percent(row.no_spatial)];
+        let mut cells = vec![row.file_name.clone(), percent(row.overall), percent(row.no_spatial)];
         cells.extend(columns.iter().map(|c| percent(row.per_category.get(c).copied().unwrap_or(0.0))));
-        out.push_str(&cells.join(","));
-        out.push_str("\r\n");
+        csv.row(cells);
     }
-    out
+    csv.finish()
 }
 
 /// The judged file: every entry in its order with `similar` ("Yes", "No", the recorded

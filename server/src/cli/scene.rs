@@ -268,11 +268,12 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
     write_json(&args.out.join("selection.json"), &serde_json::json!({"embedder": embedder.name(), "regimes": reports}))?;
     write_json(&args.out.join("final_prompts.json"), &final_prompts)?;
     // SceneSmith's experiment.csv_path format: scene_index,prompt.
-    let mut csv = String::from("scene_index,prompt\n");
+    let mut csv = osmab_evaluator::csv_writer::CsvWriter::new(osmab_evaluator::csv_writer::LineEnd::Lf);
+    csv.row(["scene_index", "prompt"]);
     for (i, p) in final_prompts.iter().enumerate() {
-        csv.push_str(&format!("{i},\"{}\"\n", p.text.replace('"', "\"\"")));
+        csv.row([i.to_string(), p.text.clone()]);
     }
-    std::fs::write(args.out.join("final_prompts.csv"), csv).with_context(|| format!("{}: cannot write", args.out.display()))?;
+    std::fs::write(args.out.join("final_prompts.csv"), csv.finish()).with_context(|| format!("{}: cannot write", args.out.display()))?;
     Ok(())
 }
 

@@ -199,7 +199,7 @@ pub fn check(
         )]));
     }
     let release = ReleaseIndex::read(&dir).map_err(Problem::internal)?;
-    let submission = validate(unpack_to, &release, SubmissionLimits::default())
+    let submission = validate(unpack_to, &release, SubmissionLimits::for_release(&release, state.settings.max_unpacked_bytes))
         .map_err(|problems| invalid(&problems.into_iter().map(|e| as_uploaded(e, upload, unpack_to)).collect::<Vec<_>>()))?;
     Ok((submission, release))
 }

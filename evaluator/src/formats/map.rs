@@ -60,10 +60,64 @@ pub struct PredictedMap {
     pub semantics: MapSemantics,
 }
 
+/// Before any array body is read: the shapes of the map's arrays agree with each other
+/// (points `(N, 3)`; `object_ids` and `point_features` `N` rows; `labels` and `features`
+/// one row per object), `N` is within `limits.max_points`, and the bodies, as they will be
+/// held once converted, fit `limits.max_archive_bytes` together — so a small, highly
+/// compressed upload cannot make the reader allocate more than the limits allow.
+fn check_structure(npz: &mut NpzReader, path: &Path, limits: ReadLimits) -> Result<()> {
+    let mut shapes = Vec::new();
+    for key in ["points", "object_ids", "labels", "features", "point_features"] {
+        if let Some(shape) = npz.shape(key)? {
+            shapes.push((key, shape));
+        }
+    }
+    let shape_of = |key: &str| shapes.iter().find(|(k, _)| *k == key).map(|(_, (_, s))| s.clone());
+    // A missing or misshapen `points` is reported when it is read (bounded by the limits below).
+    if let Some(points) = shape_of("points").filter(|p| p.len() == 2 && p[1] == 3) {
+        let n = points[0];
+        if n as u64 > limits.max_points {
+            return Err(InputError::new(
+                path,
+                "points",
+                format!("{n} points is more than the {} this scene's map may hold (one per pixel of its sequence)", limits.max_points),
+            ));
+        }
+        for (key, what) in [("object_ids", "one object id per point"), ("point_features", "one row per point")] {
+            if let Some(rows) = shape_of(key).map(|s| s.first().copied().unwrap_or(0))
+                && rows != n
+            {
+                return Err(InputError::new(path, key, format!("expected {what} ({n}), found {rows}")));
+            }
+        }
+    }
+    // Held in memory as read, plus the float32 (points, features) or int64 (ids, labels)
+    // copy a conversion makes.
+    let held: u64 = shapes
+        .iter()
+        .map(|(key, (dtype, shape))| {
+            let count = shape.iter().fold(1u64, |a, &d| a.saturating_mul(d as u64));
+            let target: u64 = if matches!(*key, "object_ids" | "labels") { 8 } else { 4 };
+            let stored = dtype.size() as u64;
+            let per_element = if stored == target { target } else { stored + target };
+            count.saturating_mul(per_element)
+        })
+        .fold(0u64, u64::saturating_add);
+    if held > limits.max_archive_bytes {
+        return Err(InputError::new(
+            path,
+            "(archive)",
+            format!("its arrays take {held} bytes once read, more than the limit of {} bytes for one map", limits.max_archive_bytes),
+        ));
+    }
+    Ok(())
+}
+
 impl PredictedMap {
     /// Read and structurally check a map `.npz`.
     pub fn read(path: &Path, limits: ReadLimits) -> Result<Self> {
         let mut npz = NpzReader::open(path, limits)?;
+        check_structure(&mut npz, path, limits)?;
         let (n, _, flat) = npz.array("points")?.into_f32_matrix(path, "points", Some(3))?;
         if n == 0 {
             return Err(InputError::new(path, "points", "the map has no points"));

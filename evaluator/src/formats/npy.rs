@@ -23,12 +23,14 @@ pub struct ReadLimits {
     pub max_array_bytes: u64,
     /// Largest sum of the array bodies read from one `.npz` archive.
     pub max_archive_bytes: u64,
+    /// Most points a map may hold (the service: one per pixel of the scene's sequence).
+    pub max_points: u64,
 }
 
 impl Default for ReadLimits {
     /// Generous limits for local files; the service sets its own per submission.
     fn default() -> Self {
-        Self { max_array_bytes: 16 << 30, max_archive_bytes: 32 << 30 }
+        Self { max_array_bytes: 16 << 30, max_archive_bytes: 32 << 30, max_points: u64::MAX }
     }
 }
 
@@ -289,6 +291,13 @@ pub fn ensure_at_end(reader: &mut impl Read, file: &Path) -> Result<()> {
         Ok(_) => Err(InputError::new(file, "data", "file is longer than its header's shape and dtype declare")),
         Err(e) => Err(InputError::io(file, &e)),
     }
+}
+
+/// The element type and shape an `.npy` stream declares, read from its header only (no
+/// body byte is read).
+pub fn read_npy_shape(reader: &mut impl Read, file: &Path) -> Result<(Dtype, Vec<usize>)> {
+    let header = read_header(reader, file)?;
+    Ok((header.dtype, header.shape))
 }
 
 fn read_header(reader: &mut impl Read, file: &Path) -> Result<Header> {

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use zip::ZipArchive;
 use zip::write::SimpleFileOptions;
 
-use super::npy::{NpyArray, ReadLimits, ensure_at_end, read_npy, write_npy};
+use super::npy::{Dtype, NpyArray, ReadLimits, ensure_at_end, read_npy, read_npy_shape, write_npy};
 use crate::error::{InputError, Result};
 
 /// An opened `.npz` archive whose arrays are read on demand.
@@ -39,6 +39,18 @@ impl NpzReader {
     /// Whether the archive holds array `key`.
     pub fn contains(&self, key: &str) -> bool {
         self.archive.index_for_name(&format!("{key}.npy")).is_some()
+    }
+
+    /// The element type and shape of array `key` (its header only), if the archive holds it.
+    pub fn shape(&mut self, key: &str) -> Result<Option<(Dtype, Vec<usize>)>> {
+        let member = format!("{key}.npy");
+        let label = PathBuf::from(format!("{}:{member}", self.path.display()));
+        let mut entry = match self.archive.by_name(&member) {
+            Ok(entry) => entry,
+            Err(zip::result::ZipError::FileNotFound) => return Ok(None),
+            Err(e) => return Err(InputError::new(&label, "(member)", format!("cannot read: {e}"))),
+        };
+        read_npy_shape(&mut entry, &label).map(Some)
     }
 
     /// Read array `key`; a missing array is an error that lists what is there.

@@ -1,6 +1,7 @@
 //! What a release offers a submission: its version, scenes with their subsets, lightings
 //! and (where the release directory holds it) the ground truth to score against.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -33,6 +34,8 @@ pub struct ReleaseIndex {
     pub lightings: Vec<String>,
     /// The release's classes (`classes.json`).
     pub classes: ClassList,
+    /// Frames of each scene's sequence (in the first lighting), from the manifest.
+    pub frames: BTreeMap<String, u64>,
 }
 
 #[derive(Deserialize)]
@@ -40,6 +43,13 @@ struct ManifestFields {
     version: String,
     scenes: Vec<ReleaseScene>,
     lightings: Vec<String>,
+    #[serde(default)]
+    files: Vec<ManifestFile>,
+}
+
+#[derive(Deserialize)]
+struct ManifestFile {
+    path: String,
 }
 
 impl ReleaseIndex {
@@ -52,7 +62,31 @@ impl ReleaseIndex {
             return Err(InputError::new(&path, "scenes", "a release needs at least one scene and one lighting"));
         }
         let classes = ClassList::read(&root.join("classes.json"))?;
-        Ok(Self { root: root.to_path_buf(), version: fields.version, scenes: fields.scenes, lightings: fields.lightings, classes })
+        let mut frames: BTreeMap<String, u64> = BTreeMap::new();
+        for file in &fields.files {
+            let mut parts = file.path.split('/');
+            if let (Some("sequences"), Some(lighting), Some(scene), Some("results"), Some(name)) =
+                (parts.next(), parts.next(), parts.next(), parts.next(), parts.next())
+                && lighting == fields.lightings[0]
+                && name.starts_with("frame")
+            {
+                *frames.entry(scene.to_string()).or_default() += 1;
+            }
+        }
+        Ok(Self { root: root.to_path_buf(), version: fields.version, scenes: fields.scenes, lightings: fields.lightings, classes, frames })
+    }
+
+    /// The most points a map of any scene may hold: one per pixel of every frame of the
+    /// scene's sequence (what back-projecting every pixel once gives), when this copy of
+    /// the release says how many frames of which size; unbounded otherwise.
+    pub fn max_map_points(&self) -> u64 {
+        let mut most = 0u64;
+        for (scene, &count) in &self.frames {
+            let camera = self.root.join("sequences").join(&self.lightings[0]).join(scene).join("camera_params.yaml");
+            let Ok(camera) = crate::formats::camera::CameraParams::read(&camera) else { return u64::MAX };
+            most = most.max(count.saturating_mul(camera.image_width as u64 * camera.image_height as u64));
+        }
+        if most == 0 { u64::MAX } else { most }
     }
 
     /// The scene with id `id`.

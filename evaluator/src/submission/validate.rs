@@ -30,7 +30,23 @@ pub struct SubmissionLimits {
 
 impl Default for SubmissionLimits {
     fn default() -> Self {
-        Self { arrays: ReadLimits { max_array_bytes: 4 << 30, max_archive_bytes: 8 << 30 }, max_json_bytes: 64 << 20 }
+        Self { arrays: ReadLimits { max_array_bytes: 4 << 30, max_archive_bytes: 8 << 30, max_points: u64::MAX }, max_json_bytes: 64 << 20 }
+    }
+}
+
+impl SubmissionLimits {
+    /// The limits for a submission to `release` whose unpacked files may take
+    /// `max_unpacked_bytes`: a map's arrays, once read, count against the same budget (a
+    /// compressed `.npz` unpacks far beyond its size on disk), and a map holds at most
+    /// one point per pixel of its scene's sequence. Validation then holds at most one
+    /// map's arrays — under `max_unpacked_bytes` — at a time.
+    pub fn for_release(release: &ReleaseIndex, max_unpacked_bytes: u64) -> Self {
+        let default = Self::default();
+        let budget = max_unpacked_bytes.min(default.arrays.max_archive_bytes);
+        Self {
+            arrays: ReadLimits { max_array_bytes: budget.min(default.arrays.max_array_bytes), max_archive_bytes: budget, max_points: release.max_map_points() },
+            max_json_bytes: default.max_json_bytes.min(max_unpacked_bytes),
+        }
     }
 }
 

@@ -171,10 +171,11 @@ fn archive_bombs_are_refused_before_decompression() {
     let zeros = NpyArray::from_f32_matrix(10_000_000 / 3, 3, vec![0.0; 10_000_000 / 3 * 3]);
     write_arrays(&path, &[("points", zeros)]);
     assert!(std::fs::metadata(&path).unwrap().len() < 1 << 20);
-    let limits = ReadLimits { max_array_bytes: 1 << 20, max_archive_bytes: 2 << 20 };
+    let limits = ReadLimits { max_array_bytes: 1 << 20, max_archive_bytes: 2 << 20, ..ReadLimits::default() };
+    // Refused from the headers, before anything is inflated.
     let err = PredictedMap::read(&path, limits).unwrap_err();
-    assert!(err.message.contains("larger than the limit"), "{err}");
-    assert!(err.file.ends_with("points.npy"), "{err}");
+    assert!(err.message.contains("39999996 bytes once read, more than the limit of 2097152"), "{err}");
+    assert!(err.file.ends_with("bomb.npz"), "{err}");
 }
 
 #[test]
@@ -183,10 +184,35 @@ fn the_archive_budget_covers_all_its_arrays_together() {
     let path = dir.path().join("map.npz");
     write_arrays(&path, &[("points", points(1000)), ("object_ids", NpyArray::from_i64(vec![0; 1000])), ("labels", NpyArray::from_i64(vec![1]))]);
     // Each array fits on its own (12 kB and 8 kB), both together do not.
-    let limits = ReadLimits { max_array_bytes: 16_000, max_archive_bytes: 16_000 };
+    let limits = ReadLimits { max_array_bytes: 16_000, max_archive_bytes: 16_000, ..ReadLimits::default() };
     let err = PredictedMap::read(&path, limits).unwrap_err();
-    assert_eq!(err.field, "header.shape", "{err}");
-    assert!(err.file.ends_with("object_ids.npy"), "{err}");
+    assert_eq!(err.field, "(archive)", "{err}");
+    assert!(err.message.contains("20008 bytes once read"), "{err}");
+}
+
+#[test]
+fn a_map_is_checked_from_its_headers_before_any_array_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("map.npz");
+    // 4 M points of zeros: 48 MB once read, a few hundred kilobytes compressed.
+    let n = 4_000_000;
+    write_arrays(
+        &path,
+        &[
+            ("points", NpyArray::from_f32_matrix(n, 3, vec![0.0; n * 3])),
+            ("object_ids", NpyArray::from_i64(vec![0; n])),
+            ("labels", NpyArray::from_i64(vec![1])),
+        ],
+    );
+    assert!(std::fs::metadata(&path).unwrap().len() < 2 << 20);
+    let err = PredictedMap::read(&path, ReadLimits { max_archive_bytes: 30_000_000, ..ReadLimits::default() }).unwrap_err();
+    assert!(err.message.contains("once read") && err.message.contains("30000000"), "{err}");
+    let err = PredictedMap::read(&path, ReadLimits { max_points: 1_000_000, ..ReadLimits::default() }).unwrap_err();
+    assert!(err.message.contains("4000000 points") && err.message.contains("one per pixel"), "{err}");
+    // Rows that disagree are named before the points are read.
+    write_arrays(&path, &[("points", points(10)), ("object_ids", NpyArray::from_i64(vec![0; 9])), ("labels", NpyArray::from_i64(vec![1]))]);
+    let err = PredictedMap::read(&path, ReadLimits::default()).unwrap_err();
+    assert_eq!(err.field, "object_ids", "{err}");
 }
 
 fn cloud() -> PointCloud {

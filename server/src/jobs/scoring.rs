@@ -57,8 +57,9 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
         // The upload passed these checks when it arrived: failing now is the server's problem.
         unpack(&archive, &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
         let index = ReleaseIndex::read(&release).map_err(|e| JobError::Retryable(e.to_string()))?;
-        let valid = validate(&root, &index, SubmissionLimits::default())
-            .map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;
+        let limits = SubmissionLimits::for_release(&index, max_unpacked);
+        let valid =
+            validate(&root, &index, limits).map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;
         let progress = |done: usize, total: usize| {
             blocking_ctx.progress_blocking(&json!({"stage": "scoring", "done": done, "total": total, "message": format!("scored {done} of {total} maps")}));
         };
@@ -66,7 +67,7 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
             Some((answerer, judge)) => OpenBackends { answerer: Some(answerer), judge: Some(judge) },
             None => OpenBackends::default(),
         };
-        let scored = score_submission(&valid, &index, SubmissionLimits::default(), open, &progress).map_err(|e| classify(e, &valid.root));
+        let scored = score_submission(&valid, &index, limits, open, &progress).map_err(|e| classify(e, &valid.root));
         drop(unpack_to);
         scored
     })

@@ -7,8 +7,9 @@ use super::{
 
 /// A team's earlier submission with the idempotency key `$2` (first) or, active, of the
 /// archive `$3`: its id, archive and key.
+/// `$4` is a submission to leave out (the one just inserted, in the recording transaction).
 const REPEAT_QUERY: &str = "SELECT id, archive_sha256, idempotency_key FROM submissions \
-     WHERE team_id = $1 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
+     WHERE team_id = $1 AND id <> $4 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
      ORDER BY CASE WHEN idempotency_key = $2 THEN 0 ELSE 1 END, created_at LIMIT 1";
 
 /// What an earlier submission `(id, archive, key)` found by [`REPEAT_QUERY`] makes of an
@@ -204,7 +205,7 @@ impl Store {
     /// same archive. `Repeat` or `KeyReused` (the key with another archive), if any.
     pub async fn repeated_submission(&self, team_id: &str, archive_sha256: &str, idempotency_key: Option<&str>) -> StoreResult<Option<Recorded>> {
         let row: Option<(String, String, Option<String>)> =
-            on_pool!(self, |pool| sqlx::query_as(REPEAT_QUERY).bind(team_id).bind(idempotency_key).bind(archive_sha256).fetch_optional(pool).await)?;
+            on_pool!(self, |pool| sqlx::query_as(REPEAT_QUERY).bind(team_id).bind(idempotency_key).bind(archive_sha256).bind("").fetch_optional(pool).await)?;
         Ok(row.map(|row| repeat_of(row, archive_sha256)))
     }
 
@@ -225,12 +226,8 @@ impl Store {
                 // Serialise a team's concurrent uploads (SQLite serialises every writer already).
                 sqlx::query("SELECT id FROM teams WHERE id = $1 FOR UPDATE").bind(&s.team_id).execute(&mut *tx).await?;
             }
-            let earlier: Option<(String, String, Option<String>)> =
-                sqlx::query_as(REPEAT_QUERY).bind(&s.team_id).bind(&s.idempotency_key).bind(&s.archive_sha256).fetch_optional(&mut *tx).await?;
-            if let Some(row) = earlier {
-                tx.rollback().await?;
-                return Ok(repeat_of(row, &s.archive_sha256));
-            }
+            // The insert comes first: on SQLite a transaction that reads before it writes
+            // cannot wait for another writer (it fails "database is locked" at once).
             sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
                 .bind(&s.id)
                 .bind(&s.team_id)
@@ -249,6 +246,12 @@ impl Store {
                 .bind(&s.idempotency_key)
                 .execute(&mut *tx)
                 .await?;
+            let earlier: Option<(String, String, Option<String>)> =
+                sqlx::query_as(REPEAT_QUERY).bind(&s.team_id).bind(&s.idempotency_key).bind(&s.archive_sha256).bind(&s.id).fetch_optional(&mut *tx).await?;
+            if let Some(row) = earlier {
+                tx.rollback().await?;
+                return Ok(repeat_of(row, &s.archive_sha256));
+            }
             if let Some((limit, since)) = quota {
                 let used: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE")
                     .bind(&s.team_id)

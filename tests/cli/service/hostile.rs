@@ -162,6 +162,27 @@ fn hostile_uploads(backend: Backend) {
     problem(server.upload(&token, &bare, ""), 422, "invalid_submission");
     problem(server.upload(&token, b"", ""), 422, "invalid_archive");
 
+    // A small upload whose map unpacks far beyond the unpacked-bytes limit (60 MB of
+    // points and ids in a compressed .npz) is refused from the arrays' headers, naming the limit.
+    let inflating = baseline_dir("oracle");
+    let n = 3_000_000; // fewer points than the scene's pixels: the bytes are what is refused
+    let zeros = osmab_evaluator::formats::npy::NpyArray::from_f32_matrix(n, 3, vec![0.0; n * 3]);
+    let ids = osmab_evaluator::formats::npy::NpyArray::from_i64(vec![0; n]);
+    let labels = osmab_evaluator::formats::npy::NpyArray::from_i64(vec![1]);
+    osmab_evaluator::formats::npz::write_npz(
+        &inflating.path().join("maps/baseline/scene_000.npz"),
+        &[("points", &zeros), ("object_ids", &ids), ("labels", &labels)],
+        true,
+    )
+    .unwrap();
+    let archive = tar_of(inflating.path());
+    assert!(archive.len() < 20_000_000);
+    let body = problem(server.upload(&token, &archive, "?dry_run=true"), 422, "invalid_submission");
+    assert!(
+        body["errors"].as_array().unwrap().iter().any(|e| e["file"] == "maps/baseline/scene_000.npz" && e["message"].as_str().unwrap().contains("30000000")),
+        "{body}"
+    );
+
     // A map in another frame is reported as such.
     let shifted_dir = baseline_dir("oracle");
     let shifted_path = shifted_dir.path().join("maps/camera/scene_001.npz");

@@ -61,7 +61,9 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
         }
     };
     let index = ReleaseIndex::read(&release_root).map_err(|e| anyhow!("{e}"))?;
-    let valid = match validate(&root, &index, SubmissionLimits::default()) {
+    // The server's own checks (its configured size limit is not known here).
+    let limits = SubmissionLimits::for_release(&index, u64::MAX);
+    let valid = match validate(&root, &index, limits) {
         Ok(valid) => valid,
         Err(problems) => {
             println!("The submission is not valid; the server would refuse it with these {} problem(s):", problems.len());
@@ -81,7 +83,7 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
         if valid.complete { "every scene and lighting covered".to_string() } else { format!("incomplete, no map for {}", valid.missing_maps.join(", ")) }
     );
     if index.has_ground_truth() {
-        let scores = score_submission(&valid, &index, SubmissionLimits::default(), Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
+        let scores = score_submission(&valid, &index, limits, Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
         println!("Scored against the local ground truth (what the server will compute):");
         for (lighting, table) in scores["semseg"].as_object().into_iter().flatten() {
             let m = &table["overall"];

@@ -205,3 +205,95 @@ fn plain_http_to_another_machine_needs_an_explicit_flag() {
     let said = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && said.contains("--allow-http") && said.contains("unencrypted"), "{said}");
 }
+
+/// A server on a loopback port whose answers `script` decides from the request line and
+/// the number of requests for that path so far; it keeps every request line it was sent.
+fn scripted_server(
+    script: impl Fn(&str, usize) -> (u16, Vec<(&'static str, String)>, Vec<u8>) + Send + 'static,
+) -> (String, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
+    use std::io::{BufRead, BufReader, Write};
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://127.0.0.1:{}", listener.local_addr().unwrap().port());
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let kept = seen.clone();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().flatten() {
+            let mut reader = BufReader::new(stream.try_clone().unwrap());
+            let mut head = String::new();
+            loop {
+                let mut line = String::new();
+                if reader.read_line(&mut line).unwrap_or(0) == 0 || line == "\r\n" {
+                    break;
+                }
+                head.push_str(&line);
+            }
+            let request_line = head.lines().next().unwrap_or_default().to_string();
+            let path = request_line.split(' ').nth(1).unwrap_or_default().to_string();
+            let count = kept.lock().unwrap().iter().filter(|h: &&String| h.lines().next().and_then(|l| l.split(' ').nth(1)) == Some(path.as_str())).count();
+            kept.lock().unwrap().push(head.clone());
+            let (status, headers, body) = script(&head, count);
+            let mut answer = format!("HTTP/1.1 {status} X\r\nContent-Length: {}\r\nConnection: close\r\n", body.len());
+            for (k, v) in headers {
+                answer.push_str(&format!("{k}: {v}\r\n"));
+            }
+            answer.push_str("\r\n");
+            let mut stream = stream;
+            let _ = stream.write_all(answer.as_bytes());
+            let _ = stream.write_all(&body);
+        }
+    });
+    (url, seen)
+}
+
+#[test]
+fn downloads_retry_passing_errors_restart_unusable_parts_and_refuse_a_doubled_manifest() {
+    use sha2::Digest;
+    let hex = |b: &[u8]| sha2::Sha256::digest(b).iter().map(|x| format!("{x:02x}")).collect::<String>();
+    let files: [(&str, &[u8]); 3] = [("flaky.txt", b"served after a 503"), ("complete.txt", b"already all here"), ("stale.txt", b"the new content")];
+    // The release digest: the SHA-256 of the sorted "path size sha256" lines.
+    let mut lines: Vec<String> = files.iter().map(|(p, b)| format!("{p} {} {}\n", b.len(), hex(b))).collect();
+    lines.sort();
+    let manifest = serde_json::json!({
+        "version": "v1",
+        "digest": hex(lines.concat().as_bytes()),
+        "files": files.iter().map(|(p, b)| serde_json::json!({"path": p, "size": b.len(), "sha256": hex(b)})).collect::<Vec<_>>(),
+    })
+    .to_string();
+    let served = files.iter().map(|(p, b)| (format!("/api/v1/releases/v1/files/{p}"), b.to_vec())).collect::<Vec<_>>();
+    let (url, seen) = scripted_server(move |head, count| {
+        let path = head.lines().next().unwrap_or_default().split(' ').nth(1).unwrap_or_default().to_string();
+        if path == "/api/v1/releases/v1/manifest.json" {
+            return (200, vec![("Content-Type", "application/json".into())], manifest.clone().into_bytes());
+        }
+        let Some((_, body)) = served.iter().find(|(p, _)| *p == path) else { return (404, vec![], b"{}".to_vec()) };
+        if path.ends_with("flaky.txt") && count == 0 {
+            return (503, vec![("Retry-After", "1".into())], b"{}".to_vec());
+        }
+        if head.to_ascii_lowercase().contains("range: bytes=") {
+            return (416, vec![], Vec::new()); // this server cannot resume
+        }
+        (200, vec![], body.clone())
+    });
+    let home = tempfile::tempdir().unwrap();
+    let config = home.path().join("osmab/client.toml");
+    let out = tempfile::tempdir().unwrap();
+    std::fs::write(out.path().join("complete.txt.part"), b"already all here").unwrap();
+    std::fs::write(out.path().join("stale.txt.part"), b"the old").unwrap();
+    ok(&client(&config, &["download", "--release", "v1", "--out", out.path().to_str().unwrap(), "--url", &url, "--jobs", "1"]));
+    for (path, body) in files {
+        assert_eq!(std::fs::read(out.path().join(path)).unwrap(), body, "{path}");
+    }
+    let requests = seen.lock().unwrap().clone();
+    assert!(!requests.iter().any(|r| r.contains("complete.txt")), "a complete .part is not fetched again: {requests:?}");
+    assert_eq!(requests.iter().filter(|r| r.contains("flaky.txt")).count(), 2, "the 503 is retried once");
+
+    // A manifest that lists one path twice is refused before anything is fetched.
+    let doubled = serde_json::json!({"version": "v2", "files": [
+        {"path": "a.txt", "size": 1, "sha256": hex(b"a")}, {"path": "a.txt", "size": 1, "sha256": hex(b"b")}
+    ]})
+    .to_string();
+    let (url, _) = scripted_server(move |_, _| (200, vec![("Content-Type", "application/json".into())], doubled.clone().into_bytes()));
+    let refused = client(&config, &["download", "--release", "v2", "--out", out.path().to_str().unwrap(), "--url", &url]);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && said.contains("lists 'a.txt' twice"), "{said}");
+}

@@ -100,14 +100,32 @@ fn fetch(api: &Api, version: &str, task: &Task, target: &Path, bar: &ProgressBar
         std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     }
     let url = format!("/api/v1/releases/{version}/files/{}", task.remote);
+    // Bytes of `part` the progress bar counts already (it started from every .part's size).
+    let discard = |part: &Path| {
+        let have = std::fs::metadata(part).map(|m| m.len()).unwrap_or(0);
+        bar.set_position(bar.position().saturating_sub(have));
+        let _ = std::fs::remove_file(part);
+    };
     let mut last_error = None;
-    for attempt in 0..4 {
+    let mut wait = Duration::ZERO;
+    for attempt in 0..5 {
         if attempt > 0 {
-            std::thread::sleep(Duration::from_secs(1 << attempt.min(4)));
+            std::thread::sleep(wait.max(Duration::from_secs(1 << attempt.min(4))));
+            wait = Duration::ZERO;
+        }
+        let have = std::fs::metadata(&part).map(|m| m.len()).unwrap_or(0);
+        // A complete .part (the rename was interrupted) needs no byte from the server.
+        if have == task.size && is_correct(&part, task.size, &task.sha256) {
+            std::fs::rename(&part, target)?;
+            return Ok(());
+        }
+        if have >= task.size && have > 0 {
+            log(format!("{}: the partial download is not a prefix of the file; fetching it again from the start", task.remote));
+            discard(&part);
         }
         let have = std::fs::metadata(&part).map(|m| m.len()).unwrap_or(0);
         let mut request = api.get(&url).timeout(Duration::from_secs(3600));
-        if have > 0 && have < task.size {
+        if have > 0 {
             request = request.header("Range", format!("bytes={have}-")).header("If-Range", format!("\"{}\"", task.sha256));
         }
         let response = match request.send() {
@@ -117,7 +135,25 @@ fn fetch(api: &Api, version: &str, task: &Task, target: &Path, bar: &ProgressBar
                 continue;
             }
         };
-        let resumed = response.status() == reqwest::StatusCode::PARTIAL_CONTENT;
+        let status = response.status();
+        if status == reqwest::StatusCode::RANGE_NOT_SATISFIABLE {
+            log(format!("{}: the server cannot resume at byte {have}; fetching it again from the start", task.remote));
+            discard(&part);
+            last_error = Some(anyhow!("{}: range not satisfiable", task.remote));
+            continue;
+        }
+        if status.is_server_error() || status == reqwest::StatusCode::TOO_MANY_REQUESTS {
+            // Passing trouble: wait as the server asks (at most a minute), then try again.
+            wait = response
+                .headers()
+                .get("retry-after")
+                .and_then(|v| v.to_str().ok())
+                .and_then(|v| v.parse::<u64>().ok())
+                .map_or(Duration::ZERO, |s| Duration::from_secs(s.min(60)));
+            last_error = Some(checked(response).err().unwrap_or_else(|| anyhow!("server error")).context(format!("downloading {}", task.remote)));
+            continue;
+        }
+        let resumed = status == reqwest::StatusCode::PARTIAL_CONTENT;
         let mut response = match checked(response) {
             Ok(r) => r,
             Err(e) => return Err(e.context(format!("downloading {}", task.remote))),
@@ -126,6 +162,8 @@ fn fetch(api: &Api, version: &str, task: &Task, target: &Path, bar: &ProgressBar
             log(format!("{}: resuming at byte {have} of {}", task.remote, task.size));
             std::fs::OpenOptions::new().append(true).open(&part)?
         } else {
+            // The whole file comes again: what the bar counted of the old part goes.
+            discard(&part);
             std::fs::File::create(&part)?
         };
         let mut buf = vec![0u8; 256 * 1024];
@@ -149,7 +187,7 @@ fn fetch(api: &Api, version: &str, task: &Task, target: &Path, bar: &ProgressBar
             return Ok(());
         }
         log(format!("{}: the bytes do not match the manifest's SHA-256; fetching it again from the start", task.remote));
-        std::fs::remove_file(&part)?;
+        discard(&part);
         last_error = Some(anyhow!("{}: SHA-256 mismatch", task.remote));
     }
     Err(last_error.unwrap_or_else(|| anyhow!("{}: download failed", task.remote)).context("the partial download is kept; run the command again to resume"))
@@ -198,6 +236,11 @@ pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<
     let files: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone()).context("manifest: files")?;
     let archives: Vec<ArchiveEntry> =
         serde_json::from_value(manifest.get("archives").cloned().unwrap_or(Value::Array(vec![]))).context("manifest: archives")?;
+    // One path, one file: a manifest that lists a path twice (with two checksums) is refused.
+    let mut listed = BTreeSet::new();
+    if let Some(twice) = files.iter().map(|f| f.path.as_str()).chain(archives.iter().map(|a| a.path.as_str())).find(|p| !listed.insert(*p)) {
+        bail!("the manifest of {version} lists '{twice}' twice; refusing to download from it (ask the organisers)");
+    }
     // The digest ties the file list to the release: a truncated or edited manifest fails here.
     let mut lines: Vec<String> = files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
     lines.sort();

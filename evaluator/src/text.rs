@@ -4,12 +4,23 @@
 //! paragraph separators are refused, so a name always reads as what it is.
 
 /// Whether `c` is a control (Cc), format (Cf), line (Zl) or paragraph (Zp) separator
-/// character (Unicode 16 tables for Cf).
+/// character (Unicode 16 tables for Cf), or one that displays as nothing: variation
+/// selectors, the combining grapheme joiner, Hangul and Khmer fillers, the blank
+/// braille pattern — so two names that look alike are alike.
 pub fn is_invisible(c: char) -> bool {
     c.is_control()
         || matches!(
             c as u32,
             0x00AD
+                | 0x034F
+                | 0x115F..=0x1160
+                | 0x17B4..=0x17B5
+                | 0x180B..=0x180F
+                | 0x2800
+                | 0x3164
+                | 0xFE00..=0xFE0F
+                | 0xFFA0
+                | 0xE0100..=0xE01EF
                 | 0x0600..=0x0605
                 | 0x061C
                 | 0x06DD
@@ -59,7 +70,21 @@ mod tests {
     #[test]
     fn names_with_bidi_overrides_zero_width_or_control_characters_are_refused() {
         assert_eq!(display_name_problem("ConceptGraphs (ours) – v2 ✓ 日本", 80), None);
-        for evil in ["evil\u{202E}gnp.exe", "a\u{200B}b", "\u{FEFF}name", "tab\there", "line\u{2028}break", "tag\u{E0041}"] {
+        for evil in [
+            "evil\u{202E}gnp.exe",
+            "a\u{200B}b",
+            "\u{FEFF}name",
+            "tab\there",
+            "line\u{2028}break",
+            "tag\u{E0041}",
+            "alpha\u{FE0F}",
+            "alpha\u{17B4}",
+            "beta\u{034F}",
+            "\u{3164}",
+            "\u{2800}\u{2800}",
+            "\u{115F}\u{1160}",
+            "\u{180B}",
+        ] {
             let problem = display_name_problem(evil, 80).unwrap_or_else(|| panic!("{evil:?} accepted"));
             assert!(problem.contains("U+"), "{problem}");
         }

@@ -73,12 +73,18 @@ fn unauthenticated(code: &'static str, detail: &str) -> Problem {
 }
 
 async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
-    let Some(value) = parts.headers.get(axum::http::header::AUTHORIZATION) else {
+    let mut values = parts.headers.get_all(axum::http::header::AUTHORIZATION).iter();
+    let Some(value) = values.next() else {
         return Ok(Caller::Anonymous);
     };
-    let text = value.to_str().unwrap_or("");
-    let Some(token) = text.strip_prefix("Bearer ").map(str::trim) else {
-        return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'."));
+    if values.next().is_some() {
+        return Err(unauthenticated("token_invalid", "Send one Authorization header, not several."));
+    }
+    let text = value.to_str().unwrap_or("").trim();
+    // The scheme is case-insensitive (RFC 9110 §11.1).
+    let token = match text.split_once(' ') {
+        Some((scheme, token)) if scheme.eq_ignore_ascii_case("bearer") => token.trim(),
+        _ => return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'.")),
     };
     if !token.starts_with(TOKEN_PREFIX) {
         return Err(unauthenticated("token_invalid", "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));

@@ -24,7 +24,7 @@ pub struct Problem {
 impl Problem {
     /// A problem with `status`, stable `code`, short `title` and a `detail` that says what to do.
     pub fn new(status: StatusCode, code: &'static str, title: impl Into<String>, detail: impl Into<String>) -> Self {
-        Self { status, code, title: title.into(), detail: detail.into(), extra: Map::new(), retry_after: None }
+        Self { status, code, title: title.into(), detail: displayable(&detail.into()), extra: Map::new(), retry_after: None }
     }
 
     /// Add an extension member.
@@ -108,3 +108,33 @@ impl From<StoreError> for Problem {
 
 /// Result of a handler.
 pub type ApiResult<T> = Result<T, Problem>;
+
+/// A detail as it may be shown: what a client sent and a detail repeats (a path, an
+/// entry name) cannot carry control, bidi or other invisible characters — they are
+/// written as `\u{…}` escapes — nor run on for pages (cut at 2,000 characters).
+fn displayable(detail: &str) -> String {
+    const MAX_CHARS: usize = 2000;
+    let mut out = String::with_capacity(detail.len().min(4 * MAX_CHARS));
+    for (i, c) in detail.chars().enumerate() {
+        if i == MAX_CHARS {
+            out.push('…');
+            break;
+        }
+        if osmab_evaluator::text::is_invisible(c) {
+            out.extend(c.escape_unicode());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod displayable_tests {
+    #[test]
+    fn details_never_carry_invisible_characters_or_run_on() {
+        assert_eq!(super::displayable("entry maps/a\nb\u{1b}[31m and \u{202E}x"), "entry maps/a\\u{a}b\\u{1b}[31m and \\u{202e}x");
+        assert_eq!(super::displayable(&"x".repeat(5000)).chars().count(), 2001);
+        assert_eq!(super::displayable("Fine: 3 of 5 — ok"), "Fine: 3 of 5 — ok");
+    }
+}

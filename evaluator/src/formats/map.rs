@@ -83,6 +83,14 @@ fn check_structure(npz: &mut NpzReader, path: &Path, limits: ReadLimits) -> Resu
                 format!("{n} points is more than the {} this scene's map may hold (one per pixel of its sequence)", limits.max_points),
             ));
         }
+        for key in ["labels", "features"] {
+            if let Some(objects) = shape_of(key).map(|s| s.first().copied().unwrap_or(0))
+                && objects > n
+                && n > 0
+            {
+                return Err(InputError::new(path, key, format!("{objects} objects for {n} points; every object needs points of its own")));
+            }
+        }
         for (key, what) in [("object_ids", "one object id per point"), ("point_features", "one row per point")] {
             if let Some(rows) = shape_of(key).map(|s| s.first().copied().unwrap_or(0))
                 && rows != n

@@ -51,7 +51,7 @@ impl ArchiveKind {
             Ok(Self::TarGz)
         } else if n >= 4 && (head[..4] == *b"PK\x03\x04" || head[..4] == *b"PK\x05\x06") {
             Ok(Self::Zip)
-        } else if n >= 262 && &head[257..262] == b"ustar" {
+        } else if n >= 262 && &head[257..262] == b"ustar" || n == 512 && is_v7_tar_header(&head) {
             Ok(Self::Tar)
         } else if n == 0 {
             Err(InputError::new(path, "(archive)", "the upload is empty; expected a .tar, .tar.gz or .zip archive"))
@@ -59,6 +59,16 @@ impl ArchiveKind {
             Err(InputError::new(path, "(archive)", "not a .tar, .tar.gz or .zip archive (unrecognised first bytes)"))
         }
     }
+}
+
+/// Whether `block` is a tar header without the ustar magic (the v7 format of
+/// `tar --format=v7`): its checksum field matches the sum of its bytes.
+fn is_v7_tar_header(block: &[u8; 512]) -> bool {
+    let field = &block[148..156];
+    let text: String = field.iter().take_while(|&&b| b != 0).map(|&b| b as char).collect();
+    let Ok(declared) = u32::from_str_radix(text.trim(), 8) else { return false };
+    let sum: u32 = block.iter().enumerate().map(|(i, &b)| if (148..156).contains(&i) { b' ' as u32 } else { b as u32 }).sum();
+    declared == sum && block[0] != 0
 }
 
 /// A relative path inside an archive made safe to join under the destination: no
@@ -213,8 +223,16 @@ fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
     if zip.len() > writer.limits.max_entries {
         return Err(InputError::new(archive_path, "(archive)", format!("more than {} entries; a submission needs far fewer", writer.limits.max_entries)));
     }
+    // The zip reader keeps one entry per name: a central directory that lists more entries
+    // than it reads holds some name twice (the later copy would silently win).
+    if central_directory_entries(archive_path).is_some_and(|listed| listed != zip.len() as u64) {
+        return Err(InputError::new(archive_path, "(archive)", "refused: the zip archive holds some name twice"));
+    }
     for i in 0..zip.len() {
         let mut entry = zip.by_index(i).map_err(|e| InputError::new(archive_path, "(archive)", format!("entry {i} is unreadable: {e}")))?;
+        if entry.name_raw().contains(&0) {
+            return Err(InputError::new(archive_path, format!("entry {i}"), "refused entry: names may not contain NUL or backslashes"));
+        }
         let name = entry.name().map_err(|e| InputError::new(archive_path, "(archive)", format!("entry {i} has an unreadable name: {e}")))?.to_string();
         if entry.is_symlink() {
             return Err(InputError::new(archive_path, name, "refused entry: links are not allowed in a submission; archive the files themselves"));
@@ -226,6 +244,20 @@ fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The number of entries a zip's end-of-central-directory record declares (none for a
+/// ZIP64 archive, whose count lives elsewhere, or an unreadable file).
+fn central_directory_entries(path: &Path) -> Option<u64> {
+    let mut file = File::open(path).ok()?;
+    let size = file.seek(std::io::SeekFrom::End(0)).ok()?;
+    let tail = size.min(22 + 65_535);
+    file.seek(std::io::SeekFrom::Start(size - tail)).ok()?;
+    let mut bytes = Vec::with_capacity(tail as usize);
+    file.read_to_end(&mut bytes).ok()?;
+    let at = (0..bytes.len().saturating_sub(21)).rev().find(|&i| bytes[i..i + 4] == *b"PK\x05\x06")?;
+    let total = u16::from_le_bytes([bytes[at + 10], bytes[at + 11]]);
+    (total != u16::MAX).then_some(total as u64)
 }
 
 /// Every file under `dir` as sorted relative paths with '/' separators; links and other

@@ -30,7 +30,9 @@ pub struct SubmissionLimits {
 
 impl Default for SubmissionLimits {
     fn default() -> Self {
-        Self { arrays: ReadLimits { max_array_bytes: 4 << 30, max_archive_bytes: 8 << 30, max_points: u64::MAX }, max_json_bytes: 64 << 20 }
+        // 4 GiB of arrays a map holds ~100 M points with their ids and 10,000 objects of
+        // 1024-dimensional features; the service validates two uploads at a time.
+        Self { arrays: ReadLimits { max_array_bytes: 2 << 30, max_archive_bytes: 4 << 30, max_points: u64::MAX }, max_json_bytes: 64 << 20 }
     }
 }
 
@@ -84,7 +86,9 @@ impl MethodCard {
         }
         for (field, url) in [("method.paper_url", &self.paper_url), ("method.code_url", &self.code_url)] {
             if let Some(url) = url
-                && (!(url.starts_with("https://") || url.starts_with("http://")) || url.len() > 500 || url.chars().any(|c| c.is_whitespace() || c.is_control()))
+                && (!(url.starts_with("https://") || url.starts_with("http://"))
+                    || url.len() > 500
+                    || url.chars().any(|c| c.is_whitespace() || crate::text::is_invisible(c)))
             {
                 return Err(InputError::new(file, field, format!("expected an http(s) link of at most 500 characters, found '{url}'")));
             }

@@ -57,3 +57,43 @@ fn a_refused_entry_is_named_by_its_path_inside_the_archive() {
     assert!(!shown.contains("scratch-area"), "the destination is not shown: {shown}");
     assert_eq!(err.field, "maps/baseline/scene_000.npz", "{shown}");
 }
+
+#[test]
+fn v7_tar_archives_unpack_and_zips_naming_an_entry_twice_or_with_nul_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    submission_tree(&dir.path().join("my-submission"));
+    run(dir.path(), "tar", &["--format=v7", "-cf", "v7.tar", "-C", "my-submission", "."]);
+    let unpacked = unpack(&dir.path().join("v7.tar"), &dir.path().join("out-v7"), ArchiveLimits::default()).unwrap();
+    assert_eq!(unpacked.files.len(), 3);
+
+    // A zip writer refuses a name twice; rename the second entry in the bytes afterwards.
+    let zip_of = |names: [&str; 2]| {
+        use std::io::Write;
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        for (name, data) in names.iter().zip([&b"{\"first\": 1}"[..], b"{\"second\": 2}"]) {
+            zip.start_file(*name, zip::write::SimpleFileOptions::default()).unwrap();
+            zip.write_all(data).unwrap();
+        }
+        zip.finish().unwrap().into_inner()
+    };
+    let replace = |bytes: Vec<u8>, from: &[u8], to: &[u8]| -> Vec<u8> {
+        let mut out = bytes;
+        let mut i = 0;
+        while i + from.len() <= out.len() {
+            if &out[i..i + from.len()] == from {
+                out[i..i + from.len()].copy_from_slice(to);
+            }
+            i += 1;
+        }
+        out
+    };
+    for (label, bytes, needle) in [
+        ("twice", replace(zip_of(["submission.json", "submissioX.json"]), b"submissioX.json", b"submission.json"), "twice"),
+        ("nul", replace(zip_of(["a.json", "b.json"]), b"b.json", b"b\0json"), "NUL"),
+    ] {
+        let path = dir.path().join(format!("{label}.zip"));
+        std::fs::write(&path, bytes).unwrap();
+        let err = unpack(&path, &dir.path().join(format!("out-{label}")), ArchiveLimits::default()).unwrap_err();
+        assert!(err.to_string().contains(needle), "{label}: {err}");
+    }
+}

@@ -213,6 +213,10 @@ fn a_map_is_checked_from_its_headers_before_any_array_is_read() {
     write_arrays(&path, &[("points", points(10)), ("object_ids", NpyArray::from_i64(vec![0; 9])), ("labels", NpyArray::from_i64(vec![1]))]);
     let err = PredictedMap::read(&path, ReadLimits::default()).unwrap_err();
     assert_eq!(err.field, "object_ids", "{err}");
+    // More objects than points (a deflated 'labels' of millions of zeros, say).
+    write_arrays(&path, &[("points", points(10)), ("object_ids", NpyArray::from_i64(vec![0; 10])), ("labels", NpyArray::from_i64(vec![1; 5_000_000]))]);
+    let err = PredictedMap::read(&path, ReadLimits::default()).unwrap_err();
+    assert!(err.field == "labels" && err.message.contains("5000000 objects for 10 points"), "{err}");
 }
 
 fn cloud() -> PointCloud {

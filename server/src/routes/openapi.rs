@@ -133,6 +133,7 @@ pub const PROBLEMS: &[(&str, &str)] = &[
     ("digest_mismatch", "The upload's SHA-256 differs from its Content-Digest; upload again."),
     ("upload_incomplete", "The upload ended before Content-Length bytes arrived; upload again."),
     ("payload_too_large", "The upload is over the size limit."),
+    ("request_timeout", "The request body stalled (nothing arrived for the body idle timeout); send it again."),
     ("invalid_archive", "The upload is not a readable tar, tar.gz or zip, or holds a refused entry (links, `..`, too many or too large files)."),
     ("invalid_submission", "The submission breaks the format; `errors` lists every problem with file, field and message."),
     ("release_not_open", "The release named by the submission takes no submissions (not published)."),

@@ -314,10 +314,12 @@ pub async fn update(
     State(state): State<AppState>,
     caller: Caller,
     ApiPath(id): ApiPath<String>,
-    ApiJson(change): ApiJson<MethodCardUpdate>,
+    change: Result<ApiJson<MethodCardUpdate>, Problem>,
 ) -> ApiResult<axum::Json<Value>> {
     let mut s = visible_submission(&state, &caller, &id).await?;
     caller.may_change(&s.team_id, "edit a submission")?;
+    // The body is looked at only once the caller may edit.
+    let ApiJson(change) = change?;
     if let Some(name) = change.name {
         s.method_name = name.trim().to_string();
     }

@@ -168,6 +168,19 @@ fn refusals_at_the_edges(backend: Backend) {
     let other = server.team("Team Other Edges");
     problem(rename("mine now", Some(&other)), 403, "forbidden");
     assert_eq!(rename("A fine name", Some(&token)).status(), 200);
+    // Before the body is looked at: no token is 401 even for a malformed body.
+    let malformed = server.client.patch(format!("{}/api/v1/submissions/{id}", server.url)).header("content-type", "application/json").body("{").send().unwrap();
+    problem(malformed, 401, "unauthenticated");
+
+    // The scheme is case-insensitive; two Authorization headers are refused.
+    let lower = server.get("/api/v1/me").header("authorization", format!("bearer {token}")).send().unwrap();
+    assert_eq!(lower.status(), 200);
+    let twice = server.get("/api/v1/me").header("authorization", format!("Bearer {token}")).header("authorization", format!("Bearer {other}")).send().unwrap();
+    problem(twice, 401, "token_invalid");
+    // Control and bidi characters the client sent are not echoed raw into details.
+    let echoed = problem(server.get("/api/v1/submissions/a%E2%80%AEb%1B").bearer_auth(&token).send().unwrap(), 404, "not_found");
+    let detail = echoed["detail"].as_str().unwrap();
+    assert!(!detail.contains('\u{202E}') && !detail.contains('\u{1b}'), "{detail}");
 }
 
 on_both_backends!(refusals_at_the_edges_are_problem_json, super::refusals_at_the_edges);

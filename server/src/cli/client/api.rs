@@ -96,6 +96,31 @@ impl Api {
         checked(response)
     }
 
+    /// GET the public `path`, retrying what passes — a broken connection, a server error
+    /// or a rate limit (after its `Retry-After`, at most a minute) — up to four times.
+    pub fn get_retrying(&self, path: &str) -> anyhow::Result<Response> {
+        let mut last = None;
+        for attempt in 0..4u32 {
+            match self.get(path).send() {
+                Ok(response) if response.status().is_server_error() || response.status() == StatusCode::TOO_MANY_REQUESTS => {
+                    let wait = response.headers().get("retry-after").and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0).min(60);
+                    last = Some(checked(response).err().unwrap_or_else(|| anyhow!("server error")).context(format!("GET {}", self.url(path))));
+                    if attempt < 3 {
+                        std::thread::sleep(Duration::from_secs(wait.max(1 << attempt)));
+                    }
+                }
+                Ok(response) => return checked(response).map_err(|e| e.context(format!("GET {}", self.url(path)))),
+                Err(e) => {
+                    last = Some(anyhow!("cannot reach {}: {}", self.url(path), describe(&e)));
+                    if attempt < 3 {
+                        std::thread::sleep(Duration::from_secs(1 << attempt));
+                    }
+                }
+            }
+        }
+        Err(last.unwrap_or_else(|| anyhow!("GET {} failed", self.url(path))))
+    }
+
     /// GET the public `path` as JSON.
     pub fn get_json(&self, path: &str) -> anyhow::Result<Value> {
         let response = self.send(self.get(path))?;

@@ -231,7 +231,7 @@ fn unpack_sequence(archive: &Path, out: &Path, files: &[FileEntry]) -> anyhow::R
 /// Download the selection into `out`; returns (fetched, skipped) counts.
 pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<(usize, usize)> {
     let version = pick_release(api, selection.release.as_deref())?;
-    let manifest_text = api.send(api.get(&format!("/api/v1/releases/{version}/manifest.json")))?.text()?;
+    let manifest_text = api.get_retrying(&format!("/api/v1/releases/{version}/manifest.json"))?.text()?;
     let manifest: Value = serde_json::from_str(&manifest_text).context("the manifest is not JSON")?;
     let files: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone()).context("manifest: files")?;
     let archives: Vec<ArchiveEntry> =
@@ -310,10 +310,12 @@ pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<
             scope.spawn(|| {
                 loop {
                     let Some((task, target)) = queue.lock().expect("queue").pop() else { break };
-                    let result = fetch(api, &version, &task, &target, &bar, &log).and_then(|()| match &task.unpacks_to {
-                        Some(members) => unpack_sequence(&target, out, members),
-                        None => Ok(()),
-                    });
+                    let result = fetch(api, &version, &task, &target, &bar, &log)
+                        .and_then(|()| match &task.unpacks_to {
+                            Some(members) => unpack_sequence(&target, out, members),
+                            None => Ok(()),
+                        })
+                        .with_context(|| format!("{} (into {})", task.remote, target.display()));
                     if let Err(e) = result {
                         errors.lock().expect("errors").push(format!("{e:#}"));
                     }

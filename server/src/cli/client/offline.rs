@@ -16,14 +16,14 @@ use super::api::Api;
 
 /// Fetch the public facts of `version` (or of the release the submission names) into `dir`.
 fn fetch_release_facts(api: &Api, submission_release: &str, dir: &Path) -> anyhow::Result<()> {
-    let manifest_text = api.send(api.get(&format!("/api/v1/releases/{submission_release}/manifest.json")))?.text()?;
+    let manifest_text = api.get_retrying(&format!("/api/v1/releases/{submission_release}/manifest.json"))?.text()?;
     let manifest: Value = serde_json::from_str(&manifest_text)?;
     std::fs::write(dir.join("manifest.json"), &manifest_text)?;
     for file in manifest["files"].as_array().into_iter().flatten() {
         let path = file["path"].as_str().unwrap_or_default();
         let wanted = path == "classes.json" || (path.starts_with("questions/") && !path[10..].contains('/'));
         if wanted {
-            let bytes = api.send(api.get(&format!("/api/v1/releases/{submission_release}/files/{path}")))?.bytes()?;
+            let bytes = api.get_retrying(&format!("/api/v1/releases/{submission_release}/files/{path}"))?.bytes()?;
             let target = dir.join(path);
             std::fs::create_dir_all(target.parent().expect("nested"))?;
             std::fs::write(target, bytes)?;

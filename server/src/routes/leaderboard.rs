@@ -98,7 +98,7 @@ pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery
             "table2": crate::leaderboard_vqa::table_two(board),
             "table3": crate::leaderboard_vqa::table_three(board),
         }),
-        Some(other) => return Err(Problem::bad_request("invalid_request", format!("table: expected 2 or 3, found {other}"))),
+        Some(other) => return Err(Problem::bad_request("invalid_query", format!("table: expected 2 or 3, found {other}"))),
     };
     Ok(axum::Json(body).into_response())
 }
@@ -112,7 +112,7 @@ pub async fn vqa_table_csv(State(state): State<AppState>, ApiQuery(query): ApiQu
         Some(3) => crate::leaderboard_vqa::table_csv(&crate::leaderboard_vqa::table_three(board), &crate::leaderboard_vqa::TABLE_THREE_COLUMNS),
         _ => {
             return Err(Problem::bad_request(
-                "invalid_request",
+                "invalid_query",
                 "table: expected ?table=2 (prompt-grounded per lighting) or ?table=3 (standard against prompt-grounded)",
             ));
         }

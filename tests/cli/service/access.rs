@@ -144,6 +144,7 @@ fn refusals_at_the_edges(backend: Backend) {
 
     // Query and path parameters that do not parse.
     problem(server.get("/api/v1/leaderboard/vqa.csv?table=two").send().unwrap(), 400, "invalid_query");
+    problem(server.get("/api/v1/leaderboard/vqa.csv?table=4").send().unwrap(), 400, "invalid_query");
     problem(server.upload(&token, &archive, "?dry_run=maybe"), 400, "invalid_query");
     problem(server.get("/api/v1/submissions/%FF%FE").bearer_auth(&token).send().unwrap(), 400, "invalid_path");
     problem(server.get("/releases/%C0").send().unwrap(), 400, "invalid_path");

@@ -51,10 +51,10 @@ but never uses for loading are stubbed, and every stub is printed.
 Exit status: 0 all checks pass, 1 a mismatch, 2 a usage or import error.
 
 Venv used here (CPU, PyPI only):
-    python3 -m venv /work/scratch/loaders-venv
-    /work/scratch/loaders-venv/bin/pip install torch==2.5.1 numpy "opencv-python-headless<5" imageio natsort \
+    python3 -m venv VENV
+    VENV/bin/pip install torch==2.5.1 numpy "opencv-python-headless<5" imageio natsort \
         pyyaml scipy kornia omegaconf
-    /work/scratch/loaders-venv/bin/pip install torchvision==0.20.1 --no-deps   # only OSMa-Bench's fork imports it
+    VENV/bin/pip install torchvision==0.20.1 --no-deps   # only OSMa-Bench's fork imports it
 """
 import argparse
 import ast

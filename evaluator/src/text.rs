@@ -27,7 +27,6 @@ pub fn is_invisible(c: char) -> bool {
                 | 0x070F
                 | 0x0890..=0x0891
                 | 0x08E2
-                | 0x180E
                 | 0x200B..=0x200F
                 | 0x2028..=0x202E
                 | 0x2060..=0x2064

@@ -36,8 +36,13 @@ pub struct Upload {
 impl Upload {
     /// Lowercase hex of the SHA-256.
     pub fn sha256_hex(&self) -> String {
-        self.sha256.iter().map(|b| format!("{b:02x}")).collect()
+        hex(&self.sha256)
     }
+}
+
+/// Lowercase hex of a SHA-256 digest (as records and manifests store it).
+pub fn hex(digest: &[u8; 32]) -> String {
+    digest.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Removes a scratch file or folder when dropped, whatever happened; on the async

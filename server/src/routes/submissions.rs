@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 use super::{ApiJson, ApiPath, ApiQuery};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
-use crate::intake::{Scratch, check, declared_sha256, idempotency_key, receive, record, release_not_open, too_large};
+use crate::intake::{Scratch, check, declared_sha256, hex, idempotency_key, receive, record, release_not_open, too_large};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 use crate::store::{Recorded, StoreError, SubmissionRecord, Team};
@@ -85,10 +85,6 @@ async fn answer_repeat(state: &AppState, team: &Team, earlier: Recorded) -> ApiR
     }
 }
 
-fn hex(digest: [u8; 32]) -> String {
-    digest.iter().map(|b| format!("{b:02x}")).collect()
-}
-
 /// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
 /// Bodies up to this size are read and dropped before an early refusal is sent.
 const DRAIN_LIMIT: u64 = 64 << 20;
@@ -147,7 +143,7 @@ pub async fn create(
         let may_repeat = match (&key, declared_digest) {
             (None, None) => false,
             _ => {
-                let digest = declared_digest.map(hex).unwrap_or_default();
+                let digest = declared_digest.map(|d| hex(&d)).unwrap_or_default();
                 state.store.repeated_submission(&team.id, &digest, key.as_deref()).await?.is_some()
             }
         };

@@ -132,31 +132,14 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     assert!(!said.contains("{\""), "no raw JSON: {said}");
 }
 
-/// A server on a loopback port that answers every request 200 `{}` and keeps what it
-/// was sent (request line and headers), to see which token reaches another origin.
+/// A server on a loopback port that answers every request 200 with an empty listing and
+/// keeps what it was sent (request line and headers), to see which token reaches another
+/// origin.
 fn recording_server() -> (String, std::sync::Arc<std::sync::Mutex<Vec<String>>>) {
-    use std::io::{BufRead, BufReader, Write};
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let url = format!("http://localhost:{}", listener.local_addr().unwrap().port());
-    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-    let kept = seen.clone();
-    std::thread::spawn(move || {
-        for stream in listener.incoming().flatten() {
-            let mut reader = BufReader::new(stream.try_clone().unwrap());
-            let mut head = String::new();
-            loop {
-                let mut line = String::new();
-                if reader.read_line(&mut line).unwrap_or(0) == 0 || line == "\r\n" {
-                    break;
-                }
-                head.push_str(&line);
-            }
-            kept.lock().unwrap().push(head);
-            let body = r#"{"rows": [], "entries": [], "releases": []}"#;
-            let _ = write!(&stream, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}", body.len());
-        }
-    });
-    (url, seen)
+    let (url, seen) =
+        scripted_server(|_, _| (200, vec![("Content-Type", "application/json".into())], br#"{"rows": [], "entries": [], "releases": []}"#.to_vec()));
+    // `localhost` rather than 127.0.0.1: another spelling of a loopback origin.
+    (url.replace("127.0.0.1", "localhost"), seen)
 }
 
 #[test]

@@ -4,39 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The two prompt regimes of OSMa-Bench++.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Regime {
-    /// Furniture-scale objects only, room-scale layout.
-    Furniture,
-    /// Furniture anchors plus small objects on, under or inside them.
-    Manipuland,
-}
-
-impl Regime {
-    /// Both regimes, in report order.
-    pub const ALL: [Regime; 2] = [Regime::Furniture, Regime::Manipuland];
-
-    /// The regime's name as written in files (`furniture`, `manipuland`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Regime::Furniture => "furniture",
-            Regime::Manipuland => "manipuland",
-        }
-    }
-}
-
-impl std::str::FromStr for Regime {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "furniture" => Ok(Regime::Furniture),
-            "manipuland" => Ok(Regime::Manipuland),
-            other => Err(format!("unknown regime '{other}' (expected furniture or manipuland)")),
-        }
-    }
-}
+/// The two prompt regimes of OSMa-Bench++ (also the subsets scores are reported over).
+pub use osmab_evaluator::scores::Regime;
 
 /// Whether an object stands on the floor or is a small object resting on furniture.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

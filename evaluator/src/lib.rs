@@ -12,6 +12,7 @@ pub mod formats;
 pub mod ground_truth;
 pub mod label_set;
 pub mod numeric;
+pub mod scores;
 pub mod semseg;
 pub mod submission;
 pub mod synthetic;

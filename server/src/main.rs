@@ -9,7 +9,6 @@ mod http;
 mod intake;
 mod jobs;
 mod leaderboard;
-mod leaderboard_vqa;
 mod llm;
 mod metrics;
 mod problem;

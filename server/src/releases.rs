@@ -99,7 +99,7 @@ pub fn stage_release(blobs: &Blobs, dir: &Path) -> anyhow::Result<(PreparedRelea
         let digest = manifest["digest"].as_str().unwrap_or_default().to_string();
         let record = ReleaseRecord {
             version: version.clone(),
-            state: "draft".into(),
+            state: crate::store::ReleaseState::Draft,
             is_current: false,
             digest,
             manifest: served,

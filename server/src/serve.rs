@@ -11,11 +11,12 @@ use tokio::sync::watch;
 
 use crate::auth::{issue_token, token_hash};
 use crate::blobs::Blobs;
-use crate::clock::{new_id, now_ms};
+use crate::clock::now_ms;
 use crate::config::{Settings, redact_url};
-use crate::jobs::release_build::{BUILD_JOB, BuildRequest, DEMO_CONFIG};
+use crate::jobs::Job;
+use crate::jobs::release_build::{BuildRelease, DEMO_CONFIG};
 use crate::state::AppState;
-use crate::store::{NewJob, Store, TokenRecord};
+use crate::store::{Store, TokenRecord};
 
 /// Open the database (migrated) and the blob storage of `settings`.
 pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
@@ -81,19 +82,12 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
 
 /// On an empty database, queue the demo release build with the baselines.
 pub async fn queue_demo(state: &AppState) -> anyhow::Result<()> {
-    if !state.store.releases().await?.is_empty() || state.store.jobs(1000).await?.iter().any(|j| j.kind == BUILD_JOB) {
+    if !state.store.releases().await?.is_empty() || state.store.jobs(1000).await?.iter().any(|j| j.kind == BuildRelease::KIND) {
         return Ok(());
     }
-    let job = NewJob {
-        id: new_id("job"),
-        kind: BUILD_JOB.into(),
-        subject: crate::jobs::release_build::config_version(DEMO_CONFIG).map_err(anyhow::Error::msg)?,
-        payload: serde_json::to_string(&BuildRequest { config: DEMO_CONFIG.into(), publish: true, baselines: true })?,
-        max_attempts: state.settings.job_max_attempts,
-        created_at: now_ms(),
-    };
-    state.store.enqueue(&job).await?;
-    tracing::info!(job = %job.id, "empty database: the demo release is being built and the baselines scored");
+    crate::jobs::release_build::config_version(DEMO_CONFIG).map_err(anyhow::Error::msg)?;
+    let job = crate::jobs::enqueue(state, &BuildRelease { config: DEMO_CONFIG.into(), publish: true, baselines: true }).await?;
+    tracing::info!(job = %job, "empty database: the demo release is being built and the baselines scored");
     Ok(())
 }
 

@@ -223,7 +223,7 @@ mod release_questions {
         let index = ReleaseIndex::read(test_release()).unwrap();
         let valid = validate(dir.path(), &index, SubmissionLimits::default()).unwrap();
         let vqa = score_vqa(&valid, &index, OpenBackends::default()).unwrap().expect("baselines carry scene graphs");
-        vqa["lightings"].as_object().unwrap().iter().map(|(l, v)| (l.clone(), v["overall"]["accuracy"].as_f64().unwrap())).collect()
+        vqa.lightings.iter().map(|(l, v)| (l.to_string(), v.overall.accuracy.unwrap())).collect()
     }
 
     #[test]
@@ -245,8 +245,10 @@ mod release_questions {
 mod team_answers {
     //! Answers a team supplies are checked against the release's questions and used as given.
 
+    use osmab_evaluator::scores::Lighting;
     use osmab_evaluator::submission::release::ReleaseIndex;
     use osmab_evaluator::submission::validate::{SubmissionLimits, validate};
+    use osmab_evaluator::vqa::answer::AnsweredBy;
     use osmab_evaluator::vqa::score::{OpenBackends, score_vqa};
     use serde_json::{Value, json};
 
@@ -287,13 +289,13 @@ mod team_answers {
         let dir = oracle_with_answers(&Value::Array(answers));
         let valid = validate(dir.path(), &index, SubmissionLimits::default()).unwrap();
         let vqa = score_vqa(&valid, &index, OpenBackends::default()).unwrap().unwrap();
-        let scene = &vqa["scenes"]["baseline"]["scene_000"];
-        let rows = scene["answers"].as_array().unwrap();
+        let scene = &vqa.scenes[&Lighting::Baseline]["scene_000"];
+        let rows = &scene.answers;
         assert_eq!(rows.len(), questions.questions.len());
-        assert!(rows.iter().all(|r| r["answered_by"] == "team"), "{rows:?}");
-        assert_eq!(rows[0]["correct"], false);
-        assert_eq!(scene["correct"].as_u64().unwrap() as usize, questions.questions.len() - 1);
-        let other = &vqa["scenes"]["camera"]["scene_000"]["answers"];
-        assert!(other.as_array().unwrap().iter().all(|r| r["answered_by"] == "symbolic"), "other lightings are answered from the graph");
+        assert!(rows.iter().all(|r| r.answered_by == AnsweredBy::Team), "{rows:?}");
+        assert!(!rows[0].correct);
+        assert_eq!(scene.correct as usize, questions.questions.len() - 1);
+        let other = &vqa.scenes[&Lighting::Camera]["scene_000"].answers;
+        assert!(other.iter().all(|r| r.answered_by == AnsweredBy::Symbolic), "other lightings are answered from the graph");
     }
 }

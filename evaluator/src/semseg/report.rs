@@ -1,20 +1,47 @@
 //! Dataset-level tables: one row per scene, then `overall_mean` (the mean of the
 //! scene rows) and `overall` (the metrics of the pooled matrix), as `metrics.csv`.
 
+use serde::{Deserialize, Serialize};
+
 use super::confusion::ConfusionMatrix;
 use super::metrics::SegmentationMetrics;
 use crate::csv_writer::{CsvWriter, LineEnd};
 use crate::numeric::{nan_skipping_mean, python_repr};
+use crate::scores::Metric;
 
-/// The three headline numbers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The three headline numbers. In JSON an undefined (NaN) metric is `null`, and `null`
+/// reads back as NaN; fields are in the order of their keys.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MetricTriple {
-    /// Mean IoU.
-    pub miou: f64,
     /// Frequency-weighted IoU.
+    #[serde(with = "nan_as_null")]
     pub fmiou: f64,
     /// Mean accuracy (recall).
+    #[serde(with = "nan_as_null")]
     pub macc: f64,
+    /// Mean IoU.
+    #[serde(with = "nan_as_null")]
+    pub miou: f64,
+}
+
+impl Default for MetricTriple {
+    /// Every metric undefined.
+    fn default() -> Self {
+        Self { fmiou: f64::NAN, macc: f64::NAN, miou: f64::NAN }
+    }
+}
+
+/// A metric as JSON: a number, or `null` where it is undefined.
+mod nan_as_null {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() { s.serialize_f64(*v) } else { s.serialize_none() }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
 }
 
 impl From<&SegmentationMetrics> for MetricTriple {
@@ -24,6 +51,20 @@ impl From<&SegmentationMetrics> for MetricTriple {
 }
 
 impl MetricTriple {
+    /// The value of `metric`, NaN where undefined.
+    pub fn get(&self, metric: Metric) -> f64 {
+        match metric {
+            Metric::Miou => self.miou,
+            Metric::Fmiou => self.fmiou,
+            Metric::Macc => self.macc,
+        }
+    }
+
+    /// The value of `metric` where it is defined (finite).
+    pub fn defined(&self, metric: Metric) -> Option<f64> {
+        Some(self.get(metric)).filter(|v| v.is_finite())
+    }
+
     /// The relative change of each metric against `baseline`: (self − baseline) / baseline.
     pub fn relative_change(&self, baseline: &MetricTriple) -> MetricTriple {
         let change = |v: f64, b: f64| (v - b) / b;

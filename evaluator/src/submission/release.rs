@@ -8,6 +8,7 @@ use serde::Deserialize;
 
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
+use crate::scores::{Lighting, Regime};
 
 /// Folder of a release directory holding the private ground truth, one folder per scene.
 pub const GROUND_TRUTH_DIR: &str = "ground_truth";
@@ -17,8 +18,8 @@ pub const GROUND_TRUTH_DIR: &str = "ground_truth";
 pub struct ReleaseScene {
     /// Scene id (`scene_000`).
     pub id: String,
-    /// `furniture` or `manipuland`.
-    pub subset: String,
+    /// The subset (prompt regime) it belongs to.
+    pub subset: Regime,
 }
 
 /// The facts of a release that validation and scoring need.
@@ -31,7 +32,7 @@ pub struct ReleaseIndex {
     /// Its scenes in manifest order.
     pub scenes: Vec<ReleaseScene>,
     /// Its lightings in manifest order.
-    pub lightings: Vec<String>,
+    pub lightings: Vec<Lighting>,
     /// The release's classes (`classes.json`).
     pub classes: ClassList,
     /// Frames of each scene's sequence (in the first lighting), from the manifest.
@@ -42,7 +43,7 @@ pub struct ReleaseIndex {
 struct ManifestFields {
     version: String,
     scenes: Vec<ReleaseScene>,
-    lightings: Vec<String>,
+    lightings: Vec<Lighting>,
     #[serde(default)]
     files: Vec<ManifestFile>,
 }
@@ -67,7 +68,7 @@ impl ReleaseIndex {
             let mut parts = file.path.split('/');
             if let (Some("sequences"), Some(lighting), Some(scene), Some("results"), Some(name)) =
                 (parts.next(), parts.next(), parts.next(), parts.next(), parts.next())
-                && lighting == fields.lightings[0]
+                && lighting == fields.lightings[0].name()
                 && name.starts_with("frame")
             {
                 *frames.entry(scene.to_string()).or_default() += 1;
@@ -82,7 +83,7 @@ impl ReleaseIndex {
     pub fn max_map_points(&self) -> u64 {
         let mut most = 0u64;
         for (scene, &count) in &self.frames {
-            let camera = self.root.join("sequences").join(&self.lightings[0]).join(scene).join("camera_params.yaml");
+            let camera = self.root.join("sequences").join(self.lightings[0].name()).join(scene).join("camera_params.yaml");
             let Ok(camera) = crate::formats::camera::CameraParams::read(&camera) else { return u64::MAX };
             most = most.max(count.saturating_mul(camera.image_width as u64 * camera.image_height as u64));
         }

@@ -4,37 +4,16 @@
 
 use std::collections::BTreeMap;
 
-use serde_json::{Map, Value, json};
-
 use super::release::ReleaseIndex;
 use super::validate::{SubmissionLimits, ValidSubmission};
 use crate::EVALUATOR_VERSION;
 use crate::error::{InputError, Result};
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
+use crate::scores::{Lighting, LightingScores, Regime, RelativeChange, Scores, SubsetScores};
 use crate::semseg::confusion::ConfusionMatrix;
 use crate::semseg::report::{MetricTriple, MetricsTable};
 use crate::semseg::score_scene;
-
-/// The lighting other lightings are compared against.
-pub const BASELINE_LIGHTING: &str = "baseline";
-
-/// A metric as JSON: a number, or null where it is undefined (NaN).
-fn number(v: f64) -> Value {
-    if v.is_finite() { json!(v) } else { Value::Null }
-}
-
-/// `{"miou", "fmiou", "macc"}`.
-pub fn triple_json(t: MetricTriple) -> Value {
-    json!({"miou": number(t.miou), "fmiou": number(t.fmiou), "macc": number(t.macc)})
-}
-
-fn aggregates(table: &MetricsTable) -> Map<String, Value> {
-    let mut out = Map::new();
-    out.insert("overall".into(), triple_json((&table.overall).into()));
-    out.insert("overall_mean".into(), triple_json(table.overall_mean));
-    out
-}
 
 /// Score `submission` against the ground truth in `release`; `progress` hears of each
 /// (lighting, scene) done and the number in all.
@@ -46,14 +25,14 @@ pub fn score_submission(
     limits: SubmissionLimits,
     open: crate::vqa::score::OpenBackends,
     progress: &dyn Fn(usize, usize),
-) -> Result<Value> {
+) -> Result<Scores> {
     if !release.has_ground_truth() {
         return Err(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against"));
     }
     let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
     let maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     let mut ground_truth: BTreeMap<&str, (GroundTruth, crate::formats::classes::ClassList)> = BTreeMap::new();
-    let mut by_lighting: BTreeMap<&str, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
+    let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
         if !ground_truth.contains_key(entry.scene.as_str()) {
             let classes = release.scene_classes(&entry.scene)?;
@@ -63,52 +42,55 @@ pub fn score_submission(
         let (gt, classes) = &ground_truth[entry.scene.as_str()];
         let map = PredictedMap::read(map_path, limits.arrays)?;
         let scored = score_scene(gt, &map, classes, text.as_ref())?;
-        by_lighting.entry(entry.lighting.as_str()).or_default().push((entry.scene.clone(), scored.confusion));
+        by_lighting.entry(entry.lighting).or_default().push((entry.scene.clone(), scored.confusion));
         progress(done + 1, maps.len());
     }
 
-    let mut semseg = Map::new();
-    let mut tables: BTreeMap<&str, MetricsTable> = BTreeMap::new();
+    let mut semseg = BTreeMap::new();
+    let mut tables: BTreeMap<Lighting, MetricsTable> = BTreeMap::new();
     for (lighting, scenes) in by_lighting {
-        let mut subsets = Map::new();
-        for subset in ["furniture", "manipuland"] {
+        let mut subsets = BTreeMap::new();
+        for subset in Regime::ALL {
             let members: Vec<(String, ConfusionMatrix)> =
                 scenes.iter().filter(|(s, _)| release.scene(s).is_some_and(|r| r.subset == subset)).map(|(s, m)| (s.clone(), m.clone())).collect();
             if !members.is_empty() {
                 let table = MetricsTable::from_scenes(members);
-                let mut value = aggregates(&table);
-                value.insert("scenes".into(), json!(table.scenes.len()));
-                subsets.insert(subset.into(), Value::Object(value));
+                subsets.insert(subset, SubsetScores { overall: (&table.overall).into(), overall_mean: table.overall_mean, scenes: table.scenes.len() });
             }
         }
         let table = MetricsTable::from_scenes(scenes);
-        let mut value = aggregates(&table);
-        value.insert("scenes".into(), Value::Object(table.scenes.iter().map(|(s, m)| (s.clone(), triple_json(m.into()))).collect()));
-        value.insert("subsets".into(), Value::Object(subsets));
-        semseg.insert(lighting.to_string(), Value::Object(value));
+        semseg.insert(
+            lighting,
+            LightingScores {
+                overall: (&table.overall).into(),
+                overall_mean: table.overall_mean,
+                scenes: table.scenes.iter().map(|(s, m)| (s.clone(), m.into())).collect(),
+                subsets,
+            },
+        );
         tables.insert(lighting, table);
     }
 
-    let mut relative_change = Map::new();
-    if let Some(base) = tables.get(BASELINE_LIGHTING) {
+    let mut relative_change = BTreeMap::new();
+    if let Some(base) = tables.get(&Lighting::BASELINE) {
         for (lighting, table) in &tables {
             relative_change.insert(
-                lighting.to_string(),
-                json!({
-                    "overall": triple_json(MetricTriple::from(&table.overall).relative_change(&(&base.overall).into())),
-                    "overall_mean": triple_json(table.overall_mean.relative_change(&base.overall_mean)),
-                }),
+                *lighting,
+                RelativeChange {
+                    overall: MetricTriple::from(&table.overall).relative_change(&(&base.overall).into()),
+                    overall_mean: table.overall_mean.relative_change(&base.overall_mean),
+                },
             );
         }
     }
     let vqa = crate::vqa::score::score_vqa(submission, release, open)?;
-    Ok(json!({
-        "release": release.version,
-        "evaluator_version": EVALUATOR_VERSION,
-        "complete": submission.complete,
-        "missing_maps": submission.missing_maps,
-        "semseg": semseg,
-        "relative_change": relative_change,
-        "vqa": vqa,
-    }))
+    Ok(Scores {
+        complete: submission.complete,
+        evaluator_version: EVALUATOR_VERSION.to_string(),
+        missing_maps: submission.missing_maps.clone(),
+        relative_change,
+        release: release.version.clone(),
+        semseg,
+        vqa,
+    })
 }

@@ -109,7 +109,7 @@ struct SubmissionFile {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct SceneEntry {
     /// Lighting label.
-    pub lighting: String,
+    pub lighting: crate::scores::Lighting,
     /// Scene id.
     pub scene: String,
     /// `maps/<lighting>/<scene>.npz`, when present.
@@ -334,7 +334,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         None
     };
 
-    let mut entries: BTreeMap<(String, String), SceneEntry> = BTreeMap::new();
+    let mut entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry> = BTreeMap::new();
     let mut ground_truth: BTreeMap<String, Option<GroundTruth>> = BTreeMap::new();
     let mut points = 0u64;
     for name in &files {
@@ -360,23 +360,23 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
             problems.push(InputError::new(name.as_str(), "(path)", format!("expected {kind}/<lighting>/<scene>.{extension}")));
             continue;
         };
-        let lighting = parts[1];
-        if !release.lightings.iter().any(|l| l == lighting) {
+        let Some(lighting) = release.lightings.iter().copied().find(|l| l.name() == parts[1]) else {
+            let known: Vec<&str> = release.lightings.iter().map(|l| l.name()).collect();
             problems.push(InputError::new(
                 name.as_str(),
                 "(path)",
-                format!("unknown lighting '{lighting}'; release {} has {}", release.version, release.lightings.join(", ")),
+                format!("unknown lighting '{}'; release {} has {}", parts[1], release.version, known.join(", ")),
             ));
             continue;
-        }
+        };
         if release.scene(scene).is_none() {
             let known: Vec<&str> = release.scenes.iter().map(|s| s.id.as_str()).collect();
             problems.push(InputError::new(name.as_str(), "(path)", format!("unknown scene '{scene}'; release {} has {}", release.version, known.join(", "))));
             continue;
         }
         let path = root.join(name);
-        let entry = entries.entry((lighting.to_string(), scene.to_string())).or_insert_with(|| SceneEntry {
-            lighting: lighting.to_string(),
+        let entry = entries.entry((lighting, scene.to_string())).or_insert_with(|| SceneEntry {
+            lighting,
             scene: scene.to_string(),
             map: None,
             graph: None,
@@ -440,7 +440,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         .lightings
         .iter()
         .flat_map(|l| release.scenes.iter().map(move |s| (l, s)))
-        .filter(|(l, s)| !entries.get(&((*l).clone(), s.id.clone())).is_some_and(|e| e.map.is_some()))
+        .filter(|(l, s)| !entries.get(&(**l, s.id.clone())).is_some_and(|e| e.map.is_some()))
         .map(|(l, s)| format!("{l}/{}", s.id))
         .collect();
     Ok(ValidSubmission {

@@ -5,31 +5,16 @@
 
 use std::collections::BTreeMap;
 
-use serde::Serialize;
-use serde_json::{Value, json};
-
-use super::{is_prompt_grounded, table_group};
+use crate::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, QuestionSetScores, Regime, SetsScores, VqaCell};
 
 /// One judged question of a submission.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct JudgedQuestion {
     pub scene: String,
-    pub subset: String,
-    pub lighting: String,
+    pub subset: Regime,
+    pub lighting: Lighting,
     pub category: String,
     pub correct: bool,
-}
-
-/// A pooled accuracy.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Accuracy {
-    pub correct: u64,
-    pub total: u64,
-    /// correct / total; absent without questions.
-    pub accuracy: Option<f64>,
-    /// 95 % bootstrap interval over scenes; absent with fewer than two scenes.
-    pub ci95: Option<[f64; 2]>,
-    pub scenes: usize,
 }
 
 const ROUNDS: usize = 1000;
@@ -83,56 +68,55 @@ pub fn pooled<'a>(items: impl IntoIterator<Item = &'a JudgedQuestion>) -> Accura
         estimates.sort_by(f64::total_cmp);
         [percentile(&estimates, 2.5), percentile(&estimates, 97.5)]
     });
-    Accuracy { correct, total, accuracy: (total > 0).then(|| correct as f64 / total as f64), ci95, scenes: counts.len() }
+    Accuracy { accuracy: (total > 0).then(|| correct as f64 / total as f64), ci95, correct, scenes: counts.len(), total }
 }
 
 /// One question set (prompt-grounded or standard): overall, per table group, per category.
-fn question_set(items: &[&JudgedQuestion]) -> Value {
-    let mut groups: BTreeMap<&str, Vec<&JudgedQuestion>> = BTreeMap::new();
+fn question_set(items: &[&JudgedQuestion]) -> QuestionSetScores {
+    let mut groups: BTreeMap<QuestionGroup, Vec<&JudgedQuestion>> = BTreeMap::new();
     let mut categories: BTreeMap<&str, Vec<&JudgedQuestion>> = BTreeMap::new();
     for item in items {
-        if let Some(group) = table_group(&item.category) {
+        if let Some(group) = QuestionGroup::of_category(&item.category) {
             groups.entry(group).or_default().push(item);
         }
         categories.entry(item.category.as_str()).or_default().push(item);
     }
-    json!({
-        "overall": pooled(items.iter().copied()),
-        "groups": groups.iter().map(|(g, v)| (g.to_string(), json!(pooled(v.iter().copied())))).collect::<serde_json::Map<_, _>>(),
-        "categories": categories.iter().map(|(c, v)| (c.to_string(), json!(pooled(v.iter().copied())))).collect::<serde_json::Map<_, _>>(),
-    })
+    QuestionSetScores {
+        categories: categories.iter().map(|(c, v)| (c.to_string(), pooled(v.iter().copied()))).collect(),
+        groups: groups.iter().map(|(g, v)| (*g, pooled(v.iter().copied()))).collect(),
+        overall: pooled(items.iter().copied()),
+    }
 }
 
 /// Both question sets of `items`.
-fn both_sets(items: &[&JudgedQuestion]) -> Value {
-    let (prompt, standard): (Vec<&JudgedQuestion>, Vec<&JudgedQuestion>) = items.iter().partition(|q| is_prompt_grounded(&q.category));
-    json!({"overall": pooled(items.iter().copied()), "prompt_grounded": question_set(&prompt), "standard": question_set(&standard)})
+fn both_sets(items: &[&JudgedQuestion]) -> SetsScores {
+    let (prompt, standard): (Vec<&JudgedQuestion>, Vec<&JudgedQuestion>) =
+        items.iter().partition(|q| QuestionSet::of_category(&q.category) == QuestionSet::PromptGrounded);
+    SetsScores { overall: pooled(items.iter().copied()), prompt_grounded: question_set(&prompt), standard: question_set(&standard) }
+}
+
+/// Both question sets over `chosen`, and per subset (every subset, with or without questions).
+fn cell(chosen: &[&JudgedQuestion]) -> VqaCell {
+    let SetsScores { overall, prompt_grounded, standard } = both_sets(chosen);
+    let subsets = Regime::ALL
+        .iter()
+        .map(|s| {
+            let members: Vec<&JudgedQuestion> = chosen.iter().copied().filter(|q| q.subset == *s).collect();
+            (*s, both_sets(&members))
+        })
+        .collect();
+    VqaCell { overall, prompt_grounded, standard, subsets }
 }
 
 /// The VQA summary of a submission: per lighting (and over all lightings) both question
 /// sets, overall and per subset — the cells of the paper's Tables II and III.
-pub fn summarize(items: &[JudgedQuestion], subsets: &[&str]) -> Value {
-    let mut lightings: BTreeMap<&str, Vec<&JudgedQuestion>> = BTreeMap::new();
+pub fn summarize(items: &[JudgedQuestion]) -> (BTreeMap<Lighting, VqaCell>, VqaCell) {
+    let mut lightings: BTreeMap<Lighting, Vec<&JudgedQuestion>> = BTreeMap::new();
     for item in items {
-        lightings.entry(item.lighting.as_str()).or_default().push(item);
+        lightings.entry(item.lighting).or_default().push(item);
     }
-    let with_subsets = |chosen: &[&JudgedQuestion]| {
-        let mut value = both_sets(chosen);
-        value["subsets"] = subsets
-            .iter()
-            .map(|s| {
-                let members: Vec<&JudgedQuestion> = chosen.iter().copied().filter(|q| q.subset == *s).collect();
-                (s.to_string(), both_sets(&members))
-            })
-            .collect::<serde_json::Map<_, _>>()
-            .into();
-        value
-    };
     let all: Vec<&JudgedQuestion> = items.iter().collect();
-    json!({
-        "lightings": lightings.iter().map(|(l, v)| (l.to_string(), with_subsets(v))).collect::<serde_json::Map<_, _>>(),
-        "all_lightings": with_subsets(&all),
-    })
+    (lightings.iter().map(|(l, v)| (*l, cell(v))).collect(), cell(&all))
 }
 
 #[cfg(test)]
@@ -140,7 +124,7 @@ mod tests {
     use super::*;
 
     fn q(scene: &str, category: &str, correct: bool) -> JudgedQuestion {
-        JudgedQuestion { scene: scene.into(), subset: "furniture".into(), lighting: "baseline".into(), category: category.into(), correct }
+        JudgedQuestion { scene: scene.into(), subset: Regime::Furniture, lighting: Lighting::Baseline, category: category.into(), correct }
     }
 
     #[test]
@@ -162,11 +146,11 @@ mod tests {
             q("a", "PromptGT-Measurement", true),
             q("a", "Object Relations - Spatial", true),
         ];
-        let summary = summarize(&items, &["furniture", "manipuland"]);
-        let prompt = &summary["lightings"]["baseline"]["prompt_grounded"];
-        assert_eq!(prompt["groups"]["Relations"]["accuracy"], 0.5);
-        assert_eq!(prompt["groups"]["Measurements"]["accuracy"], 1.0);
-        assert_eq!(summary["lightings"]["baseline"]["standard"]["groups"]["Relations"]["total"], 1);
-        assert_eq!(summary["all_lightings"]["subsets"]["manipuland"]["overall"]["total"], 0);
+        let (lightings, all) = summarize(&items);
+        let prompt = &lightings[&Lighting::Baseline].prompt_grounded;
+        assert_eq!(prompt.groups[&QuestionGroup::Relations].accuracy, Some(0.5));
+        assert_eq!(prompt.groups[&QuestionGroup::Measurements].accuracy, Some(1.0));
+        assert_eq!(lightings[&Lighting::Baseline].standard.groups[&QuestionGroup::Relations].total, 1);
+        assert_eq!(all.subsets[&Regime::Manipuland].overall.total, 0);
     }
 }

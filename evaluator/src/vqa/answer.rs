@@ -20,8 +20,8 @@ pub const COLOURS: [&str; 12] = ["black", "white", "grey", "gray", "red", "orang
 /// What the answerer says when the graph cannot answer.
 pub const NO_ANSWER: &str = "No answer";
 
-/// Who produced an answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+/// Who produced an answer. Ordered by name, as the keys of a score document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum AnsweredBy {
     /// The team, in `answers/`.
@@ -32,6 +32,30 @@ pub enum AnsweredBy {
     Llm,
     /// Nobody (no graph, no form, no LLM): counted as wrong.
     None,
+}
+
+impl AnsweredBy {
+    /// The name in score documents.
+    pub fn name(self) -> &'static str {
+        match self {
+            AnsweredBy::Team => "team",
+            AnsweredBy::Symbolic => "symbolic",
+            AnsweredBy::Llm => "llm",
+            AnsweredBy::None => "none",
+        }
+    }
+}
+
+impl Ord for AnsweredBy {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.name().cmp(other.name())
+    }
+}
+
+impl PartialOrd for AnsweredBy {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
 }
 
 /// A scene graph with every node's class resolved once.

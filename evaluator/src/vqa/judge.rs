@@ -11,8 +11,8 @@ use super::QuestionForm;
 use super::graph::{mentions_class, names_class};
 use super::text::{is_number, is_yes_no, normalise};
 
-/// Who decided a verdict.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+/// Who decided a verdict. Ordered by name, as the keys of a score document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JudgedBy {
     /// Yes/no or number, by exact normalised equality.
@@ -36,6 +36,18 @@ impl JudgedBy {
             JudgedBy::Llm => "llm",
             JudgedBy::None => "none",
         }
+    }
+}
+
+impl Ord for JudgedBy {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.name().cmp(other.name())
+    }
+}
+
+impl PartialOrd for JudgedBy {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
     }
 }
 

@@ -31,19 +31,7 @@ pub const PROMPT_CATEGORIES: [&str; 3] = ["PromptGT-Existence", "PromptGT-Measur
 
 /// Whether `category` is prompt-grounded.
 pub fn is_prompt_grounded(category: &str) -> bool {
-    category.starts_with("PromptGT-")
-}
-
-/// The group a category is reported under in the paper's tables: `Measurements`
-/// (PromptGT-Measurement, Measurement) or `Relations` (PromptGT-Relations and
-/// -Existence, as OSMa-Bench++ merges them; Object Relations - Spatial and - Functional);
-/// `None` for the categories the tables leave out.
-pub fn table_group(category: &str) -> Option<&'static str> {
-    match category {
-        "PromptGT-Measurement" | "Measurement" => Some("Measurements"),
-        "PromptGT-Relations" | "PromptGT-Existence" | "Object Relations - Spatial" | "Object Relations - Functional" => Some("Relations"),
-        _ => None,
-    }
+    crate::scores::QuestionSet::of_category(category) == crate::scores::QuestionSet::PromptGrounded
 }
 
 /// A spatial relation between two objects, as prompts state them.

@@ -6,13 +6,14 @@
 
 use std::collections::BTreeMap;
 
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::aggregate::{JudgedQuestion, summarize};
 use super::answer::{AnsweredBy, ClassifiedGraph, NO_ANSWER};
 use super::graph::SceneGraph;
 use super::judge::{JudgedBy, OpenJudge, Pending, Verdict, judge_without_llm};
 use crate::error::{InputError, Result};
+use crate::scores::{AnswerRow, Lighting, SceneAnswers, VqaScores};
 use crate::submission::release::ReleaseIndex;
 use crate::submission::validate::ValidSubmission;
 
@@ -44,22 +45,22 @@ fn team_answers(path: &std::path::Path, name: &str) -> Result<BTreeMap<String, V
 
 /// Score the VQA of `submission`; `None` when the release has no questions or the
 /// submission no graphs or answers.
-pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> Result<Option<Value>> {
+pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> Result<Option<VqaScores>> {
     let classes = release.class_names();
     let text =
         submission.text_features.as_deref().map(|p| crate::formats::map::TextFeatures::read(p, crate::formats::npy::ReadLimits::default())).transpose()?;
     let vocabulary = text.as_ref().map(|t| super::graph::FeatureVocabulary::new(t, &release.classes));
     let mut judged = Vec::new();
-    let mut answered_by: BTreeMap<&'static str, u64> = BTreeMap::new();
-    let mut judged_by: BTreeMap<&'static str, u64> = BTreeMap::new();
-    let mut per_scene: BTreeMap<String, serde_json::Map<String, Value>> = BTreeMap::new();
+    let mut answered_by: BTreeMap<AnsweredBy, u64> = BTreeMap::new();
+    let mut judged_by: BTreeMap<JudgedBy, u64> = BTreeMap::new();
+    let mut per_scene: BTreeMap<Lighting, BTreeMap<String, SceneAnswers>> = BTreeMap::new();
     let mut questions_cache = BTreeMap::new();
     for entry in submission.entries.iter().filter(|e| e.graph.is_some() || e.answers.is_some()) {
         if !questions_cache.contains_key(&entry.scene) {
             questions_cache.insert(entry.scene.clone(), release.answered_questions(&entry.scene)?);
         }
         let Some(questions) = &questions_cache[&entry.scene] else { continue };
-        let subset = release.scene(&entry.scene).map(|s| s.subset.clone()).unwrap_or_default();
+        let Some(subset) = release.scene(&entry.scene).map(|s| s.subset) else { continue };
         let team = match &entry.answers {
             Some(path) => team_answers(path, &format!("answers/{}/{}.json", entry.lighting, entry.scene))?,
             None => BTreeMap::new(),
@@ -130,36 +131,16 @@ pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: Ope
             let correct = a.verdict.is_some_and(|v| v.correct);
             right += correct as u64;
             let by = a.verdict.map_or(JudgedBy::None, |v| v.by);
-            *answered_by.entry(answered_name(a.by)).or_default() += 1;
-            *judged_by.entry(by.name()).or_default() += 1;
-            judged.push(JudgedQuestion {
-                scene: entry.scene.clone(),
-                subset: subset.clone(),
-                lighting: entry.lighting.clone(),
-                category: q.category.clone(),
-                correct,
-            });
-            rows.push(
-                json!({"id": a.id, "category": q.category, "answer": a.answer, "answered_by": answered_name(a.by), "correct": correct, "judged_by": by.name()}),
-            );
+            *answered_by.entry(a.by).or_default() += 1;
+            *judged_by.entry(by).or_default() += 1;
+            judged.push(JudgedQuestion { scene: entry.scene.clone(), subset, lighting: entry.lighting, category: q.category.clone(), correct });
+            rows.push(AnswerRow { answer: a.answer.clone(), answered_by: a.by, category: q.category.clone(), correct, id: a.id.clone(), judged_by: by });
         }
-        per_scene.entry(entry.lighting.clone()).or_default().insert(entry.scene.clone(), json!({"correct": right, "total": total, "answers": rows}));
+        per_scene.entry(entry.lighting).or_default().insert(entry.scene.clone(), SceneAnswers { answers: rows, correct: right, total });
     }
     if judged.is_empty() {
         return Ok(None);
     }
-    let mut summary = summarize(&judged, &["furniture", "manipuland"]);
-    summary["answered_by"] = json!(answered_by);
-    summary["judged_by"] = json!(judged_by);
-    summary["scenes"] = json!(per_scene);
-    Ok(Some(summary))
-}
-
-fn answered_name(by: AnsweredBy) -> &'static str {
-    match by {
-        AnsweredBy::Team => "team",
-        AnsweredBy::Symbolic => "symbolic",
-        AnsweredBy::Llm => "llm",
-        AnsweredBy::None => "none",
-    }
+    let (lightings, all_lightings) = summarize(&judged);
+    Ok(Some(VqaScores { all_lightings, answered_by, judged_by, lightings, scenes: per_scene }))
 }

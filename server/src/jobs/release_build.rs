@@ -18,18 +18,12 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use sha2::{Digest, Sha256};
 
-use super::{JobContext, JobError};
+use super::{Job, JobContext, JobError};
 use crate::clock::{new_id, now_ms};
 use crate::intake::{Scratch, Upload};
 use crate::releases::{Imported, import_release};
 use crate::state::AppState;
-use crate::store::{JobRecord, NewJob, StoreError, Team};
-
-/// Kind of the job that builds a release.
-pub const BUILD_JOB: &str = "build_release";
-
-/// Kind of the jobs that render one sequence (scene × lighting) of a release build.
-pub const RENDER_JOB: &str = "render_sequence";
+use crate::store::{JobRecord, JobState, StoreError, SubmissionState, Team};
 
 /// How long a build job waits between looks at its render jobs.
 const WAIT_FOR_RENDERING: std::time::Duration = std::time::Duration::from_secs(2);
@@ -40,9 +34,9 @@ pub const DEMO_CONFIG: &str = include_str!("../../../configs/release-demo.toml")
 /// Name of the team that owns the reference baselines.
 pub const BASELINE_TEAM: &str = "OSMa-Bench baselines";
 
-/// Parameters of a build job.
+/// Build the release a config describes (its `version` is the job's subject).
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct BuildRequest {
+pub struct BuildRelease {
     /// The release configuration (TOML, as configs/release-demo.toml).
     pub config: String,
     /// Publish the release when it is built (otherwise it stays a draft).
@@ -61,11 +55,35 @@ pub fn config_version(config: &str) -> Result<String, String> {
     Ok(version)
 }
 
-/// Parameters of a render job.
+impl Job for BuildRelease {
+    const KIND: &'static str = "build_release";
+
+    fn subject(&self) -> String {
+        config_version(&self.config).unwrap_or_else(|_| "(invalid config)".into())
+    }
+
+    async fn run(self, ctx: JobContext) -> Result<(), JobError> {
+        build(ctx, self).await
+    }
+}
+
+/// Render one sequence (scene × lighting) of a prepared release build.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-struct RenderRequest {
+pub struct RenderSequence {
     version: String,
     unit: SequenceUnit,
+}
+
+impl Job for RenderSequence {
+    const KIND: &'static str = "render_sequence";
+
+    fn subject(&self) -> String {
+        format!("{}/{}/{}", self.version, self.unit.scene, self.unit.lighting)
+    }
+
+    async fn run(self, ctx: JobContext) -> Result<(), JobError> {
+        render(ctx, self).await
+    }
 }
 
 /// The build folder of `version`: (its config, the release folder).
@@ -91,7 +109,8 @@ async fn blocking_stage<T: Send + 'static>(
         };
         work(&progress).map_err(|e| JobError::Permanent(format!("release build: {e}")))
     })
-    .await?
+    .await
+    .map_err(|e| JobError::Retryable(format!("the {stage} stage ended: {e}")))?
 }
 
 /// Where the rendering of a build stands.
@@ -118,18 +137,11 @@ async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path,
         if rendered {
             continue;
         }
-        let subject = format!("{version}/{}/{}", unit.scene, unit.lighting);
-        let job = NewJob {
-            id: new_id("job"),
-            kind: RENDER_JOB.into(),
-            subject: subject.clone(),
-            payload: serde_json::to_string(&RenderRequest { version: version.to_string(), unit }).expect("json"),
-            max_attempts: ctx.state.settings.job_max_attempts,
-            created_at: now_ms(),
-        };
-        match ctx.state.store.enqueue(&job).await {
+        let job = RenderSequence { version: version.to_string(), unit };
+        let subject = job.subject();
+        match super::enqueue(&ctx.state, &job).await {
             // A live job for it (left by an earlier build attempt) is followed instead.
-            Ok(()) | Err(StoreError::Conflict(_)) => subjects.push(subject),
+            Ok(_) | Err(StoreError::Conflict(_)) => subjects.push(subject),
             Err(e) => return Err(e.into()),
         }
     }
@@ -138,7 +150,7 @@ async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path,
 
 /// Where the render jobs of `subjects` stand; a failed one fails the build.
 async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Result<Rendering, JobError> {
-    let parts = ctx.state.store.jobs_of(RENDER_JOB, &format!("{version}/"), 0).await?;
+    let parts = ctx.state.store.jobs_of(RenderSequence::KIND, &format!("{version}/"), 0).await?;
     let mut latest: BTreeMap<&str, &JobRecord> = BTreeMap::new();
     for part in &parts {
         latest.insert(part.subject.as_str(), part); // ordered by creation within a subject
@@ -146,8 +158,8 @@ async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Resu
     let (mut done, mut running) = (0, Vec::new());
     for subject in subjects {
         match latest.get(subject.as_str()) {
-            Some(job) if job.state == "succeeded" => done += 1,
-            Some(job) if job.state == "queued" || job.state == "running" => running.push(subject.as_str()),
+            Some(job) if job.state == JobState::Succeeded => done += 1,
+            Some(job) if matches!(job.state, JobState::Queued | JobState::Running) => running.push(subject.as_str()),
             Some(job) => {
                 let why = job.error.as_deref().unwrap_or("cancelled");
                 return Err(JobError::Permanent(format!("rendering {subject} failed: {why}")));
@@ -170,13 +182,12 @@ async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Resu
     Ok(Rendering::Running { done, total })
 }
 
-pub async fn run(ctx: JobContext) -> Result<(), JobError> {
-    let request: BuildRequest = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("payload: {e}")))?;
+async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
     let state = &ctx.state;
     let version = config_version(&request.config).map_err(JobError::Permanent)?;
     let (config_path, out) = build_paths(state, &version);
-    std::fs::create_dir_all(config_path.parent().expect("in the build folder"))?;
-    std::fs::write(&config_path, &request.config)?;
+    std::fs::create_dir_all(config_path.parent().expect("in the build folder")).map_err(JobError::retryable)?;
+    std::fs::write(&config_path, &request.config).map_err(JobError::retryable)?;
 
     let already = matches!(state.store.release(&version).await, Ok(_));
     if !already {
@@ -208,7 +219,7 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     }
     state.leaderboard.invalidate();
     if request.baselines {
-        let release = crate::releases::release_dir(&state.blobs, &version)?;
+        let release = crate::releases::release_dir(&state.blobs, &version).map_err(JobError::retryable)?;
         let queued = queue_baselines(state, &version, &release).await?;
         ctx.progress(&json!({"stage": "baselines", "message": format!("{queued} baseline submissions queued for scoring")})).await;
     }
@@ -216,9 +227,8 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
     Ok(())
 }
 
-/// A `render_sequence` job: one scene under one lighting of a prepared build.
-pub async fn render(ctx: JobContext) -> Result<(), JobError> {
-    let request: RenderRequest = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("payload: {e}")))?;
+/// One scene under one lighting of a prepared build.
+async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError> {
     let (config_path, out) = build_paths(&ctx.state, &request.version);
     let blocking_ctx = ctx.clone();
     tokio::task::spawn_blocking(move || {
@@ -226,7 +236,8 @@ pub async fn render(ctx: JobContext) -> Result<(), JobError> {
         // A renderer can fail for passing reasons (an external command's timeout): retried.
         render_release_sequence(&config_path, &out, &request.unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
-    .await?
+    .await
+    .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))?
 }
 
 /// The team that owns the baselines (created on first use).
@@ -252,7 +263,7 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
     let mut queued = 0;
     for name in BASELINES {
         let method = format!("baseline-{name}");
-        if existing.iter().any(|s| s.release == version && s.method_name == method && s.state != "failed") {
+        if existing.iter().any(|s| s.release == version && s.method_name == method && s.state != SubmissionState::Failed) {
             continue;
         }
         let (dir, archive) = (Scratch(state.blobs.scratch("baseline")), Scratch(state.blobs.scratch("baseline-tar")));
@@ -260,16 +271,18 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         let (size, sha256) = tokio::task::spawn_blocking(move || -> Result<(u64, [u8; 32]), JobError> {
             write_baseline(name, &release, &dir_path).map_err(|e| JobError::Permanent(e.to_string()))?;
             pack_directory(&dir_path, &archive_path).map_err(|e| JobError::Permanent(e.to_string()))?;
-            let bytes = std::fs::read(&archive_path)?;
+            let bytes = std::fs::read(&archive_path).map_err(JobError::retryable)?;
             Ok((bytes.len() as u64, Sha256::digest(&bytes).into()))
         })
-        .await??;
+        .await
+        .map_err(JobError::retryable)??;
         let upload = Upload { path: archive.0.clone(), size, sha256, received_at: now_ms() };
         let unpack_to = Scratch(state.blobs.scratch("baseline-check"));
         let (state_for_check, upload_path, unpack_path, current) = (state.clone(), upload.path.clone(), unpack_to.0.clone(), version.to_string());
         let validating_at = now_ms();
         let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current), None))
-            .await?
+            .await
+            .map_err(JobError::retryable)?
             .map_err(|p| JobError::Permanent(format!("baseline {name}: {}", p.detail)))?;
         crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None, None).await.map_err(|p| JobError::Retryable(p.detail))?;
         queued += 1;

@@ -4,15 +4,39 @@
 
 use std::path::Path;
 
+use osmab_evaluator::InputError;
+use osmab_evaluator::scores::Scores;
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission, unpack, validate};
 use osmab_evaluator::vqa::score::OpenBackends;
-use osmab_evaluator::{EVALUATOR_VERSION, InputError};
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 
-use super::{JobContext, JobError};
+use super::{Job, JobContext, JobError};
 use crate::clock::now_ms;
 use crate::intake::Scratch;
 use crate::releases::release_dir;
+use crate::store::SubmissionState;
+
+/// Score submission `submission_id` (again, with `rescore`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ScoreSubmission {
+    pub submission_id: String,
+    /// Asked for by an admin after an earlier score.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub rescore: bool,
+}
+
+impl Job for ScoreSubmission {
+    const KIND: &'static str = "score_submission";
+
+    fn subject(&self) -> String {
+        self.submission_id.clone()
+    }
+
+    async fn run(self, ctx: JobContext) -> Result<(), JobError> {
+        score(ctx, &self.submission_id).await
+    }
+}
 
 /// A scoring error is the participant's when it is about a file of the submission (then
 /// it is shown relative to the submission); anything else (the release, the disk) is the
@@ -25,34 +49,35 @@ fn classify(e: InputError, unpacked: &Path) -> JobError {
     }
 }
 
-pub async fn run(ctx: JobContext) -> Result<(), JobError> {
+async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let state = &ctx.state;
-    let submission = state.store.submission(&ctx.job.subject).await?;
+    let submission = state.store.submission(submission_id).await?;
     // A later attempt says why: a failed one put the submission back in the queue with
     // its failure as the reason; one that left no reason was lost with its worker.
     let (attempt, of) = (ctx.job.attempts, ctx.job.max_attempts);
-    let reason = match (attempt, submission.state.as_str(), &submission.reason) {
+    let reason = match (attempt, submission.state, &submission.reason) {
         (1, _, _) => None,
-        (_, "queued", Some(_)) => Some(format!("attempt {attempt} of {of}")),
+        (_, SubmissionState::Queued, Some(_)) => Some(format!("attempt {attempt} of {of}")),
         _ => Some(format!("attempt {attempt} of {of}: the worker of the previous attempt stopped responding (its lease expired); scoring again")),
     };
-    if !state.store.set_submission_state(&submission.id, &["queued", "scoring"], "scoring", reason.as_deref(), now_ms()).await? {
+    let (from, to) = ([SubmissionState::Queued, SubmissionState::Scoring], SubmissionState::Scoring);
+    if !state.store.set_submission_state(&submission.id, &from, to, reason.as_deref(), now_ms()).await? {
         let now = state.store.submission(&submission.id).await?;
-        if now.state != "scoring" {
+        if now.state != SubmissionState::Scoring {
             tracing::info!(state = %now.state, "nothing to score: the submission left the queue");
             return Ok(());
         }
     }
-    let archive = state.blobs.path(&format!("submissions/{}/upload", submission.id))?;
+    let archive = state.blobs.path(&format!("submissions/{}/upload", submission.id)).map_err(JobError::retryable)?;
     if !archive.is_file() {
         return Err(JobError::Retryable(format!("the stored upload of {} is missing", submission.id)));
     }
-    let release = release_dir(&state.blobs, &submission.release)?;
+    let release = release_dir(&state.blobs, &submission.release).map_err(JobError::retryable)?;
     let unpack_to = Scratch(state.blobs.scratch("score"));
     let max_unpacked = state.settings.max_unpacked_bytes;
     let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
     let blocking_ctx = ctx.clone();
-    let body = tokio::task::spawn_blocking(move || -> Result<serde_json::Value, JobError> {
+    let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
         let root = unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
         unpack(&archive, &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
@@ -71,9 +96,9 @@ pub async fn run(ctx: JobContext) -> Result<(), JobError> {
         drop(unpack_to);
         scored
     })
-    .await??;
-    let recorded =
-        state.store.complete_scoring(&ctx.job.id, &ctx.owner, &submission.id, &submission.release, EVALUATOR_VERSION, &body.to_string(), now_ms()).await?;
+    .await
+    .map_err(|e| JobError::Retryable(format!("the scoring thread ended: {e}")))??;
+    let recorded = state.store.complete_scoring(&ctx.job.id, &ctx.owner, &submission.id, &scores, now_ms()).await?;
     if recorded {
         state.leaderboard.invalidate();
     } else {

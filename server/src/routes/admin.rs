@@ -11,11 +11,12 @@ use super::jobs::job_json;
 use super::{ApiJson, ApiPath};
 use crate::auth::{AdminCaller, issue_token};
 use crate::clock::{new_id, now_ms, rfc3339};
-use crate::intake::SCORE_JOB;
-use crate::jobs::release_build::{BUILD_JOB, BuildRequest, config_version};
+use crate::jobs::release_build::{BuildRelease, config_version};
+use crate::jobs::scoring::ScoreSubmission;
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{NewJob, StoreError, Team};
+use crate::store::SubmissionState;
+use crate::store::{StoreError, Team};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -157,14 +158,7 @@ pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJso
     if state.store.release(&version).await.is_ok() {
         return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
     }
-    let job = NewJob {
-        id: new_id("job"),
-        kind: BUILD_JOB.into(),
-        subject: version.clone(),
-        payload: serde_json::to_string(&BuildRequest { config, publish: body.publish, baselines: body.baselines }).expect("json"),
-        max_attempts: state.settings.job_max_attempts,
-        created_at: now_ms(),
-    };
+    let job = crate::jobs::new_job(&BuildRelease { config, publish: body.publish, baselines: body.baselines }, &state);
     match state.store.enqueue(&job).await {
         Ok(()) => {}
         Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("Release {version} is being built already."))),
@@ -196,18 +190,22 @@ pub async fn import_release(State(state): State<AppState>, _: AdminCaller, ApiJs
         crate::releases::Imported::Unchanged(v) => (StatusCode::OK, v),
     };
     let release = state.store.release(&version).await?;
-    Ok((status, axum::Json(super::releases::release_json(&release))).into_response())
+    Ok((status, axum::Json(super::releases::ReleaseSummary::from(&release))).into_response())
 }
 
 /// `POST /api/v1/admin/releases/{version}/publish`: freeze a draft into the current release.
-pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, ApiPath(version): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn publish_release(
+    State(state): State<AppState>,
+    _: AdminCaller,
+    ApiPath(version): ApiPath<String>,
+) -> ApiResult<axum::Json<super::releases::ReleaseSummary>> {
     match state.store.publish_release(&version, now_ms()).await {
         Ok(()) => {}
         Err(StoreError::NotFound) => return Err(Problem::not_found(format!("There is no release '{version}'."))),
         Err(e) => return Err(e.into()),
     }
     state.leaderboard.invalidate();
-    Ok(axum::Json(super::releases::release_json(&state.store.release(&version).await?)))
+    Ok(axum::Json(super::releases::ReleaseSummary::from(&state.store.release(&version).await?)))
 }
 
 /// `POST /api/v1/admin/submissions/{id}/rescore`: score again with this evaluator; a new
@@ -215,17 +213,20 @@ pub async fn publish_release(State(state): State<AppState>, _: AdminCaller, ApiP
 pub async fn rescore(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let s = state.store.submission(&id).await?;
     let now = now_ms();
-    let job = NewJob {
-        id: new_id("job"),
-        kind: SCORE_JOB.into(),
-        subject: id.clone(),
-        payload: json!({"submission_id": id, "rescore": true}).to_string(),
-        max_attempts: state.settings.job_max_attempts,
-        created_at: now,
-    };
+    let job = crate::jobs::new_job(&ScoreSubmission { submission_id: id.clone(), rescore: true }, &state);
     // Scored and failed submissions, and ones stuck without a live job (the jobs' unique
     // index refuses a second live one).
-    match state.store.requeue_submission(&id, &["scored", "failed", "queued", "scoring"], "re-scoring requested by an admin", &job, now).await {
+    match state
+        .store
+        .requeue_submission(
+            &id,
+            &[SubmissionState::Scored, SubmissionState::Failed, SubmissionState::Queued, SubmissionState::Scoring],
+            "re-scoring requested by an admin",
+            &job,
+            now,
+        )
+        .await
+    {
         Ok(true) => {}
         Ok(false) => return Err(Problem::conflict(format!("The submission is {}; it cannot be re-scored.", s.state))),
         Err(StoreError::Conflict(_)) => return Err(Problem::conflict("The submission has a queued or running scoring job already.")),

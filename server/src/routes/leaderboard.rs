@@ -5,13 +5,15 @@ use std::sync::Arc;
 use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use serde::Deserialize;
+use osmab_evaluator::scores::Lighting;
+use serde::{Deserialize, Serialize};
 
 use super::ApiQuery;
 use crate::leaderboard::Rendered;
+use crate::leaderboard::cache::BoardError;
+use crate::leaderboard::vqa::{TableThreeRow, TableTwoRow, table_three, table_three_csv, table_two, table_two_csv};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::StoreError;
 
 #[derive(Debug, Deserialize)]
 pub struct LeaderboardQuery {
@@ -21,31 +23,13 @@ pub struct LeaderboardQuery {
 
 /// The rendered leaderboard of `release` (the current one when `None`).
 pub async fn rendered(state: &AppState, release: Option<&str>) -> ApiResult<Arc<Rendered>> {
-    if let Some(board) = state.leaderboard.fresh(release) {
-        return Ok(board);
-    }
-    let generation = state.leaderboard.generation();
-    let record = match release {
-        Some(version) => state.store.release(version).await,
-        None => state.store.current_release().await,
-    };
-    let record = match record {
-        Ok(r) if r.state == "published" => r,
-        Ok(_) | Err(StoreError::NotFound) => {
-            return Err(match release {
-                Some(v) => Problem::not_found(format!("There is no published release '{v}'; see GET /api/v1/releases.")),
-                None => Problem::not_found("No release has been published yet; the demo release is built on first start and appears within a minute."),
-            });
+    state.leaderboard.board(&state.store, release).await.map_err(|e| match e {
+        BoardError::NotPublished(Some(v)) => Problem::not_found(format!("There is no published release '{v}'; see GET /api/v1/releases.")),
+        BoardError::NotPublished(None) => {
+            Problem::not_found("No release has been published yet; the demo release is built on first start and appears within a minute.")
         }
-        Err(e) => return Err(e.into()),
-    };
-    let manifest: serde_json::Value = serde_json::from_str(&record.manifest).unwrap_or_default();
-    let lightings: Vec<String> = manifest["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str().map(str::to_string)).collect();
-    let board = state.leaderboard.get(&state.store, &record.version, &lightings).await?;
-    if release.is_none() {
-        state.leaderboard.remember_current(&board, generation);
-    }
-    Ok(board)
+        BoardError::Store(e) => e.into(),
+    })
 }
 
 fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {
@@ -85,22 +69,35 @@ pub struct VqaQuery {
     pub table: Option<u8>,
 }
 
+/// The paper's VQA tables of a release (one or both).
+#[derive(Debug, Serialize)]
+pub struct VqaTables {
+    /// The release's lightings (Table II's columns); absent with Table III alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lightings: Option<Vec<Lighting>>,
+    pub release: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table2: Option<Vec<TableTwoRow>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table3: Option<Vec<TableThreeRow>>,
+}
+
 /// `GET /api/v1/leaderboard/vqa`: the paper's Table II and Table III shapes as JSON.
-pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<Response> {
+pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<axum::Json<VqaTables>> {
     let board = rendered(&state, query.release.as_deref()).await?;
     let board = &board.board;
-    let body = match query.table {
-        Some(2) => serde_json::json!({"release": board.release, "lightings": board.lightings, "table2": crate::leaderboard_vqa::table_two(board)}),
-        Some(3) => serde_json::json!({"release": board.release, "table3": crate::leaderboard_vqa::table_three(board)}),
-        None => serde_json::json!({
-            "release": board.release,
-            "lightings": board.lightings,
-            "table2": crate::leaderboard_vqa::table_two(board),
-            "table3": crate::leaderboard_vqa::table_three(board),
-        }),
+    let (two, three) = match query.table {
+        None => (true, true),
+        Some(2) => (true, false),
+        Some(3) => (false, true),
         Some(other) => return Err(Problem::bad_request("invalid_query", format!("table: expected 2 or 3, found {other}"))),
     };
-    Ok(axum::Json(body).into_response())
+    Ok(axum::Json(VqaTables {
+        lightings: two.then(|| board.lightings.clone()),
+        release: board.release.clone(),
+        table2: two.then(|| table_two(board)),
+        table3: three.then(|| table_three(board)),
+    }))
 }
 
 /// `GET /api/v1/leaderboard/vqa.csv?table=2|3`: one of the tables as CSV.
@@ -108,8 +105,8 @@ pub async fn vqa_table_csv(State(state): State<AppState>, ApiQuery(query): ApiQu
     let board = rendered(&state, query.release.as_deref()).await?;
     let board = &board.board;
     let text = match query.table {
-        Some(2) => crate::leaderboard_vqa::table_csv(&crate::leaderboard_vqa::table_two(board), &crate::leaderboard_vqa::table_two_columns(&board.lightings)),
-        Some(3) => crate::leaderboard_vqa::table_csv(&crate::leaderboard_vqa::table_three(board), &crate::leaderboard_vqa::TABLE_THREE_COLUMNS),
+        Some(2) => table_two_csv(&table_two(board), &board.lightings),
+        Some(3) => table_three_csv(&table_three(board)),
         _ => {
             return Err(Problem::bad_request(
                 "invalid_query",

@@ -8,8 +8,8 @@ mod jobs;
 mod leaderboard;
 mod openapi;
 mod pages;
-mod pages_vqa;
 mod releases;
+pub mod submission_view;
 mod submissions;
 
 use std::net::SocketAddr;

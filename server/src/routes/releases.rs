@@ -4,7 +4,8 @@
 use axum::extract::State;
 use axum::http::{HeaderMap, header};
 use axum::response::{IntoResponse, Response};
-use serde_json::{Value, json};
+use osmab_evaluator::scores::Lighting;
+use serde::{Deserialize, Serialize};
 
 use super::ApiPath;
 use super::files::serve_blob;
@@ -12,45 +13,80 @@ use crate::auth::Caller;
 use crate::problem::{ApiResult, Problem};
 use crate::releases::release_prefix;
 use crate::state::AppState;
-use crate::store::{ReleaseRecord, StoreError};
+use crate::store::{ReleaseRecord, ReleaseState, StoreError};
 
-/// The summary of a release in lists.
-pub fn release_json(r: &ReleaseRecord) -> Value {
-    let manifest: Value = serde_json::from_str(&r.manifest).unwrap_or(Value::Null);
-    json!({
-        "version": r.version,
-        "state": r.state,
-        "current": r.is_current,
-        "digest": r.digest,
-        "created": manifest["created"],
-        "scenes": manifest["scenes"].as_array().map(Vec::len).unwrap_or(0),
-        "lightings": manifest["lightings"],
-        "registered_at": crate::clock::rfc3339(r.created_at),
-        "published_at": r.published_at.map(crate::clock::rfc3339),
-        "manifest_url": format!("/api/v1/releases/{}/manifest.json", r.version),
-    })
+/// The summary of a release in lists (fields in the order of their keys).
+#[derive(Debug, Serialize)]
+pub struct ReleaseSummary {
+    /// When the release was built (from its manifest).
+    pub created: Option<String>,
+    /// Whether it is the current release.
+    pub current: bool,
+    pub digest: String,
+    /// Its lightings in manifest order.
+    pub lightings: Option<Vec<Lighting>>,
+    pub manifest_url: String,
+    pub published_at: Option<String>,
+    pub registered_at: String,
+    /// How many scenes it has.
+    pub scenes: usize,
+    pub state: ReleaseState,
+    pub version: String,
+}
+
+/// What the summary reads of a manifest.
+#[derive(Deserialize, Default)]
+struct ManifestHead {
+    created: Option<String>,
+    lightings: Option<Vec<Lighting>>,
+    #[serde(default)]
+    scenes: Vec<serde::de::IgnoredAny>,
+}
+
+impl From<&ReleaseRecord> for ReleaseSummary {
+    fn from(r: &ReleaseRecord) -> Self {
+        let manifest: ManifestHead = serde_json::from_str(&r.manifest).unwrap_or_default();
+        ReleaseSummary {
+            created: manifest.created,
+            current: r.is_current,
+            digest: r.digest.clone(),
+            lightings: manifest.lightings,
+            manifest_url: format!("/api/v1/releases/{}/manifest.json", r.version),
+            published_at: r.published_at.map(crate::clock::rfc3339),
+            registered_at: crate::clock::rfc3339(r.created_at),
+            scenes: manifest.scenes.len(),
+            state: r.state,
+            version: r.version.clone(),
+        }
+    }
 }
 
 /// A release the caller may see.
 pub async fn visible_release(state: &AppState, caller: &Caller, version: &str) -> ApiResult<ReleaseRecord> {
     match state.store.release(version).await {
-        Ok(r) if r.state == "published" || matches!(caller, Caller::Admin) => Ok(r),
+        Ok(r) if r.state == ReleaseState::Published || matches!(caller, Caller::Admin) => Ok(r),
         Ok(_) | Err(StoreError::NotFound) => Err(Problem::not_found(format!("There is no published release '{version}'; see GET /api/v1/releases."))),
         Err(e) => Err(e.into()),
     }
 }
 
 /// `GET /api/v1/releases`.
-pub async fn list(State(state): State<AppState>, caller: Caller) -> ApiResult<axum::Json<Value>> {
+pub async fn list(State(state): State<AppState>, caller: Caller) -> ApiResult<axum::Json<ReleaseList>> {
     let releases = state.store.releases().await?;
-    let visible: Vec<Value> = releases.iter().filter(|r| r.state == "published" || matches!(caller, Caller::Admin)).map(release_json).collect();
-    Ok(axum::Json(json!({"releases": visible})))
+    let visible = releases.iter().filter(|r| r.state == ReleaseState::Published || matches!(caller, Caller::Admin)).map(ReleaseSummary::from).collect();
+    Ok(axum::Json(ReleaseList { releases: visible }))
+}
+
+/// The releases the caller may see, newest first.
+#[derive(Debug, Serialize)]
+pub struct ReleaseList {
+    pub releases: Vec<ReleaseSummary>,
 }
 
 /// `GET /api/v1/releases/{version}` (`current` names the current release).
-pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<axum::Json<ReleaseSummary>> {
     let version = resolve(&state, &version).await?;
-    Ok(axum::Json(release_json(&visible_release(&state, &caller, &version).await?)))
+    Ok(axum::Json(ReleaseSummary::from(&visible_release(&state, &caller, &version).await?)))
 }
 
 pub async fn resolve(state: &AppState, version: &str) -> ApiResult<String> {
@@ -92,5 +128,5 @@ pub async fn file(
         Err(e) => return Err(e.into()),
     };
     let blob = state.blobs.path(&format!("{}/{}", release_prefix(&version), entry.path)).map_err(Problem::internal)?;
-    serve_blob(&blob, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == "published").await
+    serve_blob(&blob, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == ReleaseState::Published).await
 }

@@ -11,13 +11,14 @@ use futures_util::StreamExt;
 use serde::Deserialize;
 use serde_json::{Value, json};
 
+use super::submission_view::{SubmissionItem, SubmissionList, SubmissionView};
 use super::{ApiJson, ApiPath, ApiQuery};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
 use crate::intake::{Scratch, check, declared_sha256, hex, idempotency_key, receive, record, release_not_open, too_large};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{Recorded, StoreError, SubmissionRecord, Team};
+use crate::store::{JobState, Recorded, ReleaseState, StoreError, SubmissionRecord, SubmissionState, Team};
 
 #[derive(Debug, Deserialize)]
 pub struct UploadQuery {
@@ -180,7 +181,7 @@ pub async fn create(
     }
     let validating_at = now_ms();
     let current = state.store.current_release().await.ok().map(|r| r.version);
-    let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == "published").map(|r| r.version).collect();
+    let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == ReleaseState::Published).map(|r| r.version).collect();
     let unpack_to = Scratch(state.blobs.scratch("unpack"));
     let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
     // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
@@ -190,7 +191,7 @@ pub async fn create(
         .map_err(Problem::internal)??;
     // Published while this upload was checked is fine; withdrawn meanwhile is not.
     match state.store.release(&valid.release).await {
-        Ok(r) if r.state == "published" => {}
+        Ok(r) if r.state == ReleaseState::Published => {}
         Ok(_) | Err(StoreError::NotFound) => return Err(release_not_open(&valid.release)),
         Err(e) => return Err(e.into()),
     }
@@ -227,47 +228,6 @@ pub async fn create(
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, location)], axum::Json(body)).into_response())
 }
 
-/// The JSON view of a submission (with history, jobs and scores).
-pub async fn submission_json(state: &AppState, s: &SubmissionRecord) -> ApiResult<Value> {
-    let team = state.store.team(&s.team_id).await?;
-    let history: Vec<Value> =
-        state.store.submission_events(&s.id).await?.into_iter().map(|e| json!({"state": e.state, "reason": e.reason, "at": rfc3339(e.at)})).collect();
-    let scores = state.store.scores(&s.id).await?;
-    let latest = scores.last().and_then(|c| serde_json::from_str::<Value>(&c.body).ok());
-    let score_history: Vec<Value> =
-        scores.iter().map(|c| json!({"id": c.id, "release": c.release, "evaluator_version": c.evaluator_version, "at": rfc3339(c.created_at)})).collect();
-    let jobs: Vec<Value> = state
-        .store
-        .jobs_for(&s.id)
-        .await?
-        .into_iter()
-        .map(|j| json!({"id": j.id, "kind": j.kind, "state": j.state, "attempts": j.attempts, "url": format!("/api/v1/jobs/{}", j.id)}))
-        .collect();
-    let mut body = json!({
-        "id": s.id,
-        "team": team.name,
-        "release": s.release,
-        "state": s.state,
-        "method": {"name": s.method_name, "description": s.method_description, "paper_url": s.paper_url, "code_url": s.code_url},
-        "public": s.public,
-        "baseline": s.baseline,
-        "complete": s.complete,
-        "archive": {"size": s.archive_size, "sha256": s.archive_sha256},
-        "created_at": rfc3339(s.created_at),
-        "updated_at": rfc3339(s.updated_at),
-        "history": history,
-        "score_history": score_history,
-        "jobs": jobs,
-    });
-    if let Some(reason) = &s.reason {
-        body["reason"] = json!(reason);
-    }
-    if let Some(latest) = latest {
-        body["scores"] = latest;
-    }
-    Ok(body)
-}
-
 /// A submission the caller may see: public ones to everyone, private ones to their team and admins.
 pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> ApiResult<SubmissionRecord> {
     match state.store.submission(id).await {
@@ -278,21 +238,15 @@ pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> 
 }
 
 /// `GET /api/v1/submissions/{id}`.
-pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<SubmissionView>> {
     let s = visible_submission(&state, &caller, &id).await?;
-    Ok(axum::Json(submission_json(&state, &s).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &s).await?))
 }
 
 /// `GET /api/v1/submissions`: the calling team's submissions.
-pub async fn list(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Value>> {
-    let items: Vec<Value> = state
-        .store
-        .submissions(Some(&team.id), 500)
-        .await?
-        .iter()
-        .map(|s| json!({"id": s.id, "release": s.release, "state": s.state, "reason": s.reason, "method": s.method_name, "public": s.public, "complete": s.complete, "created_at": rfc3339(s.created_at), "url": format!("/api/v1/submissions/{}", s.id)}))
-        .collect();
-    Ok(axum::Json(json!({"submissions": items})))
+pub async fn list(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<SubmissionList>> {
+    let submissions = state.store.submissions(Some(&team.id), 500).await?.iter().map(SubmissionItem::from).collect();
+    Ok(axum::Json(SubmissionList { submissions }))
 }
 
 #[derive(Debug, Deserialize)]
@@ -311,7 +265,7 @@ pub async fn update(
     caller: Caller,
     ApiPath(id): ApiPath<String>,
     change: Result<ApiJson<MethodCardUpdate>, Problem>,
-) -> ApiResult<axum::Json<Value>> {
+) -> ApiResult<axum::Json<SubmissionView>> {
     let mut s = visible_submission(&state, &caller, &id).await?;
     caller.may_change(&s.team_id, "edit a submission")?;
     // The body is looked at only once the caller may edit.
@@ -341,21 +295,21 @@ pub async fn update(
         .map_err(|e| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("{}: {}", e.field, e.message)))?;
     state.store.update_method_card(&id, &s, now_ms()).await?;
     state.leaderboard.invalidate();
-    Ok(axum::Json(submission_json(&state, &state.store.submission(&id).await?).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?).await?))
 }
 
 /// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
-pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<SubmissionView>> {
     let s = visible_submission(&state, &caller, &id).await?;
     caller.may_change(&s.team_id, "cancel a submission")?;
     let reason = if matches!(caller, Caller::Admin) { "cancelled by an admin" } else { "cancelled by the team" };
-    if !state.store.set_submission_state(&id, &["queued"], "cancelled", Some(reason), now_ms()).await? {
+    if !state.store.set_submission_state(&id, &[SubmissionState::Queued], SubmissionState::Cancelled, Some(reason), now_ms()).await? {
         return Err(Problem::conflict(format!("The submission is {}; only queued submissions can be cancelled.", s.state)));
     }
     for job in state.store.jobs_for(&id).await? {
-        if job.state == "queued" {
+        if job.state == JobState::Queued {
             let _ = state.store.cancel_job(&job.id, now_ms()).await;
         }
     }
-    Ok(axum::Json(submission_json(&state, &state.store.submission(&id).await?).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?).await?))
 }

@@ -3,20 +3,10 @@
 //! the lease holder may finish it. Claiming is one statement: PostgreSQL skips rows
 //! other workers have locked (`FOR UPDATE SKIP LOCKED`), SQLite serialises writers.
 
-use serde::Serialize;
-
-use super::{JobRecord, Store, StoreError, StoreResult, on_pool};
+use super::{JobRecord, JobState, Store, StoreError, StoreResult, on_pool};
 
 pub(super) const JOB_COLUMNS: &str =
     "id, kind, subject, payload, state, attempts, max_attempts, run_after, lease_owner, lease_expires, progress, error, created_at, updated_at";
-
-/// Where a job is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum JobState {
-    Queued,
-    Succeeded,
-}
 
 /// A job to enqueue.
 #[derive(Debug, Clone)]
@@ -117,17 +107,13 @@ impl Store {
 
     /// Finish a job `owner` holds: succeeded, failed for good, or back to the queue at `retry_at`.
     pub async fn finish_job(&self, id: &str, owner: &str, state: JobState, error: Option<&str>, retry_at: Option<i64>, now: i64) -> StoreResult<bool> {
-        let state_text = match state {
-            JobState::Queued => "queued",
-            JobState::Succeeded => "succeeded",
-        };
         let done = on_pool!(self, |pool| sqlx::query(
             "UPDATE jobs SET state = $3, error = $4, run_after = COALESCE($5, run_after), lease_owner = NULL, lease_expires = NULL, updated_at = $6 \
              WHERE id = $1 AND lease_owner = $2 AND state = 'running'"
         )
         .bind(id)
         .bind(owner)
-        .bind(state_text)
+        .bind(state)
         .bind(error)
         .bind(retry_at)
         .bind(now)

@@ -6,13 +6,19 @@
 mod jobs;
 mod models;
 mod postgres;
-mod records;
+mod releases;
+mod scores;
 mod sqlite;
+mod states;
+mod submissions;
+mod teams;
 #[cfg(test)]
 pub mod tests;
+mod tokens;
 
-pub use jobs::{ClaimedJob, JobState, NewJob};
+pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
+pub use states::{JobState, ReleaseState, SubmissionState};
 
 use sqlx::{PgPool, SqlitePool};
 
@@ -40,6 +46,9 @@ pub enum StoreError {
     /// Anything else from the database.
     #[error("database error: {0}")]
     Database(sqlx::Error),
+    /// A stored record does not read back (written by something else than this service).
+    #[error("corrupt record: {0}")]
+    Corrupt(String),
     /// Migrations could not be applied.
     #[error("migration failed: {0}")]
     Migration(#[from] sqlx::migrate::MigrateError),

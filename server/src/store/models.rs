@@ -1,6 +1,9 @@
 //! Records as the store returns them.
 
+use osmab_evaluator::scores::Scores;
 use serde::Serialize;
+
+use super::{JobState, ReleaseState, SubmissionState};
 
 /// A participating team.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, sqlx::FromRow)]
@@ -32,8 +35,7 @@ pub struct TokenRecord {
 #[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
 pub struct ReleaseRecord {
     pub version: String,
-    /// `draft` or `published`.
-    pub state: String,
+    pub state: ReleaseState,
     pub is_current: bool,
     pub digest: String,
     /// The manifest JSON as served (with the sequence archives added).
@@ -59,7 +61,7 @@ pub struct SubmissionRecord {
     pub id: String,
     pub team_id: String,
     pub release: String,
-    pub state: String,
+    pub state: SubmissionState,
     pub reason: Option<String>,
     pub method_name: String,
     pub method_description: String,
@@ -77,19 +79,19 @@ pub struct SubmissionRecord {
 /// One state change of a submission.
 #[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
 pub struct SubmissionEvent {
-    pub state: String,
+    pub state: SubmissionState,
     pub reason: Option<String>,
     pub at: i64,
 }
 
 /// One score of a submission (re-scoring adds rows).
-#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ScoreRecord {
     pub id: i64,
     pub submission_id: String,
     pub release: String,
     pub evaluator_version: String,
-    pub body: String,
+    pub scores: Scores,
     pub created_at: i64,
 }
 
@@ -100,7 +102,7 @@ pub struct JobRecord {
     pub kind: String,
     pub subject: String,
     pub payload: String,
-    pub state: String,
+    pub state: JobState,
     pub attempts: i64,
     pub max_attempts: i64,
     pub run_after: i64,
@@ -113,7 +115,7 @@ pub struct JobRecord {
 }
 
 /// A scored submission with its latest score and team, for the leaderboard.
-#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct LeaderboardRow {
     pub submission_id: String,
     pub team: String,
@@ -123,7 +125,7 @@ pub struct LeaderboardRow {
     pub baseline: bool,
     pub complete: bool,
     pub created_at: i64,
-    pub body: String,
+    pub scores: Scores,
 }
 
 /// A new submission to record together with its scoring job.

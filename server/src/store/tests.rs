@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::clock::now_ms;
+use osmab_evaluator::scores::Scores;
 
 /// A store of each backend; PostgreSQL databases are dropped when the guard goes.
 pub struct TestStores {
@@ -68,7 +69,7 @@ async fn a_job_whose_worker_died_is_claimed_again_after_its_lease() {
         assert!(!store.finish_job("j1", "worker-a", JobState::Succeeded, None, None, t0 + 1003).await.unwrap());
         assert!(store.finish_job("j1", "worker-b", JobState::Succeeded, None, None, t0 + 1004).await.unwrap());
         let record = store.job("j1").await.unwrap();
-        assert_eq!((record.state.as_str(), record.lease_owner), ("succeeded", None));
+        assert_eq!((record.state, record.lease_owner), (JobState::Succeeded, None));
     }
     stores.drop_all().await;
 }
@@ -125,10 +126,15 @@ async fn two_workers_never_claim_the_same_job() {
     stores.drop_all().await;
 }
 
+/// A score document told apart by `mark`.
+fn score(mark: u32) -> Scores {
+    Scores { release: "r1".into(), evaluator_version: "0.1.0".into(), missing_maps: vec![format!("mark-{mark}")], ..Scores::default() }
+}
+
 fn release(version: &str) -> ReleaseRecord {
     ReleaseRecord {
         version: version.into(),
-        state: "draft".into(),
+        state: ReleaseState::Draft,
         is_current: false,
         digest: format!("digest-{version}"),
         manifest: "{}".into(),
@@ -179,32 +185,35 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "nothing of the refused submission stays");
         assert!(matches!(store.job("js9").await, Err(StoreError::NotFound)));
         let s = store.submission("sub_1").await.unwrap();
-        assert_eq!(s.state, "queued");
+        assert_eq!(s.state, SubmissionState::Queued);
         assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1);
 
         // Scoring: the score lands with the job's success, only for the lease holder.
         let claimed = store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
         assert_eq!(claimed.id, "js1");
-        assert!(store.set_submission_state("sub_1", &["queued"], "scoring", None, t + 3).await.unwrap());
-        assert!(!store.set_submission_state("sub_1", &["queued"], "cancelled", Some("late"), t + 4).await.unwrap(), "only from the named states");
-        assert!(!store.complete_scoring("js1", "intruder", "sub_1", "r1", "0.1.0", r#"{"v":0}"#, t + 5).await.unwrap(), "not without the lease");
+        assert!(store.set_submission_state("sub_1", &[SubmissionState::Queued], SubmissionState::Scoring, None, t + 3).await.unwrap());
+        assert!(
+            !store.set_submission_state("sub_1", &[SubmissionState::Queued], SubmissionState::Cancelled, Some("late"), t + 4).await.unwrap(),
+            "only from the named states"
+        );
+        assert!(!store.complete_scoring("js1", "intruder", "sub_1", &score(0), t + 5).await.unwrap(), "not without the lease");
         assert!(store.scores("sub_1").await.unwrap().is_empty());
-        assert!(store.complete_scoring("js1", "w", "sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap());
-        assert!(!store.complete_scoring("js1", "w", "sub_1", "r1", "0.1.0", r#"{"v":1}"#, t + 5).await.unwrap(), "never twice");
+        assert!(store.complete_scoring("js1", "w", "sub_1", &score(1), t + 5).await.unwrap());
+        assert!(!store.complete_scoring("js1", "w", "sub_1", &score(1), t + 5).await.unwrap(), "never twice");
 
         // Re-scoring adds a score; a second live scoring job is refused.
-        assert!(store.requeue_submission("sub_1", &["scored"], "rescore", &job("js2", t + 6), t + 6).await.unwrap());
+        assert!(store.requeue_submission("sub_1", &[SubmissionState::Scored], "rescore", &job("js2", t + 6), t + 6).await.unwrap());
         let mut duplicate = job("js3", t + 6);
         duplicate.subject = "sub_js2".into();
         assert!(matches!(store.enqueue(&duplicate).await, Err(StoreError::Conflict(_))), "one live job per subject");
         store.claim_next_job("w", t + 7, t + 60_000).await.unwrap().unwrap();
-        store.set_submission_state("sub_1", &["queued"], "scoring", None, t + 7).await.unwrap();
-        assert!(store.complete_scoring("js2", "w", "sub_1", "r1", "0.1.0", r#"{"v":2}"#, t + 8).await.unwrap());
-        let states: Vec<String> = store.submission_events("sub_1").await.unwrap().into_iter().map(|e| e.state).collect();
+        store.set_submission_state("sub_1", &[SubmissionState::Queued], SubmissionState::Scoring, None, t + 7).await.unwrap();
+        assert!(store.complete_scoring("js2", "w", "sub_1", &score(2), t + 8).await.unwrap());
+        let states: Vec<&str> = store.submission_events("sub_1").await.unwrap().into_iter().map(|e| e.state.name()).collect();
         assert_eq!(states, ["received", "validating", "queued", "scoring", "scored", "queued", "scoring", "scored"]);
         assert_eq!(store.scores("sub_1").await.unwrap().len(), 2, "re-scoring adds a score");
         let rows = store.leaderboard_rows("r1").await.unwrap();
-        assert_eq!((rows.len(), rows[0].body.as_str(), rows[0].team.as_str()), (1, r#"{"v":2}"#, "Team A"), "the latest score counts");
+        assert_eq!((rows.len(), &rows[0].scores, rows[0].team.as_str()), (1, &score(2), "Team A"), "the latest score counts");
     }
     stores.drop_all().await;
 }
@@ -290,10 +299,10 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         first.subject = "sub_a".into();
         store.create_submission(&new("sub_a"), &first, None).await.unwrap();
         store.claim_next_job("w", t, t + 60_000).await.unwrap().unwrap();
-        assert!(store.set_submission_state("sub_a", &["queued"], "cancelled", Some("by the team"), t + 1).await.unwrap());
-        assert!(!store.complete_scoring("k1", "w", "sub_a", "r1", "0.1.0", "{}", t + 2).await.unwrap(), "a cancelled submission stays cancelled");
+        assert!(store.set_submission_state("sub_a", &[SubmissionState::Queued], SubmissionState::Cancelled, Some("by the team"), t + 1).await.unwrap());
+        assert!(!store.complete_scoring("k1", "w", "sub_a", &score(0), t + 2).await.unwrap(), "a cancelled submission stays cancelled");
         assert!(store.scores("sub_a").await.unwrap().is_empty());
-        assert_eq!(store.submission("sub_a").await.unwrap().state, "cancelled");
+        assert_eq!(store.submission("sub_a").await.unwrap().state, SubmissionState::Cancelled);
 
         let mut second = job("k2", t + 1);
         second.subject = "sub_b".into();
@@ -301,8 +310,8 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
         assert!(store.fail_job("k2", "w", "maps/baseline/scene_000.npz: points: NaN", Some("sub_b"), t + 4).await.unwrap());
         let failed = store.submission("sub_b").await.unwrap();
-        assert_eq!((failed.state.as_str(), failed.reason.as_deref()), ("failed", Some("maps/baseline/scene_000.npz: points: NaN")));
-        assert_eq!(store.job("k2").await.unwrap().state, "failed");
+        assert_eq!((failed.state, failed.reason.as_deref()), (SubmissionState::Failed, Some("maps/baseline/scene_000.npz: points: NaN")));
+        assert_eq!(store.job("k2").await.unwrap().state, JobState::Failed);
     }
     stores.drop_all().await;
 }
@@ -376,7 +385,7 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
         assert!(matches!(store.job("j2").await, Err(StoreError::NotFound)));
         assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1, "one quota unit");
         // A cancelled submission's archive may be submitted anew.
-        assert!(store.set_submission_state("sub_1", &["queued"], "cancelled", Some("by the team"), t + 1).await.unwrap());
+        assert!(store.set_submission_state("sub_1", &[SubmissionState::Queued], SubmissionState::Cancelled, Some("by the team"), t + 1).await.unwrap());
         assert_eq!(store.create_submission(&upload("sub_3", "aa", None), &job("j3", t), None).await.unwrap(), Recorded::New("sub_3".into()));
     }
     stores.drop_all().await;

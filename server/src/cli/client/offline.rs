@@ -85,22 +85,12 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
     if index.has_ground_truth() {
         let scores = score_submission(&valid, &index, limits, Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
         println!("Scored against the local ground truth (what the server will compute):");
-        for (lighting, table) in scores["semseg"].as_object().into_iter().flatten() {
-            let m = &table["overall"];
-            println!(
-                "  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}",
-                m["miou"].as_f64().unwrap_or(f64::NAN) * 100.0,
-                m["fmiou"].as_f64().unwrap_or(f64::NAN) * 100.0,
-                m["macc"].as_f64().unwrap_or(f64::NAN) * 100.0
-            );
+        for (lighting, table) in &scores.semseg {
+            let m = &table.overall;
+            println!("  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}", m.miou * 100.0, m.fmiou * 100.0, m.macc * 100.0);
         }
-        for (lighting, v) in scores["vqa"]["lightings"].as_object().into_iter().flatten() {
-            println!(
-                "  {lighting}: VQA accuracy {:.1} % ({} of {} questions)",
-                v["overall"]["accuracy"].as_f64().unwrap_or(0.0) * 100.0,
-                v["overall"]["correct"],
-                v["overall"]["total"]
-            );
+        for (lighting, v) in scores.vqa.iter().flat_map(|v| &v.lightings) {
+            println!("  {lighting}: VQA accuracy {:.1} % ({} of {} questions)", v.overall.accuracy.unwrap_or(0.0) * 100.0, v.overall.correct, v.overall.total);
         }
     } else {
         println!("(The release folder has no ground truth, so scores are computed on the server only.)");

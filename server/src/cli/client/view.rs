@@ -4,18 +4,19 @@
 use std::time::Duration;
 
 use anyhow::bail;
-use serde_json::Value;
+
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores};
+use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
+use crate::leaderboard::Leaderboard;
 
-const METRICS: [(&str, &str); 3] = [("miou", "mIoU"), ("fmiou", "f-mIoU"), ("macc", "mAcc")];
-
-fn pct(v: &Value) -> String {
-    v.as_f64().map(|x| format!("{:.1}", x * 100.0)).unwrap_or_else(|| "-".into())
+fn pct(v: Option<f64>) -> String {
+    v.map(|x| format!("{:.1}", x * 100.0)).unwrap_or_else(|| "-".into())
 }
 
 /// Rows as aligned columns: numbers right-aligned, words left-aligned.
-pub fn table(header: &[String], rows: &[Vec<String>]) -> String {
+pub fn table_text(header: &[String], rows: &[Vec<String>]) -> String {
     let widths: Vec<usize> =
         (0..header.len()).map(|c| rows.iter().map(|r| r.get(c).map_or(0, |s| s.chars().count())).max().unwrap_or(0).max(header[c].chars().count())).collect();
     let numeric: Vec<bool> =
@@ -75,46 +76,34 @@ pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
 /// VQA groups per lighting.
 pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
     let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
-    let scores = &view["scores"];
-    if !scores.is_object() {
+    let Some(scores) = view.get("scores").filter(|s| s.is_object()) else {
         bail!("{id} has no score yet (state: {}); follow it with `osmab client status {id} --watch`", view["state"].as_str().unwrap_or("?"));
-    }
-    println!(
-        "{} — release {}, evaluator {}",
-        view["method"]["name"].as_str().unwrap_or("?"),
-        scores["release"].as_str().unwrap_or("?"),
-        scores["evaluator_version"].as_str().unwrap_or("?")
-    );
-    let header: Vec<String> = std::iter::once("scene".to_string()).chain(METRICS.iter().map(|(_, l)| l.to_string())).collect();
-    for (lighting, table_json) in scores["semseg"].as_object().into_iter().flatten() {
-        let mut rows: Vec<Vec<String>> = table_json["scenes"]
-            .as_object()
-            .into_iter()
-            .flatten()
-            .map(|(scene, m)| std::iter::once(scene.clone()).chain(METRICS.iter().map(|(k, _)| pct(&m[*k]))).collect())
-            .collect();
-        for (name, key) in [("mean over scenes", "overall_mean"), ("pooled", "overall")] {
-            rows.push(std::iter::once(name.to_string()).chain(METRICS.iter().map(|(k, _)| pct(&table_json[key][*k]))).collect());
+    };
+    let scores: Scores = serde_json::from_value(scores.clone()).map_err(|e| anyhow::anyhow!("the server's score of {id} does not read as scores: {e}"))?;
+    println!("{} — release {}, evaluator {}", view["method"]["name"].as_str().unwrap_or("?"), scores.release, scores.evaluator_version);
+    let header: Vec<String> = std::iter::once("scene".to_string()).chain(Metric::COLUMNS.iter().map(|m| m.label().to_string())).collect();
+    let cells = |t: &MetricTriple| Metric::COLUMNS.iter().map(|&m| pct(t.defined(m))).collect::<Vec<_>>();
+    for (lighting, table) in &scores.semseg {
+        let mut rows: Vec<Vec<String>> = table.scenes.iter().map(|(scene, m)| std::iter::once(scene.clone()).chain(cells(m)).collect()).collect();
+        for aggregate in [Aggregate::OverallMean, Aggregate::Overall] {
+            let name = if aggregate == Aggregate::Overall { "pooled" } else { "mean over scenes" };
+            rows.push(std::iter::once(name.to_string()).chain(cells(table.aggregate(aggregate))).collect());
         }
-        println!("\nSegmentation, {lighting} (%)\n{}", table(&header, &rows));
+        println!("\nSegmentation, {lighting} (%)\n{}", table_text(&header, &rows));
     }
-    if let Some(lightings) = scores["vqa"]["lightings"].as_object() {
+    if let Some(vqa) = &scores.vqa {
         let header: Vec<String> = ["lighting", "PromptGT Meas.", "PromptGT Rel.", "Standard Meas.", "Standard Rel.", "all"].map(String::from).to_vec();
-        let rows: Vec<Vec<String>> = lightings
+        let rows: Vec<Vec<String>> = vqa
+            .lightings
             .iter()
             .map(|(l, v)| {
-                let g = |set: &str, group: &str| pct(&v[set]["groups"][group]["accuracy"]);
-                vec![
-                    l.clone(),
-                    g("prompt_grounded", "Measurements"),
-                    g("prompt_grounded", "Relations"),
-                    g("standard", "Measurements"),
-                    g("standard", "Relations"),
-                    pct(&v["overall"]["accuracy"]),
-                ]
+                std::iter::once(l.to_string())
+                    .chain(crate::leaderboard::vqa::pairs().map(|(set, group)| pct(v.group_accuracy(set, group))))
+                    .chain(std::iter::once(pct(v.overall.accuracy)))
+                    .collect()
             })
             .collect();
-        println!("\nQuestion answering, pooled accuracy (%)\n{}", table(&header, &rows));
+        println!("\nQuestion answering, pooled accuracy (%)\n{}", table_text(&header, &rows));
     }
     Ok(())
 }
@@ -125,42 +114,43 @@ pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> 
         Some(v) => format!("/api/v1/leaderboard?release={v}"),
         None => "/api/v1/leaderboard".to_string(),
     };
-    let board = api.get_json(&path)?;
-    let lightings: Vec<String> = board["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str().map(str::to_string)).collect();
+    let board: Leaderboard = serde_json::from_value(api.get_json(&path)?).map_err(|e| anyhow::anyhow!("the server's leaderboard does not read: {e}"))?;
+    let names: Vec<&str> = board.lightings.iter().map(|l| l.name()).collect();
     let lighting = match lighting {
-        Some(l) if lightings.iter().any(|x| x == l) => l.to_string(),
-        Some(l) => bail!("the leaderboard has no lighting '{l}' (it has {})", lightings.join(", ")),
-        None => lightings.first().cloned().unwrap_or_else(|| "baseline".into()),
+        Some(l) => match l.parse::<Lighting>().ok().filter(|x| board.lightings.contains(x)) {
+            Some(l) => l,
+            None => bail!("the leaderboard has no lighting '{l}' (it has {})", names.join(", ")),
+        },
+        None => board.lightings.first().copied().unwrap_or(Lighting::BASELINE),
     };
     let header: Vec<String> = ["#", "method", "team", "mIoU", "f-mIoU", "mAcc", "PromptGT", "Standard", ""].iter().map(|s| s.to_string()).collect();
-    let rows: Vec<Vec<String>> = board["entries"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let rows: Vec<Vec<String>> = board
+        .entries
+        .iter()
         .enumerate()
         .map(|(i, e)| {
-            let at = &e["scores"]["semseg"][lighting.as_str()]["overall"];
-            let vqa = &e["scores"]["vqa"]["lightings"][lighting.as_str()];
+            let metric = |m| pct(e.metric(lighting, None, Aggregate::Overall, m));
+            let vqa = e.scores.vqa.as_ref().and_then(|v| v.lightings.get(&lighting));
             let mut tags = Vec::new();
-            if e["baseline"] == true {
+            if e.baseline {
                 tags.push("baseline");
             }
-            if e["complete"] == false {
+            if !e.complete {
                 tags.push("incomplete");
             }
             vec![
                 (i + 1).to_string(),
-                e["method"].as_str().unwrap_or("?").to_string(),
-                e["team"].as_str().unwrap_or("?").to_string(),
-                pct(&at["miou"]),
-                pct(&at["fmiou"]),
-                pct(&at["macc"]),
-                pct(&vqa["prompt_grounded"]["overall"]["accuracy"]),
-                pct(&vqa["standard"]["overall"]["accuracy"]),
+                e.method.clone(),
+                e.team.clone(),
+                metric(Metric::Miou),
+                metric(Metric::Fmiou),
+                metric(Metric::Macc),
+                pct(vqa.and_then(|v| v.prompt_grounded.overall.accuracy)),
+                pct(vqa.and_then(|v| v.standard.overall.accuracy)),
                 tags.join(" "),
             ]
         })
         .collect();
-    println!("Leaderboard of {} — {lighting} lighting, pooled (%); VQA accuracy (%)\n{}", board["release"].as_str().unwrap_or("?"), table(&header, &rows));
+    println!("Leaderboard of {} — {lighting} lighting, pooled (%); VQA accuracy (%)\n{}", board.release, table_text(&header, &rows));
     Ok(())
 }

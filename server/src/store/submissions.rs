@@ -1,9 +1,8 @@
-//! Teams, tokens, releases, submissions and scores.
+//! Submissions and their history: recording an upload with its scoring job, state
+//! changes (each with one history event), scoring results and failures, quota counts.
 
-use super::{
-    JobRecord, LeaderboardRow, NewJob, NewSubmission, Recorded, ReleaseFile, ReleaseRecord, ScoreRecord, Store, StoreError, StoreResult, SubmissionEvent,
-    SubmissionRecord, Team, TokenRecord, on_pool,
-};
+use super::{JobRecord, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool};
+use osmab_evaluator::scores::Scores;
 
 /// A team's earlier submission with the idempotency key `$2` (first) or, active, of the
 /// archive `$3`: its id, archive and key.
@@ -20,186 +19,19 @@ fn repeat_of((id, earlier_archive, _key): (String, String, Option<String>), arch
 
 const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
 
+/// The history event of `$submission` entering `$state` (a [`SubmissionState`]) with
+/// `$reason` at `$at`, for either backend (a macro so each infers its own types).
+macro_rules! insert_event_query {
+    ($submission:expr, $state:expr, $reason:expr, $at:expr) => {
+        sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, $3, $4)")
+            .bind($submission)
+            .bind($state)
+            .bind($reason)
+            .bind($at)
+    };
+}
+
 impl Store {
-    /// Create a team.
-    pub async fn create_team(&self, team: &Team) -> StoreResult<()> {
-        on_pool!(self, |pool| sqlx::query("INSERT INTO teams (id, name, daily_quota, created_at) VALUES ($1, $2, $3, $4)")
-            .bind(&team.id)
-            .bind(&team.name)
-            .bind(team.daily_quota)
-            .bind(team.created_at)
-            .execute(pool)
-            .await
-            .map(|r| r.rows_affected()))?;
-        Ok(())
-    }
-
-    /// Every team, by name.
-    pub async fn teams(&self) -> StoreResult<Vec<Team>> {
-        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams ORDER BY name").fetch_all(pool).await)?)
-    }
-
-    /// The team `id`.
-    pub async fn team(&self, id: &str) -> StoreResult<Team> {
-        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams WHERE id = $1").bind(id).fetch_one(pool).await)?)
-    }
-
-    /// The team named `name`.
-    pub async fn team_by_name(&self, name: &str) -> StoreResult<Team> {
-        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, name, daily_quota, created_at FROM teams WHERE name = $1").bind(name).fetch_one(pool).await)?)
-    }
-
-    /// Change a team's daily quota.
-    pub async fn set_team_quota(&self, id: &str, quota: Option<i64>) -> StoreResult<()> {
-        let done = on_pool!(self, |pool| sqlx::query("UPDATE teams SET daily_quota = $2 WHERE id = $1")
-            .bind(id)
-            .bind(quota)
-            .execute(pool)
-            .await
-            .map(|r| r.rows_affected()))?;
-        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
-    }
-
-    /// Store a token record.
-    pub async fn insert_token(&self, token: &TokenRecord) -> StoreResult<()> {
-        on_pool!(self, |pool| sqlx::query(
-            "INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)"
-        )
-        .bind(&token.id)
-        .bind(&token.team_id)
-        .bind(&token.scope)
-        .bind(&token.sha256)
-        .bind(&token.hint)
-        .bind(token.created_at)
-        .bind(token.expires_at)
-        .bind(token.revoked_at)
-        .execute(pool)
-        .await
-        .map(|r| r.rows_affected()))?;
-        Ok(())
-    }
-
-    /// The token whose SHA-256 is `sha256`.
-    pub async fn token_by_hash(&self, sha256: &str) -> StoreResult<TokenRecord> {
-        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE sha256 = $1")
-            .bind(sha256)
-            .fetch_one(pool)
-            .await)?)
-    }
-
-    /// Tokens of a team (or the admin tokens for `None`).
-    pub async fn tokens(&self, team_id: Option<&str>) -> StoreResult<Vec<TokenRecord>> {
-        Ok(match team_id {
-            Some(team) => on_pool!(self, |pool| sqlx::query_as(
-                "SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE team_id = $1 ORDER BY created_at"
-            )
-            .bind(team)
-            .fetch_all(pool)
-            .await)?,
-            None => on_pool!(self, |pool| sqlx::query_as(
-                "SELECT id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at FROM tokens WHERE scope = 'admin' ORDER BY created_at"
-            )
-            .fetch_all(pool)
-            .await)?,
-        })
-    }
-
-    /// Revoke token `id`; revoking twice keeps the first time.
-    pub async fn revoke_token(&self, id: &str, at: i64) -> StoreResult<()> {
-        let done = on_pool!(self, |pool| sqlx::query("UPDATE tokens SET revoked_at = COALESCE(revoked_at, $2) WHERE id = $1")
-            .bind(id)
-            .bind(at)
-            .execute(pool)
-            .await
-            .map(|r| r.rows_affected()))?;
-        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
-    }
-
-    /// Register a release and its public files in one transaction.
-    pub async fn insert_release(&self, release: &ReleaseRecord, files: &[ReleaseFile]) -> StoreResult<()> {
-        on_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            sqlx::query("INSERT INTO releases (version, state, is_current, digest, manifest, created_at, published_at) VALUES ($1, $2, $3, $4, $5, $6, $7)")
-                .bind(&release.version)
-                .bind(&release.state)
-                .bind(release.is_current)
-                .bind(&release.digest)
-                .bind(&release.manifest)
-                .bind(release.created_at)
-                .bind(release.published_at)
-                .execute(&mut *tx)
-                .await?;
-            for file in files {
-                sqlx::query("INSERT INTO release_files (version, path, size, sha256, kind) VALUES ($1, $2, $3, $4, $5)")
-                    .bind(&file.version)
-                    .bind(&file.path)
-                    .bind(file.size)
-                    .bind(&file.sha256)
-                    .bind(&file.kind)
-                    .execute(&mut *tx)
-                    .await?;
-            }
-            tx.commit().await
-        })?;
-        Ok(())
-    }
-
-    /// Every release, newest first.
-    pub async fn releases(&self) -> StoreResult<Vec<ReleaseRecord>> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases ORDER BY created_at DESC, version"
-        )
-        .fetch_all(pool)
-        .await)?)
-    }
-
-    /// Release `version`.
-    pub async fn release(&self, version: &str) -> StoreResult<ReleaseRecord> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE version = $1"
-        )
-        .bind(version)
-        .fetch_one(pool)
-        .await)?)
-    }
-
-    /// The current (most recently published) release.
-    pub async fn current_release(&self) -> StoreResult<ReleaseRecord> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE is_current = TRUE"
-        )
-        .fetch_one(pool)
-        .await)?)
-    }
-
-    /// Freeze draft `version` and make it the current release.
-    pub async fn publish_release(&self, version: &str, at: i64) -> StoreResult<()> {
-        on_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            let done = sqlx::query("UPDATE releases SET state = 'published', published_at = COALESCE(published_at, $2) WHERE version = $1")
-                .bind(version)
-                .bind(at)
-                .execute(&mut *tx)
-                .await?
-                .rows_affected();
-            if done == 0 {
-                return Err(StoreError::NotFound);
-            }
-            sqlx::query("UPDATE releases SET is_current = FALSE WHERE is_current = TRUE AND version <> $1").bind(version).execute(&mut *tx).await?;
-            sqlx::query("UPDATE releases SET is_current = TRUE WHERE version = $1").bind(version).execute(&mut *tx).await?;
-            tx.commit().await.map_err(StoreError::from)
-        })
-    }
-
-    /// A public file of a release.
-    pub async fn release_file(&self, version: &str, path: &str) -> StoreResult<ReleaseFile> {
-        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT version, path, size, sha256, kind FROM release_files WHERE version = $1 AND path = $2")
-            .bind(version)
-            .bind(path)
-            .fetch_one(pool)
-            .await)?)
-    }
-
     /// The team's earlier submission a new upload repeats: the one made with the same
     /// idempotency key (any state), else an active one (not failed or cancelled) of the
     /// same archive. `Repeat` or `KeyReused` (the key with another archive), if any.
@@ -263,13 +95,10 @@ impl Store {
                     return Ok(Recorded::QuotaExceeded);
                 }
             }
-            for (state, at) in [("received", s.received_at), ("validating", s.validating_at), ("queued", s.queued_at)] {
-                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, NULL, $3)")
-                    .bind(&s.id)
-                    .bind(state)
-                    .bind(at)
-                    .execute(&mut *tx)
-                    .await?;
+            for (state, at) in
+                [(SubmissionState::Received, s.received_at), (SubmissionState::Validating, s.validating_at), (SubmissionState::Queued, s.queued_at)]
+            {
+                insert_event_query!(&s.id, state, None::<&str>, at).execute(&mut *tx).await?;
             }
             super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
             tx.commit().await?;
@@ -281,17 +110,8 @@ impl Store {
     /// add the score and move the submission from `scoring` to `scored`, all or nothing.
     /// Returns false (and changes nothing) when the lease was lost or the submission left
     /// `scoring` (cancelled meanwhile).
-    #[allow(clippy::too_many_arguments)]
-    pub async fn complete_scoring(
-        &self,
-        job_id: &str,
-        owner: &str,
-        submission_id: &str,
-        release: &str,
-        evaluator_version: &str,
-        body: &str,
-        at: i64,
-    ) -> StoreResult<bool> {
+    pub async fn complete_scoring(&self, job_id: &str, owner: &str, submission_id: &str, scores: &Scores, at: i64) -> StoreResult<bool> {
+        let body = super::scores::score_text(scores);
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             let job = sqlx::query(
@@ -316,17 +136,13 @@ impl Store {
             }
             sqlx::query("INSERT INTO scores (submission_id, release, evaluator_version, body, created_at) VALUES ($1, $2, $3, $4, $5)")
                 .bind(submission_id)
-                .bind(release)
-                .bind(evaluator_version)
-                .bind(body)
+                .bind(&scores.release)
+                .bind(&scores.evaluator_version)
+                .bind(&body)
                 .bind(at)
                 .execute(&mut *tx)
                 .await?;
-            sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'scored', NULL, $2)")
-                .bind(submission_id)
-                .bind(at)
-                .execute(&mut *tx)
-                .await?;
+            insert_event_query!(submission_id, SubmissionState::Scored, None::<&str>, at).execute(&mut *tx).await?;
             tx.commit().await?;
             Ok(true)
         })
@@ -362,12 +178,7 @@ impl Store {
                         .await?
                         .rows_affected();
                 if moved == 1 {
-                    sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'failed', $2, $3)")
-                        .bind(id)
-                        .bind(message)
-                        .bind(at)
-                        .execute(&mut *tx)
-                        .await?;
+                    insert_event_query!(id, SubmissionState::Failed, Some(message), at).execute(&mut *tx).await?;
                 }
             }
             tx.commit().await?;
@@ -377,9 +188,9 @@ impl Store {
 
     /// Queue a submission for scoring again with `job`, from one of `from`; fails with a
     /// conflict while another scoring job of it is live. Returns whether it was queued.
-    pub async fn requeue_submission(&self, id: &str, from: &[&str], reason: &str, job: &NewJob, at: i64) -> StoreResult<bool> {
+    pub async fn requeue_submission(&self, id: &str, from: &[SubmissionState], reason: &str, job: &NewJob, at: i64) -> StoreResult<bool> {
         let current = self.submission(id).await?;
-        if !from.contains(&current.state.as_str()) {
+        if !from.contains(&current.state) {
             return Ok(false);
         }
         on_pool!(self, |pool| {
@@ -388,7 +199,7 @@ impl Store {
                 .bind(id)
                 .bind(reason)
                 .bind(at)
-                .bind(&current.state)
+                .bind(current.state)
                 .execute(&mut *tx)
                 .await?
                 .rows_affected();
@@ -396,38 +207,11 @@ impl Store {
                 tx.rollback().await?;
                 return Ok(false);
             }
-            sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, 'queued', $2, $3)")
-                .bind(id)
-                .bind(reason)
-                .bind(at)
-                .execute(&mut *tx)
-                .await?;
+            insert_event_query!(id, SubmissionState::Queued, Some(reason), at).execute(&mut *tx).await?;
             super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
             tx.commit().await?;
             Ok(true)
         })
-    }
-
-    /// Put the configured admin token in place under the fixed id `id`, replacing the
-    /// token an earlier configuration set (so changing the setting revokes the old one).
-    pub async fn replace_token(&self, token: &TokenRecord) -> StoreResult<()> {
-        on_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            sqlx::query("DELETE FROM tokens WHERE id = $1").bind(&token.id).execute(&mut *tx).await?;
-            sqlx::query("INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)")
-                .bind(&token.id)
-                .bind(&token.team_id)
-                .bind(&token.scope)
-                .bind(&token.sha256)
-                .bind(&token.hint)
-                .bind(token.created_at)
-                .bind(token.expires_at)
-                .bind(token.revoked_at)
-                .execute(&mut *tx)
-                .await?;
-            tx.commit().await
-        })?;
-        Ok(())
     }
 
     /// Submission `id`.
@@ -460,9 +244,9 @@ impl Store {
 
     /// Move a submission to `state` with `reason`, recording the change in its history.
     /// `from` restricts the change to submissions in one of those states; returns whether it happened.
-    pub async fn set_submission_state(&self, id: &str, from: &[&str], state: &str, reason: Option<&str>, at: i64) -> StoreResult<bool> {
+    pub async fn set_submission_state(&self, id: &str, from: &[SubmissionState], state: SubmissionState, reason: Option<&str>, at: i64) -> StoreResult<bool> {
         let current = self.submission(id).await?;
-        if !from.is_empty() && !from.contains(&current.state.as_str()) {
+        if !from.is_empty() && !from.contains(&current.state) {
             return Ok(false);
         }
         on_pool!(self, |pool| {
@@ -472,18 +256,12 @@ impl Store {
                 .bind(state)
                 .bind(reason)
                 .bind(at)
-                .bind(&current.state)
+                .bind(current.state)
                 .execute(&mut *tx)
                 .await?
                 .rows_affected();
             if done == 1 {
-                sqlx::query("INSERT INTO submission_events (submission_id, state, reason, at) VALUES ($1, $2, $3, $4)")
-                    .bind(id)
-                    .bind(state)
-                    .bind(reason)
-                    .bind(at)
-                    .execute(&mut *tx)
-                    .await?;
+                insert_event_query!(id, state, reason, at).execute(&mut *tx).await?;
             }
             tx.commit().await?;
             Ok(done == 1)
@@ -515,31 +293,6 @@ impl Store {
             .bind(since)
             .fetch_one(pool)
             .await)?)
-    }
-
-    /// Every score of a submission, oldest first.
-    pub async fn scores(&self, submission_id: &str) -> StoreResult<Vec<ScoreRecord>> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, submission_id, release, evaluator_version, body, created_at FROM scores WHERE submission_id = $1 ORDER BY id"
-        )
-        .bind(submission_id)
-        .fetch_all(pool)
-        .await)?)
-    }
-
-    /// Public submissions of `release` that have a score, with their latest one (a
-    /// submission being re-scored keeps its place with its previous score).
-    pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.created_at, c.body \
-             FROM submissions s JOIN teams t ON t.id = s.team_id \
-             JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
-             WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
-             ORDER BY s.created_at, s.id"
-        )
-        .bind(release)
-        .fetch_all(pool)
-        .await)?)
     }
 
     /// Jobs whose subject is `subject` (a submission or release), newest first.

@@ -1,0 +1,186 @@
+//! The axes a score is reported along — metric, aggregate, lighting, subset, question set
+//! and question group — each a closed set with its name in files and its label on pages,
+//! defined here once. Variants are declared in the order of their file names, so maps
+//! keyed by them serialise exactly as maps keyed by the names did.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+/// Declares a closed set of names: `ALL` in report order, `name()` as written in files,
+/// `label()` as the paper prints it, `FromStr` that lists the accepted names.
+macro_rules! axis {
+    ($(#[$doc:meta])* $ty:ident, $what:literal, [$($variant:ident = $name:literal, $label:literal;)+]) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+        pub enum $ty {
+            $(#[serde(rename = $name)] $variant,)+
+        }
+
+        impl $ty {
+            /// Every value, in report order.
+            pub const ALL: [$ty; [$($name),+].len()] = [$($ty::$variant,)+];
+
+            /// The name as written in files, JSON keys and CSV columns.
+            pub const fn name(self) -> &'static str {
+                match self { $($ty::$variant => $name,)+ }
+            }
+
+            /// The name as the paper prints it.
+            pub const fn label(self) -> &'static str {
+                match self { $($ty::$variant => $label,)+ }
+            }
+        }
+
+        impl fmt::Display for $ty {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+
+        impl FromStr for $ty {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                match s {
+                    $($name => Ok($ty::$variant),)+
+                    other => Err(format!(concat!("unknown ", $what, " '{}' (expected one of {})"), other, [$($name),+].join(", "))),
+                }
+            }
+        }
+    };
+}
+
+axis!(
+    /// A headline segmentation metric.
+    Metric, "metric", [
+        Fmiou = "fmiou", "f-mIoU";
+        Macc = "macc", "mAcc";
+        Miou = "miou", "mIoU";
+    ]
+);
+
+impl Metric {
+    /// Metrics in column order (mIoU first, as the paper's tables).
+    pub const COLUMNS: [Metric; 3] = [Metric::Miou, Metric::Fmiou, Metric::Macc];
+}
+
+axis!(
+    /// How scene metrics are combined: the metrics of the pooled confusion matrix, or the
+    /// mean of the scene rows.
+    Aggregate, "aggregate", [
+        Overall = "overall", "Pooled";
+        OverallMean = "overall_mean", "Mean over scenes";
+    ]
+);
+
+axis!(
+    /// A lighting of a sequence: the four of an OSMa-Bench++ release, and the two more of
+    /// the original OSMa-Bench (ReplicaCAD) whose published figures the scorer reproduces.
+    Lighting, "lighting", [
+        Baseline = "baseline", "Baseline";
+        Camera = "camera", "Camera Light";
+        CameraLights = "camera_lights", "Camera Lights";
+        DynamicLights = "dynamic_lights", "Dynamic Lights";
+        NoLights = "no_lights", "Nominal Lights";
+        Velocity = "velocity", "Velocity";
+    ]
+);
+
+impl Lighting {
+    /// The lighting the others are compared against.
+    pub const BASELINE: Lighting = Lighting::Baseline;
+    /// The lightings of an OSMa-Bench++ release, in render order.
+    pub const RELEASE: [Lighting; 4] = [Lighting::Baseline, Lighting::Camera, Lighting::DynamicLights, Lighting::NoLights];
+
+    /// A short label for narrow column headers.
+    pub const fn short_label(self) -> &'static str {
+        match self {
+            Lighting::Camera => "Camera",
+            Lighting::DynamicLights => "Dynamic",
+            Lighting::NoLights => "Nominal",
+            other => other.label(),
+        }
+    }
+}
+
+axis!(
+    /// The two prompt regimes of OSMa-Bench++, which are also the subsets scores are
+    /// reported over.
+    Regime, "subset", [
+        Furniture = "furniture", "Furniture";
+        Manipuland = "manipuland", "Manipuland";
+    ]
+);
+
+axis!(
+    /// The two sets of VQA questions.
+    QuestionSet, "question set", [
+        PromptGrounded = "prompt_grounded", "PromptGT";
+        Standard = "standard", "Standard";
+    ]
+);
+
+axis!(
+    /// The paper's groups of question categories.
+    QuestionGroup, "question group", [
+        Measurements = "Measurements", "Measurements";
+        Relations = "Relations", "Relations";
+    ]
+);
+
+impl QuestionSet {
+    /// The set a category belongs to.
+    pub fn of_category(category: &str) -> QuestionSet {
+        if category.starts_with("PromptGT-") { QuestionSet::PromptGrounded } else { QuestionSet::Standard }
+    }
+}
+
+impl QuestionGroup {
+    /// The group a category is reported under in the paper's tables: `Measurements`
+    /// (PromptGT-Measurement, Measurement) or `Relations` (PromptGT-Relations and
+    /// -Existence, as OSMa-Bench++ merges them; Object Relations - Spatial and -
+    /// Functional); `None` for the categories the tables leave out.
+    pub fn of_category(category: &str) -> Option<QuestionGroup> {
+        match category {
+            "PromptGT-Measurement" | "Measurement" => Some(QuestionGroup::Measurements),
+            "PromptGT-Relations" | "PromptGT-Existence" | "Object Relations - Spatial" | "Object Relations - Functional" => Some(QuestionGroup::Relations),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_back_and_unknown_names_list_the_choices() {
+        for lighting in Lighting::ALL {
+            assert_eq!(lighting.name().parse::<Lighting>(), Ok(lighting));
+            assert_eq!(serde_json::to_string(&lighting).unwrap(), format!("\"{}\"", lighting.name()));
+        }
+        assert_eq!(
+            "sunset".parse::<Lighting>().unwrap_err(),
+            "unknown lighting 'sunset' (expected one of baseline, camera, camera_lights, dynamic_lights, no_lights, velocity)"
+        );
+        assert_eq!("furniture".parse::<Regime>(), Ok(Regime::Furniture));
+    }
+
+    #[test]
+    fn variants_sort_as_their_names_do() {
+        fn sorted<T: Copy + Ord>(all: &[T], name: fn(T) -> &'static str) {
+            let mut by_value = all.to_vec();
+            by_value.sort();
+            let mut by_name = all.to_vec();
+            by_name.sort_by_key(|v| name(*v));
+            assert!(by_value.iter().zip(&by_name).all(|(a, b)| name(*a) == name(*b)));
+        }
+        sorted(&Metric::ALL, Metric::name);
+        sorted(&Aggregate::ALL, Aggregate::name);
+        sorted(&Lighting::ALL, Lighting::name);
+        sorted(&Regime::ALL, Regime::name);
+        sorted(&QuestionSet::ALL, QuestionSet::name);
+        sorted(&QuestionGroup::ALL, QuestionGroup::name);
+    }
+}

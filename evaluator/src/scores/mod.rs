@@ -1,0 +1,136 @@
+//! The score document of a submission, as typed values: what the scorer produces, the
+//! store keeps, the API serves and every reader (leaderboards, pages, the client) reads.
+//! It has one serialised form — the JSON the service has always served — and no reader
+//! looks into it by string paths.
+//!
+//! Struct fields are declared in the order of their JSON keys, and the axes
+//! ([`axes`]) sort as their names do, so a document serialises byte for byte as the
+//! untyped one did (a test round-trips stored documents).
+
+pub mod axes;
+mod vqa;
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime};
+pub use vqa::{Accuracy, AnswerRow, QuestionSetScores, SceneAnswers, SetsScores, VqaCell, VqaScores};
+
+use crate::semseg::report::MetricTriple;
+
+/// The scores of one submission.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Scores {
+    /// Every (lighting, scene) of the release has a map.
+    pub complete: bool,
+    pub evaluator_version: String,
+    /// `maps/<lighting>/<scene>` the submission lacks.
+    #[serde(default)]
+    pub missing_maps: Vec<String>,
+    /// Per lighting, the change of each aggregate against the baseline lighting.
+    #[serde(default)]
+    pub relative_change: BTreeMap<Lighting, RelativeChange>,
+    /// The release scored against.
+    pub release: String,
+    /// Semantic segmentation, per lighting.
+    #[serde(default)]
+    pub semseg: BTreeMap<Lighting, LightingScores>,
+    /// VQA, when the submission has scene graphs or answers and the release questions.
+    #[serde(default)]
+    pub vqa: Option<VqaScores>,
+}
+
+/// The segmentation scores of one lighting.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct LightingScores {
+    /// Metrics of the pooled confusion matrix.
+    pub overall: MetricTriple,
+    /// Mean of the scene rows.
+    pub overall_mean: MetricTriple,
+    /// Per scene; left out of summaries ([`Scores::summary`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub scenes: BTreeMap<String, MetricTriple>,
+    /// The same aggregates over each subset's scenes (subsets without scenes absent).
+    #[serde(default)]
+    pub subsets: BTreeMap<Regime, SubsetScores>,
+}
+
+/// The segmentation aggregates of one subset under one lighting.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct SubsetScores {
+    pub overall: MetricTriple,
+    pub overall_mean: MetricTriple,
+    /// How many scenes the aggregates cover.
+    pub scenes: usize,
+}
+
+/// The relative change, (value − baseline) / baseline, of both aggregates.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RelativeChange {
+    pub overall: MetricTriple,
+    pub overall_mean: MetricTriple,
+}
+
+impl LightingScores {
+    /// The triple of `aggregate`.
+    pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
+        match aggregate {
+            Aggregate::Overall => &self.overall,
+            Aggregate::OverallMean => &self.overall_mean,
+        }
+    }
+}
+
+impl SubsetScores {
+    /// The triple of `aggregate`.
+    pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
+        match aggregate {
+            Aggregate::Overall => &self.overall,
+            Aggregate::OverallMean => &self.overall_mean,
+        }
+    }
+}
+
+impl RelativeChange {
+    /// The triple of `aggregate`.
+    pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
+        match aggregate {
+            Aggregate::Overall => &self.overall,
+            Aggregate::OverallMean => &self.overall_mean,
+        }
+    }
+}
+
+impl Scores {
+    /// A segmentation metric under `lighting`, over every scene (`subset` `None`) or one
+    /// subset; `None` where absent or undefined.
+    pub fn semseg(&self, lighting: Lighting, subset: Option<Regime>, aggregate: Aggregate, metric: Metric) -> Option<f64> {
+        let at = self.semseg.get(&lighting)?;
+        let triple = match subset {
+            None => at.aggregate(aggregate),
+            Some(subset) => at.subsets.get(&subset)?.aggregate(aggregate),
+        };
+        triple.defined(metric)
+    }
+
+    /// The relative change of a metric under `lighting` against the baseline lighting.
+    pub fn relative_change(&self, lighting: Lighting, aggregate: Aggregate, metric: Metric) -> Option<f64> {
+        self.relative_change.get(&lighting)?.aggregate(aggregate).defined(metric)
+    }
+
+    /// The document without its per-scene tables (scene counts stay): what a leaderboard
+    /// carries; a submission's own page and API have the details.
+    pub fn summary(mut self) -> Scores {
+        for lighting in self.semseg.values_mut() {
+            lighting.scenes.clear();
+        }
+        if let Some(vqa) = &mut self.vqa {
+            vqa.scenes.clear();
+        }
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,142 @@
+//! Workers: claim a job, hold its lease with heartbeats while the work runs off the
+//! async runtime, then record success, a retry with backoff, or a failure in words. A
+//! job whose worker died is claimed again once its lease expires; after
+//! `job_max_attempts` it fails with an explanation instead of looping.
+
+use std::time::Duration;
+
+use tokio::sync::watch;
+use tracing::Instrument;
+
+use super::scoring::ScoreSubmission;
+use super::{Job, JobContext, JobError, run_job};
+use crate::clock::now_ms;
+use crate::state::AppState;
+use crate::store::{ClaimedJob, JobState, SubmissionState};
+
+/// Delay before attempt `attempts + 1`: 5 s doubling, at most 5 minutes.
+pub fn backoff(attempts: i64) -> Duration {
+    Duration::from_secs((5u64 << attempts.clamp(0, 6) as u64).min(300))
+}
+
+/// Fail `job` for good with `message` (and its submission, for a scoring job).
+async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str) {
+    let submission = (job.kind == ScoreSubmission::KIND).then_some(job.subject.as_str());
+    match state.store.fail_job(&job.id, owner, message, submission, now_ms()).await {
+        Ok(true) => {}
+        Ok(false) => tracing::warn!("the lease was lost; another worker owns the job now"),
+        Err(e) => tracing::error!(error = %e, "could not record the failure; the job is retried when its lease expires"),
+    }
+}
+
+/// Run one claimed job to its end (or until shutdown releases it).
+async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: watch::Receiver<bool>) {
+    let lease = Duration::from_secs(state.settings.job_lease_secs);
+    if job.attempts > job.max_attempts {
+        let message = format!(
+            "Stopped after {} attempts: the worker running it stopped responding each time (its lease expired). The organisers have been alerted by the logs.",
+            job.max_attempts
+        );
+        tracing::error!("{message}");
+        fail(state, owner, &job, &message).await;
+        return;
+    }
+    tracing::info!("job started");
+    let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string() };
+    let mut work = tokio::spawn(run_job(ctx));
+    let mut heartbeat = tokio::time::interval(lease / 3);
+    heartbeat.tick().await;
+    // Until shutdown there is no deadline; then the running job has the grace period,
+    // and the lease is renewed meanwhile so no other worker takes the job over.
+    let mut deadline: Option<tokio::time::Instant> = None;
+    let outcome = loop {
+        let grace_over = async {
+            match deadline {
+                Some(at) => tokio::time::sleep_until(at).await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            result = &mut work => break Some(result),
+            _ = heartbeat.tick() => {
+                let now = now_ms();
+                match state.store.heartbeat(&job.id, owner, now + lease.as_millis() as i64, now).await {
+                    Ok(true) => {}
+                    Ok(false) => tracing::warn!("lost the lease (expired and taken by another worker); the result will be discarded"),
+                    Err(e) => tracing::warn!(error = %e, "heartbeat failed"),
+                }
+            }
+            _ = shutdown.changed(), if deadline.is_none() => {
+                let grace = Duration::from_secs(state.settings.shutdown_grace_secs);
+                tracing::info!(grace_secs = grace.as_secs(), "shutting down: waiting for the running job");
+                deadline = Some(tokio::time::Instant::now() + grace);
+            }
+            _ = grace_over => break None,
+        }
+    };
+    let now = now_ms();
+    let Some(result) = outcome else {
+        match state.store.release_job(&job.id, owner, now, now).await {
+            Ok(_) => tracing::warn!("released the unfinished job for another worker"),
+            Err(e) => tracing::error!(error = %e, "could not release the job; it is taken up again when its lease expires"),
+        }
+        return;
+    };
+    let result = result.unwrap_or_else(|panic| Err(JobError::Retryable(format!("the job panicked: {panic}"))));
+    match result {
+        Ok(()) => {
+            tracing::info!("job succeeded");
+            let _ = state.store.finish_job(&job.id, owner, JobState::Succeeded, None, None, now).await;
+        }
+        Err(JobError::Waiting(delay)) => {
+            if let Err(e) = state.store.release_job(&job.id, owner, now + delay.as_millis() as i64, now).await {
+                tracing::warn!(error = %e, "could not put the waiting job back; it is taken up again when its lease expires");
+            }
+        }
+        Err(JobError::Permanent(message)) => {
+            tracing::warn!(%message, "job failed");
+            fail(state, owner, &job, &message).await;
+        }
+        Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
+            let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
+            tracing::error!(%message, "job failed for good");
+            fail(state, owner, &job, &message).await;
+        }
+        Err(JobError::Retryable(cause)) => {
+            let retry_at = now + backoff(job.attempts).as_millis() as i64;
+            tracing::warn!(%cause, retry_at = %crate::clock::rfc3339(retry_at), "job failed; will retry");
+            let message = format!("attempt {} failed ({cause}); retrying at {}", job.attempts, crate::clock::rfc3339(retry_at));
+            let _ = state.store.finish_job(&job.id, owner, JobState::Queued, Some(&message), Some(retry_at), now).await;
+            if job.kind == ScoreSubmission::KIND {
+                let _ = state.store.set_submission_state(&job.subject, &[SubmissionState::Scoring], SubmissionState::Queued, Some(&message), now).await;
+            }
+        }
+    }
+}
+
+/// Claim and run jobs until `shutdown` turns true.
+pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Receiver<bool>) {
+    tracing::info!(worker = %owner, "worker started");
+    let poll = Duration::from_millis(state.settings.poll_ms);
+    let lease_ms = (state.settings.job_lease_secs * 1000) as i64;
+    while !*shutdown.borrow() {
+        let now = now_ms();
+        match state.store.claim_next_job(&owner, now, now + lease_ms).await {
+            Ok(Some(job)) => {
+                let span = tracing::info_span!("job", id = %job.id, kind = %job.kind, subject = %job.subject, attempt = job.attempts);
+                process(&state, &owner, job, shutdown.clone()).instrument(span).await
+            }
+            Ok(None) => {
+                tokio::select! {
+                    _ = tokio::time::sleep(poll) => {}
+                    _ = shutdown.changed() => {}
+                }
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "could not claim a job; retrying");
+                tokio::time::sleep(poll * 4).await;
+            }
+        }
+    }
+    tracing::info!(worker = %owner, "worker stopped");
+}

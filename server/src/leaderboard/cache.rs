@@ -1,0 +1,130 @@
+//! Built leaderboards in memory. A read of the current release's board touches no
+//! database while the board is fresh (at most one second old and built since the last
+//! invalidation); otherwise the board is rebuilt from the store. This process's own
+//! writes invalidate at once; other replicas' writes show within a second.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::{Duration, Instant};
+
+use axum::body::Bytes;
+use osmab_evaluator::scores::Lighting;
+use sha2::Digest;
+
+use super::Leaderboard;
+use crate::store::{ReleaseState, Store, StoreError};
+
+/// A leaderboard ready to serve: its bytes are shared by every response.
+#[derive(Debug)]
+pub struct Rendered {
+    pub board: Leaderboard,
+    pub json: Bytes,
+    pub csv: Bytes,
+    /// Entity tags of the JSON and the CSV representation.
+    pub etag_json: String,
+    pub etag_csv: String,
+    /// Leaderboard pages already rendered from this board, by their normalised view.
+    pages: Mutex<HashMap<String, Bytes>>,
+}
+
+impl Rendered {
+    fn new(board: Leaderboard) -> Self {
+        let json = Bytes::from(serde_json::to_string(&board).expect("a leaderboard serialises"));
+        let csv = Bytes::from(board.to_csv());
+        let tag = |text: &[u8]| format!("\"{}\"", sha2::Sha256::digest(text).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
+        let (etag_json, etag_csv) = (tag(&json), tag(&csv));
+        Self { board, json, csv, etag_json, etag_csv, pages: Mutex::default() }
+    }
+
+    /// The page of `view` (a normalised key of sort, aggregate and subset), rendered once.
+    pub fn page(&self, view: &str, render: impl FnOnce() -> String) -> Bytes {
+        if let Some(page) = self.pages.lock().expect("page cache lock").get(view) {
+            return page.clone();
+        }
+        let page = Bytes::from(render());
+        self.pages.lock().expect("page cache lock").insert(view.to_string(), page.clone());
+        page
+    }
+}
+
+/// Why there is no board to show.
+#[derive(Debug, thiserror::Error)]
+pub enum BoardError {
+    /// The release named does not exist or is not published (`None`: no current release).
+    #[error("no published release")]
+    NotPublished(Option<String>),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
+/// Recently built leaderboards per release, and which one the current release's was.
+#[derive(Debug, Default)]
+pub struct LeaderboardCache {
+    generation: AtomicU64,
+    boards: RwLock<HashMap<String, (Instant, u64, Arc<Rendered>)>>,
+}
+
+/// The cache key of the current release's board.
+const CURRENT: &str = "";
+
+/// How long a built leaderboard is served before it is rebuilt.
+const FRESH_FOR: Duration = Duration::from_secs(1);
+
+impl LeaderboardCache {
+    /// Forget every built leaderboard (after a score or a publication).
+    pub fn invalidate(&self) {
+        self.generation.fetch_add(1, Ordering::SeqCst);
+    }
+
+    /// The board last built under `key` if still fresh.
+    fn fresh(&self, key: &str) -> Option<Arc<Rendered>> {
+        let generation = self.generation.load(Ordering::SeqCst);
+        let boards = self.boards.read().expect("cache lock");
+        let (at, built_in, rendered) = boards.get(key)?;
+        (*built_in == generation && at.elapsed() < FRESH_FOR).then(|| rendered.clone())
+    }
+
+    fn remember(&self, key: &str, rendered: &Arc<Rendered>, generation: u64) {
+        self.boards.write().expect("cache lock").insert(key.to_string(), (Instant::now(), generation, rendered.clone()));
+    }
+
+    /// The leaderboard of the published `release` (`None`: the current release), from
+    /// memory while fresh, else rebuilt from `store`.
+    pub async fn board(&self, store: &Store, release: Option<&str>) -> Result<Arc<Rendered>, BoardError> {
+        let key = release.unwrap_or(CURRENT);
+        if let Some(rendered) = self.fresh(key) {
+            return Ok(rendered);
+        }
+        // Read before the store, so a write meanwhile leaves this board stale.
+        let generation = self.generation.load(Ordering::SeqCst);
+        let record = match release {
+            Some(version) => store.release(version).await,
+            None => store.current_release().await,
+        };
+        let record = match record {
+            Ok(r) if r.state == ReleaseState::Published => r,
+            Ok(_) | Err(StoreError::NotFound) => return Err(BoardError::NotPublished(release.map(str::to_string))),
+            Err(e) => return Err(e.into()),
+        };
+        if let Some(rendered) = self.fresh(&record.version) {
+            self.remember(key, &rendered, generation);
+            return Ok(rendered);
+        }
+        let rows = store.leaderboard_rows(&record.version).await?;
+        let rendered = Arc::new(Rendered::new(Leaderboard::new(&record.version, manifest_lightings(&record.manifest), rows)));
+        self.remember(&record.version, &rendered, generation);
+        self.remember(key, &rendered, generation);
+        Ok(rendered)
+    }
+}
+
+/// The lightings a served manifest lists, in its order (none when it lists none it knows).
+pub fn manifest_lightings(manifest: &str) -> Vec<Lighting> {
+    #[derive(serde::Deserialize)]
+    struct Lightings {
+        #[serde(default)]
+        lightings: Vec<Lighting>,
+    }
+    serde_json::from_str::<Lightings>(manifest).map(|m| m.lightings).unwrap_or_default()
+}

@@ -1,0 +1,60 @@
+//! The leaderboard as CSV: one row per entry; per lighting the pooled and mean metrics
+//! and the pooled metrics of each subset, then per lighting the VQA accuracies; empty
+//! cells where a value is undefined; names made safe for spreadsheets.
+
+use osmab_evaluator::csv_writer::{CsvWriter, LineEnd, spreadsheet_safe};
+use osmab_evaluator::scores::{Aggregate, Metric, Regime};
+
+use super::Leaderboard;
+
+/// A number as CSV writes it, or nothing where undefined.
+pub fn cell(value: Option<f64>) -> String {
+    value.map(|x| x.to_string()).unwrap_or_default()
+}
+
+impl Leaderboard {
+    /// The CSV export of `GET /api/v1/leaderboard.csv`.
+    pub fn to_csv(&self) -> String {
+        let mut header: Vec<String> = ["rank", "submission_id", "team", "method", "baseline", "complete"].into_iter().map(String::from).collect();
+        for lighting in &self.lightings {
+            for aggregate in Aggregate::ALL {
+                for metric in Metric::COLUMNS {
+                    header.push(format!("{lighting}_{aggregate}_{metric}"));
+                }
+            }
+            for subset in Regime::ALL {
+                for metric in Metric::COLUMNS {
+                    header.push(format!("{lighting}_{subset}_{metric}"));
+                }
+            }
+        }
+        header.extend(super::vqa::csv_columns(&self.lightings));
+        let mut csv = CsvWriter::new(LineEnd::Lf);
+        csv.row(&header);
+        for (rank, e) in self.entries.iter().enumerate() {
+            let mut row = vec![
+                (rank + 1).to_string(),
+                e.submission_id.clone(),
+                spreadsheet_safe(&e.team).into_owned(),
+                spreadsheet_safe(&e.method).into_owned(),
+                e.baseline.to_string(),
+                e.complete.to_string(),
+            ];
+            for &lighting in &self.lightings {
+                for aggregate in Aggregate::ALL {
+                    for metric in Metric::COLUMNS {
+                        row.push(cell(e.metric(lighting, None, aggregate, metric)));
+                    }
+                }
+                for subset in Regime::ALL {
+                    for metric in Metric::COLUMNS {
+                        row.push(cell(e.metric(lighting, Some(subset), Aggregate::Overall, metric)));
+                    }
+                }
+            }
+            row.extend(super::vqa::csv_cells(e, &self.lightings).into_iter().map(cell));
+            csv.row(row);
+        }
+        csv.finish()
+    }
+}

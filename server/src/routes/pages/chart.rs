@@ -1,0 +1,201 @@
+//! The one SVG chart of the pages: grouped bars (one group per lighting, one bar per
+//! method, the first eight), a horizontal grid, group labels and a legend. Values are
+//! fractions; the axis is either 0–100 % or symmetric around zero (relative changes).
+
+use super::format::escape_xml;
+
+/// Bar colours, one per method in the order given.
+const PALETTE: [&str; 8] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
+
+/// At most this many methods are drawn.
+const SHOWN: usize = 8;
+
+/// The value axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Axis {
+    /// 0 to 100 %.
+    Fraction,
+    /// −extent to +extent, the extent the largest change rounded up to 5 % (at most 100 %).
+    Symmetric,
+}
+
+/// The size of a chart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Size {
+    /// The page-wide robustness figure.
+    Wide,
+    /// One of a row of small charts.
+    Small,
+}
+
+/// One method's bars: its name and a value per group (`None`: no bar).
+pub struct Series {
+    pub name: String,
+    pub values: Vec<Option<f64>>,
+}
+
+/// A grouped bar chart.
+pub struct BarChart {
+    /// Read by screen readers; Small charts also print it above the plot.
+    pub title: String,
+    pub groups: Vec<String>,
+    pub series: Vec<Series>,
+    pub axis: Axis,
+    pub size: Size,
+}
+
+struct Layout {
+    width: f64,
+    height: f64,
+    top: f64,
+    bottom: f64,
+    left: f64,
+    max_bar: f64,
+    legend_columns: usize,
+    legend_step: f64,
+    swatch: f64,
+}
+
+impl BarChart {
+    fn layout(&self) -> Layout {
+        match self.size {
+            Size::Wide => {
+                Layout { width: 720.0, height: 260.0, top: 20.0, bottom: 60.0, left: 50.0, max_bar: 28.0, legend_columns: 4, legend_step: 165.0, swatch: 10.0 }
+            }
+            Size::Small => {
+                Layout { width: 360.0, height: 250.0, top: 24.0, bottom: 84.0, left: 40.0, max_bar: 18.0, legend_columns: 2, legend_step: 160.0, swatch: 8.0 }
+            }
+        }
+    }
+
+    /// The chart as inline SVG; empty without groups or series.
+    pub fn to_svg(&self) -> String {
+        let shown = &self.series[..self.series.len().min(SHOWN)];
+        if shown.is_empty() || self.groups.is_empty() {
+            return String::new();
+        }
+        let l = self.layout();
+        let plot_h = l.height - l.top - l.bottom;
+        let extent = match self.axis {
+            Axis::Fraction => 1.0,
+            Axis::Symmetric => (shown.iter().flat_map(|s| s.values.iter().flatten()).fold(0.05f64, |m, v| m.max(v.abs())).min(1.0) * 20.0).ceil() / 20.0,
+        };
+        // Where a value lands: y of the bar's top and its height.
+        let zero = match self.axis {
+            Axis::Fraction => l.top + plot_h,
+            Axis::Symmetric => l.top + plot_h / 2.0,
+        };
+        let span = match self.axis {
+            Axis::Fraction => plot_h,
+            Axis::Symmetric => plot_h / 2.0,
+        };
+        let (class, title) = match self.size {
+            Size::Wide => ("chart", format!("<title id=\"chart-title\">{}</title>", escape_xml(&self.title))),
+            Size::Small => {
+                ("chart small", format!("<title>{0}</title><text x=\"{1}\" y=\"14\" class=\"legend\">{0} (%)</text>", escape_xml(&self.title), l.left))
+            }
+        };
+        let labelled = if self.size == Size::Wide { " aria-labelledby=\"chart-title\"" } else { "" };
+        let mut svg =
+            format!("<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {} {}\" role=\"img\"{labelled} class=\"{class}\">{title}", l.width, l.height);
+        let ticks: &[f64] = match self.axis {
+            Axis::Fraction => &[0.0, 0.5, 1.0],
+            Axis::Symmetric => &[-1.0, -0.5, 0.0, 0.5, 1.0],
+        };
+        for &tick in ticks {
+            let y = zero - tick * span;
+            let label = match self.axis {
+                Axis::Fraction => format!("{:.0}", tick * 100.0),
+                Axis::Symmetric => format!("{:+.1}%", tick * extent * 100.0),
+            };
+            svg.push_str(&format!(
+                "<line x1=\"{}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{label}</text>",
+                l.left,
+                l.width - 10.0,
+                l.left - 5.0,
+                y + 4.0
+            ));
+        }
+        let group_w = (l.width - l.left - 10.0) / self.groups.len() as f64;
+        let bar_w = (group_w * 0.8 / shown.len() as f64).min(l.max_bar);
+        for (g, group) in self.groups.iter().enumerate() {
+            let x0 = l.left + g as f64 * group_w + group_w * 0.1;
+            for (i, series) in shown.iter().enumerate() {
+                let Some(v) = series.values.get(g).copied().flatten() else { continue };
+                let h = match self.axis {
+                    Axis::Fraction => v.clamp(0.0, 1.0),
+                    Axis::Symmetric => (v / extent).clamp(-1.0, 1.0),
+                } * span;
+                let (y, bar_h) = if h >= 0.0 { (zero - h, h) } else { (zero, -h) };
+                let shown_value = match self.axis {
+                    Axis::Fraction => format!("{:.1}%", v * 100.0),
+                    Axis::Symmetric => format!("{:+.1}%", v * 100.0),
+                };
+                svg.push_str(&format!(
+                    "<rect x=\"{:.1}\" y=\"{y:.1}\" width=\"{bar_w:.1}\" height=\"{:.1}\" fill=\"{}\"><title>{} — {}: {shown_value}</title></rect>",
+                    x0 + i as f64 * bar_w,
+                    bar_h.max(0.5),
+                    PALETTE[i % PALETTE.len()],
+                    escape_xml(&series.name),
+                    escape_xml(group),
+                ));
+            }
+            svg.push_str(&format!(
+                "<text x=\"{:.1}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"middle\">{}</text>",
+                l.left + g as f64 * group_w + group_w / 2.0,
+                l.height - l.bottom + 17.0,
+                escape_xml(group)
+            ));
+        }
+        let legend_top = match self.size {
+            Size::Wide => l.height - 22.0,
+            Size::Small => l.height - l.bottom + 34.0,
+        };
+        let row_h = l.swatch + 4.0;
+        for (i, series) in shown.iter().enumerate() {
+            let x = l.left + (i % l.legend_columns) as f64 * l.legend_step;
+            let y = legend_top + (i / l.legend_columns) as f64 * row_h;
+            svg.push_str(&format!(
+                "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"{s}\" height=\"{s}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{y:.1}\" class=\"legend\">{}</text>",
+                y - l.swatch + 1.0,
+                PALETTE[i % PALETTE.len()],
+                x + l.swatch + 4.0,
+                escape_xml(&series.name.chars().take(22).collect::<String>()),
+                s = l.swatch,
+            ));
+        }
+        svg.push_str("</svg>");
+        svg
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(axis: Axis, values: Vec<Option<f64>>) -> String {
+        BarChart {
+            title: "T <1>".into(),
+            groups: vec!["Camera".into(), "Dynamic".into()],
+            series: vec![Series { name: "m&m".into(), values }],
+            axis,
+            size: Size::Wide,
+        }
+        .to_svg()
+    }
+
+    #[test]
+    fn a_bar_per_defined_value_with_escaped_names() {
+        let svg = chart(Axis::Symmetric, vec![Some(-0.2), None]);
+        assert_eq!(svg.matches("<rect").count(), 2, "one bar and one legend swatch");
+        assert!(svg.contains("m&amp;m — Camera: -20.0%") && svg.contains("T &lt;1&gt;"), "{svg}");
+        assert!(svg.contains(">+20.0%</text>"), "the axis reaches the largest change: {svg}");
+    }
+
+    #[test]
+    fn no_groups_or_series_draw_nothing() {
+        let empty = BarChart { title: String::new(), groups: vec![], series: vec![], axis: Axis::Fraction, size: Size::Small };
+        assert_eq!(empty.to_svg(), "");
+        assert!(chart(Axis::Fraction, vec![Some(0.5), Some(1.5)]).contains("height=\"180.0\""), "values above 100 % stop at the top");
+    }
+}

@@ -1,0 +1,205 @@
+//! `GET /`: the leaderboard page. Sorting and the choice of aggregate and subset are
+//! links, so it works without JavaScript; each view is rendered once per built board.
+
+use askama::Template;
+use askama_web::WebTemplate;
+use axum::extract::State;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime};
+use serde::Deserialize;
+
+use super::chart::{Axis, BarChart, Series, Size};
+use super::format::{percent, signed_percent};
+use super::{MessagePage, vqa};
+use crate::leaderboard::{Entry, Leaderboard};
+use crate::routes::ApiQuery;
+use crate::state::AppState;
+
+#[derive(Debug, Deserialize, Default)]
+pub struct BoardQuery {
+    release: Option<String>,
+    /// `overall` (pooled, default) or `overall_mean`.
+    agg: Option<String>,
+    /// `all` (default), `furniture` or `manipuland`.
+    subset: Option<String>,
+    /// `<lighting>.<metric>`.
+    sort: Option<String>,
+}
+
+/// What the page shows: an aggregate, all scenes or a subset, sorted by one column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    pub aggregate: Aggregate,
+    pub subset: Option<Regime>,
+    pub sort: (Lighting, Metric),
+}
+
+impl View {
+    /// The view a query asks for on `board`; anything unknown falls back to the default.
+    fn of(query: &BoardQuery, board: &Leaderboard) -> Self {
+        let first = board.lightings.first().copied().unwrap_or(Lighting::BASELINE);
+        let sort = query
+            .sort
+            .as_deref()
+            .and_then(|s| s.split_once('.'))
+            .and_then(|(l, m)| Some((l.parse::<Lighting>().ok()?, m.parse::<Metric>().ok()?)))
+            .filter(|(l, _)| board.lightings.contains(l));
+        View {
+            aggregate: query.agg.as_deref().and_then(|a| a.parse().ok()).unwrap_or(Aggregate::Overall),
+            subset: query.subset.as_deref().and_then(|s| s.parse().ok()),
+            sort: sort.unwrap_or((first, Metric::Miou)),
+        }
+    }
+
+    fn subset_name(&self) -> &'static str {
+        self.subset.map_or("all", Regime::name)
+    }
+
+    /// The key the rendered page is cached under.
+    fn key(&self) -> String {
+        format!("{}/{}/{}.{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
+    }
+
+    fn link(&self, release: &str) -> String {
+        format!("/?release={release}&agg={}&subset={}&sort={}.{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
+    }
+
+    fn value(&self, e: &Entry, lighting: Lighting, metric: Metric) -> Option<f64> {
+        e.metric(lighting, self.subset, self.aggregate, metric)
+    }
+
+    /// The change of mIoU against the baseline lighting, for the aggregate and scenes shown.
+    fn change(&self, e: &Entry, lighting: Lighting) -> Option<f64> {
+        match (self.value(e, lighting, Metric::Miou), self.value(e, Lighting::BASELINE, Metric::Miou)) {
+            (Some(v), Some(b)) if b != 0.0 => Some((v - b) / b),
+            _ => None,
+        }
+    }
+}
+
+pub struct Column {
+    pub label: &'static str,
+    pub metric_label: &'static str,
+    pub sort_link: String,
+    pub sorted: bool,
+    pub first_of_lighting: bool,
+}
+
+pub struct Row {
+    pub rank: usize,
+    pub submission_id: String,
+    pub team: String,
+    pub method: String,
+    pub paper_url: Option<String>,
+    pub baseline: bool,
+    pub complete: bool,
+    pub cells: Vec<String>,
+    pub changes: Vec<String>,
+}
+
+pub struct Choice {
+    pub label: &'static str,
+    pub link: String,
+    pub active: bool,
+}
+
+#[derive(Template, WebTemplate)]
+#[template(path = "leaderboard.html")]
+pub struct LeaderboardPage {
+    pub release: String,
+    pub lighting_groups: Vec<(&'static str, usize)>,
+    pub columns: Vec<Column>,
+    pub change_headers: Vec<&'static str>,
+    pub rows: Vec<Row>,
+    pub aggregates: Vec<Choice>,
+    pub subsets: Vec<Choice>,
+    pub chart: String,
+    pub csv_link: String,
+    pub json_link: String,
+    pub vqa: Option<vqa::VqaView>,
+}
+
+/// `GET /`: the leaderboard of the current (or chosen) release.
+pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuery<BoardQuery>) -> Response {
+    let rendered = match crate::routes::leaderboard::rendered(&state, query.release.as_deref()).await {
+        Ok(r) => r,
+        Err(problem) => {
+            let status = problem.status;
+            let page = MessagePage { title: "No leaderboard yet".into(), message: problem.detail };
+            return (if status == StatusCode::NOT_FOUND { StatusCode::OK } else { status }, [(header::REFRESH, "10")], page).into_response();
+        }
+    };
+    let view = View::of(&query, &rendered.board);
+    let page = rendered.page(&view.key(), || board_page(&rendered.board, view).render().unwrap_or_else(|e| format!("template error: {e}")));
+    ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
+}
+
+/// The leaderboard page of `board` for one view.
+fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
+    let (sort_lighting, sort_metric) = view.sort;
+    let mut entries: Vec<&Entry> = board.entries.iter().collect();
+    let key = |e: &Entry| view.value(e, sort_lighting, sort_metric).unwrap_or(f64::NEG_INFINITY);
+    entries.sort_by(|a, b| key(b).total_cmp(&key(a)));
+    let release = &board.release;
+    let mut columns = Vec::new();
+    let mut cells_of: Vec<(Lighting, Metric)> = Vec::new();
+    for &lighting in &board.lightings {
+        for (k, metric) in Metric::COLUMNS.into_iter().enumerate() {
+            columns.push(Column {
+                label: lighting.label(),
+                metric_label: metric.label(),
+                sort_link: View { sort: (lighting, metric), ..view }.link(release),
+                sorted: (lighting, metric) == view.sort,
+                first_of_lighting: k == 0,
+            });
+            cells_of.push((lighting, metric));
+        }
+    }
+    let others: Vec<Lighting> = board.lightings.iter().copied().filter(|&l| l != Lighting::BASELINE).collect();
+    let rows = entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| Row {
+            rank: i + 1,
+            submission_id: e.submission_id.clone(),
+            team: e.team.clone(),
+            method: e.method.clone(),
+            paper_url: e.paper_url.clone(),
+            baseline: e.baseline,
+            complete: e.complete,
+            cells: cells_of.iter().map(|&(l, m)| percent(view.value(e, l, m))).collect(),
+            changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
+        })
+        .collect();
+    let aggregates = Aggregate::ALL
+        .iter()
+        .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(release), active: aggregate == view.aggregate })
+        .collect();
+    let subsets = std::iter::once(None)
+        .chain(Regime::ALL.iter().copied().map(Some))
+        .map(|subset| Choice { label: subset.map_or("All scenes", Regime::label), link: View { subset, ..view }.link(release), active: subset == view.subset })
+        .collect();
+    // The chart keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
+    let chart = BarChart {
+        title: "Relative change of pooled mIoU against the baseline lighting".into(),
+        groups: others.iter().map(|l| l.label().to_string()).collect(),
+        series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
+        axis: Axis::Symmetric,
+        size: Size::Wide,
+    }
+    .to_svg();
+    LeaderboardPage {
+        release: release.clone(),
+        lighting_groups: board.lightings.iter().map(|l| (l.label(), Metric::COLUMNS.len())).collect(),
+        columns,
+        change_headers: others.iter().map(|l| l.short_label()).collect(),
+        rows,
+        aggregates,
+        subsets,
+        chart,
+        csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
+        json_link: format!("/api/v1/leaderboard?release={release}"),
+        vqa: vqa::vqa_view(release, &board.lightings, &entries, view.subset),
+    }
+}

@@ -1,0 +1,105 @@
+//! `GET /submissions/{id}`: a submission's state and history, its segmentation results per
+//! lighting and scene, and its question answering — from the same view the API serves.
+
+use askama::Template;
+use askama_web::WebTemplate;
+use axum::extract::State;
+use axum::response::{IntoResponse, Response};
+use osmab_evaluator::scores::{Lighting, Metric};
+use osmab_evaluator::semseg::report::MetricTriple;
+
+use super::format::percent;
+use super::vqa::{VqaLighting, submission_vqa, vqa_sources};
+use crate::auth::Caller;
+use crate::problem::ApiResult;
+use crate::routes::ApiPath;
+use crate::routes::submission_view::SubmissionView;
+use crate::state::AppState;
+
+pub struct EventRow {
+    pub state: String,
+    pub reason: String,
+    pub at: String,
+}
+
+pub struct SceneResult {
+    pub scene: String,
+    pub cells: Vec<String>,
+}
+
+pub struct LightingResult {
+    pub label: &'static str,
+    pub pooled: Vec<String>,
+    pub mean: Vec<String>,
+    pub scenes: Vec<SceneResult>,
+}
+
+#[derive(Template, WebTemplate)]
+#[template(path = "submission.html")]
+pub struct SubmissionPage {
+    pub id: String,
+    pub team: String,
+    pub method: String,
+    pub description: String,
+    pub paper_url: Option<String>,
+    pub code_url: Option<String>,
+    pub release: String,
+    pub state: String,
+    pub reason: Option<String>,
+    pub baseline: bool,
+    pub complete: bool,
+    pub history: Vec<EventRow>,
+    pub results: Vec<LightingResult>,
+    pub vqa: Vec<VqaLighting>,
+    pub vqa_sources: String,
+    pub evaluator_version: String,
+    pub refresh: bool,
+}
+
+fn cells(triple: &MetricTriple) -> Vec<String> {
+    Metric::COLUMNS.iter().map(|&m| percent(triple.defined(m))).collect()
+}
+
+/// `GET /submissions/{id}`.
+pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
+    let record = crate::routes::submissions::visible_submission(&state, &caller, &id).await?;
+    let view = SubmissionView::load(&state, &record).await?;
+    // Lightings in the release's order.
+    let release = state.store.release(&view.release).await?;
+    let order = crate::leaderboard::cache::manifest_lightings(&release.manifest);
+    let scores = view.scores.as_ref();
+    let results = match scores {
+        Some(scores) => order
+            .iter()
+            .filter_map(|l: &Lighting| Some((l, scores.semseg.get(l)?)))
+            .map(|(l, table)| LightingResult {
+                label: l.label(),
+                pooled: cells(&table.overall),
+                mean: cells(&table.overall_mean),
+                scenes: table.scenes.iter().map(|(scene, t)| SceneResult { scene: scene.clone(), cells: cells(t) }).collect(),
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let vqa = scores.and_then(|s| s.vqa.as_ref());
+    Ok(SubmissionPage {
+        refresh: view.state.is_active(),
+        state: view.state.to_string(),
+        history: view.history.iter().map(|e| EventRow { state: e.state.to_string(), reason: e.reason.clone().unwrap_or_default(), at: e.at.clone() }).collect(),
+        results,
+        vqa: submission_vqa(vqa, &order),
+        vqa_sources: vqa_sources(vqa),
+        evaluator_version: scores.map(|s| s.evaluator_version.clone()).unwrap_or_default(),
+        id: view.id,
+        team: view.team,
+        method: view.method.name,
+        description: view.method.description,
+        paper_url: view.method.paper_url,
+        code_url: view.method.code_url,
+        release: view.release,
+        reason: view.reason,
+        baseline: view.baseline,
+        complete: view.complete,
+    }
+    .into_response())
+}

@@ -1,0 +1,133 @@
+//! The question-answering parts of the pages: on the leaderboard, per entry and lighting
+//! the prompt-grounded and standard accuracies in the paper's two groups with one bar
+//! chart per (question set, group); on a submission's page, every group and category
+//! with its interval, and who answered and judged.
+
+use osmab_evaluator::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, Regime, VqaScores};
+
+use super::chart::{Axis, BarChart, Series, Size};
+use super::format::{interval, percent};
+use crate::leaderboard::Entry;
+use crate::leaderboard::vqa::{accuracy, pairs};
+
+pub struct VqaRow {
+    pub submission_id: String,
+    pub method: String,
+    pub baseline: bool,
+    pub cells: Vec<String>,
+}
+
+pub struct VqaView {
+    /// (lighting label, columns under it).
+    pub lighting_groups: Vec<(&'static str, usize)>,
+    /// Column labels under each lighting.
+    pub columns: Vec<String>,
+    pub rows: Vec<VqaRow>,
+    pub charts: Vec<String>,
+    pub table_two_csv: String,
+    pub table_three_csv: String,
+    pub tables_json: String,
+}
+
+/// A (set, group) column's short label (`PromptGT Meas.`).
+fn column_label(set: QuestionSet, group: QuestionGroup) -> String {
+    let short = match group {
+        QuestionGroup::Measurements => "Meas.",
+        QuestionGroup::Relations => "Rel.",
+    };
+    format!("{} {short}", set.label())
+}
+
+/// The section for `entries` (in the page's order), over all scenes or one `subset`;
+/// `None` when no entry has VQA scores.
+pub fn vqa_view(release: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>) -> Option<VqaView> {
+    let with_vqa: Vec<&Entry> = entries.iter().copied().filter(|e| e.scores.vqa.is_some()).collect();
+    if with_vqa.is_empty() {
+        return None;
+    }
+    let columns: Vec<(QuestionSet, QuestionGroup)> = pairs().collect();
+    let rows = with_vqa
+        .iter()
+        .map(|e| VqaRow {
+            submission_id: e.submission_id.clone(),
+            method: e.method.clone(),
+            baseline: e.baseline,
+            cells: lightings.iter().flat_map(|&l| columns.iter().map(move |&(set, group)| percent(accuracy(e, l, subset, set, group)))).collect(),
+        })
+        .collect();
+    let charts = columns
+        .iter()
+        .map(|&(set, group)| {
+            BarChart {
+                title: format!("{} {group}", set.label()),
+                groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
+                series: with_vqa
+                    .iter()
+                    .map(|e| Series { name: e.method.clone(), values: lightings.iter().map(|&l| accuracy(e, l, subset, set, group)).collect() })
+                    .collect(),
+                axis: Axis::Fraction,
+                size: Size::Small,
+            }
+            .to_svg()
+        })
+        .collect();
+    Some(VqaView {
+        lighting_groups: lightings.iter().map(|l| (l.label(), columns.len())).collect(),
+        columns: columns.iter().map(|&(set, group)| column_label(set, group)).collect(),
+        rows,
+        charts,
+        table_two_csv: format!("/api/v1/leaderboard/vqa.csv?table=2&release={release}"),
+        table_three_csv: format!("/api/v1/leaderboard/vqa.csv?table=3&release={release}"),
+        tables_json: format!("/api/v1/leaderboard/vqa?release={release}"),
+    })
+}
+
+/// One row of a submission's VQA table: a category or a group.
+pub struct VqaCategoryRow {
+    pub name: String,
+    pub counts: String,
+    pub accuracy: String,
+    pub interval: String,
+    pub group: bool,
+}
+
+/// A submission's VQA results under one lighting.
+pub struct VqaLighting {
+    pub label: &'static str,
+    pub rows: Vec<VqaCategoryRow>,
+}
+
+fn category_row(name: String, cell: &Accuracy, group: bool) -> VqaCategoryRow {
+    VqaCategoryRow { name, counts: format!("{} / {}", cell.correct, cell.total), accuracy: percent(cell.accuracy), interval: interval(cell.ci95), group }
+}
+
+/// Per lighting (in `lightings` order): each question set's groups, then its categories.
+pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting]) -> Vec<VqaLighting> {
+    let Some(vqa) = vqa else { return Vec::new() };
+    let none = Accuracy::default();
+    lightings
+        .iter()
+        .filter_map(|l| Some((l, vqa.lightings.get(l)?)))
+        .map(|(l, at)| {
+            let mut rows = Vec::new();
+            for set in QuestionSet::ALL {
+                let scores = at.set(set);
+                for group in QuestionGroup::ALL {
+                    rows.push(category_row(format!("{} {group}", set.label()), scores.group(group).unwrap_or(&none), true));
+                }
+                for (category, cell) in &scores.categories {
+                    rows.push(category_row(category.clone(), cell, false));
+                }
+            }
+            VqaLighting { label: l.label(), rows }
+        })
+        .collect()
+}
+
+/// Who answered and who judged, in words.
+pub fn vqa_sources(vqa: Option<&VqaScores>) -> String {
+    let Some(vqa) = vqa else { return String::new() };
+    let answered: Vec<String> = vqa.answered_by.iter().map(|(by, n)| format!("{} {n}", by.name())).collect();
+    let judged: Vec<String> = vqa.judged_by.iter().map(|(by, n)| format!("{} {n}", by.name())).collect();
+    format!("answered by {}; judged by {}", answered.join(", "), judged.join(", "))
+}

@@ -1,0 +1,162 @@
+//! A submission as the API shows it and its page renders it: the record, its history,
+//! its jobs, its scores (the latest document in full, and the list of earlier ones).
+//! Built from the store's records once; the page reads these fields, not the JSON.
+//!
+//! Fields are declared in the order of their JSON keys.
+
+use osmab_evaluator::scores::Scores;
+use serde::Serialize;
+
+use crate::clock::rfc3339;
+use crate::problem::ApiResult;
+use crate::state::AppState;
+use crate::store::{JobState, SubmissionRecord, SubmissionState};
+
+/// The uploaded archive.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArchiveView {
+    pub sha256: String,
+    pub size: i64,
+}
+
+/// One state change.
+#[derive(Debug, Clone, Serialize)]
+pub struct EventView {
+    pub at: String,
+    pub reason: Option<String>,
+    pub state: SubmissionState,
+}
+
+/// A job of the submission.
+#[derive(Debug, Clone, Serialize)]
+pub struct JobLink {
+    pub attempts: i64,
+    pub id: String,
+    pub kind: String,
+    pub state: JobState,
+    pub url: String,
+}
+
+/// The method card.
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodView {
+    pub code_url: Option<String>,
+    pub description: String,
+    pub name: String,
+    pub paper_url: Option<String>,
+}
+
+/// One recorded score (the latest is in full under `scores`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ScoreLink {
+    pub at: String,
+    pub evaluator_version: String,
+    pub id: i64,
+    pub release: String,
+}
+
+/// `GET /api/v1/submissions/{id}`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SubmissionView {
+    pub archive: ArchiveView,
+    pub baseline: bool,
+    pub complete: bool,
+    pub created_at: String,
+    pub history: Vec<EventView>,
+    pub id: String,
+    pub jobs: Vec<JobLink>,
+    pub method: MethodView,
+    pub public: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    pub release: String,
+    pub score_history: Vec<ScoreLink>,
+    /// The latest score, when scored.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scores: Option<Scores>,
+    pub state: SubmissionState,
+    /// The team's name.
+    pub team: String,
+    pub updated_at: String,
+}
+
+impl SubmissionView {
+    /// The view of `s` from the store.
+    pub async fn load(state: &AppState, s: &SubmissionRecord) -> ApiResult<Self> {
+        let team = state.store.team(&s.team_id).await?;
+        let history =
+            state.store.submission_events(&s.id).await?.into_iter().map(|e| EventView { at: rfc3339(e.at), reason: e.reason, state: e.state }).collect();
+        let mut scores = state.store.scores(&s.id).await?;
+        let score_history = scores
+            .iter()
+            .map(|c| ScoreLink { at: rfc3339(c.created_at), evaluator_version: c.evaluator_version.clone(), id: c.id, release: c.release.clone() })
+            .collect();
+        let jobs = state
+            .store
+            .jobs_for(&s.id)
+            .await?
+            .into_iter()
+            .map(|j| JobLink { attempts: j.attempts, url: format!("/api/v1/jobs/{}", j.id), id: j.id, kind: j.kind, state: j.state })
+            .collect();
+        Ok(SubmissionView {
+            archive: ArchiveView { sha256: s.archive_sha256.clone(), size: s.archive_size },
+            baseline: s.baseline,
+            complete: s.complete,
+            created_at: rfc3339(s.created_at),
+            history,
+            id: s.id.clone(),
+            jobs,
+            method: MethodView {
+                code_url: s.code_url.clone(),
+                description: s.method_description.clone(),
+                name: s.method_name.clone(),
+                paper_url: s.paper_url.clone(),
+            },
+            public: s.public,
+            reason: s.reason.clone(),
+            release: s.release.clone(),
+            score_history,
+            scores: scores.pop().map(|c| c.scores),
+            state: s.state,
+            team: team.name,
+            updated_at: rfc3339(s.updated_at),
+        })
+    }
+}
+
+/// One of a team's submissions in `GET /api/v1/submissions`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SubmissionItem {
+    pub complete: bool,
+    pub created_at: String,
+    pub id: String,
+    /// The method's name.
+    pub method: String,
+    pub public: bool,
+    pub reason: Option<String>,
+    pub release: String,
+    pub state: SubmissionState,
+    pub url: String,
+}
+
+impl From<&SubmissionRecord> for SubmissionItem {
+    fn from(s: &SubmissionRecord) -> Self {
+        SubmissionItem {
+            complete: s.complete,
+            created_at: rfc3339(s.created_at),
+            id: s.id.clone(),
+            method: s.method_name.clone(),
+            public: s.public,
+            reason: s.reason.clone(),
+            release: s.release.clone(),
+            state: s.state,
+            url: format!("/api/v1/submissions/{}", s.id),
+        }
+    }
+}
+
+/// `GET /api/v1/submissions`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SubmissionList {
+    pub submissions: Vec<SubmissionItem>,
+}

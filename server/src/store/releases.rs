@@ -1,0 +1,90 @@
+//! Releases and their public files: drafts, publication, the current release.
+
+use super::{ReleaseFile, ReleaseRecord, Store, StoreError, StoreResult, on_pool};
+
+impl Store {
+    /// Register a release and its public files in one transaction.
+    pub async fn insert_release(&self, release: &ReleaseRecord, files: &[ReleaseFile]) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            sqlx::query("INSERT INTO releases (version, state, is_current, digest, manifest, created_at, published_at) VALUES ($1, $2, $3, $4, $5, $6, $7)")
+                .bind(&release.version)
+                .bind(&release.state)
+                .bind(release.is_current)
+                .bind(&release.digest)
+                .bind(&release.manifest)
+                .bind(release.created_at)
+                .bind(release.published_at)
+                .execute(&mut *tx)
+                .await?;
+            for file in files {
+                sqlx::query("INSERT INTO release_files (version, path, size, sha256, kind) VALUES ($1, $2, $3, $4, $5)")
+                    .bind(&file.version)
+                    .bind(&file.path)
+                    .bind(file.size)
+                    .bind(&file.sha256)
+                    .bind(&file.kind)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            tx.commit().await
+        })?;
+        Ok(())
+    }
+
+    /// Every release, newest first.
+    pub async fn releases(&self) -> StoreResult<Vec<ReleaseRecord>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases ORDER BY created_at DESC, version"
+        )
+        .fetch_all(pool)
+        .await)?)
+    }
+
+    /// Release `version`.
+    pub async fn release(&self, version: &str) -> StoreResult<ReleaseRecord> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE version = $1"
+        )
+        .bind(version)
+        .fetch_one(pool)
+        .await)?)
+    }
+
+    /// The current (most recently published) release.
+    pub async fn current_release(&self) -> StoreResult<ReleaseRecord> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, state, is_current, digest, manifest, created_at, published_at FROM releases WHERE is_current = TRUE"
+        )
+        .fetch_one(pool)
+        .await)?)
+    }
+
+    /// Freeze draft `version` and make it the current release.
+    pub async fn publish_release(&self, version: &str, at: i64) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let done = sqlx::query("UPDATE releases SET state = 'published', published_at = COALESCE(published_at, $2) WHERE version = $1")
+                .bind(version)
+                .bind(at)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if done == 0 {
+                return Err(StoreError::NotFound);
+            }
+            sqlx::query("UPDATE releases SET is_current = FALSE WHERE is_current = TRUE AND version <> $1").bind(version).execute(&mut *tx).await?;
+            sqlx::query("UPDATE releases SET is_current = TRUE WHERE version = $1").bind(version).execute(&mut *tx).await?;
+            tx.commit().await.map_err(StoreError::from)
+        })
+    }
+
+    /// A public file of a release.
+    pub async fn release_file(&self, version: &str, path: &str) -> StoreResult<ReleaseFile> {
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT version, path, size, sha256, kind FROM release_files WHERE version = $1 AND path = $2")
+            .bind(version)
+            .bind(path)
+            .fetch_one(pool)
+            .await)?)
+    }
+}

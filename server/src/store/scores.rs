@@ -1,0 +1,96 @@
+//! Scores: one row per scoring of a submission (re-scoring adds rows). The score document
+//! is kept as its JSON text and read back typed; nothing outside the store sees the text.
+
+use osmab_evaluator::scores::Scores;
+
+use super::{LeaderboardRow, ScoreRecord, Store, StoreError, StoreResult, on_pool};
+
+/// The JSON text a score document is stored as.
+pub(super) fn score_text(scores: &Scores) -> String {
+    serde_json::to_string(scores).expect("a score document serialises")
+}
+
+/// A stored score document, read back.
+fn parse(score_id: i64, body: &str) -> StoreResult<Scores> {
+    serde_json::from_str(body).map_err(|e| StoreError::Corrupt(format!("score {score_id}: the stored document does not read as scores ({e})")))
+}
+
+#[derive(sqlx::FromRow)]
+struct ScoreRow {
+    id: i64,
+    submission_id: String,
+    release: String,
+    evaluator_version: String,
+    body: String,
+    created_at: i64,
+}
+
+#[derive(sqlx::FromRow)]
+struct BoardRow {
+    score_id: i64,
+    submission_id: String,
+    team: String,
+    method_name: String,
+    paper_url: Option<String>,
+    code_url: Option<String>,
+    baseline: bool,
+    complete: bool,
+    created_at: i64,
+    body: String,
+}
+
+impl Store {
+    /// Every score of a submission, oldest first.
+    pub async fn scores(&self, submission_id: &str) -> StoreResult<Vec<ScoreRecord>> {
+        let rows: Vec<ScoreRow> = on_pool!(self, |pool| sqlx::query_as(
+            "SELECT id, submission_id, release, evaluator_version, body, created_at FROM scores WHERE submission_id = $1 ORDER BY id"
+        )
+        .bind(submission_id)
+        .fetch_all(pool)
+        .await)?;
+        rows.into_iter()
+            .map(|r| {
+                Ok(ScoreRecord {
+                    scores: parse(r.id, &r.body)?,
+                    id: r.id,
+                    submission_id: r.submission_id,
+                    release: r.release,
+                    evaluator_version: r.evaluator_version,
+                    created_at: r.created_at,
+                })
+            })
+            .collect()
+    }
+
+    /// Public submissions of `release` that have a score, with their latest one (a
+    /// submission being re-scored keeps its place with its previous score).
+    pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
+        let rows: Vec<BoardRow> = on_pool!(self, |pool| {
+            sqlx::query_as(
+            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.created_at, c.body \
+             FROM submissions s JOIN teams t ON t.id = s.team_id \
+             JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
+             WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
+             ORDER BY s.created_at, s.id"
+        )
+        .bind(release)
+        .fetch_all(pool)
+        .await
+        })?;
+        rows.into_iter()
+            .map(|r| {
+                Ok(LeaderboardRow {
+                    scores: parse(r.score_id, &r.body)?,
+                    submission_id: r.submission_id,
+                    team: r.team,
+                    method_name: r.method_name,
+                    paper_url: r.paper_url,
+                    code_url: r.code_url,
+                    baseline: r.baseline,
+                    complete: r.complete,
+                    created_at: r.created_at,
+                })
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,81 @@
+//! The lifecycles the store records, as closed sets: a submission's, a job's and a
+//! release's state. Each is a TEXT column (with a CHECK constraint) in both databases,
+//! snake_case in JSON, and its name in problem details and logs.
+
+use serde::{Deserialize, Serialize};
+
+/// Declares a state enum mapped to a TEXT column, with `name()` and `Display`.
+macro_rules! state {
+    ($(#[$doc:meta])* $ty:ident { $($(#[$vdoc:meta])* $variant:ident = $name:literal,)+ }) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, sqlx::Type)]
+        #[serde(rename_all = "snake_case")]
+        #[sqlx(type_name = "text", rename_all = "snake_case")]
+        pub enum $ty {
+            $($(#[$vdoc])* $variant,)+
+        }
+
+        impl $ty {
+            /// The name as stored and served.
+            pub const fn name(self) -> &'static str {
+                match self { $($ty::$variant => $name,)+ }
+            }
+        }
+
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
+}
+
+state!(
+    /// Where a submission is: received → validating → queued ⇄ scoring → scored, or
+    /// failed / cancelled.
+    SubmissionState {
+        /// The upload is arriving.
+        Received = "received",
+        /// The upload is being unpacked and validated.
+        Validating = "validating",
+        /// Waiting for a worker.
+        Queued = "queued",
+        /// A worker scores it.
+        Scoring = "scoring",
+        /// Scored; the scores are recorded.
+        Scored = "scored",
+        /// Scoring failed for good; the reason says why.
+        Failed = "failed",
+        /// Cancelled by its team or an admin.
+        Cancelled = "cancelled",
+    }
+);
+
+impl SubmissionState {
+    /// Whether the submission can still change by itself (not scored, failed or cancelled).
+    pub fn is_active(self) -> bool {
+        !matches!(self, SubmissionState::Scored | SubmissionState::Failed | SubmissionState::Cancelled)
+    }
+}
+
+state!(
+    /// Where a job is: queued → running → succeeded, failed or cancelled; a retry or a
+    /// released job goes back to queued.
+    JobState {
+        Queued = "queued",
+        Running = "running",
+        Succeeded = "succeeded",
+        Failed = "failed",
+        Cancelled = "cancelled",
+    }
+);
+
+state!(
+    /// Whether a release takes submissions.
+    ReleaseState {
+        /// Being built or awaiting publication: no submissions, not public.
+        Draft = "draft",
+        /// Public; the current release is the newest published one.
+        Published = "published",
+    }
+);

@@ -5,30 +5,21 @@
 use axum::extract::FromRequestParts;
 use axum::http::StatusCode;
 use axum::http::request::Parts;
-use sha2::{Digest, Sha256};
-
-use crate::clock::{new_id, now_ms, random_alphanumeric};
+use crate::clock::{new_id, now_ms};
 use crate::problem::Problem;
 use crate::state::AppState;
+use crate::token;
 use crate::store::{StoreError, Team, TokenRecord};
-
-/// Every token starts with this. Never change it: clients and secret scanners rely on it.
-pub const TOKEN_PREFIX: &str = "osmab_";
-
-/// Lowercase hex of the SHA-256 of `token`.
-pub fn token_hash(token: &str) -> String {
-    Sha256::digest(token.as_bytes()).iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// A new token (shown once) and its record.
 pub fn issue_token(scope: &str, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {
-    let token = format!("{TOKEN_PREFIX}{}", random_alphanumeric(32));
+    let token = token::generate();
     let record = TokenRecord {
         id: new_id("tok"),
         team_id: team_id.map(str::to_string),
         scope: scope.to_string(),
-        sha256: token_hash(&token),
-        hint: token[..TOKEN_PREFIX.len() + 4].to_string(),
+        sha256: token::hash(&token),
+        hint: token::hint(&token),
         created_at: now_ms(),
         expires_at,
         revoked_at: None,
@@ -86,10 +77,10 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
         Some((scheme, token)) if scheme.eq_ignore_ascii_case("bearer") => token.trim(),
         _ => return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'.")),
     };
-    if !token.starts_with(TOKEN_PREFIX) {
+    if !token::has_prefix(token) {
         return Err(unauthenticated("token_invalid", "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));
     }
-    let record = match state.store.token_by_hash(&token_hash(token)).await {
+    let record = match state.store.token_by_hash(&token::hash(token)).await {
         Ok(record) => record,
         Err(StoreError::NotFound) => {
             return Err(unauthenticated(
@@ -181,17 +172,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn tokens_have_the_prefix_and_only_their_hash_is_kept() {
+    fn only_the_hash_of_an_issued_token_is_kept() {
         let (token, record) = issue_token("team", Some("team_x"), None);
-        assert!(token.starts_with(TOKEN_PREFIX));
-        assert_eq!(token.len(), TOKEN_PREFIX.len() + 32);
-        assert_eq!(record.sha256, token_hash(&token));
+        assert!(token.starts_with(token::PREFIX));
+        assert_eq!(token.len(), token::PREFIX.len() + 32);
+        assert_eq!(record.sha256, token::hash(&token));
         assert_eq!(record.sha256.len(), 64);
-        assert!(!format!("{record:?}").contains(&token[TOKEN_PREFIX.len() + 4..]));
-    }
-
-    #[test]
-    fn token_hash_is_sha256_hex() {
-        assert_eq!(token_hash("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+        assert!(!format!("{record:?}").contains(&token[token::PREFIX.len() + 4..]));
     }
 }

@@ -191,14 +191,7 @@ impl Settings {
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");
         if let Some(token) = &self.admin_token {
-            let text = token.expose();
-            anyhow::ensure!(
-                text.starts_with(crate::auth::TOKEN_PREFIX)
-                    && text.len() >= crate::auth::TOKEN_PREFIX.len() + 24
-                    && text.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_'),
-                "OSMAB_ADMIN_TOKEN must be '{}' followed by at least 24 letters or digits (e.g. osmab_$(openssl rand -hex 16))",
-                crate::auth::TOKEN_PREFIX
-            );
+            crate::token::check_configured(token.expose()).map_err(|why| anyhow::anyhow!("OSMAB_ADMIN_TOKEN {why}"))?;
         }
         Ok(())
     }

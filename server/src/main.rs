@@ -19,6 +19,7 @@ mod serve;
 mod state;
 mod store;
 mod telemetry;
+mod token;
 
 use std::process::ExitCode;
 

@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::Context;
 use tokio::sync::watch;
 
-use crate::auth::{issue_token, token_hash};
+use crate::auth::issue_token;
 use crate::blobs::Blobs;
 use crate::clock::now_ms;
 use crate::config::{Settings, redact_url};
@@ -44,7 +44,7 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
     if let Some(token) = &state.settings.admin_token {
         // The configured token has a fixed record: changing the setting replaces (and so
         // revokes) the token an earlier configuration set.
-        let hash = token_hash(token.expose());
+        let hash = crate::token::hash(token.expose());
         let current = state.store.tokens(None).await?.into_iter().find(|t| t.id == CONFIGURED_ADMIN_TOKEN);
         if current.is_none_or(|t| t.sha256 != hash || t.revoked_at.is_some()) {
             let record = TokenRecord {
@@ -52,7 +52,7 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
                 team_id: None,
                 scope: "admin".into(),
                 sha256: hash,
-                hint: crate::auth::TOKEN_PREFIX.into(),
+                hint: crate::token::PREFIX.into(),
                 created_at: now_ms(),
                 expires_at: None,
                 revoked_at: None,

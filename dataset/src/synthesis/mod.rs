@@ -4,6 +4,7 @@
 
 pub mod export;
 pub mod external;
+pub mod layout;
 pub mod library;
 pub mod placement;
 pub mod relations;

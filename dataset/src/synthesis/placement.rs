@@ -4,58 +4,10 @@
 //! under their hosts' support surfaces. Whatever cannot be satisfied is recorded.
 
 use osmab_evaluator::synthetic::Rng;
-use serde::Serialize;
 
+pub use super::layout::{Layout, PlacedObject};
 use super::library::{Asset, make_asset};
 use crate::spec::{ObjectKind, RelationKind, SceneSpec};
-
-/// A placed object, in the room frame (Drake axes, z up, floor at z = 0).
-#[derive(Debug, Clone)]
-pub struct PlacedObject {
-    /// `<category_with_underscores>_<n>`, unique in the scene.
-    pub object_id: String,
-    pub category: String,
-    pub kind: ObjectKind,
-    pub asset: Asset,
-    /// Position of the object frame (bottom centre).
-    pub position: [f64; 3],
-    /// Rotation about z, a multiple of 90° for furniture.
-    pub yaw_deg: f64,
-    /// The object it rests on, in or under.
-    pub host: Option<String>,
-}
-
-impl PlacedObject {
-    /// The footprint in the room: min and max x, y.
-    pub fn footprint(&self) -> ([f64; 2], [f64; 2]) {
-        let (w, d) = (self.asset.size[0], self.asset.size[1]);
-        let quarter = ((self.yaw_deg / 90.0).round() as i64).rem_euclid(2) == 1;
-        let (hw, hd) = if quarter { (d / 2.0, w / 2.0) } else { (w / 2.0, d / 2.0) };
-        ([self.position[0] - hw, self.position[1] - hd], [self.position[0] + hw, self.position[1] + hd])
-    }
-
-    /// Unit vector of the object's front (+y turned by the yaw).
-    pub fn front(&self) -> [f64; 2] {
-        let a = self.yaw_deg.to_radians();
-        [-a.sin(), a.cos()]
-    }
-}
-
-/// The room and everything in it.
-#[derive(Debug, Clone, Serialize)]
-pub struct Layout {
-    /// Room extent along x and y; walls at ±width/2, ±depth/2.
-    pub width: f64,
-    pub depth: f64,
-    pub wall_height: f64,
-    #[serde(skip)]
-    pub objects: Vec<PlacedObject>,
-    /// Relations of the spec that the finished layout does not satisfy (checked
-    /// geometrically after placement, every relation of the spec).
-    pub unmet: Vec<String>,
-    /// What the placement had to improvise (stand-in assets, fallbacks).
-    pub notes: Vec<String>,
-}
 
 const GAP: f64 = 0.08;
 /// Small objects go on surfaces at most this high, where a robot's camera (about 1 m up)
@@ -387,7 +339,8 @@ fn placement_order(spec: &SceneSpec) -> Vec<(String, u32)> {
 }
 
 /// Place `spec` in a room sized for it (starting over in a larger room when it is
-/// too crowded), then check every relation of the spec against the result.
+/// too crowded). Which relations the result leaves unmet is for the caller to check
+/// ([`super::relations::unmet_relations`]) against the spec it cares about.
 pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
     let sizing_rng = Rng::new(seed ^ 0xA55E_7);
     // Room area: about four times the furniture's footprint, at least 3.5 m a side.
@@ -416,9 +369,7 @@ pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
         for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Manipuland) {
             placer.place_small(&o.category, o.count, &mut asset_rng);
         }
-        let mut layout = Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: Vec::new(), notes: placer.notes };
-        layout.unmet = super::relations::unmet_relations(spec, &layout);
-        return layout;
+        return Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: Vec::new(), notes: placer.notes };
     }
     unreachable!("the loop returns")
 }

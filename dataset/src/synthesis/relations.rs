@@ -2,7 +2,7 @@
 //! geometry (footprints, heights, fronts), so a scene never silently disagrees with
 //! its prompt.
 
-use super::placement::{Layout, PlacedObject};
+use super::layout::{Layout, PlacedObject};
 use crate::spec::{Relation, RelationKind, SceneSpec};
 
 fn center(o: &PlacedObject) -> [f64; 2] {

@@ -277,14 +277,15 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         .await
         .map_err(JobError::retryable)??;
         let upload = Upload { path: archive.0.clone(), size, sha256, received_at: now_ms() };
-        let unpack_to = Scratch(state.blobs.scratch("baseline-check"));
-        let (state_for_check, upload_path, unpack_path, current) = (state.clone(), upload.path.clone(), unpack_to.0.clone(), version.to_string());
-        let validating_at = now_ms();
-        let (valid, _) = tokio::task::spawn_blocking(move || crate::intake::check(&state_for_check, &upload_path, &unpack_path, Some(&current), None))
-            .await
-            .map_err(JobError::retryable)?
-            .map_err(|p| JobError::Permanent(format!("baseline {name}: {}", p.detail)))?;
-        crate::intake::record(state, &team, &upload, &valid, true, true, validating_at, None, None).await.map_err(|p| JobError::Retryable(p.detail))?;
+        let request = crate::intake::Request { public: true, baseline: true, release: Some(version.to_string()), ..Default::default() };
+        match crate::intake::accept(state, &team, &upload, &request).await {
+            Ok(_) => {}
+            // The baselines come from the release itself: one that does not validate is a defect of the build.
+            Err(e @ (crate::intake::Error::Invalid(_) | crate::intake::Error::InvalidArchive(_))) => {
+                return Err(JobError::Permanent(format!("baseline {name}: {}", crate::problem::Problem::from(e).detail)));
+            }
+            Err(e) => return Err(JobError::Retryable(format!("baseline {name}: {}", crate::problem::Problem::from(e).detail))),
+        }
         queued += 1;
     }
     Ok(queued)

@@ -1,24 +1,22 @@
 //! Submissions: upload (or dry-run validate), list, show with history and scores, edit
 //! the method card, cancel.
 
-use std::collections::BTreeSet;
-
 use axum::body::Body;
 use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use futures_util::StreamExt;
-use serde::Deserialize;
-use serde_json::{Value, json};
+use osmab_evaluator::scores::Lighting;
+use serde::{Deserialize, Serialize};
 
 use super::submission_view::{SubmissionItem, SubmissionList, SubmissionView};
 use super::{ApiJson, ApiPath, ApiQuery};
 use crate::auth::{Caller, TeamCaller};
-use crate::clock::{next_utc_day, now_ms, rfc3339, utc_day_start};
-use crate::intake::{Scratch, check, declared_sha256, hex, idempotency_key, receive, record, release_not_open, too_large};
+use crate::clock::now_ms;
+use crate::intake::{self, Accepted, Quota, QuotaView, declared_sha256, hex, idempotency_key, quota_exceeded, receive, too_large};
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{JobState, Recorded, ReleaseState, StoreError, SubmissionRecord, SubmissionState, Team};
+use crate::store::{JobState, StoreError, SubmissionRecord, SubmissionState};
 
 #[derive(Debug, Deserialize)]
 pub struct UploadQuery {
@@ -29,61 +27,63 @@ pub struct UploadQuery {
     public: Option<bool>,
 }
 
-/// The quota of `team` today: (limit, used, resets at).
-async fn quota(state: &AppState, team: &Team) -> ApiResult<(i64, i64, i64)> {
-    let now = now_ms();
-    let limit = team.daily_quota.unwrap_or(state.settings.daily_quota);
-    let used = state.store.submissions_since(&team.id, utc_day_start(now)).await?;
-    Ok((limit, used, next_utc_day(now)))
+/// The calling team.
+#[derive(Debug, Serialize)]
+pub struct TeamRef {
+    pub id: String,
+    pub name: String,
 }
 
-fn quota_json((limit, used, resets): (i64, i64, i64)) -> Value {
-    json!({"limit": limit, "used": used, "remaining": (limit - used).max(0), "resets_at": rfc3339(resets)})
-}
-
-fn quota_exceeded((limit, used, resets): (i64, i64, i64)) -> Problem {
-    let seconds = ((resets - now_ms()) / 1000).max(1) as u64;
-    Problem::new(
-        StatusCode::TOO_MANY_REQUESTS,
-        "quota_exceeded",
-        "Daily submission quota used",
-        format!(
-            "Your team has used {used} of its {limit} submissions for this UTC day; the next one is possible at {}. Dry runs (?dry_run=true) are free.",
-            rfc3339(resets)
-        ),
-    )
-    .with("quota", quota_json((limit, used, resets)))
-    .retry_after(seconds)
+/// `GET /api/v1/me`.
+#[derive(Debug, Serialize)]
+pub struct Me {
+    pub quota: QuotaView,
+    pub team: TeamRef,
 }
 
 /// `GET /api/v1/me`: the calling team and its quota.
-pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Value>> {
-    let q = quota(&state, &team).await?;
-    Ok(axum::Json(json!({"team": {"id": team.id, "name": team.name}, "quota": quota_json(q)})))
+pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Me>> {
+    let quota = Quota::of(&state, &team).await?;
+    Ok(axum::Json(Me { quota: quota.view(), team: TeamRef { id: team.id, name: team.name } }))
 }
 
-/// The answer to an upload that repeats the team's earlier submission: that submission
-/// (200, no quota used), or 422 when its idempotency key was used for another archive.
-async fn answer_repeat(state: &AppState, team: &Team, earlier: Recorded) -> ApiResult<Response> {
-    match earlier {
-        Recorded::Repeat(id) => {
-            let s = state.store.submission(&id).await?;
-            tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
-            let location = format!("/api/v1/submissions/{id}");
-            let body =
-                json!({"id": id, "state": s.state, "complete": s.complete, "repeat": true, "quota": quota_json(quota(state, team).await?), "url": location});
-            Ok((StatusCode::OK, [(header::LOCATION, location)], axum::Json(body)).into_response())
-        }
-        Recorded::KeyReused(id) => Err(Problem::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "idempotency_key_reused",
-            "Idempotency key reused",
-            format!(
-                "This Idempotency-Key was used for submission {id} of another archive. Send a new key for a new upload; nothing was stored and no quota was used."
-            ),
-        )),
-        other => Err(Problem::internal(format!("not a repeat: {other:?}"))),
-    }
+/// The answer to an accepted upload (202) or to one that repeats an earlier submission
+/// (200, `repeat: true`, no quota used).
+#[derive(Debug, Serialize)]
+pub struct Created {
+    pub complete: bool,
+    pub id: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub missing_maps: Option<Vec<String>>,
+    pub quota: QuotaView,
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub repeat: bool,
+    pub state: SubmissionState,
+    pub url: String,
+}
+
+/// One (lighting, scene) a valid upload covers.
+#[derive(Debug, Serialize)]
+pub struct CoveredEntry {
+    pub answers: bool,
+    pub graph: bool,
+    pub lighting: Lighting,
+    pub map: bool,
+    pub scene: String,
+}
+
+/// The answer to a dry run of a valid upload.
+#[derive(Debug, Serialize)]
+pub struct DryRun {
+    pub complete: bool,
+    pub entries: Vec<CoveredEntry>,
+    pub method: osmab_evaluator::submission::MethodCard,
+    pub missing_maps: Vec<String>,
+    pub points: u64,
+    pub release: String,
+    pub sha256: String,
+    pub size: u64,
+    pub valid: bool,
 }
 
 /// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
@@ -138,7 +138,7 @@ pub async fn create(
         None => None,
     };
     if !query.dry_run {
-        let q = quota(&state, &team).await?;
+        let quota = Quota::of(&state, &team).await?;
         // A repeat costs no quota: with the quota used up, an upload that names an earlier
         // submission (its key, or its declared digest) is still read and answered.
         let may_repeat = match (&key, declared_digest) {
@@ -148,8 +148,8 @@ pub async fn create(
                 state.store.repeated_submission(&team.id, &digest, key.as_deref()).await?.is_some()
             }
         };
-        if q.1 >= q.0 && !may_repeat {
-            return Err(drain_then(body, declared_length, quota_exceeded(q)).await);
+        if quota.exhausted() && !may_repeat {
+            return Err(drain_then(body, declared_length, quota_exceeded(quota)).await);
         }
     }
     if declared_length.is_some_and(|n| n > max) {
@@ -174,58 +174,57 @@ pub async fn create(
             ),
         ));
     }
-    if !query.dry_run
-        && let Some(earlier) = state.store.repeated_submission(&team.id, &upload.sha256_hex(), key.as_deref()).await?
-    {
-        return answer_repeat(&state, &team, earlier).await;
-    }
-    let validating_at = now_ms();
-    let current = state.store.current_release().await.ok().map(|r| r.version);
-    let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == ReleaseState::Published).map(|r| r.version).collect();
-    let unpack_to = Scratch(state.blobs.scratch("unpack"));
-    let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
-    // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
-    let _permit = state.validation.acquire().await.map_err(Problem::internal)?;
-    let (valid, _) = tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref(), Some(&open)))
-        .await
-        .map_err(Problem::internal)??;
-    // Published while this upload was checked is fine; withdrawn meanwhile is not.
-    match state.store.release(&valid.release).await {
-        Ok(r) if r.state == ReleaseState::Published => {}
-        Ok(_) | Err(StoreError::NotFound) => return Err(release_not_open(&valid.release)),
-        Err(e) => return Err(e.into()),
-    }
-    if query.dry_run {
-        return Ok(axum::Json(json!({
-            "valid": true,
-            "release": valid.release,
-            "method": valid.method,
-            "complete": valid.complete,
-            "missing_maps": valid.missing_maps,
-            "entries": valid.entries.iter().map(|e| json!({"lighting": e.lighting, "scene": e.scene, "map": e.map.is_some(), "graph": e.graph.is_some(), "answers": e.answers.is_some()})).collect::<Vec<_>>(),
-            "points": valid.points,
-            "size": upload.size,
-            "sha256": upload.sha256_hex(),
-        }))
-        .into_response());
-    }
-    // The quota again: another upload of the same team may have finished meanwhile.
-    let q = quota(&state, &team).await?;
-    if q.1 >= q.0 {
-        return Err(quota_exceeded(q));
-    }
-    let recorded =
-        record(&state, &team, &upload, &valid, query.public.unwrap_or(true), false, validating_at, Some((q.0, utc_day_start(now_ms()))), key.as_deref())
-            .await?;
-    let id = match recorded {
-        Recorded::New(id) => id,
-        Recorded::QuotaExceeded => return Err(quota_exceeded(quota(&state, &team).await?)),
-        earlier => return answer_repeat(&state, &team, earlier).await,
+    let request = intake::Request {
+        dry_run: query.dry_run,
+        public: query.public.unwrap_or(true),
+        baseline: false,
+        idempotency_key: key,
+        enforce_quota: true,
+        release: None,
     };
-    tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
-    let location = format!("/api/v1/submissions/{id}");
-    let body = json!({"id": id, "state": "queued", "complete": valid.complete, "missing_maps": valid.missing_maps, "quota": quota_json((q.0, q.1 + 1, q.2)), "url": location});
-    Ok((StatusCode::ACCEPTED, [(header::LOCATION, location)], axum::Json(body)).into_response())
+    let (status, id, body) = match intake::accept(&state, &team, &upload, &request).await? {
+        Accepted::Valid { submission: valid } => {
+            let entries = valid
+                .entries
+                .iter()
+                .map(|e| CoveredEntry { answers: e.answers.is_some(), graph: e.graph.is_some(), lighting: e.lighting, map: e.map.is_some(), scene: e.scene.clone() })
+                .collect();
+            let report = DryRun {
+                complete: valid.complete,
+                entries,
+                method: valid.method,
+                missing_maps: valid.missing_maps,
+                points: valid.points,
+                release: valid.release,
+                sha256: upload.sha256_hex(),
+                size: upload.size,
+                valid: true,
+            };
+            return Ok(axum::Json(report).into_response());
+        }
+        Accepted::Repeat { id } => {
+            let s = state.store.submission(&id).await?;
+            tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
+            let quota = Quota::of(&state, &team).await?.view();
+            let body = Created { complete: s.complete, missing_maps: None, quota, repeat: true, state: s.state, url: format!("/api/v1/submissions/{id}"), id: id.clone() };
+            (StatusCode::OK, id, body)
+        }
+        Accepted::New { id, submission, quota } => {
+            tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
+            let quota = quota.expect("the quota is enforced").view();
+            let body = Created {
+                complete: submission.complete,
+                missing_maps: Some(submission.missing_maps),
+                quota,
+                repeat: false,
+                state: SubmissionState::Queued,
+                url: format!("/api/v1/submissions/{id}"),
+                id: id.clone(),
+            };
+            (StatusCode::ACCEPTED, id, body)
+        }
+    };
+    Ok((status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response())
 }
 
 /// A submission the caller may see: public ones to everyone, private ones to their team and admins.

@@ -259,7 +259,7 @@ async fn tokens_are_found_by_hash_and_revocation_is_kept() {
     for store in &stores.stores {
         let (token, record) = crate::auth::issue_token("admin", None, None);
         store.insert_token(&record).await.unwrap();
-        let found = store.token_by_hash(&crate::auth::token_hash(&token)).await.unwrap();
+        let found = store.token_by_hash(&crate::token::hash(&token)).await.unwrap();
         assert_eq!(found.id, record.id);
         store.revoke_token(&record.id, 5).await.unwrap();
         store.revoke_token(&record.id, 9).await.unwrap();

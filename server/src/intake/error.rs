@@ -1,0 +1,100 @@
+//! Why intake refused an upload, and how each reason is answered over HTTP.
+
+use axum::http::StatusCode;
+use osmab_evaluator::InputError;
+use serde_json::{Value, json};
+
+use super::Quota;
+use crate::clock::{now_ms, rfc3339};
+use crate::problem::Problem;
+use crate::store::StoreError;
+
+/// A refused upload. Nothing is stored and no quota is used for any of them.
+#[derive(Debug)]
+pub enum Error {
+    /// The archive does not unpack (the problem names the entry).
+    InvalidArchive(InputError),
+    /// The submission does not validate against its release (every problem found).
+    Invalid(Vec<InputError>),
+    /// The release named is not published (a draft, or withdrawn meanwhile).
+    ReleaseNotOpen(String),
+    /// The team's quota is used up.
+    QuotaExceeded(Quota),
+    /// The idempotency key names the team's earlier submission (its id) of another archive.
+    KeyReused(String),
+    /// The store failed.
+    Store(StoreError),
+    /// Something of the server's failed (the disk, a thread).
+    Internal(String),
+}
+
+impl Error {
+    pub fn internal(e: impl std::fmt::Display) -> Self {
+        Error::Internal(e.to_string())
+    }
+}
+
+impl From<StoreError> for Error {
+    fn from(e: StoreError) -> Self {
+        Error::Store(e)
+    }
+}
+
+/// The problems of an invalid submission as a 422.
+fn invalid(problems: &[InputError]) -> Problem {
+    let first = problems.first().map(|p| p.to_string()).unwrap_or_default();
+    let detail = if problems.len() == 1 {
+        format!("The submission was not accepted: {first}. Fix it and upload again; nothing was stored and no quota was used.")
+    } else {
+        format!(
+            "The submission was not accepted: {} problems, the first: {first}. Fix them and upload again; nothing was stored and no quota was used.",
+            problems.len()
+        )
+    };
+    let errors: Vec<Value> = problems.iter().map(|p| json!({"file": p.file, "field": p.field, "message": p.message})).collect();
+    Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_submission", "Invalid submission", detail).with("errors", Value::Array(errors))
+}
+
+/// The 429 of a used-up quota, with `Retry-After` the end of the day.
+pub fn quota_exceeded(quota: Quota) -> Problem {
+    let Quota { limit, used, resets_at } = quota;
+    let seconds = ((resets_at - now_ms()) / 1000).max(1) as u64;
+    Problem::new(
+        StatusCode::TOO_MANY_REQUESTS,
+        "quota_exceeded",
+        "Daily submission quota used",
+        format!(
+            "Your team has used {used} of its {limit} submissions for this UTC day; the next one is possible at {}. Dry runs (?dry_run=true) are free.",
+            rfc3339(resets_at)
+        ),
+    )
+    .with("quota", serde_json::to_value(quota.view()).expect("a quota serialises"))
+    .retry_after(seconds)
+}
+
+impl From<Error> for Problem {
+    fn from(e: Error) -> Problem {
+        match e {
+            Error::InvalidArchive(problem) => Problem { code: "invalid_archive", title: "Invalid archive".into(), ..invalid(&[problem]) },
+            Error::Invalid(problems) => invalid(&problems),
+            Error::ReleaseNotOpen(version) => Problem::new(
+                StatusCode::CONFLICT,
+                "release_not_open",
+                "Release not open",
+                format!("Release '{version}' is not published, so it takes no submissions; see GET /api/v1/releases."),
+            ),
+            Error::QuotaExceeded(quota) => quota_exceeded(quota),
+            Error::KeyReused(id) => Problem::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "idempotency_key_reused",
+                "Idempotency key reused",
+                format!(
+                    "This Idempotency-Key was used for submission {id} of another archive. Send a new key for a new upload; nothing was stored and no quota was used."
+                ),
+            ),
+            Error::Store(StoreError::NotFound) => Problem::not_found("The release is not registered."),
+            Error::Store(e) => e.into(),
+            Error::Internal(message) => Problem::internal(message),
+        }
+    }
+}

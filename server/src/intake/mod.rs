@@ -1,0 +1,149 @@
+//! Accepting a submission, as one service the HTTP edge and the baseline job both call.
+//! The upload is streamed to a scratch file while its size and SHA-256 are counted
+//! ([`upload`]); [`accept`] then answers a repeat with the earlier submission, unpacks and
+//! validates the archive against its release exactly as `osmab client validate` does
+//! ([`check`]), checks that the release takes submissions and the team's [`Quota`], and
+//! only then stores the archive and records the submission with its scoring job in one
+//! transaction. Nothing is recorded for a refused upload ([`Error`]).
+
+mod check;
+mod error;
+mod quota;
+mod upload;
+
+use std::collections::BTreeSet;
+
+use osmab_evaluator::submission::ValidSubmission;
+
+pub use check::check;
+pub use error::{Error, quota_exceeded};
+pub use quota::{Quota, QuotaView};
+pub use upload::{Scratch, Upload, declared_sha256, hex, idempotency_key, receive, too_large};
+
+use crate::clock::{new_id, now_ms};
+use crate::jobs::scoring::ScoreSubmission;
+use crate::state::AppState;
+use crate::store::{NewSubmission, Recorded, ReleaseState, StoreError, Team};
+
+/// What the uploader asks for.
+#[derive(Debug, Clone, Default)]
+pub struct Request {
+    /// Validate only: nothing is stored and no quota is used.
+    pub dry_run: bool,
+    /// Show the submission on the public leaderboard.
+    pub public: bool,
+    /// A reference baseline (the organisers' own; never counts against a quota).
+    pub baseline: bool,
+    /// The client's `Idempotency-Key`.
+    pub idempotency_key: Option<String>,
+    /// Hold the team to its daily quota.
+    pub enforce_quota: bool,
+    /// The release to validate against when `submission.json` names none (the current one
+    /// when `None`).
+    pub release: Option<String>,
+}
+
+/// What accepting an upload did.
+#[derive(Debug)]
+pub enum Accepted {
+    /// A new submission, queued for scoring; the quota after it.
+    New { id: String, submission: ValidSubmission, quota: Option<Quota> },
+    /// Nothing new: the team's earlier submission (its id) of the same archive, or made
+    /// with the same idempotency key.
+    Repeat { id: String },
+    /// A dry run: the upload is valid.
+    Valid { submission: ValidSubmission },
+}
+
+/// Accept `upload` from `team` as `request` asks.
+pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Request) -> Result<Accepted, Error> {
+    if !request.dry_run {
+        match state.store.repeated_submission(&team.id, &upload.sha256_hex(), request.idempotency_key.as_deref()).await? {
+            Some(Recorded::Repeat(id)) => return Ok(Accepted::Repeat { id }),
+            Some(Recorded::KeyReused(id)) => return Err(Error::KeyReused(id)),
+            _ => {}
+        }
+    }
+    let validating_at = now_ms();
+    let current = match &request.release {
+        Some(release) => Some(release.clone()),
+        None => state.store.current_release().await.ok().map(|r| r.version),
+    };
+    let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == ReleaseState::Published).map(|r| r.version).collect();
+    let unpack_to = Scratch(state.blobs.scratch("unpack"));
+    let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
+    // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
+    let _permit = state.validation.acquire().await.map_err(Error::internal)?;
+    let open_only = (!request.baseline).then_some(open);
+    let (submission, _) = tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref(), open_only.as_ref()))
+        .await
+        .map_err(Error::internal)??;
+    if !request.baseline {
+        // Published while this upload was checked is fine; withdrawn meanwhile is not.
+        match state.store.release(&submission.release).await {
+            Ok(r) if r.state == ReleaseState::Published => {}
+            Ok(_) | Err(StoreError::NotFound) => return Err(Error::ReleaseNotOpen(submission.release.clone())),
+            Err(e) => return Err(e.into()),
+        }
+    }
+    if request.dry_run {
+        return Ok(Accepted::Valid { submission });
+    }
+    // The quota again: another upload of the same team may have finished meanwhile.
+    let quota = match request.enforce_quota {
+        true => Some(Quota::of(state, team).await?),
+        false => None,
+    };
+    if let Some(quota) = quota.filter(Quota::exhausted) {
+        return Err(Error::QuotaExceeded(quota));
+    }
+    match record(state, team, upload, &submission, request, validating_at, quota).await? {
+        Recorded::New(id) => Ok(Accepted::New { id, submission, quota: quota.map(Quota::after_one) }),
+        Recorded::Repeat(id) => Ok(Accepted::Repeat { id }),
+        Recorded::KeyReused(id) => Err(Error::KeyReused(id)),
+        Recorded::QuotaExceeded => Err(Error::QuotaExceeded(Quota::of(state, team).await?)),
+    }
+}
+
+/// Record a validated upload as a submission of `team` with its scoring job, storing the
+/// archive first so the job always finds it — unless it repeats the team's earlier
+/// submission. `quota` is checked again in the same transaction. Nothing but a
+/// `Recorded::New` leaves a stored archive behind.
+async fn record(
+    state: &AppState,
+    team: &Team,
+    upload: &Upload,
+    submission: &ValidSubmission,
+    request: &Request,
+    validating_at: i64,
+    quota: Option<Quota>,
+) -> Result<Recorded, Error> {
+    let id = new_id("sub");
+    let key = format!("submissions/{id}/upload");
+    state.blobs.put_file(&key, &upload.path).map_err(Error::internal)?;
+    let queued_at = now_ms();
+    let new = NewSubmission {
+        id: id.clone(),
+        team_id: team.id.clone(),
+        release: submission.release.clone(),
+        method_name: submission.method.name.trim().to_string(),
+        method_description: submission.method.description.clone(),
+        paper_url: submission.method.paper_url.clone(),
+        code_url: submission.method.code_url.clone(),
+        public: request.public,
+        baseline: request.baseline,
+        complete: submission.complete,
+        archive_size: upload.size as i64,
+        archive_sha256: upload.sha256_hex(),
+        idempotency_key: request.idempotency_key.clone(),
+        received_at: upload.received_at,
+        validating_at,
+        queued_at,
+    };
+    let job = crate::jobs::new_job(&ScoreSubmission { submission_id: id.clone(), rescore: false }, state);
+    let outcome = state.store.create_submission(&new, &job, quota.map(|q| (q.limit, q.day_start()))).await;
+    if !matches!(outcome, Ok(Recorded::New(_))) {
+        let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
+    }
+    Ok(outcome?)
+}

@@ -1,5 +1,7 @@
 //! The types a synthesized scene is made of — a room and the objects placed in it — which
 //! placement produces and the relation checks, the prompt grammar and the writer read.
+//! Which relations a layout leaves unmet is computed once, by
+//! [`super::relations::unmet_relations`], against the spec the caller cares about.
 
 use serde::Serialize;
 
@@ -47,10 +49,6 @@ pub struct Layout {
     pub wall_height: f64,
     #[serde(skip)]
     pub objects: Vec<PlacedObject>,
-    /// Relations of the spec that the finished layout does not satisfy, checked
-    /// geometrically against every relation of the spec once placement is done
-    /// ([`super::relations::unmet_relations`]); empty as placement returns it.
-    pub unmet: Vec<String>,
     /// What the placement had to improvise (stand-in assets, fallbacks).
     pub notes: Vec<String>,
 }

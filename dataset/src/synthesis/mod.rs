@@ -25,11 +25,11 @@ pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool) ->
     }
     // A grammar prompt describes a layout it placed: reproduce it from the primary
     // relations and its seed. Other prompts are placed honouring every relation.
-    let mut layout = match prompt.layout_seed {
+    let layout = match prompt.layout_seed {
         Some(layout_seed) => placement::place(&prompt.spec.primary_only(), layout_seed),
         None => placement::place(&prompt.spec, seed),
     };
-    layout.unmet = relations::unmet_relations(&prompt.spec, &layout);
-    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout, ceiling)?;
-    Ok(layout.unmet)
+    let unmet = relations::unmet_relations(&prompt.spec, &layout);
+    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout, &unmet, ceiling)?;
+    Ok(unmet)
 }

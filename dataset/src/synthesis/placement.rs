@@ -369,7 +369,7 @@ pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
         for o in spec.objects.iter().filter(|o| o.kind == ObjectKind::Manipuland) {
             placer.place_small(&o.category, o.count, &mut asset_rng);
         }
-        return Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, unmet: Vec::new(), notes: placer.notes };
+        return Layout { width: placer.width, depth: placer.depth, wall_height: 2.5, objects: placer.placed, notes: placer.notes };
     }
     unreachable!("the loop returns")
 }

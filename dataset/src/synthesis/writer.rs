@@ -88,8 +88,9 @@ fn mass_of(size: [f64; 3]) -> f64 {
     (size[0] * size[1] * size[2] * 600.0 * 0.2).clamp(0.05, 200.0)
 }
 
-/// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`.
-pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout, ceiling: bool) -> Result<()> {
+/// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`, with the
+/// relations of the spec it leaves `unmet`.
+pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout, unmet: &[String], ceiling: bool) -> Result<()> {
     write(
         &dir.join("package.xml"),
         "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n",
@@ -157,7 +158,7 @@ pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout
         },
         "rooms": {"main": {"room_id": "main", "text_description": prompt, "objects": objects}},
         "spec": spec,
-        "placement": {"unmet": layout.unmet, "notes": layout.notes},
+        "placement": {"unmet": unmet, "notes": layout.notes},
     });
     write(&dir.join("combined_house/house_state.json"), serde_json::to_string_pretty(&state).expect("serialisable") + "\n")
 }

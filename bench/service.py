@@ -2,7 +2,7 @@
 """Service benchmark: leaderboard and page throughput, large-file download, memory during a 2 GB upload.
 
 Starts the release binary's `osmab serve` on a fresh data directory (the demo release and the baselines are
-built on the first start), then drives it with `osmab bench http|download|upload` from the same machine.
+built on the first start), then drives it with `xtask http|download|upload` (cargo xtask) from the same machine.
 Writes the raw lines and the numbers as JSON. Standard library only.
 
     cargo build --release -p osmab
@@ -24,6 +24,7 @@ import urllib.request
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(ROOT, "target", "release", "osmab")
+XTASK = os.path.join(ROOT, "target", "release", "xtask")
 ADMIN = "osmab_" + "b" * 32
 
 
@@ -49,13 +50,13 @@ def rss_kib(pid):
 
 
 def run_bench(*args):
-    out = subprocess.run([BIN, "bench", *args], check=True, capture_output=True, text=True).stdout.strip()
+    out = subprocess.run([XTASK, *args], check=True, capture_output=True, text=True).stdout.strip()
     print(out, flush=True)
     return out
 
 
 def parse_http(line):
-    """requests/s and latencies from an `osmab bench http` line."""
+    """requests/s and latencies from an `xtask http` line."""
     words = line.replace(";", " ").replace(",", " ").split()
     per_second = float(words[words.index("requests/s") - 1])
     p50 = float(words[words.index("p50") + 1])
@@ -99,8 +100,9 @@ def main():
     parser.add_argument("--download-bytes", type=int, default=2 << 30)
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
-    if not os.path.exists(BIN):
-        sys.exit(f"{BIN} is missing: run `cargo build --release -p osmab` first")
+    for binary in (BIN, XTASK):
+        if not os.path.exists(binary):
+            sys.exit(f"{binary} is missing: run `cargo build --release -p osmab -p xtask` first")
 
     data_dir = tempfile.mkdtemp(prefix="osmab-bench-")
     base = f"http://127.0.0.1:{args.port}"

@@ -10,36 +10,6 @@ use osmab_evaluator::synthetic::{SceneSpec, generate};
 
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
-    /// Load a running service with GET requests over keep-alive connections; prints requests/s and latency.
-    Http {
-        /// The URL to request (http://host:port/path).
-        url: String,
-        /// Concurrent connections.
-        #[arg(long, default_value_t = 64)]
-        concurrency: usize,
-        /// Seconds to run.
-        #[arg(long, default_value_t = 10.0)]
-        seconds: f64,
-        /// Extra request headers ("Accept: text/csv").
-        #[arg(long = "header")]
-        headers: Vec<String>,
-    },
-    /// Download a file of a running service once and print the throughput.
-    Download {
-        /// The file's URL.
-        url: String,
-    },
-    /// Stream a synthetic upload of SIZE bytes to a running service (watch its memory meanwhile).
-    Upload {
-        /// The submissions URL (http://host:port/api/v1/submissions).
-        url: String,
-        /// A team token.
-        #[arg(long, env = "OSMAB_TOKEN")]
-        token: String,
-        /// Upload size in bytes.
-        #[arg(long, default_value_t = 2_000_000_000)]
-        bytes: u64,
-    },
     /// Write a synthetic scene: gt/{pointcloud.pcd,semantic.npy,embed_semseg_classes.json}, map.npz, text_features.npz.
     Synth {
         /// Ground-truth points.
@@ -140,35 +110,6 @@ pub enum BenchCommand {
 
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
-        BenchCommand::Http { url, concurrency, seconds, headers } => {
-            let report =
-                super::service::runtime()?.block_on(super::loadgen::get_load(&url, &headers, concurrency, std::time::Duration::from_secs_f64(seconds)))?;
-            println!(
-                "{url}: {} requests in {:.1} s = {:.0} requests/s; latency p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms; {} errors ({concurrency} connections)",
-                report.requests,
-                report.seconds,
-                report.requests as f64 / report.seconds,
-                report.p50_ms,
-                report.p99_ms,
-                report.max_ms,
-                report.errors
-            );
-            Ok(())
-        }
-        BenchCommand::Download { url } => {
-            let (bytes, seconds) = super::service::runtime()?.block_on(super::loadgen::download(&url))?;
-            println!("{url}: {bytes} bytes in {seconds:.2} s = {:.0} MB/s", bytes as f64 / seconds / 1e6);
-            Ok(())
-        }
-        BenchCommand::Upload { url, token, bytes } => {
-            let (status, body, seconds) = super::service::runtime()?.block_on(super::loadgen::upload(&url, &token, bytes))?;
-            println!(
-                "{url}: {bytes} bytes in {seconds:.1} s = {:.0} MB/s; status {status}: {}",
-                bytes as f64 / seconds / 1e6,
-                body.chars().take(300).collect::<String>()
-            );
-            Ok(())
-        }
         BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, map_covers_room, out } => {
             let scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room });
             let gt_dir = out.join("gt");

@@ -7,7 +7,6 @@ mod client;
 mod eval;
 mod eval_vqa;
 mod gt;
-mod loadgen;
 mod release;
 mod scene;
 mod service;

@@ -1,5 +1,5 @@
-//! A small HTTP/1.1 load generator for the service benchmarks (`osmab bench http`,
-//! `osmab bench upload`, `osmab bench download`): keep-alive connections over raw TCP, so
+//! A small HTTP/1.1 load generator for the service benchmarks (`cargo xtask http`,
+//! `cargo xtask upload`, `cargo xtask download`): keep-alive connections over raw TCP, so
 //! the client's own overhead stays far below the server's and nothing is downloaded.
 
 use std::sync::Arc;

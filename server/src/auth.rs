@@ -2,14 +2,14 @@
 //! only its SHA-256 is stored, so a leaked database holds no usable token. Handlers take
 //! [`Caller`], [`TeamCaller`] or [`AdminCaller`] and never see the token itself.
 
-use axum::extract::FromRequestParts;
-use axum::http::StatusCode;
-use axum::http::request::Parts;
 use crate::clock::{new_id, now_ms};
 use crate::problem::Problem;
 use crate::state::AppState;
-use crate::token;
 use crate::store::{StoreError, Team, TokenRecord};
+use crate::token;
+use axum::extract::FromRequestParts;
+use axum::http::StatusCode;
+use axum::http::request::Parts;
 
 /// A new token (shown once) and its record.
 pub fn issue_token(scope: &str, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {

@@ -72,7 +72,11 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Upload { url, token, bytes } => {
             let (status, body, seconds) = runtime.block_on(loadgen::upload(&url, &token, bytes))?;
-            println!("{url}: {bytes} bytes in {seconds:.1} s = {:.0} MB/s; status {status}: {}", bytes as f64 / seconds / 1e6, body.chars().take(300).collect::<String>());
+            println!(
+                "{url}: {bytes} bytes in {seconds:.1} s = {:.0} MB/s; status {status}: {}",
+                bytes as f64 / seconds / 1e6,
+                body.chars().take(300).collect::<String>()
+            );
         }
     }
     Ok(())

@@ -52,4 +52,3 @@ pub struct Layout {
     /// What the placement had to improvise (stand-in assets, fallbacks).
     pub notes: Vec<String>,
 }
-

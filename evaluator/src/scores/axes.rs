@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 macro_rules! axis {
     ($(#[$doc:meta])* $ty:ident, $what:literal, [$($variant:ident = $name:literal, $label:literal;)+]) => {
         $(#[$doc])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, schemars::JsonSchema)]
         pub enum $ty {
             $(#[serde(rename = $name)] $variant,)+
         }

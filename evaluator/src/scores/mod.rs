@@ -20,7 +20,7 @@ pub use vqa::{Accuracy, AnswerRow, QuestionSetScores, SceneAnswers, SetsScores, 
 use crate::semseg::report::MetricTriple;
 
 /// The scores of one submission.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Scores {
     /// Every (lighting, scene) of the release has a map.
     pub complete: bool,
@@ -42,7 +42,7 @@ pub struct Scores {
 }
 
 /// The segmentation scores of one lighting.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct LightingScores {
     /// Metrics of the pooled confusion matrix.
     pub overall: MetricTriple,
@@ -57,7 +57,7 @@ pub struct LightingScores {
 }
 
 /// The segmentation aggregates of one subset under one lighting.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubsetScores {
     pub overall: MetricTriple,
     pub overall_mean: MetricTriple,
@@ -66,7 +66,7 @@ pub struct SubsetScores {
 }
 
 /// The relative change, (value − baseline) / baseline, of both aggregates.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct RelativeChange {
     pub overall: MetricTriple,
     pub overall_mean: MetricTriple,

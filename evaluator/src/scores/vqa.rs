@@ -11,7 +11,7 @@ use crate::vqa::answer::AnsweredBy;
 use crate::vqa::judge::JudgedBy;
 
 /// A pooled accuracy: correct / total over every question of every scene.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Accuracy {
     /// correct / total; absent without questions.
     pub accuracy: Option<f64>,
@@ -24,7 +24,7 @@ pub struct Accuracy {
 }
 
 /// One question set: overall, per table group, per category.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct QuestionSetScores {
     pub categories: BTreeMap<String, Accuracy>,
     pub groups: BTreeMap<QuestionGroup, Accuracy>,
@@ -32,7 +32,7 @@ pub struct QuestionSetScores {
 }
 
 /// Both question sets and the two pooled.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SetsScores {
     pub overall: Accuracy,
     pub prompt_grounded: QuestionSetScores,
@@ -40,7 +40,7 @@ pub struct SetsScores {
 }
 
 /// Both question sets over some scenes, and the same per subset.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct VqaCell {
     pub overall: Accuracy,
     pub prompt_grounded: QuestionSetScores,
@@ -49,7 +49,7 @@ pub struct VqaCell {
 }
 
 /// One question as answered and judged.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct AnswerRow {
     pub answer: String,
     pub answered_by: AnsweredBy,
@@ -60,7 +60,7 @@ pub struct AnswerRow {
 }
 
 /// The questions of one scene under one lighting.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SceneAnswers {
     pub answers: Vec<AnswerRow>,
     pub correct: u64,
@@ -68,7 +68,7 @@ pub struct SceneAnswers {
 }
 
 /// The VQA scores of a submission.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct VqaScores {
     /// Over every lighting.
     pub all_lightings: VqaCell,

@@ -11,16 +11,19 @@ use crate::scores::Metric;
 
 /// The three headline numbers. In JSON an undefined (NaN) metric is `null`, and `null`
 /// reads back as NaN; fields are in the order of their keys.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MetricTriple {
     /// Frequency-weighted IoU.
     #[serde(with = "nan_as_null")]
+    #[schemars(with = "Option<f64>")]
     pub fmiou: f64,
     /// Mean accuracy (recall).
     #[serde(with = "nan_as_null")]
+    #[schemars(with = "Option<f64>")]
     pub macc: f64,
     /// Mean IoU.
     #[serde(with = "nan_as_null")]
+    #[schemars(with = "Option<f64>")]
     pub miou: f64,
 }
 

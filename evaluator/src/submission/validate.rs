@@ -53,7 +53,7 @@ impl SubmissionLimits {
 }
 
 /// The method card of `submission.json`.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MethodCard {
     /// Method name as shown on the leaderboard.
     pub name: String,

@@ -21,7 +21,7 @@ pub const COLOURS: [&str; 12] = ["black", "white", "grey", "gray", "red", "orang
 pub const NO_ANSWER: &str = "No answer";
 
 /// Who produced an answer. Ordered by name, as the keys of a score document.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum AnsweredBy {
     /// The team, in `answers/`.

@@ -12,7 +12,7 @@ use super::graph::{mentions_class, names_class};
 use super::text::{is_number, is_yes_no, normalise};
 
 /// Who decided a verdict. Ordered by name, as the keys of a score document.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum JudgedBy {
     /// Yes/no or number, by exact normalised equality.

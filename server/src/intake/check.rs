@@ -83,4 +83,3 @@ fn as_uploaded(mut e: InputError, upload: &Path, unpacked: &Path) -> InputError 
     e.message = hide(&e.message);
     e
 }
-

@@ -19,7 +19,7 @@ pub struct Quota {
 }
 
 /// The quota as the API shows it (fields in the order of their keys).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct QuotaView {
     pub limit: i64,
     pub remaining: i64,

@@ -17,7 +17,7 @@ pub use cache::{LeaderboardCache, Rendered};
 use crate::store::LeaderboardRow;
 
 /// One row of the leaderboard.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Entry {
     pub baseline: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -41,7 +41,7 @@ impl Entry {
 }
 
 /// The leaderboard of one release.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Leaderboard {
     pub entries: Vec<Entry>,
     /// The release's lightings in manifest order.

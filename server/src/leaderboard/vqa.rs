@@ -38,7 +38,7 @@ pub fn csv_cells(entry: &Entry, lightings: &[Lighting]) -> Vec<Option<f64>> {
 }
 
 /// A row of Table II: the prompt-grounded accuracy of one method, subset and group per lighting.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TableTwoRow {
     pub group: QuestionGroup,
     /// Per lighting of the release (null where the entry has no such questions).
@@ -51,7 +51,7 @@ pub struct TableTwoRow {
 
 /// A row of Table III: standard against prompt-grounded accuracy pooled over all
 /// lightings, with 95 % bootstrap intervals over scenes.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TableThreeRow {
     pub group: QuestionGroup,
     pub method: String,

@@ -4,10 +4,10 @@
 use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use serde::Deserialize;
-use serde_json::{Value, json};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
-use super::jobs::job_json;
+use super::jobs::JobView;
 use super::{ApiJson, ApiPath};
 use crate::auth::{AdminCaller, issue_token};
 use crate::clock::{new_id, now_ms, rfc3339};
@@ -15,10 +15,10 @@ use crate::jobs::release_build::{BuildRelease, config_version};
 use crate::jobs::scoring::ScoreSubmission;
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::SubmissionState;
-use crate::store::{StoreError, Team};
+use crate::store::{StoreError, SubmissionState, Team};
 
-#[derive(Debug, Deserialize)]
+/// A team to create.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewTeam {
     name: String,
@@ -47,23 +47,51 @@ pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(
     let (token, record) = issue_token("team", Some(&team.id), None);
     state.store.insert_token(&record).await?;
     tracing::info!(team = %team.name, token = %record.hint, "team created");
-    let body = json!({"id": team.id, "name": team.name, "daily_quota": team.daily_quota, "token": token, "token_id": record.id});
+    let body = CreatedTeam { daily_quota: team.daily_quota, id: team.id.clone(), name: team.name, token, token_id: record.id };
     Ok((StatusCode::CREATED, [(header::LOCATION, format!("/api/v1/admin/teams/{}", team.id))], axum::Json(body)).into_response())
 }
 
+/// A created team with its first token (shown once).
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct CreatedTeam {
+    pub daily_quota: Option<i64>,
+    pub id: String,
+    pub name: String,
+    pub token: String,
+    pub token_id: String,
+}
+
+/// A team in the admin's list.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct TeamView {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub created_at: Option<String>,
+    /// Submissions per UTC day; null for the service default.
+    pub daily_quota: Option<i64>,
+    pub id: String,
+    pub name: String,
+}
+
 /// `GET /api/v1/admin/teams`.
-pub async fn list_teams(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
-    let teams: Vec<Value> = state
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct TeamList {
+    pub teams: Vec<TeamView>,
+}
+
+/// `GET /api/v1/admin/teams`.
+pub async fn list_teams(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<TeamList>> {
+    let teams = state
         .store
         .teams()
         .await?
         .into_iter()
-        .map(|t| json!({"id": t.id, "name": t.name, "daily_quota": t.daily_quota, "created_at": rfc3339(t.created_at)}))
+        .map(|t| TeamView { created_at: Some(rfc3339(t.created_at)), daily_quota: t.daily_quota, id: t.id, name: t.name })
         .collect();
-    Ok(axum::Json(json!({"teams": teams})))
+    Ok(axum::Json(TeamList { teams }))
 }
 
-#[derive(Debug, Deserialize)]
+/// A team's new quota.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TeamUpdate {
     daily_quota: Option<i64>,
@@ -75,16 +103,17 @@ pub async fn update_team(
     _: AdminCaller,
     ApiPath(id): ApiPath<String>,
     ApiJson(body): ApiJson<TeamUpdate>,
-) -> ApiResult<axum::Json<Value>> {
+) -> ApiResult<axum::Json<TeamView>> {
     if body.daily_quota.is_some_and(|q| q < 0) {
         return Err(unprocessable("daily_quota: expected 0 or more"));
     }
     state.store.set_team_quota(&id, body.daily_quota).await?;
     let t = state.store.team(&id).await?;
-    Ok(axum::Json(json!({"id": t.id, "name": t.name, "daily_quota": t.daily_quota})))
+    Ok(axum::Json(TeamView { created_at: None, daily_quota: t.daily_quota, id: t.id, name: t.name }))
 }
 
-#[derive(Debug, Default, Deserialize)]
+/// Another token for a team.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewToken {
     /// Days until the token expires (none: never).
@@ -105,21 +134,54 @@ pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Api
     let expires = request.expires_in_days.map(|d| now_ms() + d * 86_400_000);
     let (token, record) = issue_token("team", Some(&team.id), expires);
     state.store.insert_token(&record).await?;
-    let body = json!({"id": record.id, "team": team.name, "token": token, "expires_at": expires.map(rfc3339)});
+    let body = IssuedToken { expires_at: expires.map(rfc3339), id: record.id, team: team.name, token };
     Ok((StatusCode::CREATED, axum::Json(body)).into_response())
 }
 
+/// A token issued for a team (shown once).
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct IssuedToken {
+    pub expires_at: Option<String>,
+    pub id: String,
+    /// The team's name.
+    pub team: String,
+    pub token: String,
+}
+
+/// A token in a list: its hint and state, never the token.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct TokenView {
+    pub created_at: String,
+    pub expires_at: Option<String>,
+    /// The first characters of the token.
+    pub hint: String,
+    pub id: String,
+    pub revoked_at: Option<String>,
+}
+
+/// `GET /api/v1/admin/teams/{id}/tokens`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct TokenList {
+    pub tokens: Vec<TokenView>,
+}
+
 /// `GET /api/v1/admin/teams/{id}/tokens`: hints and states, never the tokens.
-pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn list_team_tokens(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<TokenList>> {
     state.store.team(&id).await?;
-    let tokens: Vec<Value> = state
+    let tokens = state
         .store
         .tokens(Some(&id))
         .await?
         .iter()
-        .map(|t| json!({"id": t.id, "hint": t.hint, "created_at": rfc3339(t.created_at), "expires_at": t.expires_at.map(rfc3339), "revoked_at": t.revoked_at.map(rfc3339)}))
+        .map(|t| TokenView {
+            created_at: rfc3339(t.created_at),
+            expires_at: t.expires_at.map(rfc3339),
+            hint: t.hint.clone(),
+            id: t.id.clone(),
+            revoked_at: t.revoked_at.map(rfc3339),
+        })
         .collect();
-    Ok(axum::Json(json!({"tokens": tokens})))
+    Ok(axum::Json(TokenList { tokens }))
 }
 
 /// `DELETE /api/v1/admin/tokens/{id}`: revoke a token.
@@ -129,7 +191,8 @@ pub async fn revoke_token(State(state): State<AppState>, _: AdminCaller, ApiPath
     Ok(StatusCode::NO_CONTENT)
 }
 
-#[derive(Debug, Deserialize)]
+/// A release to build.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BuildBody {
     /// A release configuration (TOML); the demo configuration when absent.
@@ -165,10 +228,16 @@ pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJso
         Err(e) => return Err(e.into()),
     }
     let url = format!("/api/v1/jobs/{}", job.id);
-    Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "version": version, "url": url}))).into_response())
+    Ok((
+        StatusCode::ACCEPTED,
+        [(header::LOCATION, url.clone())],
+        axum::Json(QueuedJob { job: job.id.clone(), submission: None, url: url.clone(), version: Some(version) }),
+    )
+        .into_response())
 }
 
-#[derive(Debug, Deserialize)]
+/// A release built on the server's filesystem to register.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ImportBody {
     /// A release directory on the server's filesystem (built by `osmab release build`).
@@ -233,23 +302,75 @@ pub async fn rescore(State(state): State<AppState>, _: AdminCaller, ApiPath(id):
         Err(e) => return Err(e.into()),
     }
     let url = format!("/api/v1/jobs/{}", job.id);
-    Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(json!({"job": job.id, "submission": id, "url": url}))).into_response())
+    Ok((
+        StatusCode::ACCEPTED,
+        [(header::LOCATION, url.clone())],
+        axum::Json(QueuedJob { job: job.id.clone(), submission: Some(id), url: url.clone(), version: None }),
+    )
+        .into_response())
+}
+
+/// A job queued by an admin request.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct QueuedJob {
+    pub job: String,
+    /// The submission re-scored.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub submission: Option<String>,
+    pub url: String,
+    /// The release built.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub version: Option<String>,
+}
+
+/// A submission in the admin's list.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct AdminSubmissionItem {
+    pub baseline: bool,
+    pub created_at: String,
+    pub id: String,
+    /// The method's name.
+    pub method: String,
+    pub reason: Option<String>,
+    pub release: String,
+    pub state: SubmissionState,
+    pub team_id: String,
+}
+
+/// `GET /api/v1/admin/submissions`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct AdminSubmissionList {
+    pub submissions: Vec<AdminSubmissionItem>,
 }
 
 /// `GET /api/v1/admin/submissions`: every submission, newest first.
-pub async fn list_submissions(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
-    let items: Vec<Value> = state
+pub async fn list_submissions(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<AdminSubmissionList>> {
+    let submissions = state
         .store
         .submissions(None, 1000)
         .await?
-        .iter()
-        .map(|s| json!({"id": s.id, "team_id": s.team_id, "release": s.release, "state": s.state, "reason": s.reason, "method": s.method_name, "baseline": s.baseline, "created_at": rfc3339(s.created_at)}))
+        .into_iter()
+        .map(|s| AdminSubmissionItem {
+            baseline: s.baseline,
+            created_at: rfc3339(s.created_at),
+            id: s.id,
+            method: s.method_name,
+            reason: s.reason,
+            release: s.release,
+            state: s.state,
+            team_id: s.team_id,
+        })
         .collect();
-    Ok(axum::Json(json!({"submissions": items})))
+    Ok(axum::Json(AdminSubmissionList { submissions }))
+}
+
+/// `GET /api/v1/admin/jobs`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct JobList {
+    pub jobs: Vec<JobView>,
 }
 
 /// `GET /api/v1/admin/jobs`: recent jobs.
-pub async fn list_jobs(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<Value>> {
-    let jobs: Vec<Value> = state.store.jobs(200).await?.iter().map(|j| job_json(j, true)).collect();
-    Ok(axum::Json(json!({"jobs": jobs})))
+pub async fn list_jobs(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<JobList>> {
+    Ok(axum::Json(JobList { jobs: state.store.jobs(200).await?.iter().map(|j| JobView::of(j, true)).collect() }))
 }

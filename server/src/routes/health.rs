@@ -3,14 +3,33 @@
 use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use serde_json::json;
+use schemars::JsonSchema;
+use serde::Serialize;
 
 use crate::problem::Problem;
 use crate::state::AppState;
 
+/// `GET /livez`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Live {
+    /// `ok`.
+    pub status: &'static str,
+}
+
+/// `GET /readyz` when ready.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Ready {
+    /// `sqlite` or `postgres`.
+    pub database: &'static str,
+    /// `ready`.
+    pub status: &'static str,
+    /// `ok`.
+    pub storage: &'static str,
+}
+
 /// `GET /livez`: the process answers.
-pub async fn livez() -> impl IntoResponse {
-    axum::Json(json!({"status": "ok"}))
+pub async fn livez() -> axum::Json<Live> {
+    axum::Json(Live { status: "ok" })
 }
 
 /// `GET /readyz`: the database and the blob storage are reachable.
@@ -18,7 +37,7 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
     let database = state.store.ping().await;
     let blobs = state.blobs.check();
     match (&database, &blobs) {
-        (Ok(()), Ok(())) => axum::Json(json!({"status": "ready", "database": state.store.backend(), "storage": "ok"})).into_response(),
+        (Ok(()), Ok(())) => axum::Json(Ready { database: state.store.backend(), status: "ready", storage: "ok" }).into_response(),
         _ => {
             let what = [database.err().map(|e| format!("database: {e}")), blobs.err().map(|e| format!("storage: {e}"))];
             let detail = what.into_iter().flatten().collect::<Vec<_>>().join("; ");

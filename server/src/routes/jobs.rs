@@ -1,38 +1,70 @@
 //! `GET /api/v1/jobs/{id}`: a job's state, attempts, lease and stage progress.
 
 use axum::extract::State;
-use serde_json::{Value, json};
+use schemars::JsonSchema;
+use serde::Serialize;
+use serde_json::Value;
 
 use super::ApiPath;
 use crate::auth::Caller;
 use crate::clock::rfc3339;
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{JobRecord, StoreError};
+use crate::store::{JobRecord, JobState, StoreError};
 
-/// The JSON view of a job; workers and raw errors are for admins only.
-pub fn job_json(j: &JobRecord, admin: bool) -> Value {
-    let mut view = json!({
-        "id": j.id,
-        "kind": j.kind,
-        "subject": j.subject,
-        "state": j.state,
-        "attempts": j.attempts,
-        "max_attempts": j.max_attempts,
-        "progress": serde_json::from_str::<Value>(&j.progress).unwrap_or(Value::Null),
-        "run_after": rfc3339(j.run_after),
-        "created_at": rfc3339(j.created_at),
-        "updated_at": rfc3339(j.updated_at),
-    });
-    if admin {
-        view["error"] = json!(j.error);
-        view["lease"] = json!(j.lease_owner.as_ref().map(|owner| json!({"worker": owner, "expires_at": j.lease_expires.map(rfc3339)})));
+/// Who holds a running job, and until when.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct Lease {
+    pub expires_at: Option<String>,
+    pub worker: String,
+}
+
+/// A job as the API shows it (fields in the order of their keys); the error text and
+/// the lease are for admins only (absent for everyone else).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub struct JobView {
+    pub attempts: i64,
+    pub created_at: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<Option<String>>,
+    pub id: String,
+    /// `score_submission`, `build_release` or `render_sequence`.
+    pub kind: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lease: Option<Option<Lease>>,
+    pub max_attempts: i64,
+    /// The job's last progress report (stage, message, counts), as the job wrote it.
+    pub progress: Value,
+    pub run_after: String,
+    pub state: JobState,
+    /// What the job is about: a submission id, a release version, `version/scene/lighting`.
+    pub subject: String,
+    pub updated_at: String,
+}
+
+impl JobView {
+    /// The view of `j`; with `admin`, its error text and lease too.
+    pub fn of(j: &JobRecord, admin: bool) -> Self {
+        let lease = j.lease_owner.as_ref().map(|owner| Lease { expires_at: j.lease_expires.map(rfc3339), worker: owner.clone() });
+        JobView {
+            attempts: j.attempts,
+            created_at: rfc3339(j.created_at),
+            error: admin.then(|| j.error.clone()),
+            id: j.id.clone(),
+            kind: j.kind.clone(),
+            lease: admin.then_some(lease),
+            max_attempts: j.max_attempts,
+            progress: serde_json::from_str::<Value>(&j.progress).unwrap_or(Value::Null),
+            run_after: rfc3339(j.run_after),
+            state: j.state,
+            subject: j.subject.clone(),
+            updated_at: rfc3339(j.updated_at),
+        }
     }
-    view
 }
 
 /// `GET /api/v1/jobs/{id}`: admins see every job; teams see the jobs of their submissions.
-pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Value>> {
+pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<JobView>> {
     let missing = || Problem::not_found(format!("There is no job '{id}' you can see."));
     let job = match state.store.job(&id).await {
         Ok(job) => job,
@@ -49,5 +81,5 @@ pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): Ap
     if !allowed {
         return Err(missing());
     }
-    Ok(axum::Json(job_json(&job, matches!(caller, Caller::Admin))))
+    Ok(axum::Json(JobView::of(&job, matches!(caller, Caller::Admin))))
 }

@@ -15,7 +15,7 @@ use crate::leaderboard::vqa::{TableThreeRow, TableTwoRow, table_three, table_thr
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, schemars::JsonSchema)]
 pub struct LeaderboardQuery {
     /// A release version; the current release by default.
     pub release: Option<String>,
@@ -61,7 +61,7 @@ pub async fn csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<Leader
     Ok(respond(&board, &headers, true))
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, schemars::JsonSchema)]
 pub struct VqaQuery {
     /// A release version; the current release by default.
     pub release: Option<String>,
@@ -70,7 +70,7 @@ pub struct VqaQuery {
 }
 
 /// The paper's VQA tables of a release (one or both).
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct VqaTables {
     /// The release's lightings (Table II's columns); absent with Table III alone.
     #[serde(skip_serializing_if = "Option::is_none")]

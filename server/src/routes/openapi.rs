@@ -1,12 +1,28 @@
 //! The OpenAPI 3.1 document (`/api/v1/openapi.json`) and its HTML page (`/api/docs`),
-//! both generated from one table of operations; a test requests every operation in the
-//! table so the document cannot list a route the router lacks.
+//! both generated from one table of operations. Every request body, query and JSON
+//! response is described by the schema of the Rust type the handler takes or returns
+//! (derived with schemars, JSON Schema 2020-12 — OpenAPI 3.1's dialect), so the document
+//! follows the code. A test requests every operation in the table, so the document
+//! cannot list a route the router lacks, and checks that every JSON response has a schema.
 
 use askama::Template;
 use askama_web::WebTemplate;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
+use schemars::generate::{SchemaGenerator, SchemaSettings};
+use schemars::{JsonSchema, Schema};
 use serde_json::{Map, Value, json};
+
+use super::admin::{
+    AdminSubmissionList, BuildBody, CreatedTeam, ImportBody, IssuedToken, JobList, NewTeam, NewToken, QueuedJob, TeamList, TeamUpdate, TokenList,
+};
+use super::health::{Live, Ready};
+use super::jobs::JobView;
+use super::leaderboard::{LeaderboardQuery, VqaQuery, VqaTables};
+use super::releases::{ReleaseList, ReleaseSummary};
+use super::submission_view::{SubmissionList, SubmissionView};
+use super::submissions::{Created, DryRun, Me, MethodCardUpdate, UploadQuery};
+use crate::leaderboard::Leaderboard;
 
 /// Who may call an operation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,6 +34,30 @@ pub enum Auth {
     Optional,
 }
 
+/// What a successful response carries.
+#[derive(Debug, Clone, Copy)]
+pub enum Body {
+    /// JSON described by a type's schema.
+    Json(fn(&mut SchemaGenerator) -> Schema),
+    /// JSON whose shape a release defines (its manifest).
+    FreeJson,
+    /// Another media type (`text/csv`, a file, Prometheus text).
+    Other(&'static str),
+    /// Nothing (204).
+    Empty,
+}
+
+/// What a request carries besides its path.
+#[derive(Debug, Clone, Copy)]
+pub enum Input {
+    /// Nothing.
+    None,
+    /// A JSON body of a type.
+    Json(fn(&mut SchemaGenerator) -> Schema),
+    /// A submission archive.
+    Archive,
+}
+
 /// One documented operation.
 #[derive(Debug, Clone, Copy)]
 pub struct Operation {
@@ -25,93 +65,146 @@ pub struct Operation {
     pub path: &'static str,
     pub auth: Auth,
     pub summary: &'static str,
-    /// Media type of the request body, if any.
-    pub body: Option<&'static str>,
+    pub input: Input,
+    /// Query parameters: the properties of a type's schema.
+    pub query: Option<fn() -> Schema>,
     /// Success status.
     pub success: u16,
+    pub output: Body,
 }
 
-const fn op(method: &'static str, path: &'static str, auth: Auth, summary: &'static str, body: Option<&'static str>, success: u16) -> Operation {
-    Operation { method, path, auth, summary, body, success }
+/// The schema of `T`, as a reference into the document's components.
+fn schema_of<T: JsonSchema>(generator: &mut SchemaGenerator) -> Schema {
+    generator.subschema_for::<T>()
 }
 
-const JSON: Option<&str> = Some("application/json");
+/// The whole schema of `T` (for query parameters).
+fn root_of<T: JsonSchema>() -> Schema {
+    SchemaSettings::draft2020_12().for_deserialize().into_generator().into_root_schema_for::<T>()
+}
+
+const fn op(method: &'static str, path: &'static str, auth: Auth, summary: &'static str, success: u16) -> Operation {
+    Operation { method, path, auth, summary, input: Input::None, query: None, success, output: Body::Empty }
+}
+
+impl Operation {
+    /// Answers JSON of type `T`.
+    const fn returns<T: JsonSchema>(self) -> Self {
+        Operation { output: Body::Json(schema_of::<T>), ..self }
+    }
+    /// Answers another media type.
+    const fn returns_other(self, media: &'static str) -> Self {
+        Operation { output: Body::Other(media), ..self }
+    }
+    /// Takes a JSON body of type `T`.
+    const fn takes<T: JsonSchema>(self) -> Self {
+        Operation { input: Input::Json(schema_of::<T>), ..self }
+    }
+    /// Takes the query parameters of `T`.
+    const fn query<T: JsonSchema>(self) -> Self {
+        Operation { query: Some(root_of::<T>), ..self }
+    }
+}
+
+/// The answer to an upload: a submission (new, or the earlier one repeated) or, for a
+/// dry run, the validation report.
+#[derive(schemars::JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+enum UploadAnswer {
+    Submission(Created),
+    DryRun(DryRun),
+}
 
 /// Every operation of the API.
 pub const OPERATIONS: &[Operation] = &[
-    op("get", "/livez", Auth::Public, "Liveness: the process answers.", None, 200),
-    op("get", "/readyz", Auth::Public, "Readiness: the database and the storage are reachable.", None, 200),
-    op("get", "/metrics", Auth::Public, "Prometheus metrics (requests, latency, jobs and submissions by state).", None, 200),
-    op("get", "/api/v1/openapi.json", Auth::Public, "This document.", None, 200),
-    op("get", "/api/v1/releases", Auth::Optional, "Published releases (drafts too for admins).", None, 200),
-    op("get", "/api/v1/releases/{version}", Auth::Optional, "One release; `current` names the current release.", None, 200),
-    op(
-        "get",
-        "/api/v1/releases/{version}/manifest.json",
-        Auth::Optional,
-        "The manifest: every file with size and SHA-256, the digest, and one archive per sequence.",
-        None,
-        200,
-    ),
+    op("get", "/livez", Auth::Public, "Liveness: the process answers.", 200).returns::<Live>(),
+    op("get", "/readyz", Auth::Public, "Readiness: the database and the storage are reachable.", 200).returns::<Ready>(),
+    op("get", "/metrics", Auth::Public, "Prometheus metrics (requests, latency, jobs and submissions by state).", 200).returns_other("text/plain"),
+    op("get", "/api/v1/openapi.json", Auth::Public, "This document.", 200).returns_other("application/json"),
+    op("get", "/api/v1/releases", Auth::Optional, "Published releases (drafts too for admins).", 200).returns::<ReleaseList>(),
+    op("get", "/api/v1/releases/{version}", Auth::Optional, "One release; `current` names the current release.", 200).returns::<ReleaseSummary>(),
+    Operation {
+        output: Body::FreeJson,
+        ..op(
+            "get",
+            "/api/v1/releases/{version}/manifest.json",
+            Auth::Optional,
+            "The manifest: every file with size and SHA-256, the digest, and one archive per sequence.",
+            200,
+        )
+    },
     op(
         "get",
         "/api/v1/releases/{version}/files/{path}",
         Auth::Optional,
         "A public file or sequence archive, with Range, ETag (its SHA-256), If-None-Match and Repr-Digest.",
-        None,
         200,
-    ),
-    op("get", "/api/v1/me", Auth::Team, "The calling team and its quota for today (UTC).", None, 200),
-    op(
-        "post",
-        "/api/v1/submissions",
-        Auth::Team,
-        "Upload a submission archive (tar, tar.gz or zip; optional Content-Digest and Idempotency-Key). `?dry_run=true` validates only, free of quota; `?public=false` keeps it off the leaderboard. A repeat — the team's active submission of the same archive, or the same Idempotency-Key — answers 200 with that submission (`repeat: true`) and uses no quota.",
-        Some("application/x-tar"),
-        202,
-    ),
-    op("get", "/api/v1/submissions", Auth::Team, "The calling team's submissions.", None, 200),
-    op("get", "/api/v1/submissions/{id}", Auth::Optional, "A submission: state, reason, history, jobs and its latest scores.", None, 200),
-    op("patch", "/api/v1/submissions/{id}", Auth::Team, "Edit the method card (name, description, paper_url, code_url) or `public`.", JSON, 200),
-    op("post", "/api/v1/submissions/{id}/cancel", Auth::Team, "Cancel a queued submission.", None, 200),
-    op("get", "/api/v1/leaderboard", Auth::Public, "The leaderboard (`?release=V`); CSV with `Accept: text/csv`.", None, 200),
-    op("get", "/api/v1/leaderboard.csv", Auth::Public, "The leaderboard as CSV.", None, 200),
+    )
+    .returns_other("application/octet-stream"),
+    op("get", "/api/v1/me", Auth::Team, "The calling team and its quota for today (UTC).", 200).returns::<Me>(),
+    Operation {
+        input: Input::Archive,
+        ..op(
+            "post",
+            "/api/v1/submissions",
+            Auth::Team,
+            "Upload a submission archive (tar, tar.gz or zip; optional Content-Digest and Idempotency-Key). `?dry_run=true` validates only, free of quota; `?public=false` keeps it off the leaderboard. A repeat — the team's active submission of the same archive, or the same Idempotency-Key — answers 200 with that submission (`repeat: true`) and uses no quota.",
+            202,
+        )
+        .query::<UploadQuery>()
+        .returns::<UploadAnswer>()
+    },
+    op("get", "/api/v1/submissions", Auth::Team, "The calling team's submissions.", 200).returns::<SubmissionList>(),
+    op("get", "/api/v1/submissions/{id}", Auth::Optional, "A submission: state, reason, history, jobs and its latest scores.", 200).returns::<SubmissionView>(),
+    op("patch", "/api/v1/submissions/{id}", Auth::Team, "Edit the method card (name, description, paper_url, code_url) or `public`.", 200)
+        .takes::<MethodCardUpdate>()
+        .returns::<SubmissionView>(),
+    op("post", "/api/v1/submissions/{id}/cancel", Auth::Team, "Cancel a queued submission.", 200).returns::<SubmissionView>(),
+    op("get", "/api/v1/leaderboard", Auth::Public, "The leaderboard (`?release=V`); CSV with `Accept: text/csv`.", 200)
+        .query::<LeaderboardQuery>()
+        .returns::<Leaderboard>(),
+    op("get", "/api/v1/leaderboard.csv", Auth::Public, "The leaderboard as CSV.", 200).query::<LeaderboardQuery>().returns_other("text/csv"),
     op(
         "get",
         "/api/v1/leaderboard/vqa",
         Auth::Public,
         "VQA accuracies in the paper's shapes: `table2` (subset × group × method × lighting, prompt-grounded) and `table3` (standard against prompt-grounded, over all lightings, with 95 % bootstrap intervals); `?table=2|3` for one.",
-        None,
         200,
-    ),
-    op("get", "/api/v1/leaderboard/vqa.csv", Auth::Public, "One VQA table (`?table=2` or `?table=3`) as CSV.", None, 200),
-    op("get", "/api/v1/jobs/{id}", Auth::Optional, "A job: state, attempts, lease and stage progress.", None, 200),
-    op("post", "/api/v1/admin/teams", Auth::Admin, "Create a team: `{\"name\"}` → `{\"id\", \"name\", \"token\"}` (the token is shown once).", JSON, 201),
-    op("get", "/api/v1/admin/teams", Auth::Admin, "Every team.", None, 200),
-    op("patch", "/api/v1/admin/teams/{id}", Auth::Admin, "Set a team's daily quota (`{\"daily_quota\"}`; null for the default).", JSON, 200),
-    op("post", "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "Issue another token for a team (optional `expires_in_days`).", JSON, 201),
-    op("get", "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "A team's tokens (hints and states, never the tokens).", None, 200),
-    op("delete", "/api/v1/admin/tokens/{id}", Auth::Admin, "Revoke a token.", None, 204),
-    op(
-        "post",
-        "/api/v1/admin/releases",
-        Auth::Admin,
-        "Build a release from a config (`{\"config\"?: TOML, \"publish\"?, \"baselines\"?}`) as a job.",
-        JSON,
-        202,
-    ),
+    )
+    .query::<VqaQuery>()
+    .returns::<VqaTables>(),
+    op("get", "/api/v1/leaderboard/vqa.csv", Auth::Public, "One VQA table (`?table=2` or `?table=3`) as CSV.", 200).query::<VqaQuery>().returns_other("text/csv"),
+    op("get", "/api/v1/jobs/{id}", Auth::Optional, "A job: state, attempts, lease and stage progress.", 200).returns::<JobView>(),
+    op("post", "/api/v1/admin/teams", Auth::Admin, "Create a team: `{\"name\"}` → `{\"id\", \"name\", \"token\"}` (the token is shown once).", 201)
+        .takes::<NewTeam>()
+        .returns::<CreatedTeam>(),
+    op("get", "/api/v1/admin/teams", Auth::Admin, "Every team.", 200).returns::<TeamList>(),
+    op("patch", "/api/v1/admin/teams/{id}", Auth::Admin, "Set a team's daily quota (`{\"daily_quota\"}`; null for the default).", 200)
+        .takes::<TeamUpdate>()
+        .returns::<super::admin::TeamView>(),
+    op("post", "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "Issue another token for a team (optional `expires_in_days`).", 201)
+        .takes::<NewToken>()
+        .returns::<IssuedToken>(),
+    op("get", "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "A team's tokens (hints and states, never the tokens).", 200).returns::<TokenList>(),
+    op("delete", "/api/v1/admin/tokens/{id}", Auth::Admin, "Revoke a token.", 204),
+    op("post", "/api/v1/admin/releases", Auth::Admin, "Build a release from a config (`{\"config\"?: TOML, \"publish\"?, \"baselines\"?}`) as a job.", 202)
+        .takes::<BuildBody>()
+        .returns::<QueuedJob>(),
     op(
         "post",
         "/api/v1/admin/releases/import",
         Auth::Admin,
         "Register a release built on the server's filesystem (`{\"path\", \"publish\"?}`), verifying its manifest.",
-        JSON,
         201,
-    ),
-    op("post", "/api/v1/admin/releases/{version}/publish", Auth::Admin, "Freeze a draft into the current release.", None, 200),
-    op("get", "/api/v1/admin/submissions", Auth::Admin, "Every submission.", None, 200),
-    op("post", "/api/v1/admin/submissions/{id}/rescore", Auth::Admin, "Score a submission again; a new score is added, old ones stay.", None, 202),
-    op("get", "/api/v1/admin/jobs", Auth::Admin, "Recent jobs.", None, 200),
+    )
+    .takes::<ImportBody>()
+    .returns::<ReleaseSummary>(),
+    op("post", "/api/v1/admin/releases/{version}/publish", Auth::Admin, "Freeze a draft into the current release.", 200).returns::<ReleaseSummary>(),
+    op("get", "/api/v1/admin/submissions", Auth::Admin, "Every submission.", 200).returns::<AdminSubmissionList>(),
+    op("post", "/api/v1/admin/submissions/{id}/rescore", Auth::Admin, "Score a submission again; a new score is added, old ones stay.", 202)
+        .returns::<QueuedJob>(),
+    op("get", "/api/v1/admin/jobs", Auth::Admin, "Recent jobs.", 200).returns::<JobList>(),
 ];
 
 /// Every problem `code` with what it means and what to do.
@@ -152,19 +245,50 @@ fn path_parameters(path: &str) -> Vec<Value> {
         .collect()
 }
 
+/// The query parameters of a type's schema: one per property, required where the type requires it.
+fn query_parameters(schema: &Schema) -> Vec<Value> {
+    let object = schema.as_object().cloned().unwrap_or_default();
+    let required: Vec<Value> = object.get("required").and_then(Value::as_array).cloned().unwrap_or_default();
+    let properties = object.get("properties").and_then(Value::as_object).cloned().unwrap_or_default();
+    properties
+        .into_iter()
+        .map(|(name, mut property)| {
+            let description = property.as_object_mut().and_then(|p| p.remove("description"));
+            let mut parameter = json!({"name": name, "in": "query", "required": required.contains(&json!(name)), "schema": property});
+            if let Some(description) = description {
+                parameter["description"] = description;
+            }
+            parameter
+        })
+        .collect()
+}
+
 /// The OpenAPI 3.1 document.
 pub fn document_value() -> Value {
+    // Answers are described as the server writes them, request bodies as it reads them.
+    let settings = SchemaSettings::draft2020_12().with(|s| s.definitions_path = "/components/schemas".into());
+    let mut generator = settings.clone().for_serialize().into_generator();
+    let mut request_generator = settings.for_deserialize().into_generator();
     let mut paths = Map::new();
     for o in OPERATIONS {
+        let success = match o.output {
+            Body::Json(schema) => json!({"description": "Success", "content": {"application/json": {"schema": schema(&mut generator)}}}),
+            Body::FreeJson => json!({"description": "Success", "content": {"application/json": {"schema": {"type": "object"}}}}),
+            Body::Other(media) => json!({"description": "Success", "content": {media: {"schema": {"type": "string"}}}}),
+            Body::Empty => json!({"description": "Success, no content"}),
+        };
         let mut operation = json!({
             "summary": o.summary,
             "operationId": format!("{}_{}", o.method, o.path.trim_start_matches('/').replace(['/', '{', '}', '.'], "_")),
             "responses": {
-                o.success.to_string(): {"description": "Success"},
+                o.success.to_string(): success,
                 "default": {"description": "An error", "content": {"application/problem+json": {"schema": {"$ref": "#/components/schemas/Problem"}}}}
             }
         });
-        let parameters = path_parameters(o.path);
+        let mut parameters = path_parameters(o.path);
+        if let Some(query) = o.query {
+            parameters.extend(query_parameters(&query()));
+        }
         if !parameters.is_empty() {
             operation["parameters"] = Value::Array(parameters);
         }
@@ -173,19 +297,40 @@ pub fn document_value() -> Value {
             Auth::Optional => operation["security"] = json!([{}, {"bearer": []}]),
             Auth::Public => {}
         }
-        if let Some(media) = o.body {
-            let content = if media == "application/json" {
-                json!({"application/json": {"schema": {"type": "object"}}})
-            } else {
-                json!({"application/x-tar": {"schema": {"type": "string", "format": "binary"}}, "application/gzip": {"schema": {"type": "string", "format": "binary"}}, "application/zip": {"schema": {"type": "string", "format": "binary"}}})
-            };
-            operation["requestBody"] = json!({"required": true, "content": content});
+        match o.input {
+            Input::None => {}
+            Input::Json(schema) => {
+                operation["requestBody"] = json!({"required": true, "content": {"application/json": {"schema": schema(&mut request_generator)}}})
+            }
+            Input::Archive => {
+                let binary = json!({"type": "string", "format": "binary"});
+                operation["requestBody"] = json!({"required": true, "content": {"application/x-tar": {"schema": binary}, "application/gzip": {"schema": binary}, "application/zip": {"schema": binary}}});
+            }
         }
         let entry = paths.entry(o.path.to_string()).or_insert_with(|| json!({}));
         entry[o.method] = operation;
     }
+    let mut schemas = generator.take_definitions(true);
+    for (name, schema) in request_generator.take_definitions(true) {
+        let clash = schemas.get(&name).is_some_and(|known| *known != schema);
+        assert!(!clash, "{name} is both a request and an answer with different schemas");
+        schemas.insert(name, schema);
+    }
+    schemas.insert(
+        "Problem".into(),
+        json!({
+            "type": "object",
+            "required": ["type", "title", "status", "detail", "code"],
+            "properties": {
+                "type": {"type": "string"}, "title": {"type": "string"}, "status": {"type": "integer"}, "detail": {"type": "string"},
+                "code": {"type": "string", "enum": PROBLEMS.iter().map(|p| p.0).collect::<Vec<_>>()},
+                "errors": {"type": "array", "items": {"type": "object", "properties": {"file": {"type": "string"}, "field": {"type": "string"}, "message": {"type": "string"}}}}
+            }
+        }),
+    );
     json!({
         "openapi": "3.1.0",
+        "jsonSchemaDialect": "https://json-schema.org/draft/2020-12/schema",
         "info": {
             "title": "osmab: the OSMa-Bench++ evaluation service",
             "version": env!("CARGO_PKG_VERSION"),
@@ -194,17 +339,7 @@ pub fn document_value() -> Value {
         "paths": paths,
         "components": {
             "securitySchemes": {"bearer": {"type": "http", "scheme": "bearer", "description": "An API token (`osmab_` + 32 characters)."}},
-            "schemas": {
-                "Problem": {
-                    "type": "object",
-                    "required": ["type", "title", "status", "detail", "code"],
-                    "properties": {
-                        "type": {"type": "string"}, "title": {"type": "string"}, "status": {"type": "integer"}, "detail": {"type": "string"},
-                        "code": {"type": "string", "enum": PROBLEMS.iter().map(|p| p.0).collect::<Vec<_>>()},
-                        "errors": {"type": "array", "items": {"type": "object", "properties": {"file": {"type": "string"}, "field": {"type": "string"}, "message": {"type": "string"}}}}
-                    }
-                }
-            }
+            "schemas": schemas
         }
     })
 }
@@ -220,6 +355,94 @@ pub struct OperationView {
     pub auth: &'static str,
     /// The summary as HTML: escaped, with `code` spans.
     pub summary_html: String,
+    /// What the request body and the success answer are, as HTML (schema links).
+    pub takes_html: String,
+    pub answers_html: String,
+}
+
+/// One field of a documented schema.
+pub struct FieldView {
+    pub name: String,
+    pub type_html: String,
+    pub required: bool,
+    pub description_html: String,
+}
+
+/// A schema of the document, for the reference page.
+pub struct SchemaView {
+    pub name: String,
+    pub description_html: String,
+    pub fields: Vec<FieldView>,
+    /// For a closed set of strings: its values.
+    pub values: Vec<String>,
+}
+
+/// A schema as a short type, with links to named schemas.
+fn type_html(schema: &Value) -> String {
+    if let Some(reference) = schema.get("$ref").and_then(Value::as_str) {
+        let name = reference.rsplit('/').next().unwrap_or(reference);
+        return format!("<a href=\"#schema-{name}\">{name}</a>");
+    }
+    if let Some(options) = schema.get("anyOf").or_else(|| schema.get("oneOf")).and_then(Value::as_array) {
+        return options.iter().map(type_html).collect::<Vec<_>>().join(" | ");
+    }
+    if let Some(value) = schema.get("const") {
+        return format!("<code>{}</code>", inline_code(&value.to_string()));
+    }
+    let kinds: Vec<&str> = match schema.get("type") {
+        Some(Value::String(t)) => vec![t.as_str()],
+        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => vec![],
+    };
+    let mut parts = Vec::new();
+    for kind in &kinds {
+        parts.push(match *kind {
+            "array" => match (schema.get("items"), schema.get("prefixItems")) {
+                (_, Some(Value::Array(pair))) => format!("[{}]", pair.iter().map(type_html).collect::<Vec<_>>().join(", ")),
+                (Some(items), _) => format!("array of {}", type_html(items)),
+                _ => "array".into(),
+            },
+            "object" => match (schema.get("properties"), schema.get("additionalProperties")) {
+                (Some(Value::Object(keys)), _) if schema.get("additionalProperties") == Some(&Value::Bool(false)) => {
+                    let value = keys.values().next().map(type_html).unwrap_or_default();
+                    format!("map of {} → {value}", keys.keys().map(|k| format!("<code>{k}</code>")).collect::<Vec<_>>().join(", "))
+                }
+                (_, Some(values)) if values.is_object() => format!("map of string → {}", type_html(values)),
+                _ => "object".into(),
+            },
+            other => other.to_string(),
+        });
+    }
+    if parts.is_empty() { "any".into() } else { parts.join(" | ") }
+}
+
+/// The schemas of `document`, by name.
+fn schema_views(document: &Value) -> Vec<SchemaView> {
+    let schemas = document["components"]["schemas"].as_object().cloned().unwrap_or_default();
+    schemas
+        .into_iter()
+        .map(|(name, schema)| {
+            let required: Vec<&str> = schema["required"].as_array().into_iter().flatten().filter_map(Value::as_str).collect();
+            let fields = schema["properties"]
+                .as_object()
+                .into_iter()
+                .flatten()
+                .map(|(field, property)| FieldView {
+                    name: field.clone(),
+                    type_html: type_html(property),
+                    required: required.contains(&field.as_str()),
+                    description_html: inline_code(property["description"].as_str().unwrap_or("")),
+                })
+                .collect();
+            let values = schema["oneOf"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .chain(schema["enum"].as_array().into_iter().flatten())
+                .filter_map(|v| v.get("const").and_then(Value::as_str).or(v.as_str()).map(str::to_string));
+            SchemaView { description_html: inline_code(schema["description"].as_str().unwrap_or("")), fields, values: values.collect(), name }
+        })
+        .collect()
 }
 
 /// `text` escaped for HTML, with backtick spans as `<code>`.
@@ -246,10 +469,31 @@ pub struct DocsPage {
     pub description: &'static str,
     pub operations: Vec<OperationView>,
     pub problems: Vec<(&'static str, String)>,
+    pub schemas: Vec<SchemaView>,
 }
 
-/// `GET /api/docs`: the API reference, rendered on the server (no external assets).
+/// `GET /api/docs`: the API reference, rendered on the server (no external assets) from
+/// the same document `/api/v1/openapi.json` serves.
 pub async fn docs_page() -> DocsPage {
+    let document = document_value();
+    let body_of = |o: &Operation, part: &str| -> String {
+        let operation = &document["paths"][o.path][o.method];
+        let content = match part {
+            "takes" => &operation["requestBody"]["content"],
+            _ => &operation["responses"][o.success.to_string()]["content"],
+        };
+        match content.as_object() {
+            None => "–".into(),
+            Some(media) => media
+                .iter()
+                .map(|(kind, body)| match kind.as_str() {
+                    "application/json" => type_html(&body["schema"]),
+                    other => format!("<code>{other}</code>"),
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+    };
     DocsPage {
         title: "osmab API",
         version: env!("CARGO_PKG_VERSION"),
@@ -266,8 +510,11 @@ pub async fn docs_page() -> DocsPage {
                     Auth::Optional => "optional",
                 },
                 summary_html: inline_code(o.summary),
+                takes_html: body_of(o, "takes"),
+                answers_html: body_of(o, "answers"),
             })
             .collect(),
         problems: PROBLEMS.iter().map(|(code, text)| (*code, inline_code(text))).collect(),
+        schemas: schema_views(&document),
     }
 }

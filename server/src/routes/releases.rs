@@ -16,7 +16,7 @@ use crate::state::AppState;
 use crate::store::{ReleaseRecord, ReleaseState, StoreError};
 
 /// The summary of a release in lists (fields in the order of their keys).
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct ReleaseSummary {
     /// When the release was built (from its manifest).
     pub created: Option<String>,
@@ -78,7 +78,7 @@ pub async fn list(State(state): State<AppState>, caller: Caller) -> ApiResult<ax
 }
 
 /// The releases the caller may see, newest first.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct ReleaseList {
     pub releases: Vec<ReleaseSummary>,
 }

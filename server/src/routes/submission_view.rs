@@ -13,14 +13,14 @@ use crate::state::AppState;
 use crate::store::{JobState, SubmissionRecord, SubmissionState};
 
 /// The uploaded archive.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ArchiveView {
     pub sha256: String,
     pub size: i64,
 }
 
 /// One state change.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct EventView {
     pub at: String,
     pub reason: Option<String>,
@@ -28,7 +28,7 @@ pub struct EventView {
 }
 
 /// A job of the submission.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct JobLink {
     pub attempts: i64,
     pub id: String,
@@ -38,7 +38,7 @@ pub struct JobLink {
 }
 
 /// The method card.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct MethodView {
     pub code_url: Option<String>,
     pub description: String,
@@ -47,7 +47,7 @@ pub struct MethodView {
 }
 
 /// One recorded score (the latest is in full under `scores`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ScoreLink {
     pub at: String,
     pub evaluator_version: String,
@@ -56,7 +56,7 @@ pub struct ScoreLink {
 }
 
 /// `GET /api/v1/submissions/{id}`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SubmissionView {
     pub archive: ArchiveView,
     pub baseline: bool,
@@ -125,7 +125,7 @@ impl SubmissionView {
 }
 
 /// One of a team's submissions in `GET /api/v1/submissions`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SubmissionItem {
     pub complete: bool,
     pub created_at: String,
@@ -156,7 +156,7 @@ impl From<&SubmissionRecord> for SubmissionItem {
 }
 
 /// `GET /api/v1/submissions`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SubmissionList {
     pub submissions: Vec<SubmissionItem>,
 }

@@ -18,7 +18,7 @@ use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 use crate::store::{JobState, StoreError, SubmissionRecord, SubmissionState};
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, schemars::JsonSchema)]
 pub struct UploadQuery {
     /// Validate only: nothing is stored and no quota is used.
     #[serde(default)]
@@ -28,14 +28,14 @@ pub struct UploadQuery {
 }
 
 /// The calling team.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct TeamRef {
     pub id: String,
     pub name: String,
 }
 
 /// `GET /api/v1/me`.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct Me {
     pub quota: QuotaView,
     pub team: TeamRef,
@@ -49,7 +49,7 @@ pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> 
 
 /// The answer to an accepted upload (202) or to one that repeats an earlier submission
 /// (200, `repeat: true`, no quota used).
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct Created {
     pub complete: bool,
     pub id: String,
@@ -63,7 +63,7 @@ pub struct Created {
 }
 
 /// One (lighting, scene) a valid upload covers.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct CoveredEntry {
     pub answers: bool,
     pub graph: bool,
@@ -73,7 +73,7 @@ pub struct CoveredEntry {
 }
 
 /// The answer to a dry run of a valid upload.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct DryRun {
     pub complete: bool,
     pub entries: Vec<CoveredEntry>,
@@ -187,7 +187,13 @@ pub async fn create(
             let entries = valid
                 .entries
                 .iter()
-                .map(|e| CoveredEntry { answers: e.answers.is_some(), graph: e.graph.is_some(), lighting: e.lighting, map: e.map.is_some(), scene: e.scene.clone() })
+                .map(|e| CoveredEntry {
+                    answers: e.answers.is_some(),
+                    graph: e.graph.is_some(),
+                    lighting: e.lighting,
+                    map: e.map.is_some(),
+                    scene: e.scene.clone(),
+                })
                 .collect();
             let report = DryRun {
                 complete: valid.complete,
@@ -206,7 +212,15 @@ pub async fn create(
             let s = state.store.submission(&id).await?;
             tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
             let quota = Quota::of(&state, &team).await?.view();
-            let body = Created { complete: s.complete, missing_maps: None, quota, repeat: true, state: s.state, url: format!("/api/v1/submissions/{id}"), id: id.clone() };
+            let body = Created {
+                complete: s.complete,
+                missing_maps: None,
+                quota,
+                repeat: true,
+                state: s.state,
+                url: format!("/api/v1/submissions/{id}"),
+                id: id.clone(),
+            };
             (StatusCode::OK, id, body)
         }
         Accepted::New { id, submission, quota } => {
@@ -248,7 +262,7 @@ pub async fn list(State(state): State<AppState>, TeamCaller(team): TeamCaller) -
     Ok(axum::Json(SubmissionList { submissions }))
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MethodCardUpdate {
     name: Option<String>,

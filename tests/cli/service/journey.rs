@@ -59,7 +59,8 @@ fn journey(backend: Backend) {
     let accepted = server.upload(&token, &tar_of(oracle.path()), "");
     assert_eq!(accepted.status(), 202);
     let location = accepted.headers()["location"].to_str().unwrap().to_string();
-    let oracle_id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+    let accepted: Value = accepted.json().unwrap();
+    let oracle_id = accepted["id"].as_str().unwrap().to_string();
     assert_eq!(location, format!("/api/v1/submissions/{oracle_id}"));
     let merge_response = server.upload(&token, &tar_of(merged.path()), "?public=true");
     assert_eq!(merge_response.status(), 202);
@@ -126,10 +127,50 @@ fn journey(backend: Backend) {
     // Re-scoring adds a score and keeps the first.
     let rescore = server.admin(server.post(&format!("/api/v1/admin/submissions/{merge_id}/rescore")));
     assert_eq!(rescore.status(), 202);
+    let rescore: Value = rescore.json().unwrap();
     let rescored = server.wait_done(&merge_id, &token);
     assert_eq!(rescored["state"], "scored");
     assert_eq!(rescored["score_history"].as_array().unwrap().len(), 2);
     assert_eq!(rescored["scores"]["semseg"], merge_view["scores"]["semseg"], "the same evaluator gives the same scores");
+
+    // Every JSON answer is what the OpenAPI document's schema for it says.
+    let document: Value = server.get("/api/v1/openapi.json").send().unwrap().json().unwrap();
+    let job_id = rescored["jobs"][0]["id"].as_str().unwrap().to_string();
+    let mut answers = vec![
+        ("post", "/api/v1/submissions", accepted),
+        ("post", "/api/v1/admin/submissions/{id}/rescore", rescore),
+        ("get", "/api/v1/submissions/{id}", oracle_view.clone()),
+        ("get", "/api/v1/submissions/{id}", rescored.clone()),
+    ];
+    let team_reads = [("/api/v1/me", "/api/v1/me".to_string()), ("/api/v1/submissions", "/api/v1/submissions".to_string())];
+    let public_reads = [
+        ("/livez", "/livez".to_string()),
+        ("/readyz", "/readyz".to_string()),
+        ("/api/v1/releases", "/api/v1/releases".to_string()),
+        ("/api/v1/releases/{version}", format!("/api/v1/releases/{version}")),
+        ("/api/v1/leaderboard", "/api/v1/leaderboard".to_string()),
+        ("/api/v1/leaderboard/vqa", "/api/v1/leaderboard/vqa".to_string()),
+    ];
+    let admin_reads = [
+        ("/api/v1/jobs/{id}", format!("/api/v1/jobs/{job_id}")),
+        ("/api/v1/admin/teams", "/api/v1/admin/teams".to_string()),
+        ("/api/v1/admin/submissions", "/api/v1/admin/submissions".to_string()),
+        ("/api/v1/admin/jobs", "/api/v1/admin/jobs".to_string()),
+    ];
+    for (template, path) in team_reads {
+        answers.push(("get", template, server.get(&path).bearer_auth(&token).send().unwrap().json().unwrap()));
+    }
+    for (template, path) in public_reads {
+        answers.push(("get", template, server.get(&path).send().unwrap().json().unwrap()));
+    }
+    for (template, path) in admin_reads {
+        answers.push(("get", template, server.admin(server.get(&path)).json().unwrap()));
+    }
+    assert!(oracle_view["scores"]["vqa"].is_object(), "the oracle's scene graphs give VQA scores to check");
+    for (method, template, answer) in &answers {
+        let broken = super::schema::violations(&document, super::schema::response_schema(&document, method, template), answer);
+        assert!(broken.is_empty(), "{method} {template}: {broken:#?}");
+    }
 
     // The method card can be edited and the submission hidden from the leaderboard.
     let edited = server

@@ -7,6 +7,7 @@ mod client;
 mod hostile;
 mod journey;
 mod regeneration;
+mod schema;
 mod workers;
 
 use std::io::{BufRead, BufReader};

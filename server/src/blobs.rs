@@ -140,6 +140,30 @@ impl Blobs {
     }
 }
 
+/// Removes a scratch file or folder when dropped, whatever happened; on the async
+/// runtime the removal (maybe thousands of files) runs on a blocking thread.
+pub struct Scratch(pub PathBuf);
+
+fn remove_path(path: &Path) {
+    if path.is_dir() {
+        let _ = std::fs::remove_dir_all(path);
+    } else {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let path = std::mem::take(&mut self.0);
+        match tokio::runtime::Handle::try_current() {
+            Ok(handle) if handle.runtime_flavor() != tokio::runtime::RuntimeFlavor::CurrentThread => {
+                handle.spawn_blocking(move || remove_path(&path));
+            }
+            _ => remove_path(&path),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,9 @@
 //! assets, generated primitive meshes, an instance-level semantic lexicon with class
 //! names, a navigable-area map, lighting layouts for the four conditions, and a
 //! report of everything that needed attention.
+//!
+//! One file, over 400 lines, on purpose: every config it writes applies the same frame change
+//! and naming, kept in one place so they cannot drift apart.
 
 use std::path::{Path, PathBuf};
 

@@ -2,6 +2,9 @@
 //! a completion marker, so an interrupted build resumes where it stopped, and one
 //! sequence can be rendered by itself (a fan-out job) between the shared stages before
 //! it and the assembly after it.
+//!
+//! One file, over 400 lines, on purpose: each stage is a few lines around one staging
+//! protocol (marker, inputs, resume), and they read top to bottom in build order.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

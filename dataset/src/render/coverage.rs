@@ -16,6 +16,8 @@
 //! What the frames actually show is credited by probing every walked frame, so the
 //! plan's predicted coverage is what the rendered sequence will hold (at probe
 //! resolution). Everything is deterministic; the seed picks among near-equal starts.
+//!
+//! One file, over 400 lines, on purpose: it is one algorithm, its steps in the order above.
 
 use std::collections::HashMap;
 

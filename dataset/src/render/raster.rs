@@ -2,6 +2,9 @@
 //! near-plane clipping, perspective-correct interpolation, a depth buffer, then a
 //! deferred shading pass; rows are split into bands rendered on all cores, into
 //! buffers allocated once per frame size.
+//!
+//! One file, over 400 lines, on purpose: the passes share the frame buffers and the band
+//! split, and the hot loops stay together for the optimiser and the reader.
 
 use nalgebra::Matrix4;
 use rayon::prelude::*;

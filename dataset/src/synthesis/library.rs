@@ -2,6 +2,9 @@
 //! assembled from boxes and cylinders, each part with its own material, in the
 //! SceneSmith object frame (Drake axes: up +Z, front +Y; bottom at z = 0, centred in
 //! x and y). Sizes vary with the seed within each category's plausible range.
+//!
+//! One file, over 400 lines, on purpose: it is a catalogue, one short builder per category,
+//! read like a table.
 
 use osmab_evaluator::synthetic::Rng;
 

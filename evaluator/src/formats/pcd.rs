@@ -2,6 +2,9 @@
 //! (what Open3D writes by default), `ascii` and `binary_compressed` are read;
 //! binary is written, byte for byte as Open3D 0.20 writes it (`rgb` as `TYPE U`, the
 //! bytes B, G, R, 0; older Open3D wrote the same bytes as `TYPE F`, also read).
+//!
+//! One file, over 400 lines, on purpose: one format in three encodings, read and
+//! written, so the byte layouts sit side by side.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Read, Write};

@@ -1,6 +1,9 @@
 //! Checking an unpacked submission against a release before anything is scored: every
 //! problem is reported at once, each naming the file (relative to the submission), the
 //! field and what was expected.
+//!
+//! One file, over 400 lines, on purpose: one pass over the submission tree applies every
+//! rule of the format in the order files are met, which is what reports every problem at once.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

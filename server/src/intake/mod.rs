@@ -18,8 +18,9 @@ use osmab_evaluator::submission::ValidSubmission;
 pub use check::check;
 pub use error::{Error, quota_exceeded};
 pub use quota::{Quota, QuotaView};
-pub use upload::{Scratch, Upload, declared_sha256, hex, idempotency_key, receive, too_large};
+pub use upload::{Upload, declared_sha256, hex, idempotency_key, receive, too_large};
 
+use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms};
 use crate::jobs::scoring::ScoreSubmission;
 use crate::state::AppState;

@@ -1,7 +1,7 @@
 //! An upload arriving: streamed to a scratch file while its size and SHA-256 are counted,
 //! with the request headers that describe it (`Content-Digest`, `Idempotency-Key`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use axum::body::Body;
 use axum::http::StatusCode;
@@ -10,6 +10,7 @@ use serde_json::json;
 use sha2::{Digest, Sha256};
 use tokio::io::AsyncWriteExt;
 
+use crate::blobs::Scratch;
 use crate::clock::now_ms;
 use crate::problem::Problem;
 use crate::state::AppState;
@@ -33,30 +34,6 @@ impl Upload {
 /// Lowercase hex of a SHA-256 digest (as records and manifests store it).
 pub fn hex(digest: &[u8; 32]) -> String {
     digest.iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// Removes a scratch file or folder when dropped, whatever happened; on the async
-/// runtime the removal (maybe thousands of files) runs on a blocking thread.
-pub struct Scratch(pub PathBuf);
-
-fn remove_path(path: &Path) {
-    if path.is_dir() {
-        let _ = std::fs::remove_dir_all(path);
-    } else {
-        let _ = std::fs::remove_file(path);
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let path = std::mem::take(&mut self.0);
-        match tokio::runtime::Handle::try_current() {
-            Ok(handle) if handle.runtime_flavor() != tokio::runtime::RuntimeFlavor::CurrentThread => {
-                handle.spawn_blocking(move || remove_path(&path));
-            }
-            _ => remove_path(&path),
-        }
-    }
 }
 
 /// Stream `body` into a scratch file, at most `max_bytes`, counting size and SHA-256;

@@ -19,8 +19,9 @@ use serde_json::json;
 use sha2::{Digest, Sha256};
 
 use super::{Job, JobContext, JobError};
+use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms};
-use crate::intake::{Scratch, Upload};
+use crate::intake::Upload;
 use crate::releases::{Imported, import_release};
 use crate::state::AppState;
 use crate::store::{JobRecord, JobState, StoreError, SubmissionState, Team};

@@ -12,8 +12,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use super::{Job, JobContext, JobError};
+use crate::blobs::Scratch;
 use crate::clock::now_ms;
-use crate::intake::Scratch;
 use crate::releases::release_dir;
 use crate::store::SubmissionState;
 

@@ -2,6 +2,7 @@
 //! Each module owns the routes, handlers and response shapes of one area.
 
 mod admin;
+mod api_docs;
 mod files;
 mod health;
 mod jobs;
@@ -184,7 +185,7 @@ pub fn router(state: AppState) -> Router {
         .route("/", get(pages::leaderboard))
         .route("/releases/{version}", get(pages::release))
         .route("/submissions/{id}", get(pages::submission))
-        .route("/api/docs", get(openapi::docs_page))
+        .route("/api/docs", get(api_docs::docs_page))
         .route("/static/{file}", get(pages::static_file));
     let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));
     Router::new()

@@ -2,7 +2,7 @@
 //! only its SHA-256 is stored, so a leaked database holds no usable token. Handlers take
 //! [`Caller`], [`TeamCaller`] or [`AdminCaller`] and never see the token itself.
 
-use crate::clock::{new_id, now_ms};
+use crate::clock::{new_id, now_ms, random_alphanumeric};
 use crate::problem::Problem;
 use crate::state::AppState;
 use crate::store::{StoreError, Team, TokenRecord};
@@ -13,7 +13,7 @@ use axum::http::request::Parts;
 
 /// A new token (shown once) and its record.
 pub fn issue_token(scope: &str, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {
-    let token = token::generate();
+    let token = token::with_prefix(&random_alphanumeric(token::ISSUED_LENGTH));
     let record = TokenRecord {
         id: new_id("tok"),
         team_id: team_id.map(str::to_string),

@@ -31,6 +31,28 @@ macro_rules! insert_event_query {
     };
 }
 
+/// Move submission `$id` from state `$from` to `$to` with `$reason` at `$at` inside the
+/// transaction `$tx`, with its history event; evaluates to whether it moved (another
+/// writer may have moved it first).
+macro_rules! transition {
+    ($tx:ident, $id:expr, $from:expr, $to:expr, $reason:expr, $at:expr) => {{
+        let moved = sqlx::query("UPDATE submissions SET state = $2, reason = $3, updated_at = $4 WHERE id = $1 AND state = $5")
+            .bind($id)
+            .bind($to)
+            .bind($reason)
+            .bind($at)
+            .bind($from)
+            .execute(&mut *$tx)
+            .await?
+            .rows_affected()
+            == 1;
+        if moved {
+            insert_event_query!($id, $to, $reason, $at).execute(&mut *$tx).await?;
+        }
+        moved
+    }};
+}
+
 impl Store {
     /// The team's earlier submission a new upload repeats: the one made with the same
     /// idempotency key (any state), else an active one (not failed or cancelled) of the
@@ -195,19 +217,10 @@ impl Store {
         }
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
-            let moved = sqlx::query("UPDATE submissions SET state = 'queued', reason = $2, updated_at = $3 WHERE id = $1 AND state = $4")
-                .bind(id)
-                .bind(reason)
-                .bind(at)
-                .bind(current.state)
-                .execute(&mut *tx)
-                .await?
-                .rows_affected();
-            if moved != 1 {
+            if !transition!(tx, id, current.state, SubmissionState::Queued, Some(reason), at) {
                 tx.rollback().await?;
                 return Ok(false);
             }
-            insert_event_query!(id, SubmissionState::Queued, Some(reason), at).execute(&mut *tx).await?;
             super::jobs::insert_job_query!(job).execute(&mut *tx).await?;
             tx.commit().await?;
             Ok(true)
@@ -251,20 +264,9 @@ impl Store {
         }
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
-            let done = sqlx::query("UPDATE submissions SET state = $2, reason = $3, updated_at = $4 WHERE id = $1 AND state = $5")
-                .bind(id)
-                .bind(state)
-                .bind(reason)
-                .bind(at)
-                .bind(current.state)
-                .execute(&mut *tx)
-                .await?
-                .rows_affected();
-            if done == 1 {
-                insert_event_query!(id, state, reason, at).execute(&mut *tx).await?;
-            }
+            let moved = transition!(tx, id, current.state, state, reason, at);
             tx.commit().await?;
-            Ok(done == 1)
+            Ok(moved)
         })
     }
 

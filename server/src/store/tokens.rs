@@ -2,23 +2,25 @@
 
 use super::{Store, StoreError, StoreResult, TokenRecord, on_pool};
 
+/// The insert statement of token record `$token`, for either backend.
+macro_rules! insert_token_query {
+    ($token:expr) => {
+        sqlx::query("INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)")
+            .bind(&$token.id)
+            .bind(&$token.team_id)
+            .bind(&$token.scope)
+            .bind(&$token.sha256)
+            .bind(&$token.hint)
+            .bind($token.created_at)
+            .bind($token.expires_at)
+            .bind($token.revoked_at)
+    };
+}
+
 impl Store {
     /// Store a token record.
     pub async fn insert_token(&self, token: &TokenRecord) -> StoreResult<()> {
-        on_pool!(self, |pool| sqlx::query(
-            "INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)"
-        )
-        .bind(&token.id)
-        .bind(&token.team_id)
-        .bind(&token.scope)
-        .bind(&token.sha256)
-        .bind(&token.hint)
-        .bind(token.created_at)
-        .bind(token.expires_at)
-        .bind(token.revoked_at)
-        .execute(pool)
-        .await
-        .map(|r| r.rows_affected()))?;
+        on_pool!(self, |pool| insert_token_query!(token).execute(pool).await.map(|r| r.rows_affected()))?;
         Ok(())
     }
 
@@ -64,17 +66,7 @@ impl Store {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             sqlx::query("DELETE FROM tokens WHERE id = $1").bind(&token.id).execute(&mut *tx).await?;
-            sqlx::query("INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)")
-                .bind(&token.id)
-                .bind(&token.team_id)
-                .bind(&token.scope)
-                .bind(&token.sha256)
-                .bind(&token.hint)
-                .bind(token.created_at)
-                .bind(token.expires_at)
-                .bind(token.revoked_at)
-                .execute(&mut *tx)
-                .await?;
+            insert_token_query!(token).execute(&mut *tx).await?;
             tx.commit().await
         })?;
         Ok(())

@@ -7,10 +7,13 @@
 use osmab_evaluator::scores::Scores;
 use serde::Serialize;
 
-use crate::clock::rfc3339;
+use crate::clock::{now_ms, rfc3339};
+use crate::jobs::Job;
+use crate::jobs::scoring::ScoreSubmission;
 use crate::problem::ApiResult;
+use crate::queue::{self, QueueView};
 use crate::state::AppState;
-use crate::store::{JobState, SubmissionRecord, SubmissionState};
+use crate::store::{JobRecord, JobState, SubmissionRecord, SubmissionState};
 
 /// The uploaded archive.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
@@ -67,6 +70,9 @@ pub struct SubmissionView {
     pub jobs: Vec<JobLink>,
     pub method: MethodView,
     pub public: bool,
+    /// Where it stands while queued or being scored, with an estimated end.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub queue: Option<QueueView>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     pub release: String,
@@ -91,10 +97,9 @@ impl SubmissionView {
             .iter()
             .map(|c| ScoreLink { at: rfc3339(c.created_at), evaluator_version: c.evaluator_version.clone(), id: c.id, release: c.release.clone() })
             .collect();
-        let jobs = state
-            .store
-            .jobs_for(&s.id)
-            .await?
+        let job_records = state.store.jobs_for(&s.id).await?;
+        let in_queue = queue_of(state, s, &job_records).await?;
+        let jobs = job_records
             .into_iter()
             .map(|j| JobLink { attempts: j.attempts, url: format!("/api/v1/jobs/{}", j.id), id: j.id, kind: j.kind, state: j.state })
             .collect();
@@ -113,6 +118,7 @@ impl SubmissionView {
                 paper_url: s.paper_url.clone(),
             },
             public: s.public,
+            queue: in_queue,
             reason: s.reason.clone(),
             release: s.release.clone(),
             score_history,
@@ -122,6 +128,23 @@ impl SubmissionView {
             updated_at: rfc3339(s.updated_at),
         })
     }
+}
+
+/// Where submission `s` stands, while it waits for or undergoes scoring.
+async fn queue_of(state: &AppState, s: &SubmissionRecord, jobs: &[JobRecord]) -> ApiResult<Option<QueueView>> {
+    let now = now_ms();
+    let waiting = jobs.iter().find(|j| j.kind == ScoreSubmission::KIND && j.state == JobState::Queued);
+    Ok(match (s.state, waiting) {
+        (SubmissionState::Queued, Some(job)) => match state.store.standing(&job.id).await? {
+            Some(standing) => Some(queue::queued(standing, &state.store.recent_scoring_durations(queue::HISTORY).await?, now)),
+            None => None,
+        },
+        (SubmissionState::Scoring, _) => match state.store.scoring_since(&s.id).await? {
+            Some(since) => Some(queue::scoring(since, &state.store.recent_scoring_durations(queue::HISTORY).await?, now)),
+            None => None,
+        },
+        _ => None,
+    })
 }
 
 /// One of a team's submissions in `GET /api/v1/submissions`.

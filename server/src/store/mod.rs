@@ -6,6 +6,7 @@
 mod jobs;
 mod models;
 mod postgres;
+mod queue;
 mod releases;
 mod scores;
 mod sqlite;
@@ -18,6 +19,7 @@ mod tokens;
 
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
+pub use queue::Standing;
 pub use states::{JobState, ReleaseState, SubmissionState};
 
 use sqlx::{PgPool, SqlitePool};

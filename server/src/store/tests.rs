@@ -54,6 +54,26 @@ fn job(id: &str, at: i64) -> NewJob {
 }
 
 #[tokio::test]
+async fn a_queued_job_knows_how_many_jobs_go_first_and_who_is_busy() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t = now_ms();
+        for (k, id) in ["q1", "q2", "q3", "q4"].into_iter().enumerate() {
+            store.enqueue(&job(id, t + k as i64)).await.unwrap();
+        }
+        let none_running = Standing { ahead: 2, running: 0, busy_workers: 0 };
+        assert_eq!(store.standing("q3").await.unwrap(), Some(none_running), "{}: claim order is creation order", store.backend());
+        store.claim_next_job("worker-a", t + 10, t + 60_000).await.unwrap().unwrap();
+        store.claim_next_job("worker-b", t + 10, t + 60_000).await.unwrap().unwrap();
+        assert_eq!(store.standing("q4").await.unwrap(), Some(Standing { ahead: 1, running: 2, busy_workers: 2 }));
+        assert_eq!(store.standing("q3").await.unwrap(), Some(Standing { ahead: 0, running: 2, busy_workers: 2 }), "next");
+        assert_eq!(store.standing("q1").await.unwrap(), None, "a running job is not queued");
+        assert_eq!(store.standing("nope").await.unwrap(), None);
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
 async fn a_job_whose_worker_died_is_claimed_again_after_its_lease() {
     let stores = TestStores::new().await;
     for store in &stores.stores {
@@ -212,6 +232,8 @@ async fn submissions_scores_and_releases_keep_their_history() {
         let states: Vec<&str> = store.submission_events("sub_1").await.unwrap().into_iter().map(|e| e.state.name()).collect();
         assert_eq!(states, ["received", "validating", "queued", "scoring", "scored", "queued", "scoring", "scored"]);
         assert_eq!(store.scores("sub_1").await.unwrap().len(), 2, "re-scoring adds a score");
+        assert_eq!(store.recent_scoring_durations(10).await.unwrap(), [1, 2], "each scoring timed from its own start, newest first");
+        assert_eq!(store.scoring_since("sub_1").await.unwrap(), Some(t + 7));
         let rows = store.leaderboard_rows("r1").await.unwrap();
         assert_eq!((rows.len(), &rows[0].scores, rows[0].team.as_str()), (1, &score(2), "Team A"), "the latest score counts");
     }

@@ -103,3 +103,46 @@ fn accepted_work_survives_a_restart(backend: Backend) {
 }
 
 on_both_backends!(a_submission_accepted_before_a_restart_is_scored_after_it, super::accepted_work_survives_a_restart);
+
+fn queued_submissions_show_their_place_and_an_estimate(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_WORKERS", "0"), ("OSMAB_POLL_MS", "20")]);
+    let server = deployment.serve();
+    server.import_test_release();
+    let token = server.team("Team Queue");
+    let upload = |name: &str| {
+        let accepted = server.upload(&token, &tar_of(baseline_dir(name).path()), "");
+        assert_eq!(accepted.status(), 202);
+        accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string()
+    };
+    let view = |id: &str| -> Value { server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().json().unwrap() };
+    let (first, second) = (upload("oracle"), upload("merge"));
+
+    // Nothing scored yet on this server: a place, no estimate.
+    assert_eq!(view(&first)["queue"], serde_json::json!({"ahead": 0, "based_on": 0, "position": 1}));
+    assert_eq!(view(&second)["queue"], serde_json::json!({"ahead": 1, "based_on": 0, "position": 2}));
+    let page = server.get(&format!("/submissions/{second}")).bearer_auth(&token).send().unwrap().text().unwrap();
+    assert!(page.contains("Position 2 in the queue (1 job ahead); no estimate yet"), "{page}");
+
+    // Once scorings have been measured, the next one in the queue gets an estimate.
+    let mut worker = deployment.spawn(&["worker"], "worker");
+    for id in [&first, &second] {
+        assert_eq!(server.wait_done(id, &token)["state"], "scored");
+        assert!(view(id).get("queue").is_none(), "a scored submission is in no queue");
+    }
+    signal(&worker, "TERM");
+    assert!(worker.wait().unwrap().success());
+    let third = upload("label-noise");
+    let queued = view(&third);
+    let queue = &queued["queue"];
+    assert_eq!((queue["position"].as_i64(), queue["based_on"].as_i64()), (Some(1), Some(2)), "{queued}");
+    assert!(queue["median_scoring_seconds"].as_f64().is_some_and(|s| s > 0.0), "{queue}");
+    let (start, done) = (queue["estimated_start_at"].as_str().unwrap(), queue["estimated_done_at"].as_str().unwrap());
+    assert!(start <= done, "{queue}");
+    let document: Value = server.get("/api/v1/openapi.json").send().unwrap().json().unwrap();
+    let broken = super::schema::violations(&document, super::schema::response_schema(&document, "get", "/api/v1/submissions/{id}"), &queued);
+    assert!(broken.is_empty(), "{broken:?}");
+    let page = server.get(&format!("/submissions/{third}")).bearer_auth(&token).send().unwrap().text().unwrap();
+    assert!(page.contains("Next in the queue; expected to finish around"), "{page}");
+}
+
+on_both_backends!(a_queued_submission_shows_its_place_and_an_estimated_end, super::queued_submissions_show_their_place_and_an_estimate);

@@ -44,6 +44,7 @@ pub fn table_text(header: &[String], rows: &[Vec<String>]) -> String {
 /// the final state.
 pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
     let mut shown = 0;
+    let mut standing_shown = String::new();
     loop {
         let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
         let history = view["history"].as_array().cloned().unwrap_or_default();
@@ -61,6 +62,14 @@ pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
             println!("{}  {}{reason}", event["at"].as_str().unwrap_or(""), event["state"].as_str().unwrap_or("?"));
         }
         shown = history.len();
+        // Where it stands in the queue, when that changed (position or estimate).
+        if let Some(queue) = view.get("queue").and_then(|q| serde_json::from_value::<crate::queue::QueueView>(q.clone()).ok()) {
+            let standing = queue.sentence();
+            if standing != standing_shown {
+                println!("  {standing}");
+                standing_shown = standing;
+            }
+        }
         let state = view["state"].as_str().unwrap_or("").to_string();
         if !watch || ["scored", "failed", "cancelled"].contains(&state.as_str()) {
             if state == "failed" {

@@ -46,6 +46,8 @@ pub struct SubmissionPage {
     pub release: String,
     pub state: String,
     pub reason: Option<String>,
+    /// Where it stands in the queue, in words (queued or being scored).
+    pub queue: Option<String>,
     pub baseline: bool,
     pub complete: bool,
     pub history: Vec<EventRow>,
@@ -98,6 +100,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         code_url: view.method.code_url,
         release: view.release,
         reason: view.reason,
+        queue: view.queue.as_ref().map(|q| q.sentence()),
         baseline: view.baseline,
         complete: view.complete,
     }

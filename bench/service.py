@@ -5,7 +5,7 @@ Starts the release binary's `osmab serve` on a fresh data directory (the demo re
 built on the first start), then drives it with `xtask http|download|upload` (cargo xtask) from the same machine.
 Writes the raw lines and the numbers as JSON. Standard library only.
 
-    cargo build --release -p osmab
+    cargo build --release -p osmab -p xtask
     python3 bench/service.py --out docs/performance-service.json
 """
 

@@ -3,7 +3,7 @@
 
 Runs one scenario against an `osmab` binary — import a release, create a team, upload the
 oracle and a degraded baseline (plus a dry run and a repeat), wait for both scores, re-score
-one, edit a method card — then requests every JSON route (public, team and admin) and writes
+one, edit a method card — then requests every JSON route (public, team and admin) and the pages, and writes
 the answers with ids, tokens, timestamps and durations replaced by stable placeholders:
 
     python3 tests/api_snapshot/snapshot.py --bin target/debug/osmab --release target/tmp/e2e-release/release --out new.json
@@ -140,7 +140,8 @@ def normalise(value, names: dict):
             token = match.group(0)
             names.setdefault(token, f"<{token.split('_')[0]}#{len(names)}>")
             return names[token]
-        return re.sub(r"\b(sub|job|team|tok|osmab)_[A-Za-z0-9]{8,}\b", name_of, value)
+        value = re.sub(r"\b(sub|job|team|tok|osmab)_[A-Za-z0-9]{8,}\b", name_of, value)
+        return re.sub(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?Z", "<time>", value)
     return value
 
 
@@ -182,6 +183,9 @@ def scenario(binary: str, release: str) -> dict:
             (f"/api/v1/admin/teams/{team['id']}/tokens", ADMIN), ("/api/v1/admin/submissions", ADMIN), ("/api/v1/admin/jobs", ADMIN),
             ("/api/v1/leaderboard.csv", None), ("/api/v1/leaderboard/vqa.csv?table=2", None), ("/api/v1/leaderboard/vqa.csv?table=3", None),
             ("/api/v1/submissions/nope", None), ("/api/v1/leaderboard?release=nope", None), ("/api/v1/admin/teams", token),
+            # The pages, as HTML text.
+            ("/", None), ("/?agg=overall_mean&subset=manipuland&sort=camera.macc", None), ("/?sort=bogus.x&agg=zzz", None),
+            (f"/submissions/{oracle['id']}", token), (f"/releases/{version}", None),
         ]
         for path, who in reads:
             label = f"GET {path}" + (" (admin)" if who == ADMIN else " (team)" if who else "")

@@ -28,6 +28,9 @@ pub enum JudgedBy {
 }
 
 impl JudgedBy {
+    /// Every judge, in the order they are tried.
+    pub const ALL: [JudgedBy; 5] = [JudgedBy::Local, JudgedBy::Recorded, JudgedBy::Rule, JudgedBy::Llm, JudgedBy::None];
+
     pub fn name(self) -> &'static str {
         match self {
             JudgedBy::Local => "local",

@@ -89,7 +89,8 @@ pub fn run(args: &VqaArgs) -> anyhow::Result<()> {
         }
     }
     print!("{}", metrics_csv(&rows, &columns));
-    let summary: Vec<String> = by.iter().map(|(k, n)| format!("{} {n}", k.name())).collect();
+    // In the order judges are tried (local, recorded, rule, llm, none), not by name.
+    let summary: Vec<String> = JudgedBy::ALL.iter().filter_map(|k| by.get(k).map(|n| format!("{} {n}", k.name()))).collect();
     eprintln!("{} files, {} answers judged: {}", files.len(), by.values().sum::<usize>(), summary.join(", "));
     Ok(())
 }

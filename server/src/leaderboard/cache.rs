@@ -119,12 +119,9 @@ impl LeaderboardCache {
     }
 }
 
-/// The lightings a served manifest lists, in its order (none when it lists none it knows).
+/// The lightings a served manifest lists that this server knows, in its order (a name it
+/// does not know is left out, not the whole list).
 pub fn manifest_lightings(manifest: &str) -> Vec<Lighting> {
-    #[derive(serde::Deserialize)]
-    struct Lightings {
-        #[serde(default)]
-        lightings: Vec<Lighting>,
-    }
-    serde_json::from_str::<Lightings>(manifest).map(|m| m.lightings).unwrap_or_default()
+    let value: serde_json::Value = serde_json::from_str(manifest).unwrap_or_default();
+    value["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str()?.parse().ok()).collect()
 }

@@ -5,7 +5,7 @@ use axum::extract::State;
 use axum::http::{HeaderMap, header};
 use axum::response::{IntoResponse, Response};
 use osmab_evaluator::scores::Lighting;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::ApiPath;
 use super::files::serve_blob;
@@ -34,27 +34,19 @@ pub struct ReleaseSummary {
     pub version: String,
 }
 
-/// What the summary reads of a manifest.
-#[derive(Deserialize, Default)]
-struct ManifestHead {
-    created: Option<String>,
-    lightings: Option<Vec<Lighting>>,
-    #[serde(default)]
-    scenes: Vec<serde::de::IgnoredAny>,
-}
-
 impl From<&ReleaseRecord> for ReleaseSummary {
     fn from(r: &ReleaseRecord) -> Self {
-        let manifest: ManifestHead = serde_json::from_str(&r.manifest).unwrap_or_default();
+        // Each field on its own: one the manifest lacks or writes otherwise is null, the rest stay.
+        let manifest: serde_json::Value = serde_json::from_str(&r.manifest).unwrap_or_default();
         ReleaseSummary {
-            created: manifest.created,
+            created: manifest["created"].as_str().map(str::to_string),
             current: r.is_current,
             digest: r.digest.clone(),
-            lightings: manifest.lightings,
+            lightings: manifest["lightings"].is_array().then(|| crate::leaderboard::cache::manifest_lightings(&r.manifest)),
             manifest_url: format!("/api/v1/releases/{}/manifest.json", r.version),
             published_at: r.published_at.map(crate::clock::rfc3339),
             registered_at: crate::clock::rfc3339(r.created_at),
-            scenes: manifest.scenes.len(),
+            scenes: manifest["scenes"].as_array().map_or(0, Vec::len),
             state: r.state,
             version: r.version.clone(),
         }

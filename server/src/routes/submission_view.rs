@@ -122,7 +122,7 @@ impl SubmissionView {
             reason: s.reason.clone(),
             release: s.release.clone(),
             score_history,
-            scores: scores.pop().map(|c| c.scores),
+            scores: scores.pop().and_then(|c| c.scores),
             state: s.state,
             team: team.name,
             updated_at: rfc3339(s.updated_at),

@@ -48,9 +48,6 @@ pub enum StoreError {
     /// Anything else from the database.
     #[error("database error: {0}")]
     Database(sqlx::Error),
-    /// A stored record does not read back (written by something else than this service).
-    #[error("corrupt record: {0}")]
-    Corrupt(String),
     /// Migrations could not be applied.
     #[error("migration failed: {0}")]
     Migration(#[from] sqlx::migrate::MigrateError),

@@ -91,7 +91,8 @@ pub struct ScoreRecord {
     pub submission_id: String,
     pub release: String,
     pub evaluator_version: String,
-    pub scores: Scores,
+    /// The document; `None` when the stored text does not read as one (logged).
+    pub scores: Option<Scores>,
     pub created_at: i64,
 }
 

@@ -3,16 +3,23 @@
 
 use osmab_evaluator::scores::Scores;
 
-use super::{LeaderboardRow, ScoreRecord, Store, StoreError, StoreResult, on_pool};
+use super::{LeaderboardRow, ScoreRecord, Store, StoreResult, on_pool};
 
 /// The JSON text a score document is stored as.
 pub(super) fn score_text(scores: &Scores) -> String {
     serde_json::to_string(scores).expect("a score document serialises")
 }
 
-/// A stored score document, read back.
-fn parse(score_id: i64, body: &str) -> StoreResult<Scores> {
-    serde_json::from_str(body).map_err(|e| StoreError::Corrupt(format!("score {score_id}: the stored document does not read as scores ({e})")))
+/// A stored score document, read back; one that does not read (written by something
+/// else than this service) is logged and left out, so it cannot take a page down with it.
+fn parse(score_id: i64, body: &str) -> Option<Scores> {
+    match serde_json::from_str(body) {
+        Ok(scores) => Some(scores),
+        Err(e) => {
+            tracing::error!(score = score_id, error = %e, "a stored score document does not read as scores; it is left out");
+            None
+        }
+    }
 }
 
 #[derive(sqlx::FromRow)]
@@ -40,7 +47,7 @@ struct BoardRow {
 }
 
 impl Store {
-    /// Every score of a submission, oldest first.
+    /// Every score of a submission, oldest first (a document that does not read is `None`).
     pub async fn scores(&self, submission_id: &str) -> StoreResult<Vec<ScoreRecord>> {
         let rows: Vec<ScoreRow> = on_pool!(self, |pool| sqlx::query_as(
             "SELECT id, submission_id, release, evaluator_version, body, created_at FROM scores WHERE submission_id = $1 ORDER BY id"
@@ -48,22 +55,22 @@ impl Store {
         .bind(submission_id)
         .fetch_all(pool)
         .await)?;
-        rows.into_iter()
-            .map(|r| {
-                Ok(ScoreRecord {
-                    scores: parse(r.id, &r.body)?,
-                    id: r.id,
-                    submission_id: r.submission_id,
-                    release: r.release,
-                    evaluator_version: r.evaluator_version,
-                    created_at: r.created_at,
-                })
+        Ok(rows
+            .into_iter()
+            .map(|r| ScoreRecord {
+                scores: parse(r.id, &r.body),
+                id: r.id,
+                submission_id: r.submission_id,
+                release: r.release,
+                evaluator_version: r.evaluator_version,
+                created_at: r.created_at,
             })
-            .collect()
+            .collect())
     }
 
     /// Public submissions of `release` that have a score, with their latest one (a
-    /// submission being re-scored keeps its place with its previous score).
+    /// submission being re-scored keeps its place with its previous score); one whose
+    /// latest document does not read is left out (and logged).
     pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
         let rows: Vec<BoardRow> = on_pool!(self, |pool| {
             sqlx::query_as(
@@ -77,9 +84,10 @@ impl Store {
         .fetch_all(pool)
         .await
         })?;
-        rows.into_iter()
-            .map(|r| {
-                Ok(LeaderboardRow {
+        Ok(rows
+            .into_iter()
+            .filter_map(|r| {
+                Some(LeaderboardRow {
                     scores: parse(r.score_id, &r.body)?,
                     submission_id: r.submission_id,
                     team: r.team,
@@ -91,6 +99,6 @@ impl Store {
                     created_at: r.created_at,
                 })
             })
-            .collect()
+            .collect())
     }
 }

@@ -236,6 +236,18 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert_eq!(store.scoring_since("sub_1").await.unwrap(), Some(t + 7));
         let rows = store.leaderboard_rows("r1").await.unwrap();
         assert_eq!((rows.len(), &rows[0].scores, rows[0].team.as_str()), (1, &score(2), "Team A"), "the latest score counts");
+
+        // A document some other writer left that does not read is left out, not fatal.
+        on_pool!(store, |pool| sqlx::query(
+            "INSERT INTO scores (submission_id, release, evaluator_version, body, created_at) VALUES ('sub_1', 'r1', 'x', '{\"semseg\": 7}', 0)"
+        )
+        .execute(pool)
+        .await
+        .map(|_| ()))
+        .unwrap();
+        assert!(store.leaderboard_rows("r1").await.unwrap().is_empty(), "its submission leaves the board");
+        let kept = store.scores("sub_1").await.unwrap();
+        assert_eq!((kept.len(), kept[1].scores.as_ref(), kept[2].scores.as_ref()), (3, Some(&score(2)), None), "the readable ones stay");
     }
     stores.drop_all().await;
 }

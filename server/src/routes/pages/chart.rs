@@ -38,7 +38,10 @@ pub struct Series {
 pub struct BarChart {
     /// Read by screen readers; Small charts also print it above the plot.
     pub title: String,
+    /// Group labels under the axis.
     pub groups: Vec<String>,
+    /// Group names in the bars' tooltips (the full names where `groups` are short).
+    pub group_titles: Vec<String>,
     pub series: Vec<Series>,
     pub axis: Axis,
     pub size: Size,
@@ -54,17 +57,45 @@ struct Layout {
     legend_columns: usize,
     legend_step: f64,
     swatch: f64,
+    /// How far a swatch's top sits above its legend text's baseline.
+    swatch_lift: f64,
+    /// Gap between the axis and its tick labels.
+    tick_gap: f64,
+    /// Group labels' baseline below the plot.
+    label_drop: f64,
 }
 
 impl BarChart {
     fn layout(&self) -> Layout {
         match self.size {
-            Size::Wide => {
-                Layout { width: 720.0, height: 260.0, top: 20.0, bottom: 60.0, left: 50.0, max_bar: 28.0, legend_columns: 4, legend_step: 165.0, swatch: 10.0 }
-            }
-            Size::Small => {
-                Layout { width: 360.0, height: 250.0, top: 24.0, bottom: 84.0, left: 40.0, max_bar: 18.0, legend_columns: 2, legend_step: 160.0, swatch: 8.0 }
-            }
+            Size::Wide => Layout {
+                width: 720.0,
+                height: 260.0,
+                top: 20.0,
+                bottom: 60.0,
+                left: 50.0,
+                max_bar: 28.0,
+                legend_columns: 4,
+                legend_step: 165.0,
+                swatch: 10.0,
+                swatch_lift: 9.0,
+                tick_gap: 6.0,
+                label_drop: 18.0,
+            },
+            Size::Small => Layout {
+                width: 360.0,
+                height: 250.0,
+                top: 24.0,
+                bottom: 84.0,
+                left: 40.0,
+                max_bar: 18.0,
+                legend_columns: 2,
+                legend_step: 160.0,
+                swatch: 8.0,
+                swatch_lift: 8.0,
+                tick_gap: 4.0,
+                label_drop: 16.0,
+            },
         }
     }
 
@@ -91,9 +122,10 @@ impl BarChart {
         };
         let (class, title) = match self.size {
             Size::Wide => ("chart", format!("<title id=\"chart-title\">{}</title>", escape_xml(&self.title))),
-            Size::Small => {
-                ("chart small", format!("<title>{0}</title><text x=\"{1}\" y=\"14\" class=\"legend\">{0} (%)</text>", escape_xml(&self.title), l.left))
-            }
+            Size::Small => (
+                "chart small",
+                format!("<title>{0} accuracy per lighting</title><text x=\"{1}\" y=\"14\" class=\"legend\">{0} (%)</text>", escape_xml(&self.title), l.left),
+            ),
         };
         let labelled = if self.size == Size::Wide { " aria-labelledby=\"chart-title\"" } else { "" };
         let mut svg =
@@ -112,7 +144,7 @@ impl BarChart {
                 "<line x1=\"{}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{label}</text>",
                 l.left,
                 l.width - 10.0,
-                l.left - 5.0,
+                l.left - l.tick_gap,
                 y + 4.0
             ));
         }
@@ -137,13 +169,13 @@ impl BarChart {
                     bar_h.max(0.5),
                     PALETTE[i % PALETTE.len()],
                     escape_xml(&series.name),
-                    escape_xml(group),
+                    escape_xml(self.group_titles.get(g).unwrap_or(group)),
                 ));
             }
             svg.push_str(&format!(
                 "<text x=\"{:.1}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"middle\">{}</text>",
                 l.left + g as f64 * group_w + group_w / 2.0,
-                l.height - l.bottom + 17.0,
+                l.height - l.bottom + l.label_drop,
                 escape_xml(group)
             ));
         }
@@ -157,7 +189,7 @@ impl BarChart {
             let y = legend_top + (i / l.legend_columns) as f64 * row_h;
             svg.push_str(&format!(
                 "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"{s}\" height=\"{s}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{y:.1}\" class=\"legend\">{}</text>",
-                y - l.swatch + 1.0,
+                y - l.swatch_lift,
                 PALETTE[i % PALETTE.len()],
                 x + l.swatch + 4.0,
                 escape_xml(&series.name.chars().take(22).collect::<String>()),
@@ -177,6 +209,7 @@ mod tests {
         BarChart {
             title: "T <1>".into(),
             groups: vec!["Camera".into(), "Dynamic".into()],
+            group_titles: vec!["Camera Light".into(), "Dynamic Lights".into()],
             series: vec![Series { name: "m&m".into(), values }],
             axis,
             size: Size::Wide,
@@ -188,13 +221,13 @@ mod tests {
     fn a_bar_per_defined_value_with_escaped_names() {
         let svg = chart(Axis::Symmetric, vec![Some(-0.2), None]);
         assert_eq!(svg.matches("<rect").count(), 2, "one bar and one legend swatch");
-        assert!(svg.contains("m&amp;m — Camera: -20.0%") && svg.contains("T &lt;1&gt;"), "{svg}");
+        assert!(svg.contains("m&amp;m — Camera Light: -20.0%") && svg.contains("T &lt;1&gt;"), "tooltips name the group in full: {svg}");
         assert!(svg.contains(">+20.0%</text>"), "the axis reaches the largest change: {svg}");
     }
 
     #[test]
     fn no_groups_or_series_draw_nothing() {
-        let empty = BarChart { title: String::new(), groups: vec![], series: vec![], axis: Axis::Fraction, size: Size::Small };
+        let empty = BarChart { title: String::new(), groups: vec![], group_titles: vec![], series: vec![], axis: Axis::Fraction, size: Size::Small };
         assert_eq!(empty.to_svg(), "");
         assert!(chart(Axis::Fraction, vec![Some(0.5), Some(1.5)]).contains("height=\"180.0\""), "values above 100 % stop at the top");
     }

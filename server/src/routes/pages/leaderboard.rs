@@ -184,6 +184,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
     let chart = BarChart {
         title: "Relative change of pooled mIoU against the baseline lighting".into(),
         groups: others.iter().map(|l| l.label().to_string()).collect(),
+        group_titles: others.iter().map(|l| l.label().to_string()).collect(),
         series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
         axis: Axis::Symmetric,
         size: Size::Wide,

@@ -61,6 +61,7 @@ pub fn vqa_view(release: &str, lightings: &[Lighting], entries: &[&Entry], subse
             BarChart {
                 title: format!("{} {group}", set.label()),
                 groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
+                group_titles: lightings.iter().map(|l| l.label().to_string()).collect(),
                 series: with_vqa
                     .iter()
                     .map(|e| Series { name: e.method.clone(), values: lightings.iter().map(|&l| accuracy(e, l, subset, set, group)).collect() })

@@ -72,33 +72,32 @@ pub struct RelativeChange {
     pub overall_mean: MetricTriple,
 }
 
+/// `overall` or `overall_mean`, as `aggregate` names.
+fn pick<'a>(aggregate: Aggregate, overall: &'a MetricTriple, overall_mean: &'a MetricTriple) -> &'a MetricTriple {
+    match aggregate {
+        Aggregate::Overall => overall,
+        Aggregate::OverallMean => overall_mean,
+    }
+}
+
 impl LightingScores {
     /// The triple of `aggregate`.
     pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
-        match aggregate {
-            Aggregate::Overall => &self.overall,
-            Aggregate::OverallMean => &self.overall_mean,
-        }
+        pick(aggregate, &self.overall, &self.overall_mean)
     }
 }
 
 impl SubsetScores {
     /// The triple of `aggregate`.
     pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
-        match aggregate {
-            Aggregate::Overall => &self.overall,
-            Aggregate::OverallMean => &self.overall_mean,
-        }
+        pick(aggregate, &self.overall, &self.overall_mean)
     }
 }
 
 impl RelativeChange {
     /// The triple of `aggregate`.
     pub fn aggregate(&self, aggregate: Aggregate) -> &MetricTriple {
-        match aggregate {
-            Aggregate::Overall => &self.overall,
-            Aggregate::OverallMean => &self.overall_mean,
-        }
+        pick(aggregate, &self.overall, &self.overall_mean)
     }
 }
 

@@ -98,3 +98,32 @@ impl From<Error> for Problem {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_refusal_has_its_status_and_stable_code() {
+        let file = || InputError::new("maps/baseline/scene_000.npz", "points", "NaN in row 3");
+        let quota = Quota { limit: 5, used: 5, resets_at: now_ms() + 3_600_000 };
+        let cases: Vec<(Error, u16, &str)> = vec![
+            (Error::InvalidArchive(file()), 422, "invalid_archive"),
+            (Error::Invalid(vec![file(), file()]), 422, "invalid_submission"),
+            (Error::ReleaseNotOpen("2026.2".into()), 409, "release_not_open"),
+            (Error::QuotaExceeded(quota), 429, "quota_exceeded"),
+            (Error::KeyReused("sub_1".into()), 422, "idempotency_key_reused"),
+            (Error::Store(StoreError::NotFound), 404, "not_found"),
+            (Error::Internal("disk full".into()), 500, "internal"),
+        ];
+        for (error, status, code) in cases {
+            let problem = Problem::from(error);
+            assert_eq!((problem.status.as_u16(), problem.code), (status, code), "{}", problem.detail);
+        }
+        let invalid = Problem::from(Error::Invalid(vec![file(), file()]));
+        assert!(invalid.detail.starts_with("The submission was not accepted: 2 problems, the first: maps/baseline/scene_000.npz"), "{}", invalid.detail);
+        assert!(!Problem::from(Error::Internal("disk full at /srv/osmab".into())).detail.contains("/srv"), "internal causes are logged, not sent");
+        let limited = Problem::from(Error::QuotaExceeded(quota));
+        assert!(limited.detail.contains("used 5 of its 5 submissions"), "{}", limited.detail);
+    }
+}

@@ -19,10 +19,22 @@ pub fn backoff(attempts: i64) -> Duration {
     Duration::from_secs((5u64 << attempts.clamp(0, 6) as u64).min(300))
 }
 
+/// Whose fault a failure is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fault {
+    /// The input's: the submission counts against the team's quota.
+    Input,
+    /// The infrastructure's (workers that kept dying, failures retrying could not cure):
+    /// the team's quota unit is given back.
+    Service,
+}
+
 /// Fail `job` for good with `message` (and its submission, for a scoring job).
-async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str) {
+async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str, fault: Fault) {
     let submission = (job.kind == ScoreSubmission::KIND).then_some(job.subject.as_str());
-    match state.store.fail_job(&job.id, owner, message, submission, now_ms()).await {
+    let refund = submission.is_some() && fault == Fault::Service;
+    let message = if refund { format!("{message} It does not count against the team's quota.") } else { message.to_string() };
+    match state.store.fail_job(&job.id, owner, &message, submission, refund, now_ms()).await {
         Ok(true) => {}
         Ok(false) => tracing::warn!("the lease was lost; another worker owns the job now"),
         Err(e) => tracing::error!(error = %e, "could not record the failure; the job is retried when its lease expires"),
@@ -38,7 +50,7 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
             job.max_attempts
         );
         tracing::error!("{message}");
-        fail(state, owner, &job, &message).await;
+        fail(state, owner, &job, &message, Fault::Service).await;
         return;
     }
     tracing::info!("job started");
@@ -95,12 +107,12 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
         }
         Err(JobError::Permanent(message)) => {
             tracing::warn!(%message, "job failed");
-            fail(state, owner, &job, &message).await;
+            fail(state, owner, &job, &message, Fault::Input).await;
         }
         Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
             let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
             tracing::error!(%message, "job failed for good");
-            fail(state, owner, &job, &message).await;
+            fail(state, owner, &job, &message, Fault::Service).await;
         }
         Err(JobError::Retryable(cause)) => {
             let retry_at = now + backoff(job.attempts).as_millis() as i64;

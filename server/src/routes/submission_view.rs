@@ -73,6 +73,9 @@ pub struct SubmissionView {
     /// Where it stands while queued or being scored, with an estimated end.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub queue: Option<QueueView>,
+    /// It failed through no fault of the team and does not count against its quota.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub quota_refunded: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     pub release: String,
@@ -119,6 +122,7 @@ impl SubmissionView {
             },
             public: s.public,
             queue: in_queue,
+            quota_refunded: s.quota_refunded,
             reason: s.reason.clone(),
             release: s.release.clone(),
             score_history,

@@ -74,6 +74,8 @@ pub struct SubmissionRecord {
     pub archive_sha256: String,
     pub created_at: i64,
     pub updated_at: i64,
+    /// It failed through no fault of its team and does not count against the quota.
+    pub quota_refunded: bool,
 }
 
 /// One state change of a submission.

@@ -107,11 +107,13 @@ impl Store {
                 return Ok(repeat_of(row, &s.archive_sha256));
             }
             if let Some((limit, since)) = quota {
-                let used: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE")
-                    .bind(&s.team_id)
-                    .bind(since)
-                    .fetch_one(&mut *tx)
-                    .await?;
+                let used: i64 = sqlx::query_scalar(
+                    "SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE AND quota_refunded = FALSE",
+                )
+                .bind(&s.team_id)
+                .bind(since)
+                .fetch_one(&mut *tx)
+                .await?;
                 if used > limit {
                     tx.rollback().await?;
                     return Ok(Recorded::QuotaExceeded);
@@ -171,8 +173,9 @@ impl Store {
     }
 
     /// Fail a job for good (only while `owner` holds its lease) and, for a scoring job, its
-    /// submission with the same message, all or nothing. Returns whether it happened.
-    pub async fn fail_job(&self, job_id: &str, owner: &str, message: &str, submission_id: Option<&str>, at: i64) -> StoreResult<bool> {
+    /// submission with the same message, all or nothing; with `refund` (no fault of the
+    /// team's) the submission gives its quota unit back. Returns whether it happened.
+    pub async fn fail_job(&self, job_id: &str, owner: &str, message: &str, submission_id: Option<&str>, refund: bool, at: i64) -> StoreResult<bool> {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             let job = sqlx::query(
@@ -192,10 +195,11 @@ impl Store {
             }
             if let Some(id) = submission_id {
                 let moved =
-                    sqlx::query("UPDATE submissions SET state = 'failed', reason = $2, updated_at = $3 WHERE id = $1 AND state IN ('queued', 'scoring')")
+                    sqlx::query("UPDATE submissions SET state = 'failed', reason = $2, updated_at = $3, quota_refunded = $4 WHERE id = $1 AND state IN ('queued', 'scoring')")
                         .bind(id)
                         .bind(message)
                         .bind(at)
+                        .bind(refund)
                         .execute(&mut *tx)
                         .await?
                         .rows_affected();
@@ -229,7 +233,7 @@ impl Store {
 
     /// Submission `id`.
     pub async fn submission(&self, id: &str) -> StoreResult<SubmissionRecord> {
-        let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions WHERE id = $1");
+        let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions WHERE id = $1");
         Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(id).fetch_one(pool).await)?)
     }
 
@@ -237,11 +241,11 @@ impl Store {
     pub async fn submissions(&self, team_id: Option<&str>, limit: i64) -> StoreResult<Vec<SubmissionRecord>> {
         Ok(match team_id {
             Some(team) => {
-                let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2");
+                let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2");
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(team).bind(limit).fetch_all(pool).await)?
             }
             None => {
-                let sql = format!("SELECT {SUBMISSION_COLUMNS} FROM submissions ORDER BY created_at DESC, id LIMIT $1");
+                let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions ORDER BY created_at DESC, id LIMIT $1");
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(limit).fetch_all(pool).await)?
             }
         })
@@ -290,11 +294,13 @@ impl Store {
 
     /// Submissions a team made since `since` (quota), baselines and dry runs never count.
     pub async fn submissions_since(&self, team_id: &str, since: i64) -> StoreResult<i64> {
-        Ok(on_pool!(self, |pool| sqlx::query_scalar("SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE")
-            .bind(team_id)
-            .bind(since)
-            .fetch_one(pool)
-            .await)?)
+        Ok(on_pool!(self, |pool| sqlx::query_scalar(
+            "SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE AND quota_refunded = FALSE"
+        )
+        .bind(team_id)
+        .bind(since)
+        .fetch_one(pool)
+        .await)?)
     }
 
     /// Jobs whose subject is `subject` (a submission or release), newest first.

@@ -342,10 +342,22 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         second.subject = "sub_b".into();
         store.create_submission(&new("sub_b"), &second, None).await.unwrap();
         store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
-        assert!(store.fail_job("k2", "w", "maps/baseline/scene_000.npz: points: NaN", Some("sub_b"), t + 4).await.unwrap());
+        assert!(store.fail_job("k2", "w", "maps/baseline/scene_000.npz: points: NaN", Some("sub_b"), false, t + 4).await.unwrap());
         let failed = store.submission("sub_b").await.unwrap();
         assert_eq!((failed.state, failed.reason.as_deref()), (SubmissionState::Failed, Some("maps/baseline/scene_000.npz: points: NaN")));
         assert_eq!(store.job("k2").await.unwrap().state, JobState::Failed);
+        assert!(!failed.quota_refunded, "a failure of the input counts against the quota");
+        let counted = store.submissions_since(&team.id, t - 1).await.unwrap();
+
+        // A failure that was not the team's gives the quota unit back.
+        let mut third = job("k3", t + 5);
+        third.subject = "sub_c".into();
+        store.create_submission(&NewSubmission { archive_sha256: "01".into(), ..new("sub_c") }, &third, None).await.unwrap();
+        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted + 1);
+        store.claim_next_job("w", t + 6, t + 60_000).await.unwrap().unwrap();
+        assert!(store.fail_job("k3", "w", "Stopped after 3 attempts.", Some("sub_c"), true, t + 7).await.unwrap());
+        assert!(store.submission("sub_c").await.unwrap().quota_refunded);
+        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted, "{}: refunded", store.backend());
     }
     stores.drop_all().await;
 }

@@ -146,3 +146,51 @@ fn queued_submissions_show_their_place_and_an_estimate(backend: Backend) {
 }
 
 on_both_backends!(a_queued_submission_shows_its_place_and_an_estimated_end, super::queued_submissions_show_their_place_and_an_estimate);
+
+fn a_submission_whose_workers_died_refunds_its_quota(backend: Backend) {
+    let deployment =
+        Deployment::new(backend, &[("OSMAB_WORKERS", "0"), ("OSMAB_JOB_LEASE_SECS", "2"), ("OSMAB_JOB_MAX_ATTEMPTS", "1"), ("OSMAB_POLL_MS", "20")]);
+    let server = deployment.serve();
+    server.import_test_release();
+    let token = server.team("Team Refund");
+    let used = || server.get("/api/v1/me").bearer_auth(&token).send().unwrap().json::<Value>().unwrap()["quota"]["used"].as_i64().unwrap();
+    // Worker A is killed while it holds the job; with one attempt allowed, worker B fails
+    // the job once A's lease expires — no fault of the team's. A job that finishes in the
+    // instant before the kill is tried again with another archive.
+    for (attempt, name) in ["drop-small", "label-noise", "pose-drift"].into_iter().enumerate() {
+        let before = used();
+        let id = server.upload(&token, &tar_of(baseline_dir(name).path()), "").json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+        assert_eq!(used(), before + 1);
+        let mut first = deployment.spawn(&["worker"], &format!("worker-a{attempt}"));
+        let started = Instant::now();
+        let caught = loop {
+            match job_of(&server, &id)["state"].as_str().unwrap() {
+                "running" => {
+                    signal(&first, "KILL");
+                    let _ = first.wait();
+                    break job_of(&server, &id)["state"] == "running";
+                }
+                "succeeded" => break false,
+                _ => assert!(started.elapsed() < Duration::from_secs(60), "worker A never claimed the job"),
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        };
+        if !caught {
+            let _ = first.kill();
+            let _ = first.wait();
+            continue;
+        }
+        let mut second = deployment.spawn(&["worker"], &format!("worker-b{attempt}"));
+        let done = server.wait_done(&id, &token);
+        assert_eq!(done["state"], "failed", "{done}");
+        assert_eq!(done["quota_refunded"], true, "{done}");
+        assert!(done["reason"].as_str().is_some_and(|r| r.contains("stopped responding") && r.contains("does not count against the team's quota")), "{done}");
+        assert_eq!(used(), before, "the quota unit is back");
+        signal(&second, "TERM");
+        assert!(second.wait().unwrap().success());
+        return;
+    }
+    panic!("the job finished before worker A could be killed, three times");
+}
+
+on_both_backends!(a_submission_failed_by_dying_workers_gives_its_quota_back, super::a_submission_whose_workers_died_refunds_its_quota);

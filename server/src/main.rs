@@ -14,6 +14,7 @@ mod metrics;
 mod problem;
 mod queue;
 mod rate_limit;
+mod receipts;
 mod releases;
 mod routes;
 mod serve;

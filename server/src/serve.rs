@@ -32,7 +32,7 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
         tracing::info!(swept, "removed scratch files left by processes that died");
     }
     tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), "store opened");
-    Ok(AppState::new(settings, store, blobs))
+    AppState::new(settings, store, blobs)
 }
 
 /// Record id of the admin token given by `OSMAB_ADMIN_TOKEN`.

@@ -7,6 +7,7 @@ use crate::config::Settings;
 use crate::leaderboard::LeaderboardCache;
 use crate::metrics::Metrics;
 use crate::rate_limit::RateLimiter;
+use crate::receipts::ReceiptKeys;
 use crate::store::Store;
 
 /// Shared service state (cheap to clone).
@@ -20,13 +21,17 @@ pub struct AppState {
     pub limiter: Arc<RateLimiter>,
     /// Uploads being unpacked and validated at once.
     pub validation: Arc<tokio::sync::Semaphore>,
+    /// The keys that sign score receipts.
+    pub receipts: Arc<ReceiptKeys>,
 }
 
 impl AppState {
-    /// State over an opened store and blob directory.
-    pub fn new(settings: Settings, store: Store, blobs: Blobs) -> Self {
+    /// State over an opened store and blob directory, with the receipt keys of the data
+    /// directory (the first is generated on first start).
+    pub fn new(settings: Settings, store: Store, blobs: Blobs) -> anyhow::Result<Self> {
         let limiter = RateLimiter::new(settings.rate_limit, settings.rate_burst);
-        Self {
+        let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join("receipt-keys"))?);
+        Ok(Self {
             settings: Arc::new(settings),
             store,
             blobs,
@@ -34,6 +39,7 @@ impl AppState {
             leaderboard: Arc::new(LeaderboardCache::default()),
             limiter: Arc::new(limiter),
             validation: Arc::new(tokio::sync::Semaphore::new(2)),
-        }
+            receipts,
+        })
     }
 }

@@ -29,6 +29,8 @@ enum Command {
     Worker(service::WorkerArgs),
     /// Apply the database migrations.
     Migrate(service::ServiceArgs),
+    /// Add a new receipt-signing key; it signs from the next start, the old ones stay published.
+    RotateReceiptKey(service::ServiceArgs),
     /// The participant's tools: login, download, validate, submit, status, results, leaderboard.
     Client(client::ClientArgs),
     /// Score maps and confusion matrices.
@@ -56,6 +58,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Serve(args) => service::serve(args),
         Command::Worker(args) => service::worker(args),
         Command::Migrate(args) => service::migrate(args),
+        Command::RotateReceiptKey(args) => service::rotate_receipt_key(args),
         Command::Client(cmd) => client::run(cmd),
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),

@@ -43,6 +43,15 @@ pub fn worker(args: WorkerArgs) -> anyhow::Result<()> {
     runtime()?.block_on(crate::serve::work(settings, args.concurrency))
 }
 
+/// `osmab rotate-receipt-key`: a new key in the data directory's `receipt-keys/`.
+pub fn rotate_receipt_key(args: ServiceArgs) -> anyhow::Result<()> {
+    let settings = settings(&args)?;
+    let path = crate::receipts::keys::generate(&settings.data_dir.join("receipt-keys"))?;
+    println!("{}", path.display());
+    eprintln!("New receipt-signing key written; restart the servers to sign with it (receipts of the old keys still verify).");
+    Ok(())
+}
+
 pub fn migrate(args: ServiceArgs) -> anyhow::Result<()> {
     let settings = settings(&args)?;
     runtime()?.block_on(async {

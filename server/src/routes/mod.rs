@@ -9,6 +9,7 @@ mod jobs;
 mod leaderboard;
 mod openapi;
 mod pages;
+mod receipts;
 mod releases;
 pub mod submission_view;
 mod submissions;
@@ -165,6 +166,9 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/me", get(submissions::me))
         .route("/api/v1/submissions", post(submissions::create).get(submissions::list))
         .route("/api/v1/submissions/{id}", get(submissions::show).patch(submissions::update))
+        .route("/api/v1/submissions/{id}/receipt", get(receipts::receipt))
+        .route("/api/v1/submissions/{id}/results.json", get(receipts::results))
+        .route("/api/v1/keys", get(receipts::keys))
         .route("/api/v1/submissions/{id}/cancel", post(submissions::cancel))
         .route("/api/v1/leaderboard", get(leaderboard::json_or_csv))
         .route("/api/v1/leaderboard.csv", get(leaderboard::csv))

@@ -159,6 +159,26 @@ pub const OPERATIONS: &[Operation] = &[
         .takes::<MethodCardUpdate>()
         .returns::<SubmissionView>(),
     op("post", "/api/v1/submissions/{id}/cancel", Auth::Team, "Cancel a queued submission.", 200).returns::<SubmissionView>(),
+    op(
+        "get",
+        "/api/v1/submissions/{id}/receipt",
+        Auth::Optional,
+        "The signed receipt of the latest score: a compact JWS (EdDSA, Ed25519, `kid` in the header) of the upload's SHA-256, the release and its digest, the evaluator version, the SHA-256 of the full results document and the headline numbers; the JWS alone with `Accept: application/jose`. Verify with `osmab client verify` or any JOSE library against `/api/v1/keys`.",
+        200,
+    )
+    .returns::<super::receipts::SignedReceipt>(),
+    Operation {
+        output: Body::FreeJson,
+        ..op(
+            "get",
+            "/api/v1/submissions/{id}/results.json",
+            Auth::Optional,
+            "The full results document of the latest score (every lighting and scene), byte for byte what the receipt's `results_sha256` names.",
+            200,
+        )
+    },
+    op("get", "/api/v1/keys", Auth::Public, "The public keys of receipts as a JWKS (RFC 7517; `kty` OKP, `crv` Ed25519), the signing key first; retired keys stay listed.", 200)
+        .returns::<crate::receipts::jws::Jwks>(),
     op("get", "/api/v1/leaderboard", Auth::Public, "The leaderboard (`?release=V`); CSV with `Accept: text/csv`.", 200)
         .query::<LeaderboardQuery>()
         .returns::<Leaderboard>(),

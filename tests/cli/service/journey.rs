@@ -172,6 +172,15 @@ fn journey(backend: Backend) {
         assert!(broken.is_empty(), "{method} {template}: {broken:#?}");
     }
 
+    // The oracle's score comes with a receipt anyone can check offline.
+    super::receipts::a_receipt_verifies_offline_and_tampering_is_caught(&server, &oracle_id);
+    answers.push(("get", "/api/v1/submissions/{id}/receipt", server.get(&format!("/api/v1/submissions/{oracle_id}/receipt")).send().unwrap().json().unwrap()));
+    answers.push(("get", "/api/v1/keys", server.get("/api/v1/keys").send().unwrap().json().unwrap()));
+    for (method, template, answer) in &answers[answers.len() - 2..] {
+        let broken = super::schema::violations(&document, super::schema::response_schema(&document, method, template), answer);
+        assert!(broken.is_empty(), "{method} {template}: {broken:#?}");
+    }
+
     // The method card can be edited and the submission hidden from the leaderboard.
     let edited = server
         .client
@@ -184,6 +193,7 @@ fn journey(backend: Backend) {
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
     assert_eq!(board["entries"].as_array().unwrap().len(), 1, "the private submission left the leaderboard");
     assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}")).send().unwrap().status(), 404, "private to others");
+    assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}/receipt")).send().unwrap().status(), 404, "and so is its receipt");
 }
 
 on_both_backends!(a_team_goes_from_download_to_leaderboard, super::journey);

@@ -6,6 +6,7 @@ mod access;
 mod client;
 mod hostile;
 mod journey;
+mod receipts;
 mod regeneration;
 mod schema;
 mod workers;

@@ -8,6 +8,7 @@ mod download;
 mod offline;
 mod session;
 mod submit;
+mod verify;
 mod view;
 
 use std::path::PathBuf;
@@ -94,6 +95,19 @@ pub enum ClientCommand {
         #[arg(long)]
         url: Option<String>,
     },
+    /// Check a score receipt offline: its signature against the service's keys (the JWKS of
+    /// `GET /api/v1/keys`, saved to a file), and with --results that the results document is
+    /// the one it certifies.
+    Verify {
+        /// The receipt: the compact JWS, or the JSON of `GET /api/v1/submissions/{id}/receipt`.
+        receipt: PathBuf,
+        /// The service's key set (JWKS).
+        #[arg(long)]
+        keys: PathBuf,
+        /// A results document (`GET /api/v1/submissions/{id}/results.json`) to check against the receipt.
+        #[arg(long)]
+        results: Option<PathBuf>,
+    },
     /// Print the leaderboard.
     Leaderboard {
         #[arg(long)]
@@ -179,6 +193,11 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             Ok(())
         }
         ClientCommand::Results { id, url } => view::results(&api(url.as_deref())?, &id),
+        ClientCommand::Verify { receipt, keys, results } => {
+            let checked = verify::verify(&receipt, &keys, results.as_deref())?;
+            print!("{}", verify::describe(&checked, results.is_some()));
+            Ok(())
+        }
         ClientCommand::Leaderboard { release, lighting, url } => view::leaderboard(&api(url.as_deref())?, release.as_deref(), lighting.as_deref()),
     }
 }

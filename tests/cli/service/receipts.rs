@@ -1,0 +1,63 @@
+//! Score receipts: a scored public submission's receipt verifies offline with
+//! `osmab client verify` against the published keys, names its results document by
+//! SHA-256, and a changed receipt or results file is refused.
+
+use base64::Engine;
+use base64::engine::general_purpose::URL_SAFE_NO_PAD as B64;
+use serde_json::Value;
+
+use super::Server;
+
+/// Check the receipt of scored submission `id` as a third party would.
+pub fn a_receipt_verifies_offline_and_tampering_is_caught(server: &Server<'_>, id: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let keys = server.get("/api/v1/keys").send().unwrap().text().unwrap();
+    let jwks: Value = serde_json::from_str(&keys).unwrap();
+    assert_eq!(
+        (jwks["keys"][0]["kty"].as_str(), jwks["keys"][0]["crv"].as_str(), jwks["keys"][0]["alg"].as_str()),
+        (Some("OKP"), Some("Ed25519"), Some("EdDSA"))
+    );
+    let signed: Value = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().json().unwrap();
+    let jws = signed["jws"].as_str().unwrap().to_string();
+    let header: Value = serde_json::from_slice(&B64.decode(jws.split('.').next().unwrap()).unwrap()).unwrap();
+    assert_eq!((header["alg"].as_str(), header["kid"].as_str()), (Some("EdDSA"), jwks["keys"][0]["kid"].as_str()), "{header}");
+    let raw = server.get(&format!("/api/v1/submissions/{id}/receipt")).header("accept", "application/jose").send().unwrap().text().unwrap();
+    assert_eq!(raw, jws, "the same receipt every time, and as application/jose");
+    let results = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().bytes().unwrap();
+    let receipt = &signed["receipt"];
+    assert_eq!(receipt["submission_id"], id);
+    assert_eq!(receipt["summary"]["semseg"]["baseline"]["miou"], 1.0, "the oracle's headline number");
+
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    };
+    let keys_file = write("keys.json", keys.as_bytes());
+    let receipt_file = write("receipt.json", serde_json::to_string(&signed).unwrap().as_bytes());
+    let results_file = write("results.json", &results);
+    let verify = |receipt: &std::path::Path, results: &std::path::Path| {
+        crate::osmab(&["client", "verify", crate::path(receipt), "--keys", crate::path(&keys_file), "--results", crate::path(results)])
+    };
+    let out = verify(&receipt_file, &results_file);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && said.contains("Valid receipt") && said.contains(id) && said.contains("matches the results file"),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // A receipt whose payload was changed (a better mIoU) no longer verifies.
+    let parts: Vec<&str> = jws.split('.').collect();
+    let mut payload: Value = serde_json::from_slice(&B64.decode(parts[1]).unwrap()).unwrap();
+    payload["summary"]["semseg"]["camera"]["miou"] = serde_json::json!(0.999);
+    let forged = format!("{}.{}.{}", parts[0], B64.encode(serde_json::to_vec(&payload).unwrap()), parts[2]);
+    let out = verify(&write("forged.jws", forged.as_bytes()), &results_file);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("does not verify"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // Results that are not the certified ones are refused by their SHA-256.
+    let mut other = results.to_vec();
+    other.push(b' ');
+    let out = verify(&write("raw.jws", jws.as_bytes()), &write("other.json", &other));
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not the results document"), "{}", String::from_utf8_lossy(&out.stderr));
+}

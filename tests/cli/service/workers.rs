@@ -20,6 +20,31 @@ fn job_of(server: &super::Server<'_>, submission: &str) -> Value {
     server.admin(server.get(&format!("/api/v1/jobs/{id}"))).json().unwrap()
 }
 
+/// Start a worker named `name`, and `kill -9` it the moment it holds the job of submission
+/// `id`; false when the job finished before the kill could land (try again).
+fn killed_holding_the_job(deployment: &Deployment, server: &super::Server<'_>, id: &str, name: &str) -> bool {
+    let mut worker = deployment.spawn(&["worker"], name);
+    let started = Instant::now();
+    let caught = loop {
+        match job_of(server, id)["state"].as_str().unwrap() {
+            "running" => {
+                signal(&worker, "KILL");
+                let _ = worker.wait();
+                break job_of(server, id)["state"] == "running";
+            }
+            "succeeded" => break false,
+            _ => {}
+        }
+        assert!(started.elapsed() < Duration::from_secs(60), "{name} never claimed the job: {}", deployment.log(name));
+        std::thread::sleep(Duration::from_millis(1));
+    };
+    if !caught {
+        let _ = worker.kill();
+        let _ = worker.wait();
+    }
+    caught
+}
+
 fn a_dead_worker_s_job_is_finished_by_another(backend: Backend) {
     let deployment = Deployment::new(backend, &[("OSMAB_WORKERS", "0"), ("OSMAB_JOB_LEASE_SECS", "2"), ("OSMAB_POLL_MS", "20")]);
     let server = deployment.serve();
@@ -30,25 +55,7 @@ fn a_dead_worker_s_job_is_finished_by_another(backend: Backend) {
     // frozen process would not do on SQLite: it can hold the database's write lock.)
     for attempt in 0..5 {
         let id = server.upload(&token, &archive, "").json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
-        let mut first = deployment.spawn(&["worker"], &format!("worker-a{attempt}"));
-        let started = Instant::now();
-        let caught = loop {
-            let job = job_of(&server, &id);
-            match job["state"].as_str().unwrap() {
-                "running" => {
-                    signal(&first, "KILL");
-                    let _ = first.wait();
-                    break job_of(&server, &id)["state"] == "running";
-                }
-                "succeeded" => break false,
-                _ => {}
-            }
-            assert!(started.elapsed() < Duration::from_secs(60), "worker A never claimed the job: {}", deployment.log(&format!("worker-a{attempt}")));
-            std::thread::sleep(Duration::from_millis(1));
-        };
-        if !caught {
-            let _ = first.kill();
-            let _ = first.wait();
+        if !killed_holding_the_job(&deployment, &server, &id, &format!("worker-a{attempt}")) {
             continue;
         }
         // Worker A died holding the lease; worker B takes over once it expires.
@@ -161,23 +168,7 @@ fn a_submission_whose_workers_died_refunds_its_quota(backend: Backend) {
         let before = used();
         let id = server.upload(&token, &tar_of(baseline_dir(name).path()), "").json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
         assert_eq!(used(), before + 1);
-        let mut first = deployment.spawn(&["worker"], &format!("worker-a{attempt}"));
-        let started = Instant::now();
-        let caught = loop {
-            match job_of(&server, &id)["state"].as_str().unwrap() {
-                "running" => {
-                    signal(&first, "KILL");
-                    let _ = first.wait();
-                    break job_of(&server, &id)["state"] == "running";
-                }
-                "succeeded" => break false,
-                _ => assert!(started.elapsed() < Duration::from_secs(60), "worker A never claimed the job"),
-            }
-            std::thread::sleep(Duration::from_millis(1));
-        };
-        if !caught {
-            let _ = first.kill();
-            let _ = first.wait();
+        if !killed_holding_the_job(&deployment, &server, &id, &format!("worker-a{attempt}")) {
             continue;
         }
         let mut second = deployment.spawn(&["worker"], &format!("worker-b{attempt}"));

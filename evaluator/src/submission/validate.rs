@@ -69,6 +69,15 @@ pub struct MethodCard {
     /// Code link.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub code_url: Option<String>,
+    /// Data used beyond the release (datasets, pretrained models), in words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub external_data: Option<String>,
+    /// Compute used (hardware, hours), in words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compute: Option<String>,
+    /// Shown as "Anonymous" on the leaderboard (no team, no links) until the team reveals it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub anonymous: bool,
 }
 
 impl MethodCard {
@@ -86,6 +95,16 @@ impl MethodCard {
                 "method.description",
                 format!("expected visible text, found U+{:04X} (an invisible formatting character)", c as u32),
             ));
+        }
+        for (field, text) in [("method.external_data", &self.external_data), ("method.compute", &self.compute)] {
+            if let Some(text) = text {
+                if text.chars().count() > 1000 {
+                    return Err(InputError::new(file, field, "expected at most 1000 characters"));
+                }
+                if let Some(c) = crate::text::first_hidden_format(text) {
+                    return Err(InputError::new(file, field, format!("expected visible text, found U+{:04X} (an invisible formatting character)", c as u32)));
+                }
+            }
         }
         for (field, url) in [("method.paper_url", &self.paper_url), ("method.code_url", &self.code_url)] {
             if let Some(url) = url

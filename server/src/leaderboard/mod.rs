@@ -16,13 +16,22 @@ pub use cache::{LeaderboardCache, Rendered};
 
 use crate::store::LeaderboardRow;
 
+/// The team shown for an entry that stays anonymous.
+pub const ANONYMOUS: &str = "Anonymous";
+
 /// One row of the leaderboard.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Entry {
+    /// The team has not revealed itself yet: `team` is "Anonymous" and there are no links.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub anonymous: bool,
     pub baseline: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub code_url: Option<String>,
     pub complete: bool,
+    /// Why the organisers flagged the entry, if they did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flagged: Option<String>,
     pub method: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub paper_url: Option<String>,
@@ -56,15 +65,17 @@ impl Leaderboard {
         let mut entries: Vec<Entry> = rows
             .into_iter()
             .map(|row| Entry {
+                anonymous: row.anonymous,
                 baseline: row.baseline,
-                code_url: row.code_url,
+                code_url: row.code_url.filter(|_| !row.anonymous),
                 complete: row.complete,
+                flagged: row.flag,
                 method: row.method_name,
-                paper_url: row.paper_url,
+                paper_url: row.paper_url.filter(|_| !row.anonymous),
                 scores: row.scores.summary(),
                 submission_id: row.submission_id,
                 submitted_at: crate::clock::rfc3339(row.created_at),
-                team: row.team,
+                team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },
             })
             .collect();
         let key = lightings.first().copied().unwrap_or(Lighting::BASELINE);

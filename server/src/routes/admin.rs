@@ -310,6 +310,38 @@ pub async fn rescore(State(state): State<AppState>, _: AdminCaller, ApiPath(id):
         .into_response())
 }
 
+/// An organiser's flag on a leaderboard entry.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FlagBody {
+    /// Why, shown on the leaderboard and the submission's page (1 to 300 characters).
+    reason: String,
+}
+
+/// `PUT /api/v1/admin/submissions/{id}/flag` `{"reason"}`: flag an entry on the leaderboard.
+pub async fn flag(
+    State(state): State<AppState>,
+    _: AdminCaller,
+    ApiPath(id): ApiPath<String>,
+    ApiJson(body): ApiJson<FlagBody>,
+) -> ApiResult<axum::Json<super::submission_view::SubmissionView>> {
+    let reason = body.reason.trim();
+    if reason.is_empty() || reason.chars().count() > 300 || osmab_evaluator::text::first_hidden_format(reason).is_some() {
+        return Err(unprocessable("reason: expected 1 to 300 characters of visible text"));
+    }
+    state.store.set_flag(&id, Some(reason), now_ms()).await?;
+    state.leaderboard.invalidate();
+    tracing::info!(submission = %id, %reason, "entry flagged");
+    Ok(axum::Json(super::submission_view::SubmissionView::load(&state, &state.store.submission(&id).await?, &crate::auth::Caller::Admin).await?))
+}
+
+/// `DELETE /api/v1/admin/submissions/{id}/flag`: clear an entry's flag.
+pub async fn unflag(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<StatusCode> {
+    state.store.set_flag(&id, None, now_ms()).await?;
+    state.leaderboard.invalidate();
+    Ok(StatusCode::NO_CONTENT)
+}
+
 /// A job queued by an admin request.
 #[derive(Debug, Serialize, JsonSchema)]
 pub struct QueuedJob {

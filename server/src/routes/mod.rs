@@ -23,7 +23,7 @@ use axum::http::request::Parts;
 use axum::http::{HeaderName, Method, StatusCode};
 use axum::middleware::{Next, from_fn_with_state};
 use axum::response::{IntoResponse, Response};
-use axum::routing::{get, post};
+use axum::routing::{get, post, put};
 use serde::de::DeserializeOwned;
 use tower_http::request_id::{MakeRequestId, PropagateRequestIdLayer, RequestId, SetRequestIdLayer};
 use tower_http::trace::TraceLayer;
@@ -184,6 +184,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/admin/releases/{version}/publish", post(admin::publish_release))
         .route("/api/v1/admin/submissions", get(admin::list_submissions))
         .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
+        .route("/api/v1/admin/submissions/{id}/flag", put(admin::flag).delete(admin::unflag))
         .route("/api/v1/admin/jobs", get(admin::list_jobs));
     let pages = Router::new()
         .route("/", get(pages::leaderboard))

@@ -223,6 +223,10 @@ pub const OPERATIONS: &[Operation] = &[
     op("post", "/api/v1/admin/submissions/{id}/rescore", Auth::Admin, "Score a submission again; a new score is added, old ones stay.", 202)
         .returns::<QueuedJob>(),
     op("get", "/api/v1/admin/jobs", Auth::Admin, "Recent jobs.", 200).returns::<JobList>(),
+    op("put", "/api/v1/admin/submissions/{id}/flag", Auth::Admin, "Flag an entry (`{\"reason\"}`): the reason shows on the leaderboard and the submission's page.", 200)
+        .takes::<super::admin::FlagBody>()
+        .returns::<SubmissionView>(),
+    op("delete", "/api/v1/admin/submissions/{id}/flag", Auth::Admin, "Clear an entry's flag.", 204),
 ];
 
 /// Every problem `code` with what it means and what to do.

@@ -50,9 +50,11 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
     let (submission, scores, scored_at_ms) = latest(&state, &caller, &id).await?;
     let team = state.store.team(&submission.team_id).await?;
     let release = state.store.release(&submission.release).await?;
+    // An entry that stays anonymous gets an anonymous receipt (a new one once revealed).
+    let team_name = if submission.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
     let receipt = Receipt::of(&Facts {
         submission_id: &submission.id,
-        team: &team.name,
+        team: team_name,
         method: &submission.method_name,
         upload_sha256: &submission.archive_sha256,
         release_digest: &release.digest,

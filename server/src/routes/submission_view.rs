@@ -7,6 +7,7 @@
 use osmab_evaluator::scores::Scores;
 use serde::Serialize;
 
+use crate::auth::Caller;
 use crate::clock::{now_ms, rfc3339};
 use crate::jobs::Job;
 use crate::jobs::scoring::ScoreSubmission;
@@ -43,8 +44,15 @@ pub struct JobLink {
 /// The method card.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct MethodView {
+    /// Shown as "Anonymous" (no team, no links) to everyone but its team and the organisers.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub anonymous: bool,
     pub code_url: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compute: Option<String>,
     pub description: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub external_data: Option<String>,
     pub name: String,
     pub paper_url: Option<String>,
 }
@@ -65,6 +73,9 @@ pub struct SubmissionView {
     pub baseline: bool,
     pub complete: bool,
     pub created_at: String,
+    /// Why the organisers flagged the entry, if they did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flagged: Option<String>,
     pub history: Vec<EventView>,
     pub id: String,
     pub jobs: Vec<JobLink>,
@@ -90,8 +101,10 @@ pub struct SubmissionView {
 }
 
 impl SubmissionView {
-    /// The view of `s` from the store.
-    pub async fn load(state: &AppState, s: &SubmissionRecord) -> ApiResult<Self> {
+    /// The view of `s` from the store, as `caller` may see it (an anonymous entry's team
+    /// and links only for its team and the organisers).
+    pub async fn load(state: &AppState, s: &SubmissionRecord, caller: &Caller) -> ApiResult<Self> {
+        let hidden = s.anonymous && !caller.can_see_team(&s.team_id);
         let team = state.store.team(&s.team_id).await?;
         let history =
             state.store.submission_events(&s.id).await?.into_iter().map(|e| EventView { at: rfc3339(e.at), reason: e.reason, state: e.state }).collect();
@@ -114,11 +127,15 @@ impl SubmissionView {
             history,
             id: s.id.clone(),
             jobs,
+            flagged: s.flag.clone(),
             method: MethodView {
-                code_url: s.code_url.clone(),
+                anonymous: s.anonymous,
+                code_url: s.code_url.clone().filter(|_| !hidden),
+                compute: s.compute.clone(),
                 description: s.method_description.clone(),
+                external_data: s.external_data.clone(),
                 name: s.method_name.clone(),
-                paper_url: s.paper_url.clone(),
+                paper_url: s.paper_url.clone().filter(|_| !hidden),
             },
             public: s.public,
             queue: in_queue,
@@ -128,7 +145,7 @@ impl SubmissionView {
             score_history,
             scores: scores.pop().and_then(|c| c.scores),
             state: s.state,
-            team: team.name,
+            team: if hidden { crate::leaderboard::ANONYMOUS.to_string() } else { team.name },
             updated_at: rfc3339(s.updated_at),
         })
     }

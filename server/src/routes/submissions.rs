@@ -253,7 +253,7 @@ pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> 
 /// `GET /api/v1/submissions/{id}`.
 pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<SubmissionView>> {
     let s = visible_submission(&state, &caller, &id).await?;
-    Ok(axum::Json(SubmissionView::load(&state, &s).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &s, &caller).await?))
 }
 
 /// `GET /api/v1/submissions`: the calling team's submissions.
@@ -269,6 +269,10 @@ pub struct MethodCardUpdate {
     description: Option<String>,
     paper_url: Option<Option<String>>,
     code_url: Option<Option<String>>,
+    external_data: Option<Option<String>>,
+    compute: Option<Option<String>>,
+    /// `false` reveals the team on the leaderboard.
+    anonymous: Option<bool>,
     public: Option<bool>,
 }
 
@@ -295,6 +299,15 @@ pub async fn update(
     if let Some(url) = change.code_url {
         s.code_url = url;
     }
+    if let Some(text) = change.external_data {
+        s.external_data = text;
+    }
+    if let Some(text) = change.compute {
+        s.compute = text;
+    }
+    if let Some(anonymous) = change.anonymous {
+        s.anonymous = anonymous;
+    }
     if let Some(public) = change.public {
         s.public = public;
     }
@@ -303,12 +316,15 @@ pub async fn update(
         description: s.method_description.clone(),
         paper_url: s.paper_url.clone(),
         code_url: s.code_url.clone(),
+        external_data: s.external_data.clone(),
+        compute: s.compute.clone(),
+        anonymous: s.anonymous,
     };
     card.check("request body")
         .map_err(|e| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("{}: {}", e.field, e.message)))?;
     state.store.update_method_card(&id, &s, now_ms()).await?;
     state.leaderboard.invalidate();
-    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))
 }
 
 /// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
@@ -324,5 +340,5 @@ pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): 
             let _ = state.store.cancel_job(&job.id, now_ms()).await;
         }
     }
-    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?).await?))
+    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))
 }

@@ -76,6 +76,14 @@ pub struct SubmissionRecord {
     pub updated_at: i64,
     /// It failed through no fault of its team and does not count against the quota.
     pub quota_refunded: bool,
+    /// Data used beyond the release, in the team's words.
+    pub external_data: Option<String>,
+    /// Compute used, in the team's words.
+    pub compute: Option<String>,
+    /// Shown without its team and links until the team reveals it.
+    pub anonymous: bool,
+    /// An organiser's flag on the entry (its reason).
+    pub flag: Option<String>,
 }
 
 /// One state change of a submission.
@@ -127,6 +135,8 @@ pub struct LeaderboardRow {
     pub code_url: Option<String>,
     pub baseline: bool,
     pub complete: bool,
+    pub anonymous: bool,
+    pub flag: Option<String>,
     pub created_at: i64,
     pub scores: Scores,
 }
@@ -148,6 +158,9 @@ pub struct NewSubmission {
     pub archive_sha256: String,
     /// The client's `Idempotency-Key`, when it sent one.
     pub idempotency_key: Option<String>,
+    pub external_data: Option<String>,
+    pub compute: Option<String>,
+    pub anonymous: bool,
     /// When the upload began and when validation began and ended (history timestamps).
     pub received_at: i64,
     pub validating_at: i64,

@@ -42,6 +42,8 @@ struct BoardRow {
     code_url: Option<String>,
     baseline: bool,
     complete: bool,
+    anonymous: bool,
+    flag: Option<String>,
     created_at: i64,
     body: String,
 }
@@ -74,7 +76,7 @@ impl Store {
     pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
         let rows: Vec<BoardRow> = on_pool!(self, |pool| {
             sqlx::query_as(
-            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.created_at, c.body \
+            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.anonymous, s.flag, s.created_at, c.body \
              FROM submissions s JOIN teams t ON t.id = s.team_id \
              JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
              WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
@@ -96,6 +98,8 @@ impl Store {
                     code_url: r.code_url,
                     baseline: r.baseline,
                     complete: r.complete,
+                    anonymous: r.anonymous,
+                    flag: r.flag,
                     created_at: r.created_at,
                 })
             })

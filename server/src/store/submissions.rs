@@ -19,6 +19,9 @@ fn repeat_of((id, earlier_archive, _key): (String, String, Option<String>), arch
 
 const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
 
+/// Columns later migrations added, read with the others.
+const SUBMISSION_LATER_COLUMNS: &str = "quota_refunded, external_data, compute, anonymous, flag";
+
 /// The history event of `$submission` entering `$state` (a [`SubmissionState`]) with
 /// `$reason` at `$at`, for either backend (a macro so each infers its own types).
 macro_rules! insert_event_query {
@@ -71,7 +74,8 @@ impl Store {
     /// transaction, so parallel uploads cannot overrun it).
     pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<Recorded> {
         let sql = format!(
-            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key) VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)"
+            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, external_data, compute, anonymous) \
+             VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18)"
         );
         let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
@@ -98,6 +102,9 @@ impl Store {
                 .bind(s.received_at)
                 .bind(s.queued_at)
                 .bind(&s.idempotency_key)
+                .bind(&s.external_data)
+                .bind(&s.compute)
+                .bind(s.anonymous)
                 .execute(&mut *tx)
                 .await?;
             let earlier: Option<(String, String, Option<String>)> =
@@ -233,7 +240,7 @@ impl Store {
 
     /// Submission `id`.
     pub async fn submission(&self, id: &str) -> StoreResult<SubmissionRecord> {
-        let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions WHERE id = $1");
+        let sql = format!("SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions WHERE id = $1");
         Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(id).fetch_one(pool).await)?)
     }
 
@@ -241,11 +248,13 @@ impl Store {
     pub async fn submissions(&self, team_id: Option<&str>, limit: i64) -> StoreResult<Vec<SubmissionRecord>> {
         Ok(match team_id {
             Some(team) => {
-                let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2");
+                let sql = format!(
+                    "SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2"
+                );
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(team).bind(limit).fetch_all(pool).await)?
             }
             None => {
-                let sql = format!("SELECT {SUBMISSION_COLUMNS}, quota_refunded FROM submissions ORDER BY created_at DESC, id LIMIT $1");
+                let sql = format!("SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions ORDER BY created_at DESC, id LIMIT $1");
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(limit).fetch_all(pool).await)?
             }
         })
@@ -277,7 +286,8 @@ impl Store {
     /// Edit the method card and visibility of a submission.
     pub async fn update_method_card(&self, id: &str, s: &SubmissionRecord, at: i64) -> StoreResult<()> {
         let done = on_pool!(self, |pool| sqlx::query(
-            "UPDATE submissions SET method_name = $2, method_description = $3, paper_url = $4, code_url = $5, public = $6, updated_at = $7 WHERE id = $1"
+            "UPDATE submissions SET method_name = $2, method_description = $3, paper_url = $4, code_url = $5, public = $6, updated_at = $7, \
+             external_data = $8, compute = $9, anonymous = $10 WHERE id = $1"
         )
         .bind(id)
         .bind(&s.method_name)
@@ -286,9 +296,24 @@ impl Store {
         .bind(&s.code_url)
         .bind(s.public)
         .bind(at)
+        .bind(&s.external_data)
+        .bind(&s.compute)
+        .bind(s.anonymous)
         .execute(pool)
         .await
         .map(|r| r.rows_affected()))?;
+        if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
+    }
+
+    /// Flag submission `id` on the leaderboard with `reason`, or clear its flag (`None`).
+    pub async fn set_flag(&self, id: &str, reason: Option<&str>, at: i64) -> StoreResult<()> {
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE submissions SET flag = $2, updated_at = $3 WHERE id = $1")
+            .bind(id)
+            .bind(reason)
+            .bind(at)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
         if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
     }
 

@@ -3,6 +3,7 @@
 //! skip, when PostgreSQL is unreachable — `.ci/run` starts it).
 
 mod access;
+mod cards;
 mod client;
 mod hostile;
 mod journey;

@@ -94,6 +94,8 @@ pub struct Row {
     pub paper_url: Option<String>,
     pub baseline: bool,
     pub complete: bool,
+    /// Why the organisers flagged it.
+    pub flagged: Option<String>,
     pub cells: Vec<String>,
     pub changes: Vec<String>,
 }
@@ -168,6 +170,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
             paper_url: e.paper_url.clone(),
             baseline: e.baseline,
             complete: e.complete,
+            flagged: e.flagged.clone(),
             cells: cells_of.iter().map(|&(l, m)| percent(view.value(e, l, m))).collect(),
             changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
         })

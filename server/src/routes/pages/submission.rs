@@ -43,6 +43,10 @@ pub struct SubmissionPage {
     pub description: String,
     pub paper_url: Option<String>,
     pub code_url: Option<String>,
+    pub external_data: Option<String>,
+    pub compute: Option<String>,
+    pub anonymous: bool,
+    pub flagged: Option<String>,
     pub release: String,
     pub state: String,
     pub reason: Option<String>,
@@ -65,7 +69,7 @@ fn cells(triple: &MetricTriple) -> Vec<String> {
 /// `GET /submissions/{id}`.
 pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let record = crate::routes::submissions::visible_submission(&state, &caller, &id).await?;
-    let view = SubmissionView::load(&state, &record).await?;
+    let view = SubmissionView::load(&state, &record, &caller).await?;
     // Lightings in the release's order.
     let release = state.store.release(&view.release).await?;
     let order = crate::leaderboard::cache::manifest_lightings(&release.manifest);
@@ -98,6 +102,10 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         description: view.method.description,
         paper_url: view.method.paper_url,
         code_url: view.method.code_url,
+        external_data: view.method.external_data,
+        compute: view.method.compute,
+        anonymous: view.method.anonymous,
+        flagged: view.flagged,
         release: view.release,
         reason: view.reason,
         queue: view.queue.as_ref().map(|q| q.sentence()),

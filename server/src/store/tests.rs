@@ -195,6 +195,9 @@ async fn submissions_scores_and_releases_keep_their_history() {
             archive_size: 10,
             archive_sha256: "ab".into(),
             idempotency_key: None,
+            external_data: None,
+            compute: None,
+            anonymous: false,
             received_at: t,
             validating_at: t + 1,
             queued_at: t + 2,
@@ -236,6 +239,18 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert_eq!(store.scoring_since("sub_1").await.unwrap(), Some(t + 7));
         let rows = store.leaderboard_rows("r1").await.unwrap();
         assert_eq!((rows.len(), &rows[0].scores, rows[0].team.as_str()), (1, &score(2), "Team A"), "the latest score counts");
+        // The card's later fields and the organisers' flag are kept and reach the board.
+        let mut card = store.submission("sub_1").await.unwrap();
+        (card.external_data, card.compute, card.anonymous) = (Some("CLIP".into()), Some("1 GPU".into()), true);
+        store.update_method_card("sub_1", &card, t + 9).await.unwrap();
+        store.set_flag("sub_1", Some("check the training data"), t + 9).await.unwrap();
+        let kept = store.submission("sub_1").await.unwrap();
+        assert_eq!((kept.external_data.as_deref(), kept.compute.as_deref(), kept.anonymous), (Some("CLIP"), Some("1 GPU"), true));
+        let row = &store.leaderboard_rows("r1").await.unwrap()[0];
+        assert_eq!((row.anonymous, row.flag.as_deref()), (true, Some("check the training data")));
+        store.set_flag("sub_1", None, t + 10).await.unwrap();
+        assert_eq!(store.submission("sub_1").await.unwrap().flag, None);
+        assert!(matches!(store.set_flag("nope", Some("x"), t).await, Err(StoreError::NotFound)));
 
         // A document some other writer left that does not read is left out, not fatal.
         on_pool!(store, |pool| sqlx::query(
@@ -275,6 +290,9 @@ async fn a_failed_transaction_leaves_no_submission_behind() {
             archive_size: 1,
             archive_sha256: "00".into(),
             idempotency_key: None,
+            external_data: None,
+            compute: None,
+            anonymous: false,
             received_at: t,
             validating_at: t,
             queued_at: t,
@@ -325,6 +343,9 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
             archive_size: 1,
             archive_sha256: "00".into(),
             idempotency_key: None,
+            external_data: None,
+            compute: None,
+            anonymous: false,
             received_at: t,
             validating_at: t,
             queued_at: t,
@@ -412,6 +433,9 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
             archive_size: 1,
             archive_sha256: archive.into(),
             idempotency_key: key.map(str::to_string),
+            external_data: None,
+            compute: None,
+            anonymous: false,
             received_at: t,
             validating_at: t,
             queued_at: t,

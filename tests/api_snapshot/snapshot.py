@@ -7,7 +7,7 @@ one, edit a method card — then requests every JSON route (public, team and adm
 the answers with ids, tokens, timestamps and durations replaced by stable placeholders:
 
     python3 tests/api_snapshot/snapshot.py --bin target/debug/osmab --release target/tmp/e2e-release/release --out new.json
-    python3 tests/api_snapshot/snapshot.py --bin /tmp/osmab-old ... --out old.json
+    python3 tests/api_snapshot/snapshot.py --bin OLD_BUILD/osmab --release target/tmp/e2e-release/release --out old.json
     python3 tests/api_snapshot/snapshot.py --compare old.json new.json
 
 `--compare` reports every difference of value (key order is not a difference in JSON).

@@ -49,6 +49,31 @@ impl TestStores {
     }
 }
 
+/// A public, complete submission of `team_id` to release r1, every step at `t`.
+fn submission(id: &str, team_id: &str, t: i64) -> NewSubmission {
+    NewSubmission {
+        id: id.into(),
+        team_id: team_id.into(),
+        release: "r1".into(),
+        method_name: "M".into(),
+        method_description: String::new(),
+        paper_url: None,
+        code_url: None,
+        public: true,
+        baseline: false,
+        complete: true,
+        archive_size: 1,
+        archive_sha256: "00".into(),
+        idempotency_key: None,
+        external_data: None,
+        compute: None,
+        anonymous: false,
+        received_at: t,
+        validating_at: t,
+        queued_at: t,
+    }
+}
+
 fn job(id: &str, at: i64) -> NewJob {
     NewJob { id: id.into(), kind: "score_submission".into(), subject: format!("sub_{id}"), payload: "{}".into(), max_attempts: 3, created_at: at }
 }
@@ -181,27 +206,7 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert!(!store.release("r1").await.unwrap().is_current);
 
         let t = now_ms();
-        let new = NewSubmission {
-            id: "sub_1".into(),
-            team_id: team.id.clone(),
-            release: "r1".into(),
-            method_name: "M".into(),
-            method_description: String::new(),
-            paper_url: None,
-            code_url: None,
-            public: true,
-            baseline: false,
-            complete: true,
-            archive_size: 10,
-            archive_sha256: "ab".into(),
-            idempotency_key: None,
-            external_data: None,
-            compute: None,
-            anonymous: false,
-            received_at: t,
-            validating_at: t + 1,
-            queued_at: t + 2,
-        };
+        let new = NewSubmission { archive_size: 10, archive_sha256: "ab".into(), validating_at: t + 1, queued_at: t + 2, ..submission("sub_1", &team.id, t) };
         assert_eq!(store.create_submission(&new, &job("js1", t), Some((1, t - 1))).await.unwrap(), Recorded::New("sub_1".into()));
         let second = NewSubmission { id: "sub_2".into(), archive_sha256: "cd".into(), ..new.clone() };
         assert_eq!(store.create_submission(&second, &job("js9", t), Some((1, t - 1))).await.unwrap(), Recorded::QuotaExceeded, "the quota of 1 is used");
@@ -276,27 +281,7 @@ async fn a_failed_transaction_leaves_no_submission_behind() {
         store.create_team(&team).await.unwrap();
         store.insert_release(&release("r1"), &[]).await.unwrap();
         store.enqueue(&job("taken", t)).await.unwrap();
-        let new = NewSubmission {
-            id: "sub_x".into(),
-            team_id: team.id,
-            release: "r1".into(),
-            method_name: "M".into(),
-            method_description: String::new(),
-            paper_url: None,
-            code_url: None,
-            public: true,
-            baseline: false,
-            complete: true,
-            archive_size: 1,
-            archive_sha256: "00".into(),
-            idempotency_key: None,
-            external_data: None,
-            compute: None,
-            anonymous: false,
-            received_at: t,
-            validating_at: t,
-            queued_at: t,
-        };
+        let new = submission("sub_x", &team.id, t);
         // The job id collides, so the whole transaction must roll back.
         assert!(store.create_submission(&new, &job("taken", t), None).await.is_err());
         assert!(matches!(store.submission("sub_x").await, Err(StoreError::NotFound)), "{}", store.backend());
@@ -329,27 +314,7 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         let team = Team { id: "team_c".into(), name: "C".into(), daily_quota: None, created_at: t };
         store.create_team(&team).await.unwrap();
         store.insert_release(&release("r1"), &[]).await.unwrap();
-        let new = |id: &str| NewSubmission {
-            id: id.into(),
-            team_id: team.id.clone(),
-            release: "r1".into(),
-            method_name: "M".into(),
-            method_description: String::new(),
-            paper_url: None,
-            code_url: None,
-            public: true,
-            baseline: false,
-            complete: true,
-            archive_size: 1,
-            archive_sha256: "00".into(),
-            idempotency_key: None,
-            external_data: None,
-            compute: None,
-            anonymous: false,
-            received_at: t,
-            validating_at: t,
-            queued_at: t,
-        };
+        let new = |id: &str| submission(id, &team.id, t);
         let mut first = job("k1", t);
         first.subject = "sub_a".into();
         store.create_submission(&new("sub_a"), &first, None).await.unwrap();
@@ -420,25 +385,9 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
         store.insert_release(&release("r1"), &[]).await.unwrap();
         let t = now_ms();
         let upload = |id: &str, archive: &str, key: Option<&str>| NewSubmission {
-            id: id.into(),
-            team_id: team.id.clone(),
-            release: "r1".into(),
-            method_name: "M".into(),
-            method_description: String::new(),
-            paper_url: None,
-            code_url: None,
-            public: true,
-            baseline: false,
-            complete: true,
-            archive_size: 1,
             archive_sha256: archive.into(),
             idempotency_key: key.map(str::to_string),
-            external_data: None,
-            compute: None,
-            anonymous: false,
-            received_at: t,
-            validating_at: t,
-            queued_at: t,
+            ..submission(id, &team.id, t)
         };
         let quota = Some((1, t - 1));
         assert_eq!(store.create_submission(&upload("sub_1", "aa", Some("key-1")), &job("j1", t), quota).await.unwrap(), Recorded::New("sub_1".into()));

@@ -318,6 +318,14 @@ pub struct FlagBody {
     reason: String,
 }
 
+/// A store error naming submission `id` when it does not exist.
+fn no_submission(e: StoreError, id: &str) -> Problem {
+    match e {
+        StoreError::NotFound => Problem::not_found(format!("There is no submission '{id}'.")),
+        other => other.into(),
+    }
+}
+
 /// `PUT /api/v1/admin/submissions/{id}/flag` `{"reason"}`: flag an entry on the leaderboard.
 pub async fn flag(
     State(state): State<AppState>,
@@ -329,7 +337,7 @@ pub async fn flag(
     if reason.is_empty() || reason.chars().count() > 300 || osmab_evaluator::text::first_hidden_format(reason).is_some() {
         return Err(unprocessable("reason: expected 1 to 300 characters of visible text"));
     }
-    state.store.set_flag(&id, Some(reason), now_ms()).await?;
+    state.store.set_flag(&id, Some(reason), now_ms()).await.map_err(|e| no_submission(e, &id))?;
     state.leaderboard.invalidate();
     tracing::info!(submission = %id, %reason, "entry flagged");
     Ok(axum::Json(super::submission_view::SubmissionView::load(&state, &state.store.submission(&id).await?, &crate::auth::Caller::Admin).await?))
@@ -337,7 +345,7 @@ pub async fn flag(
 
 /// `DELETE /api/v1/admin/submissions/{id}/flag`: clear an entry's flag.
 pub async fn unflag(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<StatusCode> {
-    state.store.set_flag(&id, None, now_ms()).await?;
+    state.store.set_flag(&id, None, now_ms()).await.map_err(|e| no_submission(e, &id))?;
     state.leaderboard.invalidate();
     Ok(StatusCode::NO_CONTENT)
 }

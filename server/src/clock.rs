@@ -38,6 +38,17 @@ pub fn rfc3339(ms: i64) -> String {
     format!("{year:04}-{month:02}-{day:02}T{h:02}:{m:02}:{s:02}.{milli:03}Z")
 }
 
+/// `ms` as an HTTP date (RFC 9110 IMF-fixdate: `Sun, 22 Nov 2026 05:00:00 GMT`).
+pub fn http_date(ms: i64) -> String {
+    const DAYS: [&str; 7] = ["Thu", "Fri", "Sat", "Sun", "Mon", "Tue", "Wed"]; // 1970-01-01 was a Thursday
+    const MONTHS: [&str; 12] = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"];
+    let stamp = rfc3339(ms);
+    let (year, month, day, time) = (&stamp[0..4], &stamp[5..7], &stamp[8..10], &stamp[11..19]);
+    let weekday = DAYS[ms.div_euclid(DAY_MS).rem_euclid(7) as usize];
+    let month = MONTHS[month.parse::<usize>().expect("two digits") - 1];
+    format!("{weekday}, {day} {month} {year} {time} GMT")
+}
+
 const ALPHANUMERIC: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
 
 /// `n` random characters from [A-Za-z0-9], from the operating system's generator.
@@ -70,6 +81,13 @@ mod tests {
         assert_eq!(rfc3339(0), "1970-01-01T00:00:00.000Z");
         assert_eq!(rfc3339(951_782_400_000), "2000-02-29T00:00:00.000Z");
         assert_eq!(rfc3339(1_795_323_723_456), "2026-11-22T05:02:03.456Z");
+    }
+
+    #[test]
+    fn http_dates_are_imf_fixdate() {
+        assert_eq!(http_date(0), "Thu, 01 Jan 1970 00:00:00 GMT");
+        assert_eq!(http_date(951_782_400_000), "Tue, 29 Feb 2000 00:00:00 GMT");
+        assert_eq!(http_date(1_795_323_723_456), "Sun, 22 Nov 2026 05:02:03 GMT");
     }
 
     #[test]

@@ -88,6 +88,13 @@ pub struct Settings {
     /// (`OSMAB_LLM_URL`, `OSMAB_LLM_MODEL`; the key in `OSMAB_LLM_API_KEY`, never in files).
     pub llm_url: Option<String>,
     pub llm_model: Option<String>,
+    /// `OSMAB_STORAGE_URL=s3://BUCKET/PREFIX`: blobs in an S3-compatible bucket (with the
+    /// standard `AWS_*` variables) instead of the data directory, so nodes share nothing
+    /// but the bucket and the database.
+    pub storage: Option<crate::blobs::ObjectConfig>,
+    /// Seconds an unfinished resumable upload is kept after its last byte
+    /// (`OSMAB_UPLOAD_EXPIRY_SECS`).
+    pub upload_expiry_secs: u64,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -114,6 +121,8 @@ struct FileSettings {
     log_format: Option<String>,
     llm_url: Option<String>,
     llm_model: Option<String>,
+    storage_url: Option<String>,
+    upload_expiry_secs: Option<u64>,
 }
 
 impl Settings {
@@ -152,6 +161,10 @@ impl Settings {
             Some(url) => url,
             None => format!("sqlite://{}", data_dir.join("osmab.db").display()),
         };
+        let storage = match env("OSMAB_STORAGE_URL").filter(|s| !s.trim().is_empty()).or(from_file.storage_url.clone()) {
+            Some(url) => Some(crate::blobs::ObjectConfig::parse(url.trim(), env).map_err(|e| anyhow::anyhow!(e))?),
+            None => None,
+        };
         let admin_token = env("OSMAB_ADMIN_TOKEN").filter(|s| !s.trim().is_empty()).or(from_file.admin_token.clone()).map(Secret::new);
         let settings = Self {
             bind,
@@ -175,6 +188,8 @@ impl Settings {
             log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format.clone(), "text".to_string()),
             llm_url: env("OSMAB_LLM_URL").filter(|s| !s.trim().is_empty()).or(from_file.llm_url.clone()),
             llm_model: env("OSMAB_LLM_MODEL").filter(|s| !s.trim().is_empty()).or(from_file.llm_model.clone()),
+            storage,
+            upload_expiry_secs: layer!("OSMAB_UPLOAD_EXPIRY_SECS", from_file.upload_expiry_secs, 24 * 3600),
         };
         settings.check()?;
         Ok(settings)
@@ -187,6 +202,7 @@ impl Settings {
         anyhow::ensure!(self.poll_ms >= 10, "poll_ms must be at least 10");
         anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
         anyhow::ensure!(self.header_timeout_secs >= 1 && self.body_idle_timeout_secs >= 1, "header_timeout_secs and body_idle_timeout_secs must be at least 1");
+        anyhow::ensure!(self.upload_expiry_secs >= 60, "upload_expiry_secs must be at least 60");
         anyhow::ensure!(self.max_connections >= 1, "max_connections must be at least 1");
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");

@@ -22,6 +22,7 @@ mod state;
 mod store;
 mod telemetry;
 mod token;
+mod uploads;
 
 use std::process::ExitCode;
 

@@ -62,6 +62,27 @@ impl Problem {
         Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", "Internal error", "The server failed to handle the request; it has been logged. Retry later.")
     }
 
+    /// A failed blob operation: the object store being away is a 503 the client may retry
+    /// (nothing was stored); anything else is [`Problem::internal`].
+    pub fn storage(error: std::io::Error) -> Self {
+        if crate::blobs::unavailable(&error) {
+            tracing::warn!(error = %error, "object storage unavailable");
+            return Self::storage_unavailable();
+        }
+        Self::internal(error)
+    }
+
+    /// The 503 of an unreachable object store.
+    pub fn storage_unavailable() -> Self {
+        Self::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "storage_unavailable",
+            "Storage unavailable",
+            "The server cannot reach its object storage right now; nothing was stored and no quota was used. Retry in a little while.",
+        )
+        .retry_after(30)
+    }
+
     /// The JSON body.
     pub fn body(&self) -> Value {
         let mut body = Map::new();

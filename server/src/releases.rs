@@ -134,14 +134,12 @@ pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: b
     let _one_at_a_time = IMPORTING.lock().await;
     let (blobs_for_stage, dir_owned) = (blobs.clone(), dir.to_path_buf());
     let (prepared, staging) = tokio::task::spawn_blocking(move || stage_release(&blobs_for_stage, &dir_owned)).await??;
+    // Whatever happens below, the staged copy goes (after a local store's rename there is nothing left).
+    let _staged = crate::blobs::Scratch(staging.clone());
     let version = prepared.record.version.clone();
     let outcome = match store.release(&version).await {
-        Ok(existing) if existing.digest == prepared.record.digest => {
-            let _ = std::fs::remove_dir_all(&staging);
-            Imported::Unchanged(version.clone())
-        }
+        Ok(existing) if existing.digest == prepared.record.digest => Imported::Unchanged(version.clone()),
         Ok(existing) => {
-            let _ = std::fs::remove_dir_all(&staging);
             anyhow::bail!(
                 "release {version} is already registered with digest {}; a published release never changes — build it under a new version",
                 existing.digest
@@ -150,31 +148,18 @@ pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: b
         Err(StoreError::NotFound) => {
             let prefix = release_prefix(&version);
             // Blobs left by an import that died before recording it are replaced.
-            let (for_move, prefix_for_move, staging_for_move) = (blobs.clone(), prefix.clone(), staging.clone());
-            tokio::task::spawn_blocking(move || -> std::io::Result<()> {
-                for_move.remove_prefix(&prefix_for_move)?;
-                for_move.put_dir(&prefix_for_move, &staging_for_move)
-            })
-            .await??;
+            blobs.remove_prefix(&prefix).await?;
+            blobs.put_dir(&prefix, &staging).await?;
             if let Err(e) = store.insert_release(&prepared.record, &prepared.files).await {
-                let (for_cleanup, prefix) = (blobs.clone(), prefix.clone());
-                let _ = tokio::task::spawn_blocking(move || for_cleanup.remove_prefix(&prefix)).await;
+                let _ = blobs.remove_prefix(&prefix).await;
                 return Err(e.into());
             }
             Imported::New(version.clone())
         }
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&staging);
-            return Err(e.into());
-        }
+        Err(e) => return Err(e.into()),
     };
     if publish {
         store.publish_release(&version, now_ms()).await?;
     }
     Ok(outcome)
-}
-
-/// The local folder of release `version` in blob storage (manifest, classes, ground truth).
-pub fn release_dir(blobs: &Blobs, version: &str) -> std::io::Result<std::path::PathBuf> {
-    blobs.path(&release_prefix(version))
 }

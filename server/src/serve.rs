@@ -24,15 +24,44 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     let url = settings.database_url.expose().to_string();
     let store = Store::connect(&url).await.with_context(|| format!("cannot open the database {}", redact_url(&url)))?;
     store.migrate().await.context("cannot apply the database migrations")?;
-    let blobs = Blobs::open(&settings.data_dir.join("blobs")).context("cannot open the blob storage")?;
+    let blobs = match &settings.storage {
+        None => Blobs::local(&settings.data_dir).context("cannot open the blob storage")?,
+        Some(config) => Blobs::object(&settings.data_dir, config.clone()).context("cannot open the object storage")?,
+    };
     // Scratch of processes that died (kill -9 included) goes now; loose old-layout
     // entries after six hours.
     let swept = blobs.sweep_scratch(Duration::from_secs(6 * 3600));
     if swept > 0 {
         tracing::info!(swept, "removed scratch files left by processes that died");
     }
-    tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), "store opened");
+    if blobs.is_object_store() {
+        share_receipt_keys(&blobs, &settings.data_dir.join(RECEIPT_KEYS)).await?;
+    }
+    tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), blobs = %blobs.describe(), "store opened");
     AppState::new(settings, store, blobs)
+}
+
+/// The folder (in the data directory) and blob prefix of the receipt-signing keys.
+pub const RECEIPT_KEYS: &str = "receipt-keys";
+
+/// Nodes that share only an object store share its receipt keys, so a receipt any server
+/// signed verifies against the keys every server publishes: this node's copy is brought
+/// up to date; the first node to start generates the first key and shares it (two
+/// starting at once each share one, and both then sign with the newer).
+pub async fn share_receipt_keys(blobs: &Blobs, dir: &std::path::Path) -> anyhow::Result<()> {
+    blobs.pull_tree(RECEIPT_KEYS, dir).await.context("cannot read the receipt keys from the object storage")?;
+    let has_key = std::fs::read_dir(dir).map(|d| d.flatten().any(|e| e.path().extension().is_some_and(|x| x == "seed"))).unwrap_or(false);
+    if !has_key {
+        crate::receipts::keys::generate(dir)?;
+    }
+    blobs.push_tree(RECEIPT_KEYS, dir).await.context("cannot share the receipt keys through the object storage")?;
+    blobs.pull_tree(RECEIPT_KEYS, dir).await.context("cannot read the receipt keys from the object storage")?;
+    #[cfg(unix)]
+    for entry in std::fs::read_dir(dir)?.flatten() {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(entry.path(), std::fs::Permissions::from_mode(0o600))?;
+    }
+    Ok(())
 }
 
 /// Record id of the admin token given by `OSMAB_ADMIN_TOKEN`.
@@ -117,6 +146,21 @@ fn spawn_workers(state: &AppState, count: usize, shutdown: &watch::Receiver<bool
         .collect()
 }
 
+/// Every minute, on every node (each step is safe to run twice): remove resumable
+/// uploads whose time ran out.
+fn spawn_housekeeping(state: &AppState, mut shutdown: watch::Receiver<bool>) -> tokio::task::JoinHandle<()> {
+    let state = state.clone();
+    tokio::spawn(async move {
+        loop {
+            crate::uploads::sweep_expired(&state).await;
+            tokio::select! {
+                _ = tokio::time::sleep(Duration::from_secs(60)) => {}
+                _ = shutdown.changed() => return,
+            }
+        }
+    })
+}
+
 async fn stop_workers(state: &AppState, workers: Vec<tokio::task::JoinHandle<()>>) {
     let grace = Duration::from_secs(state.settings.shutdown_grace_secs + 5);
     for worker in workers {
@@ -136,6 +180,7 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     }
     let (stop, stopped) = watch::channel(false);
     let workers = spawn_workers(&state, state.settings.workers, &stopped);
+    let housekeeping = spawn_housekeeping(&state, stopped.clone());
     // One signal stops both: workers stop claiming at once while HTTP drains open requests.
     let http_stopped = stopped.clone();
     tokio::spawn(async move {
@@ -155,6 +200,7 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     };
     crate::http::serve(listener, app, limits, http_stopped).await;
     stop_workers(&state, workers).await;
+    housekeeping.abort();
     state.store.close().await;
     tracing::info!("stopped");
     Ok(())
@@ -165,11 +211,13 @@ pub async fn work(settings: Settings, count: usize) -> anyhow::Result<()> {
     let state = open(settings).await?;
     let (stop, stopped) = watch::channel(false);
     let workers = spawn_workers(&state, count.max(1), &stopped);
+    let housekeeping = spawn_housekeeping(&state, stopped.clone());
     println!("osmab worker running ({} workers)", count.max(1));
     let _ = std::io::stdout().flush();
     shutdown_signal().await;
     let _ = stop.send(true);
     stop_workers(&state, workers).await;
+    housekeeping.abort();
     state.store.close().await;
     Ok(())
 }

@@ -30,7 +30,7 @@ impl AppState {
     /// directory (the first is generated on first start).
     pub fn new(settings: Settings, store: Store, blobs: Blobs) -> anyhow::Result<Self> {
         let limiter = RateLimiter::new(settings.rate_limit, settings.rate_burst);
-        let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join("receipt-keys"))?);
+        let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join(crate::serve::RECEIPT_KEYS))?);
         Ok(Self {
             settings: Arc::new(settings),
             store,

@@ -46,7 +46,13 @@ pub fn worker(args: WorkerArgs) -> anyhow::Result<()> {
 /// `osmab rotate-receipt-key`: a new key in the data directory's `receipt-keys/`.
 pub fn rotate_receipt_key(args: ServiceArgs) -> anyhow::Result<()> {
     let settings = settings(&args)?;
-    let path = crate::receipts::keys::generate(&settings.data_dir.join("receipt-keys"))?;
+    let dir = settings.data_dir.join(crate::serve::RECEIPT_KEYS);
+    let path = crate::receipts::keys::generate(&dir)?;
+    if let Some(config) = &settings.storage {
+        // Shared with every node through the object store.
+        let blobs = crate::blobs::Blobs::object(&settings.data_dir, config.clone())?;
+        runtime()?.block_on(crate::serve::share_receipt_keys(&blobs, &dir))?;
+    }
     println!("{}", path.display());
     eprintln!("New receipt-signing key written; restart the servers to sign with it (receipts of the old keys still verify).");
     Ok(())

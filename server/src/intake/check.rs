@@ -9,7 +9,6 @@ use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits,
 use serde_json::Value;
 
 use super::Error;
-use crate::releases::release_dir;
 use crate::state::AppState;
 
 /// The release named in `submission.json` (or the current one when it names none).
@@ -44,16 +43,15 @@ pub fn check(
     if crate::releases::check_version(&version).is_err() {
         return Err(Error::Invalid(vec![InputError::new("submission.json", "release", format!("'{version}' is not a release of this server"))]));
     }
-    let dir = release_dir(&state.blobs, &version).map_err(Error::internal)?;
-    if open.is_some_and(|open| !open.contains(&version)) && dir.join("manifest.json").is_file() {
-        return Err(Error::ReleaseNotOpen(version));
-    }
-    if !dir.join("manifest.json").is_file() {
+    let Some(dir) = state.blobs.release_blocking(&version).map_err(Error::storage)? else {
         return Err(Error::Invalid(vec![InputError::new(
             "submission.json",
             "release",
             format!("'{version}' is not a release of this server; see GET /api/v1/releases"),
         )]));
+    };
+    if open.is_some_and(|open| !open.contains(&version)) {
+        return Err(Error::ReleaseNotOpen(version));
     }
     let release = ReleaseIndex::read(&dir).map_err(Error::internal)?;
     let submission = validate(unpack_to, &release, SubmissionLimits::for_release(&release, state.settings.max_unpacked_bytes))

@@ -24,6 +24,8 @@ pub enum Error {
     KeyReused(String),
     /// The store failed.
     Store(StoreError),
+    /// The object store could not be reached.
+    StorageUnavailable(String),
     /// Something of the server's failed (the disk, a thread).
     Internal(String),
 }
@@ -31,6 +33,11 @@ pub enum Error {
 impl Error {
     pub fn internal(e: impl std::fmt::Display) -> Self {
         Error::Internal(e.to_string())
+    }
+
+    /// A failed blob operation: the object store away, or the server's own failure.
+    pub fn storage(e: std::io::Error) -> Self {
+        if crate::blobs::unavailable(&e) { Error::StorageUnavailable(e.to_string()) } else { Error::Internal(e.to_string()) }
     }
 }
 
@@ -94,6 +101,10 @@ impl From<Error> for Problem {
             ),
             Error::Store(StoreError::NotFound) => Problem::not_found("The release is not registered."),
             Error::Store(e) => e.into(),
+            Error::StorageUnavailable(message) => {
+                tracing::warn!(error = %message, "object storage unavailable");
+                Problem::storage_unavailable()
+            }
             Error::Internal(message) => Problem::internal(message),
         }
     }
@@ -114,6 +125,7 @@ mod tests {
             (Error::QuotaExceeded(quota), 429, "quota_exceeded"),
             (Error::KeyReused("sub_1".into()), 422, "idempotency_key_reused"),
             (Error::Store(StoreError::NotFound), 404, "not_found"),
+            (Error::StorageUnavailable("connection refused".into()), 503, "storage_unavailable"),
             (Error::Internal("disk full".into()), 500, "internal"),
         ];
         for (error, status, code) in cases {

@@ -121,7 +121,7 @@ async fn record(
 ) -> Result<Recorded, Error> {
     let id = new_id("sub");
     let key = format!("submissions/{id}/upload");
-    state.blobs.put_file(&key, &upload.path).map_err(Error::internal)?;
+    state.blobs.put_file(&key, &upload.path).await.map_err(Error::storage)?;
     let queued_at = now_ms();
     let new = NewSubmission {
         id: id.clone(),
@@ -147,7 +147,7 @@ async fn record(
     let job = crate::jobs::new_job(&ScoreSubmission { submission_id: id.clone(), rescore: false }, state);
     let outcome = state.store.create_submission(&new, &job, quota.map(|q| (q.limit, q.day_start()))).await;
     if !matches!(outcome, Ok(Recorded::New(_))) {
-        let _ = state.blobs.remove_prefix(&format!("submissions/{id}"));
+        let _ = state.blobs.remove_prefix(&format!("submissions/{id}")).await;
     }
     Ok(outcome?)
 }

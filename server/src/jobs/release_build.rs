@@ -89,8 +89,36 @@ impl Job for RenderSequence {
 
 /// The build folder of `version`: (its config, the release folder).
 fn build_paths(state: &AppState, version: &str) -> (std::path::PathBuf, std::path::PathBuf) {
-    let build_dir = state.settings.data_dir.join("builds").join(version);
+    let build_dir = build_dir(state, version);
     (build_dir.join("config.toml"), build_dir.join("release"))
+}
+
+fn build_dir(state: &AppState, version: &str) -> std::path::PathBuf {
+    state.settings.data_dir.join("builds").join(version)
+}
+
+/// The blob prefix through which the nodes of an object-store deployment share a build
+/// folder (prepared scenes, rendered sequences, stage markers).
+fn build_prefix(version: &str) -> String {
+    format!("builds/{version}")
+}
+
+/// Bring this node's copy of the build folder up to date with the shared one.
+async fn pull_build(state: &AppState, version: &str) -> Result<(), JobError> {
+    let pulled = state.blobs.pull_tree(&build_prefix(version), &build_dir(state, version)).await.map_err(JobError::retryable)?;
+    if pulled > 0 {
+        tracing::info!(files = pulled, "build folder brought up to date from the blob store");
+    }
+    Ok(())
+}
+
+/// Share what this node added to the build folder.
+async fn push_build(state: &AppState, version: &str) -> Result<(), JobError> {
+    let pushed = state.blobs.push_tree(&build_prefix(version), &build_dir(state, version)).await.map_err(JobError::retryable)?;
+    if pushed > 0 {
+        tracing::info!(files = pushed, "build folder shared through the blob store");
+    }
+    Ok(())
 }
 
 /// Run `stage` of the build off the runtime, its progress lines shown on the job.
@@ -132,7 +160,9 @@ fn fanned_out(progress: &str) -> Option<Vec<String>> {
 /// yet; returns their subjects.
 async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
     let (config, out_dir) = (config_path.to_path_buf(), out.to_path_buf());
+    pull_build(&ctx.state, version).await?;
     let units = blocking_stage(ctx, "prepare", move |progress| prepare_release(&config, &out_dir, progress)).await?;
+    push_build(&ctx.state, version).await?;
     let mut subjects = Vec::new();
     for (unit, rendered) in units {
         if rendered {
@@ -205,6 +235,7 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
             tracing::debug!(done, total, "waiting for the render jobs");
             return Err(JobError::Waiting(WAIT_FOR_RENDERING));
         }
+        pull_build(state, &version).await?;
         let (config_for_build, out_for_build) = (config_path.clone(), out.clone());
         blocking_stage(&ctx, "assemble", move |progress| build_release(&config_for_build, &out_for_build, progress)).await?;
         ctx.progress(&json!({"stage": "import", "message": format!("importing release {version}")})).await;
@@ -220,7 +251,9 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
     }
     state.leaderboard.invalidate();
     if request.baselines {
-        let release = crate::releases::release_dir(&state.blobs, &version).map_err(JobError::retryable)?;
+        let Some(release) = state.blobs.release(&version).await.map_err(JobError::retryable)? else {
+            return Err(JobError::Retryable(format!("release {version} is missing from the blob store")));
+        };
         let queued = queue_baselines(state, &version, &release).await?;
         ctx.progress(&json!({"stage": "baselines", "message": format!("{queued} baseline submissions queued for scoring")})).await;
     }
@@ -231,14 +264,17 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
 /// One scene under one lighting of a prepared build.
 async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError> {
     let (config_path, out) = build_paths(&ctx.state, &request.version);
+    pull_build(&ctx.state, &request.version).await?;
     let blocking_ctx = ctx.clone();
+    let unit = request.unit.clone();
     tokio::task::spawn_blocking(move || {
         let progress = |message: &str| blocking_ctx.progress_blocking(&json!({"stage": "render", "message": message}));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
-        render_release_sequence(&config_path, &out, &request.unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+        render_release_sequence(&config_path, &out, &unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
     .await
-    .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))?
+    .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;
+    push_build(&ctx.state, &request.version).await
 }
 
 /// The team that owns the baselines (created on first use).

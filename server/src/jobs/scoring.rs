@@ -14,7 +14,6 @@ use serde_json::json;
 use super::{Job, JobContext, JobError};
 use crate::blobs::Scratch;
 use crate::clock::now_ms;
-use crate::releases::release_dir;
 use crate::store::SubmissionState;
 
 /// Score submission `submission_id` (again, with `rescore`).
@@ -68,11 +67,14 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
             return Ok(());
         }
     }
-    let archive = state.blobs.path(&format!("submissions/{}/upload", submission.id)).map_err(JobError::retryable)?;
-    if !archive.is_file() {
-        return Err(JobError::Retryable(format!("the stored upload of {} is missing", submission.id)));
-    }
-    let release = release_dir(&state.blobs, &submission.release).map_err(JobError::retryable)?;
+    let stored = state.blobs.fetch(&format!("submissions/{}/upload", submission.id)).await.map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => JobError::Retryable(format!("the stored upload of {} is missing", submission.id)),
+        _ => JobError::Retryable(format!("the stored upload of {}: {e}", submission.id)),
+    })?;
+    let release = match state.blobs.release(&submission.release).await.map_err(JobError::retryable)? {
+        Some(release) => release,
+        None => return Err(JobError::Retryable(format!("release {} is missing from the blob store", submission.release))),
+    };
     let unpack_to = Scratch(state.blobs.scratch("score"));
     let max_unpacked = state.settings.max_unpacked_bytes;
     let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
@@ -80,7 +82,7 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
         let root = unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
-        unpack(&archive, &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
+        unpack(stored.path(), &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
         let index = ReleaseIndex::read(&release).map_err(|e| JobError::Retryable(e.to_string()))?;
         let limits = SubmissionLimits::for_release(&index, max_unpacked);
         let valid =

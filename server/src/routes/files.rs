@@ -1,17 +1,14 @@
 //! Serving an immutable blob with `ETag` (its SHA-256), `If-None-Match`, `If-Range` and
-//! single byte ranges, streamed from disk in chunks.
+//! single byte ranges, streamed in chunks from the blob store (a file, or ranged GETs of
+//! an object: the server streams rather than redirecting, so every download keeps this
+//! one contract — see docs/deploy.md).
 
-use std::io::SeekFrom;
-use std::path::Path;
-
+use crate::blobs::Blobs;
+use crate::problem::Problem;
 use axum::body::Body;
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use base64::Engine;
-use tokio::io::{AsyncReadExt, AsyncSeekExt};
-use tokio_util::io::ReaderStream;
-
-use crate::problem::Problem;
 
 /// Parse a single `bytes=` range against `size`: `Ok(None)` for no (or an ignorable)
 /// range, `Err(())` for an unsatisfiable one.
@@ -61,8 +58,8 @@ pub fn none_match(request: &HeaderMap, etag: &str) -> bool {
         .is_some_and(|tags| tags.trim() == "*" || tags.split(',').any(|t| t.trim().trim_start_matches("W/") == etag))
 }
 
-/// The response for the blob at `file` (`size` bytes, hex `sha256`) as `name`.
-pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, request: &HeaderMap, immutable: bool) -> Result<Response, Problem> {
+/// The response for the blob `key` (`size` bytes, hex `sha256`) as `name`.
+pub async fn serve_blob(blobs: &Blobs, key: &str, name: &str, size: u64, sha256: &str, request: &HeaderMap, immutable: bool) -> Result<Response, Problem> {
     let etag = format!("\"{sha256}\"");
     let mut headers = HeaderMap::new();
     headers.insert(header::ETAG, HeaderValue::from_str(&etag).expect("hex"));
@@ -99,7 +96,6 @@ pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, reques
         },
         _ => None,
     };
-    let mut handle = tokio::fs::File::open(file).await.map_err(Problem::internal)?;
     let (status, start, length) = match range {
         Some((start, end)) => {
             headers.insert(header::CONTENT_RANGE, HeaderValue::from_str(&format!("bytes {start}-{end}/{size}")).expect("ascii"));
@@ -107,11 +103,9 @@ pub async fn serve_blob(file: &Path, name: &str, size: u64, sha256: &str, reques
         }
         None => (StatusCode::OK, 0, size),
     };
-    if start > 0 {
-        handle.seek(SeekFrom::Start(start)).await.map_err(Problem::internal)?;
-    }
+    let stream = blobs.read(key, start, length).await.map_err(Problem::storage)?;
     headers.insert(header::CONTENT_LENGTH, HeaderValue::from(length));
-    let body = Body::from_stream(ReaderStream::with_capacity(handle.take(length), 256 * 1024));
+    let body = Body::from_stream(stream);
     Ok((status, headers, body).into_response())
 }
 

@@ -34,8 +34,7 @@ pub async fn livez() -> axum::Json<Live> {
 
 /// `GET /readyz`: the database and the blob storage are reachable.
 pub async fn readyz(State(state): State<AppState>) -> Response {
-    let database = state.store.ping().await;
-    let blobs = state.blobs.check();
+    let (database, blobs) = tokio::join!(state.store.ping(), state.blobs.check());
     match (&database, &blobs) {
         (Ok(()), Ok(())) => axum::Json(Ready { database: state.store.backend(), status: "ready", storage: "ok" }).into_response(),
         _ => {

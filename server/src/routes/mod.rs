@@ -13,6 +13,7 @@ mod receipts;
 mod releases;
 pub mod submission_view;
 mod submissions;
+mod uploads;
 
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
@@ -186,6 +187,10 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
         .route("/api/v1/admin/submissions/{id}/flag", put(admin::flag).delete(admin::unflag))
         .route("/api/v1/admin/jobs", get(admin::list_jobs));
+    let resumable = Router::new()
+        .route("/api/v1/uploads", post(uploads::create).options(uploads::options))
+        .route("/api/v1/uploads/{id}", axum::routing::head(uploads::head).patch(uploads::patch).delete(uploads::delete))
+        .layer(axum::middleware::from_fn(uploads::tus_headers));
     let pages = Router::new()
         .route("/", get(pages::leaderboard))
         .route("/releases/{version}", get(pages::release))
@@ -195,6 +200,7 @@ pub fn router(state: AppState) -> Router {
     let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));
     Router::new()
         .merge(api)
+        .merge(resumable)
         .merge(pages)
         .merge(health)
         .fallback(route_not_found)

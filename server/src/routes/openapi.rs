@@ -54,6 +54,8 @@ pub enum Input {
     Json(fn(&mut SchemaGenerator) -> Schema),
     /// A submission archive.
     Archive,
+    /// A chunk of a resumable upload (`application/offset+octet-stream`).
+    Chunk,
 }
 
 /// One documented operation.
@@ -147,12 +149,44 @@ pub const OPERATIONS: &[Operation] = &[
             "post",
             "/api/v1/submissions",
             Auth::Team,
-            "Upload a submission archive (tar, tar.gz or zip; optional Content-Digest and Idempotency-Key). `?dry_run=true` validates only, free of quota; `?public=false` keeps it off the leaderboard. A repeat — the team's active submission of the same archive, or the same Idempotency-Key — answers 200 with that submission (`repeat: true`) and uses no quota.",
+            "Upload a submission archive (tar, tar.gz or zip; optional Content-Digest and Idempotency-Key). `?dry_run=true` validates only, free of quota; `?public=false` keeps it off the leaderboard; `?upload=ID` submits a completed resumable upload instead of a body, answered exactly as a direct upload. A repeat — the team's active submission of the same archive, or the same Idempotency-Key — answers 200 with that submission (`repeat: true`) and uses no quota.",
             202,
         )
         .query::<UploadQuery>()
         .returns::<UploadAnswer>()
     },
+    op(
+        "options",
+        "/api/v1/uploads",
+        Auth::Public,
+        "Resumable uploads (tus 1.0.0): `Tus-Version`, `Tus-Extension` (creation, checksum, termination, expiration), `Tus-Max-Size`, `Tus-Checksum-Algorithm` (sha256).",
+        204,
+    ),
+    op(
+        "post",
+        "/api/v1/uploads",
+        Auth::Team,
+        "Start a resumable upload: `Tus-Resumable: 1.0.0`, `Upload-Length` (bytes), optional `Upload-Metadata`. Answers 201 with `Location` and `Upload-Expires`; refused early (429) when the team's quota is used.",
+        201,
+    ),
+    op(
+        "head",
+        "/api/v1/uploads/{id}",
+        Auth::Team,
+        "Where a resumable upload stands: `Upload-Offset`, `Upload-Length`, `Upload-Expires`. Any server answers; resume from this offset after a dropped connection.",
+        200,
+    ),
+    Operation {
+        input: Input::Chunk,
+        ..op(
+            "patch",
+            "/api/v1/uploads/{id}",
+            Auth::Team,
+            "Send bytes at `Upload-Offset` (`Content-Type: application/offset+octet-stream`, optional `Upload-Checksum: sha256 BASE64`). Answers 204 with the new `Upload-Offset`; 409 on a wrong offset, 460 on a checksum mismatch. When `Upload-Offset` reaches `Upload-Length`, submit with `POST /api/v1/submissions?upload=ID`.",
+            204,
+        )
+    },
+    op("delete", "/api/v1/uploads/{id}", Auth::Team, "Abandon a resumable upload and its parts.", 204),
     op("get", "/api/v1/submissions", Auth::Team, "The calling team's submissions.", 200).returns::<SubmissionList>(),
     op("get", "/api/v1/submissions/{id}", Auth::Optional, "A submission: state, reason, history, jobs and its latest scores.", 200).returns::<SubmissionView>(),
     op("patch", "/api/v1/submissions/{id}", Auth::Team, "Edit the method card (name, description, paper_url, code_url) or `public`.", 200)
@@ -246,7 +280,10 @@ pub const PROBLEMS: &[(&str, &str)] = &[
     ("invalid_idempotency_key", "The Idempotency-Key header is not 1 to 255 visible ASCII characters."),
     ("idempotency_key_reused", "The Idempotency-Key made an earlier submission of another archive; send a new key for a new upload."),
     ("digest_mismatch", "The upload's SHA-256 differs from its Content-Digest; upload again."),
-    ("upload_incomplete", "The upload ended before Content-Length bytes arrived; upload again."),
+    (
+        "upload_incomplete",
+        "The upload ended before Content-Length bytes arrived (upload again), or a resumable upload was submitted before all its bytes arrived.",
+    ),
     ("payload_too_large", "The upload is over the size limit."),
     ("request_timeout", "The request body stalled (nothing arrived for the body idle timeout); send it again."),
     ("invalid_archive", "The upload is not a readable tar, tar.gz or zip, or holds a refused entry (links, `..`, too many or too large files)."),
@@ -257,6 +294,16 @@ pub const PROBLEMS: &[(&str, &str)] = &[
     ("range_not_satisfiable", "The requested byte range lies outside the file."),
     ("conflict", "The record exists or is in a state that forbids this."),
     ("not_ready", "The database or storage is unreachable."),
+    ("storage_unavailable", "The object storage cannot be reached right now; nothing was stored and no quota was used. Retry after `Retry-After`."),
+    ("tus_version", "A resumable-upload request without `Tus-Resumable: 1.0.0`."),
+    ("invalid_header", "A header of a resumable upload is missing or malformed; the detail names it."),
+    ("invalid_metadata", "`Upload-Metadata` is not comma-separated `KEY BASE64` pairs, or over 4 KiB."),
+    ("unsupported_media_type", "A resumable-upload PATCH without `Content-Type: application/offset+octet-stream`."),
+    ("offset_mismatch", "`Upload-Offset` is not where the upload stands (another request appended first); `offset` says where, or ask with HEAD."),
+    ("upload_overrun", "More bytes than the upload's `Upload-Length`."),
+    ("checksum_algorithm", "`Upload-Checksum` names an algorithm other than sha256."),
+    ("checksum_mismatch", "The chunk's SHA-256 differs from its `Upload-Checksum` (status 460); nothing was kept, send it again."),
+    ("upload_expired", "The resumable upload expired before it was complete; start a new one."),
     ("internal", "An unexpected failure, logged with the request id."),
 ];
 
@@ -323,6 +370,10 @@ pub fn document_value() -> Value {
             Input::None => {}
             Input::Json(schema) => {
                 operation["requestBody"] = json!({"required": true, "content": {"application/json": {"schema": schema(&mut request_generator)}}})
+            }
+            Input::Chunk => {
+                let binary = json!({"type": "string", "format": "binary"});
+                operation["requestBody"] = json!({"required": true, "content": {"application/offset+octet-stream": {"schema": binary}}});
             }
             Input::Archive => {
                 let binary = json!({"type": "string", "format": "binary"});

@@ -119,6 +119,6 @@ pub async fn file(
         }
         Err(e) => return Err(e.into()),
     };
-    let blob = state.blobs.path(&format!("{}/{}", release_prefix(&version), entry.path)).map_err(Problem::internal)?;
-    serve_blob(&blob, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == ReleaseState::Published).await
+    let key = format!("{}/{}", release_prefix(&version), entry.path);
+    serve_blob(&state.blobs, &key, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == ReleaseState::Published).await
 }

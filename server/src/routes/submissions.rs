@@ -17,6 +17,7 @@ use crate::intake::{self, Accepted, Quota, QuotaView, declared_sha256, hex, idem
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
 use crate::store::{JobState, StoreError, SubmissionRecord, SubmissionState};
+use crate::uploads::{self, Assembled};
 
 #[derive(Debug, Deserialize, schemars::JsonSchema)]
 pub struct UploadQuery {
@@ -25,6 +26,9 @@ pub struct UploadQuery {
     dry_run: bool,
     /// Show the submission on the public leaderboard (default true).
     public: Option<bool>,
+    /// Submit the completed resumable upload with this id (`/api/v1/uploads`) instead of
+    /// a request body.
+    upload: Option<String>,
 }
 
 /// The calling team.
@@ -137,6 +141,19 @@ pub async fn create(
         Some(Err(problem)) => return Err(drain_then(body, declared_length, problem).await),
         None => None,
     };
+    // A completed resumable upload instead of a body: joined from its parts, then taken
+    // exactly as a direct upload.
+    let assembled = match query.upload.as_deref() {
+        Some(upload_id) => match uploads::assemble(&state, &team, upload_id).await {
+            Ok(Assembled::Finished(id)) => {
+                let (status, id, body) = repeat_answer(&state, &team, id).await?;
+                return Ok((status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response());
+            }
+            Ok(Assembled::Ready(upload, scratch)) => Some((upload, scratch)),
+            Err(problem) => return Err(drain_then(body, declared_length, problem).await),
+        },
+        None => None,
+    };
     if !query.dry_run {
         let quota = Quota::of(&state, &team).await?;
         // A repeat costs no quota: with the quota used up, an upload that names an earlier
@@ -152,15 +169,24 @@ pub async fn create(
             return Err(drain_then(body, declared_length, quota_exceeded(quota)).await);
         }
     }
-    if declared_length.is_some_and(|n| n > max) {
-        return Err(too_large(max));
-    }
-    let (upload, _upload_scratch) = receive(&state, body, max).await?;
-    if let Some(length) = declared_length
-        && length != upload.size
-    {
-        return Err(Problem::bad_request("upload_incomplete", format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size)));
-    }
+    let (upload, _upload_scratch) = match assembled {
+        Some(assembled) => assembled,
+        None => {
+            if declared_length.is_some_and(|n| n > max) {
+                return Err(too_large(max));
+            }
+            let (upload, scratch) = receive(&state, body, max).await?;
+            if let Some(length) = declared_length
+                && length != upload.size
+            {
+                return Err(Problem::bad_request(
+                    "upload_incomplete",
+                    format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size),
+                ));
+            }
+            (upload, scratch)
+        }
+    };
     if let Some(expected) = declared_digest
         && expected != upload.sha256
     {
@@ -208,21 +234,7 @@ pub async fn create(
             };
             return Ok(axum::Json(report).into_response());
         }
-        Accepted::Repeat { id } => {
-            let s = state.store.submission(&id).await?;
-            tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
-            let quota = Quota::of(&state, &team).await?.view();
-            let body = Created {
-                complete: s.complete,
-                missing_maps: None,
-                quota,
-                repeat: true,
-                state: s.state,
-                url: format!("/api/v1/submissions/{id}"),
-                id: id.clone(),
-            };
-            (StatusCode::OK, id, body)
-        }
+        Accepted::Repeat { id } => repeat_answer(&state, &team, id).await?,
         Accepted::New { id, submission, quota } => {
             tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
             let quota = quota.expect("the quota is enforced").view();
@@ -238,7 +250,20 @@ pub async fn create(
             (StatusCode::ACCEPTED, id, body)
         }
     };
+    if let Some(upload_id) = query.upload.as_deref() {
+        uploads::finish(&state, upload_id, &id).await;
+    }
     Ok((status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response())
+}
+
+/// The 200 of an upload that repeats the team's earlier submission `id`.
+async fn repeat_answer(state: &AppState, team: &crate::store::Team, id: String) -> ApiResult<(StatusCode, String, Created)> {
+    let s = state.store.submission(&id).await?;
+    tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
+    let quota = Quota::of(state, team).await?.view();
+    let body =
+        Created { complete: s.complete, missing_maps: None, quota, repeat: true, state: s.state, url: format!("/api/v1/submissions/{id}"), id: id.clone() };
+    Ok((StatusCode::OK, id, body))
 }
 
 /// A submission the caller may see: public ones to everyone, private ones to their team and admins.

@@ -16,11 +16,13 @@ mod teams;
 #[cfg(test)]
 pub mod tests;
 mod tokens;
+mod uploads;
 
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
 pub use queue::Standing;
 pub use states::{JobState, ReleaseState, SubmissionState};
+pub use uploads::{UploadPart, UploadRecord};
 
 use sqlx::{PgPool, SqlitePool};
 

@@ -409,3 +409,40 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
     }
     stores.drop_all().await;
 }
+
+#[tokio::test]
+async fn a_resumable_upload_moves_once_per_offset_and_keeps_its_parts_in_order() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        let t = now_ms();
+        store.create_team(&Team { id: "team_u".into(), name: "U".into(), daily_quota: None, created_at: t }).await.unwrap();
+        let upload = UploadRecord {
+            id: "upl_1".into(),
+            team_id: "team_u".into(),
+            length: 10,
+            upload_offset: 0,
+            metadata: String::new(),
+            parts: String::new(),
+            created_at: t,
+            expires_at: t + 1000,
+            submission_id: None,
+        };
+        store.insert_upload(&upload).await.unwrap();
+        let part = |offset: i64, length: i64, key: &str| UploadPart { offset, length, key: key.into() };
+        assert!(store.append_upload_part("upl_1", &part(0, 6, "uploads/upl_1/a"), t + 2000).await.unwrap());
+        assert!(!store.append_upload_part("upl_1", &part(0, 6, "uploads/upl_1/b"), t + 2000).await.unwrap(), "{}: one append per offset", store.backend());
+        assert!(!store.append_upload_part("upl_1", &part(6, 5, "uploads/upl_1/c"), t + 2000).await.unwrap(), "never past the length");
+        assert!(store.append_upload_part("upl_1", &part(6, 4, "uploads/upl_1/d"), t + 3000).await.unwrap());
+        let stored = store.upload("upl_1").await.unwrap();
+        assert_eq!((stored.upload_offset, stored.expires_at), (10, t + 3000));
+        assert_eq!(stored.parts().unwrap(), vec![part(0, 6, "uploads/upl_1/a"), part(6, 4, "uploads/upl_1/d")]);
+        assert_eq!(store.expired_uploads(t + 2500, 10).await.unwrap(), Vec::<String>::new(), "the last chunk extended it");
+        store.finish_upload("upl_1", "sub_1").await.unwrap();
+        let finished = store.upload("upl_1").await.unwrap();
+        assert_eq!((finished.submission_id.as_deref(), finished.parts.as_str()), (Some("sub_1"), ""));
+        assert!(!store.append_upload_part("upl_1", &part(10, 0, "x"), t).await.unwrap(), "a finished upload takes nothing");
+        assert_eq!(store.expired_uploads(t + 3001, 10).await.unwrap(), vec!["upl_1".to_string()]);
+        store.delete_upload("upl_1").await.unwrap();
+        assert!(matches!(store.upload("upl_1").await, Err(StoreError::NotFound)));
+    }
+}

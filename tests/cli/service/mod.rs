@@ -7,6 +7,8 @@ mod cards;
 mod client;
 mod hostile;
 mod journey;
+mod multinode;
+mod object_store;
 mod receipts;
 mod regeneration;
 mod schema;
@@ -130,6 +132,16 @@ impl Deployment {
             all.push((k.to_string(), v.to_string()));
         }
         Self { data, _pg: pg, env: all }
+    }
+
+    /// Another node of this deployment: the same database and settings (and so the same
+    /// object store, when `env` names one) with a data directory of its own.
+    pub fn another_node(&self) -> Self {
+        let data = tempfile::tempdir().unwrap();
+        let mut env = self.env.clone();
+        env.retain(|(k, _)| k != "OSMAB_DATA_DIR");
+        env.push(("OSMAB_DATA_DIR".into(), data.path().to_str().unwrap().into()));
+        Self { data, _pg: None, env }
     }
 
     /// Start `osmab <args>` with this deployment's environment; its log goes to `name.log`.

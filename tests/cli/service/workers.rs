@@ -9,12 +9,12 @@ use serde_json::Value;
 
 use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of};
 
-fn signal(child: &std::process::Child, name: &str) {
+pub(super) fn signal(child: &std::process::Child, name: &str) {
     let status = Command::new("kill").args([&format!("-{name}"), &child.id().to_string()]).status().unwrap();
     assert!(status.success());
 }
 
-fn job_of(server: &super::Server<'_>, submission: &str) -> Value {
+pub(super) fn job_of(server: &super::Server<'_>, submission: &str) -> Value {
     let view = server.admin(server.get(&format!("/api/v1/submissions/{submission}"))).json::<Value>().unwrap();
     let id = view["jobs"][0]["id"].as_str().unwrap().to_string();
     server.admin(server.get(&format!("/api/v1/jobs/{id}"))).json().unwrap()
@@ -22,7 +22,7 @@ fn job_of(server: &super::Server<'_>, submission: &str) -> Value {
 
 /// Start a worker named `name`, and `kill -9` it the moment it holds the job of submission
 /// `id`; false when the job finished before the kill could land (try again).
-fn killed_holding_the_job(deployment: &Deployment, server: &super::Server<'_>, id: &str, name: &str) -> bool {
+pub(super) fn killed_holding_the_job(deployment: &Deployment, server: &super::Server<'_>, id: &str, name: &str) -> bool {
     let mut worker = deployment.spawn(&["worker"], name);
     let started = Instant::now();
     let caught = loop {

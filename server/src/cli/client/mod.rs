@@ -6,6 +6,7 @@
 mod api;
 mod download;
 mod offline;
+mod resumable;
 mod session;
 mod submit;
 mod verify;
@@ -163,7 +164,8 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let api = api(url.as_deref())?;
             let packed = submit::pack(&submission)?;
             eprintln!("{}: {} bytes, SHA-256 {}", submission.display(), packed.size, packed.sha256_hex());
-            let answer = submit::upload(&api, &packed, dry_run, !private)?;
+            // A dry run sends the archive once, stores nothing; a submission goes resumably.
+            let answer = if dry_run { submit::upload(&api, &packed, true, !private)? } else { resumable::submit(&api, &packed, !private)? };
             if dry_run {
                 let covered = answer["entries"].as_array().map_or(0, Vec::len);
                 println!(

@@ -189,14 +189,19 @@ pub async fn assemble(state: &AppState, team: &Team, id: &str) -> Result<Assembl
         if part.offset as u64 != size {
             return Err(Problem::internal(format!("upload {id}: part at {} follows {size} bytes", part.offset)));
         }
-        let fetched = state.blobs.fetch(&part.key).await.map_err(Problem::storage)?;
-        let bytes = tokio::fs::read(fetched.path()).await.map_err(Problem::internal)?;
-        if bytes.len() as i64 != part.length {
-            return Err(Problem::internal(format!("upload {id}: part {} has {} bytes, {} recorded", part.key, bytes.len(), part.length)));
+        // Streamed, so a part as large as the whole upload costs one chunk of memory.
+        let mut chunks = state.blobs.read(&part.key, 0, part.length as u64).await.map_err(Problem::storage)?;
+        let mut copied = 0u64;
+        while let Some(chunk) = futures_util::StreamExt::next(&mut chunks).await {
+            let chunk = chunk.map_err(Problem::storage)?;
+            hasher.update(&chunk);
+            file.write_all(&chunk).await.map_err(Problem::internal)?;
+            copied += chunk.len() as u64;
         }
-        hasher.update(&bytes);
-        file.write_all(&bytes).await.map_err(Problem::internal)?;
-        size += bytes.len() as u64;
+        if copied != part.length as u64 {
+            return Err(Problem::internal(format!("upload {id}: part {} has {copied} bytes, {} recorded", part.key, part.length)));
+        }
+        size += copied;
     }
     file.flush().await.map_err(Problem::internal)?;
     if size != upload.length as u64 {

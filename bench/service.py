@@ -65,16 +65,13 @@ def parse_http(line):
     return {"requests_per_s": per_second, "p50_ms": p50, "p99_ms": p99, "errors": errors}
 
 
-def large_release(data_dir, base, size):
-    """A copy of the demo release with one extra `size`-byte file, imported and published."""
-    builds = os.path.join(data_dir, "builds")
-    demo = os.path.join(builds, sorted(os.listdir(builds))[0], "release")
-    target = os.path.join(data_dir, "bench-release")
-    shutil.copytree(demo, target)
+def add_large_file(target, size):
+    """Add `extras/large.bin` of `size` random bytes to the release copy in `target`, under a new version; its
+    (version, path, sha256)."""
     manifest_path = os.path.join(target, "manifest.json")
     manifest = json.load(open(manifest_path))
     manifest["version"] = manifest["version"] + "-large"
-    os.makedirs(os.path.join(target, "extras"))
+    os.makedirs(os.path.join(target, "extras"), exist_ok=True)
     path = os.path.join(target, "extras", "large.bin")
     digest = hashlib.sha256()
     block = os.urandom(1 << 20)
@@ -87,8 +84,18 @@ def large_release(data_dir, base, size):
     lines = sorted(f"{f['path']} {f['size']} {f['sha256']}\n" for f in manifest["files"])
     manifest["digest"] = hashlib.sha256("".join(lines).encode()).hexdigest()
     json.dump(manifest, open(manifest_path, "w"), indent=2)
+    return manifest["version"], path, digest.hexdigest()
+
+
+def large_release(data_dir, base, size):
+    """A copy of the demo release with one extra `size`-byte file, imported and published."""
+    builds = os.path.join(data_dir, "builds")
+    demo = os.path.join(builds, sorted(os.listdir(builds))[0], "release")
+    target = os.path.join(data_dir, "bench-release")
+    shutil.copytree(demo, target)
+    version, path, _ = add_large_file(target, size)
     request(base, "POST", "/api/v1/admin/releases/import", {"path": target, "publish": True})
-    return manifest["version"], path
+    return version, path
 
 
 def main():

@@ -6,6 +6,7 @@
 //! matrix and the published metrics, bit for bit. Nothing here knows about HTTP,
 //! databases or async runtimes.
 
+pub mod bootstrap;
 pub mod csv_writer;
 pub mod error;
 pub mod formats;

@@ -77,6 +77,12 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
         Some((scheme, token)) if scheme.eq_ignore_ascii_case("bearer") => token.trim(),
         _ => return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'.")),
     };
+    Ok(caller_with_token(state, token).await?.0)
+}
+
+/// Who holds `token`, and its record; a malformed, unknown, revoked or expired token is
+/// refused with a problem that says which.
+pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller, TokenRecord), Problem> {
     if !token::has_prefix(token) {
         return Err(unauthenticated("token_invalid", "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));
     }
@@ -104,11 +110,12 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
             &format!("This token expired at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
         ));
     }
-    match (record.scope.as_str(), record.team_id) {
-        ("admin", _) => Ok(Caller::Admin),
-        (_, Some(team_id)) => Ok(Caller::Team(state.store.team(&team_id).await?)),
-        _ => Err(Problem::internal(format!("token {} has no team", record.id))),
-    }
+    let caller = match (record.scope.as_str(), &record.team_id) {
+        ("admin", _) => Caller::Admin,
+        (_, Some(team_id)) => Caller::Team(state.store.team(team_id).await?),
+        _ => return Err(Problem::internal(format!("token {} has no team", record.id))),
+    };
+    Ok((caller, record))
 }
 
 /// The caller of a request resolved once (by the rate limiter, then reused by the

@@ -331,6 +331,28 @@ class Page:
                 out.append((0, 0))  # not rendered
         return out
 
+    def node(self, selector: str) -> int:
+        root = self.cmd("DOM.getDocument", {"depth": 0})["root"]["nodeId"]
+        node = self.cmd("DOM.querySelector", {"nodeId": root, "selector": selector})["nodeId"]
+        expect(node, f"nothing matches {selector!r}")
+        return node
+
+    def type_into(self, selector: str, text: str) -> None:
+        """Focus a form field and type `text` as a user would (no page script involved)."""
+        self.cmd("DOM.focus", {"nodeId": self.node(selector)})
+        self.cmd("Input.insertText", {"text": text})
+
+    def click_and_wait(self, selector: str, timeout: float = 60) -> None:
+        """Click the middle of an element with the mouse and wait for the next page load."""
+        node = self.node(selector)
+        self.cmd("DOM.scrollIntoViewIfNeeded", {"nodeId": node})
+        quad = self.cmd("DOM.getBoxModel", {"nodeId": node})["model"]["content"]
+        x, y = sum(quad[0::2]) / 4, sum(quad[1::2]) / 4
+        self.b.events = [e for e in self.b.events if e.get("sessionId") != self.sid]
+        for kind in ("mousePressed", "mouseReleased"):
+            self.cmd("Input.dispatchMouseEvent", {"type": kind, "x": x, "y": y, "button": "left", "clickCount": 1})
+        self.b.wait_event("Page.loadEventFired", self.sid, timeout)
+
     def screenshot(self, path: Path) -> tuple[int, int, int]:
         metrics = self.cmd("Page.getLayoutMetrics")
         size = metrics.get("cssContentSize") or metrics["contentSize"]
@@ -466,6 +488,20 @@ def board_value(entry: dict, lighting: str, agg: str, subset: str, metric: str):
     return float(v) if isinstance(v, (int, float)) else None
 
 
+def board_interval(entry: dict, lighting: str, agg: str, subset: str, metric: str):
+    """The 95 % interval of a pooled value, as the API gives it beside the value."""
+    if agg != "overall":
+        return None
+    semseg = entry["scores"]["semseg"].get(lighting, {})
+    node = semseg.get("overall", {}) if subset == "all" else semseg.get("subsets", {}).get(subset, {}).get("overall", {})
+    return node.get("ci95", {}).get(metric)
+
+
+def spread(interval) -> str:
+    """How the page writes an interval beside its value: ± half its width in percent."""
+    return "" if interval is None else f"±{50.0 * (interval[1] - interval[0]):.1f}"
+
+
 def common_page_checks(page: Node, html_text: str, loaded: dict) -> list:
     """Checks every page must pass; returns notes."""
     doc = loaded["document"]
@@ -511,16 +547,22 @@ def check_board(page: Node, board: dict, agg: str, subset: str, sort: str, label
     for i, tr in enumerate(rows):
         tds = tr.kids("td")
         expect(tds[0].clean() == str(i + 1), f"row {i + 1} has rank {tds[0].clean()!r}")
-        method = tds[1].find("a").clean()
+        method = tds[2].find("a").clean()
         expect(method in by_method, f"row {i + 1}: unknown method {method!r}")
         e = by_method[method]
-        expect(tds[1].find("a").attrs["href"] == f"/submissions/{e['submission_id']}", f"{method}: link {tds[1].find('a').attrs['href']}")
+        expect(tds[1].clean() == str(e["rank_group"]), f"{method}: rank group {tds[1].clean()!r}, the API says {e['rank_group']}")
+        expect(tds[2].find("a").attrs["href"] == f"/submissions/{e['submission_id']}", f"{method}: link {tds[2].find('a').attrs['href']}")
         if e.get("baseline"):
-            expect("baseline" in tr.classes() and any(s.clean() == "baseline" for s in tds[1].find_all("span", cls="tag")), f"{method}: no baseline tag")
-        expect(tds[2].clean() == e["team"], f"{method}: team {tds[2].clean()!r}")
-        cells = [td.clean() for td in tds[3 : 3 + len(lightings) * len(METRICS)]]
-        want = [pct(board_value(e, l, agg, subset, m)) for l in lightings for m in METRICS]
+            expect("baseline" in tr.classes() and any(s.clean() == "baseline" for s in tds[2].find_all("span", cls="tag")), f"{method}: no baseline tag")
+        expect(tds[3].clean() == e["team"], f"{method}: team {tds[3].clean()!r}")
+        cells = [td.clean() for td in tds[4 : 4 + len(lightings) * len(METRICS)]]
+        want = [pct(board_value(e, l, agg, subset, m)) + spread(board_interval(e, l, agg, subset, m)) for l in lightings for m in METRICS]
         expect(cells == want, f"{method}: cells {cells}, the API says {want}")
+        if agg == "overall" and subset == "all":
+            expect(any("±" in c for c in cells), f"{method}: no interval shown on pooled values: {cells}")
+        robustness = [td.clean() for td in tds[-2:]]
+        want_robustness = [pct(e["robustness"].get("worst_miou")), pct(e["robustness"].get("largest_drop"))]
+        expect(robustness == want_robustness, f"{method}: robustness cells {robustness}, the API says {want_robustness}")
         changes = [td.clean() for td in tr.find_all("td", cls="change")]
         # The change of mIoU against the Baseline lighting, for the aggregate and scenes shown.
         def change(l):
@@ -641,7 +683,10 @@ def main() -> int:
                 state["labels"] = lighting_labels(dom, board)
                 summary = check_board(dom, board, "overall", "all", f"{board['lightings'][0]}.miou", state["labels"])
                 oracle = [tr for tr in dom.find(id="leaderboard").find("tbody").kids("tr") if "baseline-oracle" in tr.clean()]
-                expect(oracle and "100.0" in [td.clean() for td in oracle[0].kids("td")], "the baseline-oracle row does not show 100.0")
+                expect(oracle and "100.0±0.0" in [td.clean() for td in oracle[0].kids("td")], "the baseline-oracle row does not show 100.0±0.0")
+                groups = [tr.kids("td")[1].clean() for tr in dom.find(id="leaderboard").find("tbody").kids("tr")]
+                expect(groups[0] == "1" and len(set(groups)) > 1, f"rank groups {groups}: the oracle alone in group 1, the others below")
+                summary += "; rank groups " + " ".join(groups)
                 svg = dom.find("svg", cls="chart")
                 expect(svg is not None, "no <svg class=chart>")
                 expect(len(svg.find_all("rect")) >= EXPECTED_ENTRIES, "the chart has no bars")
@@ -772,12 +817,17 @@ def main() -> int:
                     expect(idx is not None and idx + 1 < len(heads) and heads[idx + 1].tag == "table", f"no table under <h2>{label}</h2>")
                     rows = heads[idx + 1].find("tbody").kids("tr")
                     scenes = sorted(semseg[lighting]["scenes"])
-                    expect(len(rows) == len(scenes) + 2, f"{label}: {len(rows)} rows, expected {len(scenes)} scenes + mean + pooled")
+                    ci = semseg[lighting]["overall"].get("ci95")
+                    expect(len(rows) == len(scenes) + 2 + (ci is not None), f"{label}: {len(rows)} rows, expected {len(scenes)} scenes + mean + pooled + its interval")
                     for tr, scene in zip(rows, scenes + ["mean over scenes", "pooled"]):
                         tds = [td.clean() for td in tr.kids("td")]
                         src = semseg[lighting]["scenes"].get(scene) or semseg[lighting]["overall_mean" if scene.startswith("mean") else "overall"]
                         want = [scene] + [pct(src.get(m)) for m in METRICS]
                         expect(tds == want, f"{label}: row {tds}, the API says {want}")
+                    if ci is not None:
+                        tds = [td.clean() for td in rows[-1].kids("td")]
+                        want = ["pooled, 95 % interval"] + [f"{100 * ci[m][0]:.1f}–{100 * ci[m][1]:.1f}" for m in METRICS]
+                        expect(tds == want, f"{label}: interval row {tds}, the API says {want}")
                     tables += 1
                 history = [t for t in main.find_all("table") if "State" in t.find("thead").clean()]
                 expect(history and "scored" in history[0].find("tbody").clean(), "the history does not show 'scored'")
@@ -828,7 +878,54 @@ def main() -> int:
         run("submission page", submission_page)
         run("API docs page", api_docs)
         run("leaderboard dark + 420px wide", extra_views)
+        def operator_console():
+            token = os.environ.get("OSMAB_ADMIN_TOKEN") or (data_dir / "admin-token").read_text().strip()
+            page, dom, _ = load("/admin", "11-admin-login")
+            try:
+                expect(dom.find("input", id="token") is not None, "/admin without a session does not show the sign-in form")
+                page.type_into("#token", token)
+                page.click_and_wait("form.admin-form button")
+                text, dom = page.dom()
+                (out / "12-admin-console.html").write_text(text)
+                expect(dom.find("h1").clean() == "Operator console", f"signing in led to {dom.find('h1').clean()!r}")
+                releases = dom.find(id="admin-releases").find("tbody").kids("tr")
+                expect(any(board["release"] in tr.clean() and "current" in tr.clean() for tr in releases), "the current release is not listed as current")
+                builds = dom.find(id="admin-builds").find("tbody").kids("tr")
+                expect(builds and "succeeded" in builds[0].clean(), f"the demo build is not listed as succeeded: {[b.clean() for b in builds]}")
+                rows = dom.find(id="admin-submissions").find("tbody").kids("tr")
+                expect(len(rows) >= EXPECTED_ENTRIES, f"{len(rows)} submissions listed")
+                w, h, size = page.screenshot(out / "12-admin-console.png")
+                # Flag the first entry through its form, as a user would, then clear it.
+                target = next(e for e in board["entries"] if e["method"] == "baseline-merge")
+                page.type_into(f"form[action='/admin/submissions/{target['submission_id']}/flag'] input[name=reason]", "checked by the browser test")
+                page.click_and_wait(f"form[action='/admin/submissions/{target['submission_id']}/flag'] button")
+                _, dom = page.dom()
+                expect("is flagged" in dom.find("p", cls="notice").clean(), "no notice after flagging")
+                flagged = next(e for e in get_json(f"{base}/api/v1/leaderboard")["entries"] if e["submission_id"] == target["submission_id"])
+                expect(flagged.get("flagged") == "checked by the browser test", f"the API does not show the flag: {flagged.get('flagged')!r}")
+                page.click_and_wait(f"form[action='/admin/submissions/{target['submission_id']}/unflag'] button")
+                cleared = next(e for e in get_json(f"{base}/api/v1/leaderboard")["entries"] if e["submission_id"] == target["submission_id"])
+                expect("flagged" not in cleared, "the flag was not cleared")
+                # A build's page and the quality comparison.
+                page.click_and_wait("#admin-builds tbody tr a")
+                _, dom = page.dom()
+                stages = [li.clean() for li in dom.find(id="stages").kids("li")]
+                expect(stages[-1] == "done" and "done" in dom.find(id="stages").kids("li")[-1].classes(), f"the build's stages {stages}")
+                renders = dom.find(id="render-jobs").find("tbody").kids("tr")
+                expect(len(renders) >= 4 and all("succeeded" in r.clean() for r in renders), f"{len(renders)} render jobs, not all succeeded")
+                bw, bh, bsize = page.screenshot(out / "13-admin-build.png")
+                page.goto(f"{base}/admin/releases/{board['release']}/quality")
+                _, dom = page.dom()
+                measures = dom.find(id="quality-compare").find("tbody").kids("tr")
+                expect(any("scenes passing the bar" in m.clean() for m in measures), "no quality measures")
+                qw, qh, qsize = page.screenshot(out / "14-admin-quality.png")
+                return (f"signed in through the form; {len(releases)} releases, {len(rows)} submissions; flagged and cleared through the forms; "
+                        f"build with {len(renders)} render jobs; 12-admin-console.png {w}x{h}, 13-admin-build.png {bw}x{bh}, 14-admin-quality.png {qw}x{qh}")
+            finally:
+                page.close()
+
         run("internal links", internal_links)
+        run("operator console (sign in, flag, build, quality)", operator_console)
     except Fatal as e:
         results.append(("setup", False, time.monotonic() - started, str(e)))
         log(f"FATAL {e}")

@@ -44,7 +44,13 @@ pub struct Scores {
 /// The segmentation scores of one lighting.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct LightingScores {
-    /// Metrics of the pooled confusion matrix.
+    /// Pooled mIoU of each bootstrap resample of the release's scenes (null where a
+    /// resample scores no class). Every submission of a release sees the same resamples,
+    /// so two lists compared round by round are a paired bootstrap (rank groups); left
+    /// out of summaries.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bootstrap_miou: Vec<Option<f64>>,
+    /// Metrics of the pooled confusion matrix, with 95 % bootstrap intervals over scenes.
     pub overall: MetricTriple,
     /// Mean of the scene rows.
     pub overall_mean: MetricTriple,
@@ -59,6 +65,7 @@ pub struct LightingScores {
 /// The segmentation aggregates of one subset under one lighting.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubsetScores {
+    /// With 95 % bootstrap intervals over the subset's scenes.
     pub overall: MetricTriple,
     pub overall_mean: MetricTriple,
     /// How many scenes the aggregates cover.
@@ -113,6 +120,17 @@ impl Scores {
         triple.defined(metric)
     }
 
+    /// The 95 % bootstrap interval of a pooled metric under `lighting`, over every scene or
+    /// one subset, where the score has one.
+    pub fn semseg_interval(&self, lighting: Lighting, subset: Option<Regime>, metric: Metric) -> Option<[f64; 2]> {
+        let at = self.semseg.get(&lighting)?;
+        let triple = match subset {
+            None => &at.overall,
+            Some(subset) => &at.subsets.get(&subset)?.overall,
+        };
+        triple.interval(metric)
+    }
+
     /// The relative change of a metric under `lighting` against the baseline lighting.
     pub fn relative_change(&self, lighting: Lighting, aggregate: Aggregate, metric: Metric) -> Option<f64> {
         self.relative_change.get(&lighting)?.aggregate(aggregate).defined(metric)
@@ -123,6 +141,7 @@ impl Scores {
     pub fn summary(mut self) -> Scores {
         for lighting in self.semseg.values_mut() {
             lighting.scenes.clear();
+            lighting.bootstrap_miou.clear();
         }
         if let Some(vqa) = &mut self.vqa {
             vqa.scenes.clear();

@@ -37,31 +37,54 @@ pub struct SegmentationMetrics {
     pub classes: Vec<ClassScore>,
 }
 
+/// The counts of one class that the metrics need: a row sum, a column sum and the
+/// diagonal of a confusion matrix. Counts of several scenes add up to those of their
+/// pooled matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ClassCount {
+    pub label: i64,
+    pub ground_truth: u64,
+    pub predicted: u64,
+    pub true_positive: u64,
+}
+
+impl ClassCount {
+    /// Every label of `matrix` in its order.
+    pub fn of(matrix: &ConfusionMatrix) -> Vec<ClassCount> {
+        (0..matrix.labels().len())
+            .map(|i| ClassCount {
+                label: matrix.labels()[i],
+                ground_truth: matrix.row_sum(i),
+                predicted: matrix.column_sum(i),
+                true_positive: matrix.count(i, i),
+            })
+            .collect()
+    }
+}
+
 impl SegmentationMetrics {
     /// Score `matrix`, leaving out [`EXCLUDED_LABELS`] and classes without ground truth.
     /// With no scored class, mIoU and mAcc are NaN and f-mIoU is 0, as NumPy gives.
     pub fn from_confusion(matrix: &ConfusionMatrix) -> Self {
-        let classes: Vec<ClassScore> = matrix
-            .labels()
-            .iter()
-            .enumerate()
-            .filter(|(_, label)| !EXCLUDED_LABELS.contains(label))
-            .filter_map(|(i, &label)| {
-                let ground_truth = matrix.row_sum(i);
-                if ground_truth == 0 {
-                    return None;
-                }
-                let true_positive = matrix.count(i, i);
-                let predicted = matrix.column_sum(i);
+        Self::from_counts(ClassCount::of(matrix))
+    }
+
+    /// Score per-class counts given in ascending label order (the order of a matrix's
+    /// labels), as [`Self::from_confusion`] scores a matrix.
+    pub fn from_counts(counts: impl IntoIterator<Item = ClassCount>) -> Self {
+        let classes: Vec<ClassScore> = counts
+            .into_iter()
+            .filter(|c| !EXCLUDED_LABELS.contains(&c.label) && c.ground_truth > 0)
+            .map(|ClassCount { label, ground_truth, predicted, true_positive }| {
                 let union = ground_truth + predicted - true_positive;
-                Some(ClassScore {
+                ClassScore {
                     label,
                     ground_truth,
                     predicted,
                     true_positive,
                     iou: true_positive as f64 / (union as f64).max(1e-7),
                     recall: true_positive as f64 / (ground_truth as f64).max(1e-7),
-                })
+                }
             })
             .collect();
         let ious: Vec<f64> = classes.iter().map(|c| c.iou).collect();

@@ -6,6 +6,7 @@
 //! predicted point ([`nearest`]); the [`ConfusionMatrix`] over `[vocabulary..., -1]`
 //! gives the [`SegmentationMetrics`].
 
+pub mod bootstrap;
 pub mod confusion;
 pub mod labels;
 pub mod metrics;

@@ -13,6 +13,9 @@ use crate::scores::Metric;
 /// reads back as NaN; fields are in the order of their keys.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MetricTriple {
+    /// 95 % bootstrap intervals over scenes, on pooled aggregates that have them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ci95: Option<MetricIntervals>,
     /// Frequency-weighted IoU.
     #[serde(with = "nan_as_null")]
     #[schemars(with = "Option<f64>")]
@@ -30,7 +33,30 @@ pub struct MetricTriple {
 impl Default for MetricTriple {
     /// Every metric undefined.
     fn default() -> Self {
-        Self { fmiou: f64::NAN, macc: f64::NAN, miou: f64::NAN }
+        Self::new(f64::NAN, f64::NAN, f64::NAN)
+    }
+}
+
+/// The 95 % bootstrap interval of each metric, `[low, high]`; absent where fewer than two
+/// resamples define the metric.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct MetricIntervals {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fmiou: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub macc: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub miou: Option<[f64; 2]>,
+}
+
+impl MetricIntervals {
+    /// The interval of `metric`.
+    pub fn get(&self, metric: Metric) -> Option<[f64; 2]> {
+        match metric {
+            Metric::Miou => self.miou,
+            Metric::Fmiou => self.fmiou,
+            Metric::Macc => self.macc,
+        }
     }
 }
 
@@ -49,11 +75,21 @@ mod nan_as_null {
 
 impl From<&SegmentationMetrics> for MetricTriple {
     fn from(m: &SegmentationMetrics) -> Self {
-        Self { miou: m.miou, fmiou: m.fmiou, macc: m.macc }
+        Self::new(m.miou, m.fmiou, m.macc)
     }
 }
 
 impl MetricTriple {
+    /// The three values, without intervals.
+    pub fn new(miou: f64, fmiou: f64, macc: f64) -> Self {
+        Self { ci95: None, fmiou, macc, miou }
+    }
+
+    /// The 95 % interval of `metric`, where there is one.
+    pub fn interval(&self, metric: Metric) -> Option<[f64; 2]> {
+        self.ci95?.get(metric)
+    }
+
     /// The value of `metric`, NaN where undefined.
     pub fn get(&self, metric: Metric) -> f64 {
         match metric {
@@ -71,7 +107,7 @@ impl MetricTriple {
     /// The relative change of each metric against `baseline`: (self − baseline) / baseline.
     pub fn relative_change(&self, baseline: &MetricTriple) -> MetricTriple {
         let change = |v: f64, b: f64| (v - b) / b;
-        MetricTriple { miou: change(self.miou, baseline.miou), fmiou: change(self.fmiou, baseline.fmiou), macc: change(self.macc, baseline.macc) }
+        MetricTriple::new(change(self.miou, baseline.miou), change(self.fmiou, baseline.fmiou), change(self.macc, baseline.macc))
     }
 }
 
@@ -99,7 +135,7 @@ impl MetricsTable {
         let pooled = ConfusionMatrix::pooled(scenes.iter().map(|(_, m)| m));
         let rows: Vec<(String, SegmentationMetrics)> = scenes.into_iter().map(|(name, m)| (name, SegmentationMetrics::from_confusion(&m))).collect();
         let column = |f: fn(&SegmentationMetrics) -> f64| nan_skipping_mean(&rows.iter().map(|(_, m)| f(m)).collect::<Vec<_>>());
-        let overall_mean = MetricTriple { miou: column(|m| m.miou), fmiou: column(|m| m.fmiou), macc: column(|m| m.macc) };
+        let overall_mean = MetricTriple::new(column(|m| m.miou), column(|m| m.fmiou), column(|m| m.macc));
         Self { overall: SegmentationMetrics::from_confusion(&pooled), scenes: rows, overall_mean }
     }
 

@@ -1,6 +1,7 @@
 //! Scoring a valid submission: every map against its scene's ground truth, then per
 //! lighting the scene rows, `overall_mean` and the pooled `overall`, per subset the same
-//! two aggregates, and the relative change of each lighting against `baseline`.
+//! two aggregates, and the relative change of each lighting against `baseline`; the
+//! pooled aggregates carry bootstrap intervals over the release's scenes.
 
 use std::collections::BTreeMap;
 
@@ -11,7 +12,9 @@ use crate::error::{InputError, Result};
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
 use crate::scores::{Lighting, LightingScores, Regime, RelativeChange, Scores, SubsetScores};
+use crate::semseg::bootstrap::Replicates;
 use crate::semseg::confusion::ConfusionMatrix;
+use crate::semseg::metrics::ClassCount;
 use crate::semseg::report::{MetricTriple, MetricsTable};
 use crate::semseg::score_scene;
 
@@ -49,20 +52,29 @@ pub fn score_submission(
     let mut semseg = BTreeMap::new();
     let mut tables: BTreeMap<Lighting, MetricsTable> = BTreeMap::new();
     for (lighting, scenes) in by_lighting {
+        let counts: BTreeMap<String, Vec<ClassCount>> = scenes.iter().map(|(s, m)| (s.clone(), ClassCount::of(m))).collect();
+        // Resamples are drawn over the release's scenes in manifest order, so every
+        // submission of the release is resampled alike; a scene without a map adds nothing.
+        let in_release = |subset: Option<Regime>| -> Vec<Vec<ClassCount>> {
+            release.scenes.iter().filter(|s| subset.is_none_or(|r| s.subset == r)).map(|s| counts.get(&s.id).cloned().unwrap_or_default()).collect()
+        };
         let mut subsets = BTreeMap::new();
         for subset in Regime::ALL {
             let members: Vec<(String, ConfusionMatrix)> =
                 scenes.iter().filter(|(s, _)| release.scene(s).is_some_and(|r| r.subset == subset)).map(|(s, m)| (s.clone(), m.clone())).collect();
             if !members.is_empty() {
                 let table = MetricsTable::from_scenes(members);
-                subsets.insert(subset, SubsetScores { overall: (&table.overall).into(), overall_mean: table.overall_mean, scenes: table.scenes.len() });
+                let overall = MetricTriple { ci95: Replicates::of(&in_release(Some(subset))).intervals(), ..(&table.overall).into() };
+                subsets.insert(subset, SubsetScores { overall, overall_mean: table.overall_mean, scenes: table.scenes.len() });
             }
         }
         let table = MetricsTable::from_scenes(scenes);
+        let replicates = Replicates::of(&in_release(None));
         semseg.insert(
             lighting,
             LightingScores {
-                overall: (&table.overall).into(),
+                bootstrap_miou: replicates.miou(),
+                overall: MetricTriple { ci95: replicates.intervals(), ..(&table.overall).into() },
                 overall_mean: table.overall_mean,
                 scenes: table.scenes.iter().map(|(s, m)| (s.clone(), m.into())).collect(),
                 subsets,

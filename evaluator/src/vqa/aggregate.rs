@@ -1,10 +1,10 @@
 //! Pooled accuracies, as the paper reports them: correct / total over every question of
 //! every scene, per (question set, group or category, subset, lighting), with a 95 %
-//! bootstrap interval over scenes (scenes resampled with replacement, 1,000 rounds,
-//! a fixed seed, NumPy's linear percentiles), which the reference does not give.
+//! bootstrap interval over scenes ([`crate::bootstrap`]), which the reference does not give.
 
 use std::collections::BTreeMap;
 
+use crate::bootstrap::{ROUNDS, SplitMix, percentile};
 use crate::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, QuestionSetScores, Regime, SetsScores, VqaCell};
 
 /// One judged question of a submission.
@@ -15,31 +15,6 @@ pub struct JudgedQuestion {
     pub lighting: Lighting,
     pub category: String,
     pub correct: bool,
-}
-
-const ROUNDS: usize = 1000;
-
-/// SplitMix64: a small, fixed generator so intervals are reproducible everywhere.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        ((self.next() >> 11) as f64 / (1u64 << 53) as f64 * n as f64) as usize
-    }
-}
-
-/// NumPy's default (linear) percentile of sorted values.
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    let position = q / 100.0 * (sorted.len() - 1) as f64;
-    let (lo, hi) = (position.floor() as usize, position.ceil() as usize);
-    sorted[lo] + (sorted[hi] - sorted[lo]) * (position - lo as f64)
 }
 
 /// The pooled accuracy of `items` with its bootstrap interval over their scenes.
@@ -53,7 +28,7 @@ pub fn pooled<'a>(items: impl IntoIterator<Item = &'a JudgedQuestion>) -> Accura
     let (correct, total) = per_scene.values().fold((0, 0), |(c, t), (sc, st)| (c + sc, t + st));
     let counts: Vec<(u64, u64)> = per_scene.values().copied().collect();
     let ci95 = (counts.len() >= 2).then(|| {
-        let mut rng = SplitMix(0x05AB_5EED ^ (counts.len() as u64) << 32 ^ total);
+        let mut rng = SplitMix::new(0x05AB_5EED ^ (counts.len() as u64) << 32 ^ total);
         let mut estimates: Vec<f64> = (0..ROUNDS)
             .filter_map(|_| {
                 let (mut c, mut t) = (0u64, 0u64);

@@ -1,7 +1,9 @@
 //! Built leaderboards in memory. A read of the current release's board touches no
 //! database while the board is fresh (at most one second old and built since the last
-//! invalidation); otherwise the board is rebuilt from the store. This process's own
-//! writes invalidate at once; other replicas' writes show within a second.
+//! invalidation); otherwise the board is rebuilt from the store, by one request at a
+//! time: the others wait for that board instead of all querying the database at once
+//! (with PostgreSQL's small pool a herd of rebuilds cost 5× the throughput). This
+//! process's own writes invalidate at once; other replicas' writes show within a second.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -63,6 +65,8 @@ pub enum BoardError {
 pub struct LeaderboardCache {
     generation: AtomicU64,
     boards: RwLock<HashMap<String, (Instant, u64, Arc<Rendered>)>>,
+    /// Held while a board is rebuilt.
+    rebuilding: tokio::sync::Mutex<()>,
 }
 
 /// The cache key of the current release's board.
@@ -93,6 +97,10 @@ impl LeaderboardCache {
     /// memory while fresh, else rebuilt from `store`.
     pub async fn board(&self, store: &Store, release: Option<&str>) -> Result<Arc<Rendered>, BoardError> {
         let key = release.unwrap_or(CURRENT);
+        if let Some(rendered) = self.fresh(key) {
+            return Ok(rendered);
+        }
+        let _rebuilding = self.rebuilding.lock().await;
         if let Some(rendered) = self.fresh(key) {
             return Ok(rendered);
         }

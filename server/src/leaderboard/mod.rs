@@ -1,18 +1,22 @@
 //! The leaderboard of a release: every scored public submission (and the baselines) with
 //! the summary of its latest score, ranked by pooled mIoU under the release's first
-//! lighting. [`cache`] builds it at most once per second per release and serves it from
-//! memory as ready JSON and CSV ([`csv`]); [`vqa`] derives the paper's VQA tables.
+//! lighting, with rank groups and robustness columns ([`ranking`]). [`cache`] builds it
+//! at most once per second per release and serves it from memory as ready JSON and CSV
+//! ([`csv`]); [`vqa`] derives the paper's VQA tables.
 //!
 //! Wire structs declare their fields in the order of their JSON keys.
 
 pub mod cache;
 pub mod csv;
+pub mod ranking;
 pub mod vqa;
 
 use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime, Scores};
 use serde::{Deserialize, Serialize};
 
 pub use cache::{LeaderboardCache, Rendered};
+pub use ranking::Robustness;
+use ranking::{Standing, rank_groups};
 
 use crate::store::LeaderboardRow;
 
@@ -35,6 +39,16 @@ pub struct Entry {
     pub method: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub paper_url: Option<String>,
+    /// Position in the ranking, from 1 (0 from a server before rank groups).
+    #[serde(default)]
+    pub rank: usize,
+    /// 1 + the number of entries significantly above this one (paired bootstrap over
+    /// scenes): entries whose difference is within noise share a group.
+    #[serde(default)]
+    pub rank_group: usize,
+    /// The worst lighting and the largest drop against the baseline lighting.
+    #[serde(default)]
+    pub robustness: Robustness,
     /// The summary of the latest score (no per-scene tables).
     pub scores: Scores,
     pub submission_id: String,
@@ -46,6 +60,11 @@ impl Entry {
     /// A segmentation metric over every scene (`subset` `None`) or one subset.
     pub fn metric(&self, lighting: Lighting, subset: Option<Regime>, aggregate: Aggregate, metric: Metric) -> Option<f64> {
         self.scores.semseg(lighting, subset, aggregate, metric)
+    }
+
+    /// The 95 % interval of a pooled metric over every scene or one subset.
+    pub fn interval(&self, lighting: Lighting, subset: Option<Regime>, metric: Metric) -> Option<[f64; 2]> {
+        self.scores.semseg_interval(lighting, subset, metric)
     }
 }
 
@@ -62,25 +81,40 @@ impl Leaderboard {
     /// Rank `rows` of `release`: pooled mIoU under the first lighting, best first, then
     /// the earlier submission; an entry without that metric last.
     pub fn new(release: &str, lightings: Vec<Lighting>, rows: Vec<LeaderboardRow>) -> Self {
-        let mut entries: Vec<Entry> = rows
+        let key = lightings.first().copied().unwrap_or(Lighting::BASELINE);
+        let mut ranked: Vec<(Entry, Standing)> = rows
             .into_iter()
-            .map(|row| Entry {
-                anonymous: row.anonymous,
-                baseline: row.baseline,
-                code_url: row.code_url.filter(|_| !row.anonymous),
-                complete: row.complete,
-                flagged: row.flag,
-                method: row.method_name,
-                paper_url: row.paper_url.filter(|_| !row.anonymous),
-                scores: row.scores.summary(),
-                submission_id: row.submission_id,
-                submitted_at: crate::clock::rfc3339(row.created_at),
-                team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },
+            .map(|row| {
+                let standing = Standing {
+                    value: row.scores.semseg(key, None, Aggregate::Overall, Metric::Miou),
+                    replicates: row.scores.semseg.get(&key).map(|l| l.bootstrap_miou.clone()).unwrap_or_default(),
+                };
+                let entry = Entry {
+                    anonymous: row.anonymous,
+                    baseline: row.baseline,
+                    code_url: row.code_url.filter(|_| !row.anonymous),
+                    complete: row.complete,
+                    flagged: row.flag,
+                    method: row.method_name,
+                    paper_url: row.paper_url.filter(|_| !row.anonymous),
+                    rank: 0,
+                    rank_group: 0,
+                    robustness: Robustness::of(&row.scores, &lightings),
+                    scores: row.scores.summary(),
+                    submission_id: row.submission_id,
+                    submitted_at: crate::clock::rfc3339(row.created_at),
+                    team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },
+                };
+                (entry, standing)
             })
             .collect();
-        let key = lightings.first().copied().unwrap_or(Lighting::BASELINE);
-        let rank_metric = |e: &Entry| e.metric(key, None, Aggregate::Overall, Metric::Miou).unwrap_or(f64::NEG_INFINITY);
-        entries.sort_by(|a, b| rank_metric(b).total_cmp(&rank_metric(a)).then_with(|| a.submitted_at.cmp(&b.submitted_at)));
+        let rank_metric = |s: &Standing| s.value.unwrap_or(f64::NEG_INFINITY);
+        ranked.sort_by(|(a, sa), (b, sb)| rank_metric(sb).total_cmp(&rank_metric(sa)).then_with(|| a.submitted_at.cmp(&b.submitted_at)));
+        let (mut entries, standings): (Vec<Entry>, Vec<Standing>) = ranked.into_iter().unzip();
+        for ((rank, entry), group) in entries.iter_mut().enumerate().zip(rank_groups(&standings)) {
+            entry.rank = rank + 1;
+            entry.rank_group = group;
+        }
         Self { entries, lightings, release: release.to_string() }
     }
 

@@ -203,9 +203,10 @@ pub struct BuildBody {
     baselines: bool,
 }
 
-/// `POST /api/v1/admin/releases`: build a release from a config as a job → `202 {"job", "version"}`.
-pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<BuildBody>) -> ApiResult<Response> {
-    let config = body.config.unwrap_or_else(|| crate::jobs::release_build::DEMO_CONFIG.to_string());
+/// Queue a build of the release `config` describes (the demo configuration when absent):
+/// the job's id and the release version.
+pub async fn queue_release_build(state: &AppState, config: Option<String>, publish: bool, baselines: bool) -> Result<(String, String), Problem> {
+    let config = config.unwrap_or_else(|| crate::jobs::release_build::DEMO_CONFIG.to_string());
     let version = config_version(&config).map_err(unprocessable)?;
     let scratch = state.blobs.scratch("config-check");
     let text = config.clone();
@@ -221,19 +222,19 @@ pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJso
     if state.store.release(&version).await.is_ok() {
         return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
     }
-    let job = crate::jobs::new_job(&BuildRelease { config, publish: body.publish, baselines: body.baselines }, &state);
+    let job = crate::jobs::new_job(&BuildRelease { config, publish, baselines }, state);
     match state.store.enqueue(&job).await {
-        Ok(()) => {}
-        Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("Release {version} is being built already."))),
-        Err(e) => return Err(e.into()),
+        Ok(()) => Ok((job.id, version)),
+        Err(StoreError::Conflict(_)) => Err(Problem::conflict(format!("Release {version} is being built already."))),
+        Err(e) => Err(e.into()),
     }
-    let url = format!("/api/v1/jobs/{}", job.id);
-    Ok((
-        StatusCode::ACCEPTED,
-        [(header::LOCATION, url.clone())],
-        axum::Json(QueuedJob { job: job.id.clone(), submission: None, url: url.clone(), version: Some(version) }),
-    )
-        .into_response())
+}
+
+/// `POST /api/v1/admin/releases`: build a release from a config as a job → `202 {"job", "version"}`.
+pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<BuildBody>) -> ApiResult<Response> {
+    let (job, version) = queue_release_build(&state, body.config, body.publish, body.baselines).await?;
+    let url = format!("/api/v1/jobs/{job}");
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(QueuedJob { job, submission: None, url, version: Some(version) })).into_response())
 }
 
 /// A release built on the server's filesystem to register.
@@ -262,18 +263,25 @@ pub async fn import_release(State(state): State<AppState>, _: AdminCaller, ApiJs
     Ok((status, axum::Json(super::releases::ReleaseSummary::from(&release))).into_response())
 }
 
+/// Freeze the draft `version` into the current release.
+pub async fn publish(state: &AppState, version: &str) -> Result<(), Problem> {
+    match state.store.publish_release(version, now_ms()).await {
+        Ok(()) => {}
+        Err(StoreError::NotFound) => return Err(Problem::not_found(format!("There is no release '{version}'."))),
+        Err(e) => return Err(e.into()),
+    }
+    state.leaderboard.invalidate();
+    tracing::info!(release = %version, "release published");
+    Ok(())
+}
+
 /// `POST /api/v1/admin/releases/{version}/publish`: freeze a draft into the current release.
 pub async fn publish_release(
     State(state): State<AppState>,
     _: AdminCaller,
     ApiPath(version): ApiPath<String>,
 ) -> ApiResult<axum::Json<super::releases::ReleaseSummary>> {
-    match state.store.publish_release(&version, now_ms()).await {
-        Ok(()) => {}
-        Err(StoreError::NotFound) => return Err(Problem::not_found(format!("There is no release '{version}'."))),
-        Err(e) => return Err(e.into()),
-    }
-    state.leaderboard.invalidate();
+    publish(&state, &version).await?;
     Ok(axum::Json(super::releases::ReleaseSummary::from(&state.store.release(&version).await?)))
 }
 
@@ -326,6 +334,28 @@ fn no_submission(e: StoreError, id: &str) -> Problem {
     }
 }
 
+/// Flag submission `id` with `reason`, or clear its flag (`None`).
+pub async fn set_flag(state: &AppState, id: &str, reason: Option<&str>) -> Result<(), Problem> {
+    let reason = reason.map(str::trim);
+    if let Some(reason) = reason
+        && (reason.is_empty() || reason.chars().count() > 300 || osmab_evaluator::text::first_hidden_format(reason).is_some())
+    {
+        return Err(unprocessable("reason: expected 1 to 300 characters of visible text"));
+    }
+    state.store.set_flag(id, reason, now_ms()).await.map_err(|e| no_submission(e, id))?;
+    state.leaderboard.invalidate();
+    tracing::info!(submission = %id, reason = reason.unwrap_or("(cleared)"), "entry flag set");
+    Ok(())
+}
+
+/// Give back the quota unit submission `id` used; false when it was given back already
+/// (or never counted: baselines).
+pub async fn refund(state: &AppState, id: &str) -> Result<bool, Problem> {
+    let refunded = state.store.refund_quota(id, now_ms()).await.map_err(|e| no_submission(e, id))?;
+    tracing::info!(submission = %id, refunded, "quota refund requested by an admin");
+    Ok(refunded)
+}
+
 /// `PUT /api/v1/admin/submissions/{id}/flag` `{"reason"}`: flag an entry on the leaderboard.
 pub async fn flag(
     State(state): State<AppState>,
@@ -333,21 +363,29 @@ pub async fn flag(
     ApiPath(id): ApiPath<String>,
     ApiJson(body): ApiJson<FlagBody>,
 ) -> ApiResult<axum::Json<super::submission_view::SubmissionView>> {
-    let reason = body.reason.trim();
-    if reason.is_empty() || reason.chars().count() > 300 || osmab_evaluator::text::first_hidden_format(reason).is_some() {
-        return Err(unprocessable("reason: expected 1 to 300 characters of visible text"));
-    }
-    state.store.set_flag(&id, Some(reason), now_ms()).await.map_err(|e| no_submission(e, &id))?;
-    state.leaderboard.invalidate();
-    tracing::info!(submission = %id, %reason, "entry flagged");
+    set_flag(&state, &id, Some(&body.reason)).await?;
     Ok(axum::Json(super::submission_view::SubmissionView::load(&state, &state.store.submission(&id).await?, &crate::auth::Caller::Admin).await?))
 }
 
 /// `DELETE /api/v1/admin/submissions/{id}/flag`: clear an entry's flag.
 pub async fn unflag(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<StatusCode> {
-    state.store.set_flag(&id, None, now_ms()).await.map_err(|e| no_submission(e, &id))?;
-    state.leaderboard.invalidate();
+    set_flag(&state, &id, None).await?;
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// Whether a refund changed anything.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Refunded {
+    /// False when the submission's quota unit had been given back already.
+    pub refunded: bool,
+    pub submission: String,
+}
+
+/// `POST /api/v1/admin/submissions/{id}/refund`: give back the quota unit a submission
+/// used (failures through no fault of the team are refunded automatically).
+pub async fn refund_quota(State(state): State<AppState>, _: AdminCaller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<Refunded>> {
+    let refunded = refund(&state, &id).await?;
+    Ok(axum::Json(Refunded { refunded, submission: id }))
 }
 
 /// A job queued by an admin request.

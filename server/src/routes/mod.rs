@@ -186,6 +186,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/admin/submissions", get(admin::list_submissions))
         .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
         .route("/api/v1/admin/submissions/{id}/flag", put(admin::flag).delete(admin::unflag))
+        .route("/api/v1/admin/submissions/{id}/refund", post(admin::refund_quota))
         .route("/api/v1/admin/jobs", get(admin::list_jobs));
     let resumable = Router::new()
         .route("/api/v1/uploads", post(uploads::create).options(uploads::options))
@@ -195,6 +196,16 @@ pub fn router(state: AppState) -> Router {
         .route("/", get(pages::leaderboard))
         .route("/releases/{version}", get(pages::release))
         .route("/submissions/{id}", get(pages::submission))
+        .route("/admin", get(pages::admin::console))
+        .route("/admin/login", get(pages::admin::login_form).post(pages::admin::login))
+        .route("/admin/logout", post(pages::admin::logout))
+        .route("/admin/regenerate", post(pages::admin::regenerate))
+        .route("/admin/jobs/{id}", get(pages::admin::job))
+        .route("/admin/releases/{version}/quality", get(pages::admin::quality))
+        .route("/admin/releases/{version}/publish", post(pages::admin::publish))
+        .route("/admin/submissions/{id}/flag", post(pages::admin::flag))
+        .route("/admin/submissions/{id}/unflag", post(pages::admin::unflag))
+        .route("/admin/submissions/{id}/refund", post(pages::admin::refund))
         .route("/api/docs", get(api_docs::docs_page))
         .route("/static/{file}", get(pages::static_file));
     let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));

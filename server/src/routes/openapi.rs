@@ -261,6 +261,14 @@ pub const OPERATIONS: &[Operation] = &[
         .takes::<super::admin::FlagBody>()
         .returns::<SubmissionView>(),
     op("delete", "/api/v1/admin/submissions/{id}/flag", Auth::Admin, "Clear an entry's flag.", 204),
+    op(
+        "post",
+        "/api/v1/admin/submissions/{id}/refund",
+        Auth::Admin,
+        "Give back the quota unit a submission used (failures that were not the team's are refunded automatically).",
+        200,
+    )
+    .returns::<super::admin::Refunded>(),
 ];
 
 /// Every problem `code` with what it means and what to do.

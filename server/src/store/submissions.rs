@@ -317,6 +317,22 @@ impl Store {
         if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
     }
 
+    /// Give back the quota a submission used (an organiser's decision); false when it had
+    /// been given back already.
+    pub async fn refund_quota(&self, id: &str, at: i64) -> StoreResult<bool> {
+        let done =
+            on_pool!(self, |pool| sqlx::query("UPDATE submissions SET quota_refunded = TRUE, updated_at = $2 WHERE id = $1 AND quota_refunded = FALSE")
+                .bind(id)
+                .bind(at)
+                .execute(pool)
+                .await
+                .map(|r| r.rows_affected()))?;
+        if done == 1 {
+            return Ok(true);
+        }
+        self.submission(id).await.map(|_| false)
+    }
+
     /// Submissions a team made since `since` (quota), baselines and dry runs never count.
     pub async fn submissions_since(&self, team_id: &str, since: i64) -> StoreResult<i64> {
         Ok(on_pool!(self, |pool| sqlx::query_scalar(

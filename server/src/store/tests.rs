@@ -344,6 +344,12 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         assert!(store.fail_job("k3", "w", "Stopped after 3 attempts.", Some("sub_c"), true, t + 7).await.unwrap());
         assert!(store.submission("sub_c").await.unwrap().quota_refunded);
         assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted, "{}: refunded", store.backend());
+
+        // An organiser gives back the unit of a failure the team was charged for, once.
+        assert!(store.refund_quota("sub_b", t + 8).await.unwrap());
+        assert!(!store.refund_quota("sub_b", t + 9).await.unwrap(), "a second refund changes nothing");
+        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted - 1);
+        assert!(matches!(store.refund_quota("sub_missing", t + 9).await, Err(StoreError::NotFound)));
     }
     stores.drop_all().await;
 }

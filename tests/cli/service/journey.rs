@@ -80,6 +80,34 @@ fn journey(backend: Backend) {
     }
     let merge_view = server.wait_done(&merge_id, &token);
     assert_eq!(merge_view["state"], "scored");
+    // The same maps again under another method name: a twin within noise of the merge.
+    let card_path = merged.path().join("submission.json");
+    let mut card: Value = serde_json::from_slice(&std::fs::read(&card_path).unwrap()).unwrap();
+    card["method"]["name"] = "Merged twin".into();
+    std::fs::write(&card_path, serde_json::to_vec(&card).unwrap()).unwrap();
+    let twin = server.upload(&token, &tar_of(merged.path()), "");
+    assert_eq!(twin.status(), 202);
+    let twin_id = twin.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+    assert_eq!(server.wait_done(&twin_id, &token)["state"], "scored");
+
+    // Pooled values carry 95 % bootstrap intervals over scenes; the full document keeps
+    // the replicates of pooled mIoU that rank comparisons pair up.
+    for lighting in ["baseline", "camera", "dynamic_lights", "no_lights"] {
+        assert_eq!(
+            oracle_view["scores"]["semseg"][lighting]["overall"]["ci95"]["miou"],
+            serde_json::json!([1.0, 1.0]),
+            "every resample of the oracle is perfect"
+        );
+        let overall = &merge_view["scores"]["semseg"][lighting]["overall"];
+        for metric in ["miou", "fmiou", "macc"] {
+            let value = overall[metric].as_f64().unwrap();
+            let [lo, hi] = [overall["ci95"][metric][0].as_f64().unwrap(), overall["ci95"][metric][1].as_f64().unwrap()];
+            assert!(0.0 <= lo && lo <= value && value <= hi && hi <= 1.0, "{lighting} {metric}: {lo} ≤ {value} ≤ {hi}");
+        }
+        assert_eq!(merge_view["scores"]["semseg"][lighting]["bootstrap_miou"].as_array().unwrap().len(), 1000);
+        let subset = &merge_view["scores"]["semseg"][lighting]["subsets"]["furniture"];
+        assert_eq!((subset["scenes"].as_u64(), subset["overall"].get("ci95")), (Some(1), None), "one scene has no interval");
+    }
 
     // The server's numbers are the evaluator's: score one scene locally and compare.
     let scene = "scene_000";
@@ -100,20 +128,37 @@ fn journey(backend: Backend) {
         assert_eq!(merge_view["scores"]["semseg"]["camera"]["scenes"][scene][metric], expected["metrics"][metric], "{metric}");
     }
 
-    // The leaderboard ranks the oracle first, in JSON and CSV.
+    // The leaderboard ranks the oracle first, in JSON and CSV; the twins share a rank
+    // group below it, and the oracle's is its own.
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
     assert_eq!(board["release"], version.as_str());
     let entries = board["entries"].as_array().unwrap();
-    assert_eq!(entries.len(), 2);
+    assert_eq!(entries.len(), 3);
     assert_eq!(entries[0]["submission_id"], oracle_id.as_str());
     assert_eq!(entries[0]["team"], "Team Journey");
     assert_eq!((entries[0]["baseline"].as_bool(), entries[0]["complete"].as_bool()), (Some(false), Some(true)));
+    let standing: Vec<(u64, u64)> = entries.iter().map(|e| (e["rank"].as_u64().unwrap(), e["rank_group"].as_u64().unwrap())).collect();
+    assert_eq!(standing, [(1, 1), (2, 2), (3, 2)]);
+    assert_eq!(
+        (entries[1]["submission_id"].as_str(), entries[2]["submission_id"].as_str()),
+        (Some(merge_id.as_str()), Some(twin_id.as_str())),
+        "equal scores: the earlier first"
+    );
     let merge_miou = entries[1]["scores"]["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap();
     assert!(merge_miou < 1.0 && merge_miou > 0.0);
+    assert!(entries[1]["scores"]["semseg"]["baseline"]["overall"]["ci95"]["miou"].is_array(), "intervals beside the values");
+    assert!(entries[1]["scores"]["semseg"]["baseline"].get("bootstrap_miou").is_none(), "replicates stay in the full document");
+    let worst = entries[1]["robustness"]["worst_miou"].as_f64().unwrap();
+    let lighting = entries[1]["robustness"]["worst_lighting"].as_str().unwrap();
+    assert_eq!(entries[1]["scores"]["semseg"][lighting]["overall"]["miou"].as_f64(), Some(worst));
+    assert_eq!(
+        entries[0]["robustness"],
+        serde_json::json!({"largest_drop": 0.0, "largest_drop_lighting": "camera", "worst_lighting": "baseline", "worst_miou": 1.0})
+    );
     let csv = server.get("/api/v1/leaderboard").header("accept", "text/csv").send().unwrap().text().unwrap();
     let mut lines = csv.lines();
-    assert!(lines.next().unwrap().starts_with("rank,submission_id,team,method,baseline,complete,baseline_overall_miou"));
-    assert!(lines.next().unwrap().starts_with(&format!("1,{oracle_id},Team Journey,baseline-oracle,false,true,1,1,1")));
+    assert!(lines.next().unwrap().starts_with("rank,rank_group,submission_id,team,method,baseline,complete,worst_lighting,worst_lighting_miou,largest_drop_lighting,largest_drop,baseline_overall_miou,baseline_overall_fmiou,baseline_overall_macc,baseline_overall_miou_ci95_low"));
+    assert!(lines.next().unwrap().starts_with(&format!("1,1,{oracle_id},Team Journey,baseline-oracle,false,true,baseline,1,camera,0,1,1,1,1,1,1,1,1,1,")));
     assert_eq!(server.get("/api/v1/leaderboard.csv").send().unwrap().text().unwrap(), csv);
 
     // Pages render without JavaScript.
@@ -191,7 +236,7 @@ fn journey(backend: Backend) {
         .unwrap();
     assert_eq!(edited.status(), 200);
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
-    assert_eq!(board["entries"].as_array().unwrap().len(), 1, "the private submission left the leaderboard");
+    assert_eq!(board["entries"].as_array().unwrap().len(), 2, "the private submission left the leaderboard");
     assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}")).send().unwrap().status(), 404, "private to others");
     assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}/receipt")).send().unwrap().status(), 404, "and so is its receipt");
 }

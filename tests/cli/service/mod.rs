@@ -5,6 +5,7 @@
 mod access;
 mod cards;
 mod client;
+mod console;
 mod hostile;
 mod journey;
 mod multinode;

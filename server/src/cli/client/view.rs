@@ -132,7 +132,8 @@ pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> 
         },
         None => board.lightings.first().copied().unwrap_or(Lighting::BASELINE),
     };
-    let header: Vec<String> = ["#", "method", "team", "mIoU", "f-mIoU", "mAcc", "PromptGT", "Standard", ""].iter().map(|s| s.to_string()).collect();
+    let header: Vec<String> =
+        ["#", "group", "method", "team", "mIoU", "±", "f-mIoU", "mAcc", "PromptGT", "Standard", ""].iter().map(|s| s.to_string()).collect();
     let rows: Vec<Vec<String>> = board
         .entries
         .iter()
@@ -147,11 +148,14 @@ pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> 
             if !e.complete {
                 tags.push("incomplete");
             }
+            let spread = e.interval(lighting, None, Metric::Miou).map(|[lo, hi]| format!("{:.1}", 50.0 * (hi - lo))).unwrap_or_default();
             vec![
                 (i + 1).to_string(),
+                if e.rank_group > 0 { e.rank_group.to_string() } else { String::new() },
                 e.method.clone(),
                 e.team.clone(),
                 metric(Metric::Miou),
+                spread,
                 metric(Metric::Fmiou),
                 metric(Metric::Macc),
                 pct(vqa.and_then(|v| v.prompt_grounded.overall.accuracy)),
@@ -160,6 +164,10 @@ pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> 
             ]
         })
         .collect();
-    println!("Leaderboard of {} — {lighting} lighting, pooled (%); VQA accuracy (%)\n{}", board.release, table_text(&header, &rows));
+    println!(
+        "Leaderboard of {} — {lighting} lighting, pooled (%), ± half the 95 % interval; entries within noise share a group; VQA accuracy (%)\n{}",
+        board.release,
+        table_text(&header, &rows)
+    );
     Ok(())
 }

@@ -10,7 +10,7 @@ use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime};
 use serde::Deserialize;
 
 use super::chart::{Axis, BarChart, Series, Size};
-use super::format::{percent, signed_percent};
+use super::format::{self, percent, signed_percent};
 use super::{MessagePage, vqa};
 use crate::leaderboard::{Entry, Leaderboard};
 use crate::routes::ApiQuery;
@@ -69,6 +69,18 @@ impl View {
         e.metric(lighting, self.subset, self.aggregate, metric)
     }
 
+    /// The cell of a metric, with its interval where the aggregate is pooled.
+    fn cell(&self, e: &Entry, lighting: Lighting, metric: Metric) -> Cell {
+        let interval = match self.aggregate {
+            Aggregate::Overall => e.interval(lighting, self.subset, metric),
+            Aggregate::OverallMean => None,
+        };
+        Cell {
+            value: percent(self.value(e, lighting, metric)),
+            spread: interval.map(|[lo, hi]| (format!("±{:.1}", 50.0 * (hi - lo)), format!("95 % interval {}", format::interval(Some([lo, hi]))))),
+        }
+    }
+
     /// The change of mIoU against the baseline lighting, for the aggregate and scenes shown.
     fn change(&self, e: &Entry, lighting: Lighting) -> Option<f64> {
         match (self.value(e, lighting, Metric::Miou), self.value(e, Lighting::BASELINE, Metric::Miou)) {
@@ -86,8 +98,17 @@ pub struct Column {
     pub first_of_lighting: bool,
 }
 
+/// A metric cell: the value and, on pooled aggregates, its 95 % interval as `±half-width`
+/// with the interval itself in the title.
+pub struct Cell {
+    pub value: String,
+    pub spread: Option<(String, String)>,
+}
+
 pub struct Row {
     pub rank: usize,
+    /// 1 + entries significantly above (default ranking).
+    pub rank_group: usize,
     pub submission_id: String,
     pub team: String,
     pub method: String,
@@ -96,8 +117,12 @@ pub struct Row {
     pub complete: bool,
     /// Why the organisers flagged it.
     pub flagged: Option<String>,
-    pub cells: Vec<String>,
+    pub cells: Vec<Cell>,
     pub changes: Vec<String>,
+    /// The worst lighting's label and mIoU, and the largest drop against baseline.
+    pub worst: String,
+    pub worst_miou: String,
+    pub largest_drop: String,
 }
 
 pub struct Choice {
@@ -120,6 +145,8 @@ pub struct LeaderboardPage {
     pub csv_link: String,
     pub json_link: String,
     pub vqa: Option<vqa::VqaView>,
+    /// The lighting whose pooled mIoU ranks entries and groups them.
+    pub ranking_lighting: &'static str,
 }
 
 /// `GET /`: the leaderboard of the current (or chosen) release.
@@ -171,8 +198,12 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
             baseline: e.baseline,
             complete: e.complete,
             flagged: e.flagged.clone(),
-            cells: cells_of.iter().map(|&(l, m)| percent(view.value(e, l, m))).collect(),
+            rank_group: e.rank_group,
+            cells: cells_of.iter().map(|&(l, m)| view.cell(e, l, m)).collect(),
             changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
+            worst: e.robustness.worst_lighting.map_or("–", Lighting::short_label).to_string(),
+            worst_miou: percent(e.robustness.worst_miou),
+            largest_drop: percent(e.robustness.largest_drop),
         })
         .collect();
     let aggregates = Aggregate::ALL
@@ -205,5 +236,6 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
         json_link: format!("/api/v1/leaderboard?release={release}"),
         vqa: vqa::vqa_view(release, &board.lightings, &entries, view.subset),
+        ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
     }
 }

@@ -2,6 +2,7 @@
 //! work without JavaScript: sorting and the choice of aggregate and subset are links.
 //! Numbers are formatted in [`format`], and every chart is a [`chart::BarChart`].
 
+pub mod admin;
 mod chart;
 mod format;
 mod leaderboard;

@@ -8,7 +8,7 @@ use axum::response::{IntoResponse, Response};
 use osmab_evaluator::scores::{Lighting, Metric};
 use osmab_evaluator::semseg::report::MetricTriple;
 
-use super::format::percent;
+use super::format::{interval, percent};
 use super::vqa::{VqaLighting, submission_vqa, vqa_sources};
 use crate::auth::Caller;
 use crate::problem::ApiResult;
@@ -30,6 +30,8 @@ pub struct SceneResult {
 pub struct LightingResult {
     pub label: &'static str,
     pub pooled: Vec<String>,
+    /// The 95 % bootstrap interval of each pooled metric (empty for scores without them).
+    pub pooled_ci: Vec<String>,
     pub mean: Vec<String>,
     pub scenes: Vec<SceneResult>,
 }
@@ -81,6 +83,10 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
             .map(|(l, table)| LightingResult {
                 label: l.label(),
                 pooled: cells(&table.overall),
+                pooled_ci: match table.overall.ci95 {
+                    Some(_) => Metric::COLUMNS.iter().map(|&m| interval(table.overall.interval(m))).collect(),
+                    None => Vec::new(),
+                },
                 mean: cells(&table.overall_mean),
                 scenes: table.scenes.iter().map(|(scene, t)| SceneResult { scene: scene.clone(), cells: cells(t) }).collect(),
             })

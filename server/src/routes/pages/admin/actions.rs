@@ -1,0 +1,164 @@
+//! The console's forms: each checks the session's form token, calls the admin API's own
+//! function and answers with a redirect (303) to the page that shows the result, or a
+//! page with the problem.
+
+use axum::extract::State;
+use axum::http::HeaderMap;
+use axum::response::{IntoResponse, Redirect, Response};
+use serde::Deserialize;
+
+use super::{AdminMessage, AdminSession, parse_form};
+use crate::problem::Problem;
+use crate::routes::{ApiPath, admin};
+use crate::state::AppState;
+
+/// A form body after its form token was checked.
+fn checked<T: FormWithToken>(session: &AdminSession, headers: &HeaderMap, body: &[u8]) -> Result<T, Response> {
+    let form: T = parse_form(body)?;
+    session.check_form(headers, form.form_token())?;
+    Ok(form)
+}
+
+trait FormWithToken: serde::de::DeserializeOwned {
+    fn form_token(&self) -> &str;
+}
+
+/// The console with a notice on top.
+fn back(notice: &str) -> Response {
+    Redirect::to(&format!("/admin?notice={}", urlencoding(notice))).into_response()
+}
+
+/// `text` percent-encoded for a query value.
+fn urlencoding(text: &str) -> String {
+    text.bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' => (b as char).to_string(),
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
+#[derive(Deserialize)]
+struct TokenOnly {
+    form_token: String,
+}
+
+impl FormWithToken for TokenOnly {
+    fn form_token(&self) -> &str {
+        &self.form_token
+    }
+}
+
+#[derive(Deserialize)]
+struct RegenerateForm {
+    form_token: String,
+    config: String,
+    /// Checkboxes: present ("on") when ticked.
+    publish: Option<String>,
+    baselines: Option<String>,
+}
+
+impl FormWithToken for RegenerateForm {
+    fn form_token(&self) -> &str {
+        &self.form_token
+    }
+}
+
+/// `POST /admin/regenerate` (`config`, `publish`, `baselines`): queue a release build and
+/// follow it on its job's page.
+pub async fn regenerate(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    let form: RegenerateForm = match checked(&session, &headers, &body) {
+        Ok(form) => form,
+        Err(refused) => return refused,
+    };
+    let config = Some(form.config.replace("\r\n", "\n")).filter(|c| !c.trim().is_empty());
+    match admin::queue_release_build(&state, config, form.publish.is_some(), form.baselines.is_some()).await {
+        Ok((job, _)) => Redirect::to(&format!("/admin/jobs/{job}")).into_response(),
+        Err(problem) => AdminMessage::problem(problem),
+    }
+}
+
+/// A form with no field but its token: check it, do `action`, and go back to the console
+/// with the notice `action` gives (or show its problem).
+async fn token_form(session: &AdminSession, headers: &HeaderMap, body: &[u8], action: impl Future<Output = Result<String, Problem>>) -> Response {
+    match checked::<TokenOnly>(session, headers, body) {
+        Ok(_) => match action.await {
+            Ok(notice) => back(&notice),
+            Err(problem) => AdminMessage::problem(problem),
+        },
+        Err(refused) => refused,
+    }
+}
+
+/// `POST /admin/releases/{version}/publish`.
+pub async fn publish(
+    State(state): State<AppState>,
+    session: AdminSession,
+    headers: HeaderMap,
+    ApiPath(version): ApiPath<String>,
+    body: axum::body::Bytes,
+) -> Response {
+    token_form(&session, &headers, &body, async { admin::publish(&state, &version).await.map(|()| format!("Release {version} is published and current.")) })
+        .await
+}
+
+#[derive(Deserialize)]
+struct FlagForm {
+    form_token: String,
+    reason: String,
+}
+
+impl FormWithToken for FlagForm {
+    fn form_token(&self) -> &str {
+        &self.form_token
+    }
+}
+
+/// `POST /admin/submissions/{id}/flag` (`reason`).
+pub async fn flag(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, ApiPath(id): ApiPath<String>, body: axum::body::Bytes) -> Response {
+    let form: FlagForm = match checked(&session, &headers, &body) {
+        Ok(form) => form,
+        Err(refused) => return refused,
+    };
+    match admin::set_flag(&state, &id, Some(&form.reason)).await {
+        Ok(()) => back(&format!("{id} is flagged.")),
+        Err(problem) => AdminMessage::problem(problem),
+    }
+}
+
+/// `POST /admin/submissions/{id}/unflag`.
+pub async fn unflag(
+    State(state): State<AppState>,
+    session: AdminSession,
+    headers: HeaderMap,
+    ApiPath(id): ApiPath<String>,
+    body: axum::body::Bytes,
+) -> Response {
+    token_form(&session, &headers, &body, async { admin::set_flag(&state, &id, None).await.map(|()| format!("{id} is no longer flagged.")) }).await
+}
+
+/// `POST /admin/submissions/{id}/refund`.
+pub async fn refund(
+    State(state): State<AppState>,
+    session: AdminSession,
+    headers: HeaderMap,
+    ApiPath(id): ApiPath<String>,
+    body: axum::body::Bytes,
+) -> Response {
+    token_form(&session, &headers, &body, async {
+        Ok(match admin::refund(&state, &id).await? {
+            true => format!("{id}: its quota unit is given back to the team."),
+            false => format!("{id}: its quota unit had been given back already."),
+        })
+    })
+    .await
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn notices_travel_percent_encoded() {
+        assert_eq!(super::urlencoding("sub_1 is flagged."), "sub_1%20is%20flagged.");
+        assert_eq!(super::urlencoding("ä&="), "%C3%A4%26%3D");
+    }
+}

@@ -1,0 +1,267 @@
+//! `GET /admin`: releases (publish a draft, compare its quality), the regeneration form,
+//! recent builds with their render jobs, recent submissions (flag, refund); and
+//! `GET /admin/jobs/{id}`: one build's stages and render jobs, refreshing while it runs.
+
+use askama::Template;
+use askama_web::WebTemplate;
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::{AdminMessage, AdminSession};
+use crate::clock::rfc3339;
+use crate::routes::{ApiPath, ApiQuery};
+use crate::state::AppState;
+use crate::store::{JobRecord, JobState, ReleaseState, StoreError};
+
+/// The stages of a release build, in order, as its job reports them.
+pub const BUILD_STAGES: [&str; 6] = ["prepare", "rendering", "assemble", "import", "baselines", "done"];
+
+pub struct ReleaseRow {
+    pub version: String,
+    pub state: String,
+    pub current: bool,
+    pub draft: bool,
+    pub created_at: String,
+    pub published_at: String,
+}
+
+/// A build and how far its render jobs are.
+pub struct BuildRow {
+    pub job: String,
+    pub version: String,
+    pub state: String,
+    pub stage: String,
+    pub message: String,
+    pub renders: RenderCounts,
+    pub created_at: String,
+}
+
+#[derive(Default)]
+pub struct RenderCounts {
+    pub total: usize,
+    pub succeeded: usize,
+    pub running: usize,
+    pub failed: usize,
+}
+
+pub struct SubmissionRow {
+    pub id: String,
+    pub method: String,
+    pub team: String,
+    pub state: String,
+    pub created_at: String,
+    pub baseline: bool,
+    pub flag: Option<String>,
+    pub quota_refunded: bool,
+}
+
+#[derive(Template, WebTemplate)]
+#[template(path = "admin.html")]
+pub struct ConsolePage {
+    pub notice: Option<String>,
+    pub form_token: String,
+    pub releases: Vec<ReleaseRow>,
+    pub builds: Vec<BuildRow>,
+    pub submissions: Vec<SubmissionRow>,
+    pub demo_config: &'static str,
+    pub refresh: bool,
+}
+
+#[derive(Debug, Deserialize, Default)]
+pub struct ConsoleQuery {
+    notice: Option<String>,
+}
+
+/// The version a job's subject names (`version` or `version/scene/lighting`).
+fn subject_version(subject: &str) -> &str {
+    subject.split('/').next().unwrap_or(subject)
+}
+
+fn progress_of(job: &JobRecord) -> Value {
+    serde_json::from_str(&job.progress).unwrap_or(Value::Null)
+}
+
+/// How far the render jobs of `version` among `jobs` are.
+fn renders_of(jobs: &[JobRecord], version: &str) -> RenderCounts {
+    let mut counts = RenderCounts::default();
+    for j in jobs.iter().filter(|j| j.kind == "render_sequence" && subject_version(&j.subject) == version) {
+        counts.total += 1;
+        match j.state {
+            JobState::Succeeded => counts.succeeded += 1,
+            JobState::Running => counts.running += 1,
+            JobState::Failed => counts.failed += 1,
+            _ => {}
+        }
+    }
+    counts
+}
+
+fn build_row(job: &JobRecord, jobs: &[JobRecord]) -> BuildRow {
+    let progress = progress_of(job);
+    let text = |k: &str| progress.get(k).and_then(Value::as_str).unwrap_or("").to_string();
+    BuildRow {
+        job: job.id.clone(),
+        version: job.subject.clone(),
+        state: job.state.to_string(),
+        stage: text("stage"),
+        message: text("message"),
+        renders: renders_of(jobs, &job.subject),
+        created_at: rfc3339(job.created_at),
+    }
+}
+
+/// `GET /admin`.
+pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQuery(query): ApiQuery<ConsoleQuery>) -> Response {
+    let loaded = async {
+        let releases = state.store.releases().await?;
+        let jobs = state.store.jobs(2000).await?;
+        let submissions = state.store.submissions(None, 200).await?;
+        let teams = state.store.teams().await?;
+        Ok::<_, StoreError>((releases, jobs, submissions, teams))
+    };
+    let (releases, jobs, submissions, teams) = match loaded.await {
+        Ok(loaded) => loaded,
+        Err(e) => return AdminMessage::problem(e.into()),
+    };
+    let team_name = |id: &str| teams.iter().find(|t| t.id == id).map_or_else(|| id.to_string(), |t| t.name.clone());
+    let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == "build_release").take(10).map(|j| build_row(j, &jobs)).collect();
+    ConsolePage {
+        notice: query.notice,
+        form_token: session.form_token(),
+        refresh: builds.iter().any(|b| b.state == "queued" || b.state == "running"),
+        releases: releases
+            .iter()
+            .map(|r| ReleaseRow {
+                version: r.version.clone(),
+                state: r.state.to_string(),
+                current: r.is_current,
+                draft: r.state == ReleaseState::Draft,
+                created_at: rfc3339(r.created_at),
+                published_at: r.published_at.map(rfc3339).unwrap_or_default(),
+            })
+            .collect(),
+        builds,
+        submissions: submissions
+            .iter()
+            .map(|s| SubmissionRow {
+                id: s.id.clone(),
+                method: s.method_name.clone(),
+                team: team_name(&s.team_id),
+                state: s.state.to_string(),
+                created_at: rfc3339(s.created_at),
+                baseline: s.baseline,
+                flag: s.flag.clone(),
+                quota_refunded: s.quota_refunded,
+            })
+            .collect(),
+        demo_config: crate::jobs::release_build::DEMO_CONFIG,
+    }
+    .into_response()
+}
+
+pub struct StageStep {
+    pub name: &'static str,
+    /// `done`, `current` or `todo`.
+    pub status: &'static str,
+}
+
+pub struct RenderRow {
+    pub subject: String,
+    pub state: String,
+    pub attempts: i64,
+    pub worker: String,
+    pub message: String,
+    pub error: String,
+}
+
+#[derive(Template, WebTemplate)]
+#[template(path = "admin_job.html")]
+pub struct JobPage {
+    pub build: BuildRow,
+    pub stages: Vec<StageStep>,
+    pub log: Vec<String>,
+    pub error: String,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub renders: Vec<RenderRow>,
+    pub refresh: bool,
+    pub draft_exists: bool,
+}
+
+/// `GET /admin/jobs/{id}`: a release build's stages and render jobs.
+pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): ApiPath<String>) -> Response {
+    let job = match state.store.job(&id).await {
+        Ok(job) if job.kind == "build_release" => job,
+        Ok(_) | Err(StoreError::NotFound) => {
+            return AdminMessage::page(StatusCode::NOT_FOUND, "No such build", &format!("There is no release build job '{id}'."));
+        }
+        Err(e) => return AdminMessage::problem(e.into()),
+    };
+    let jobs = match state.store.jobs(2000).await {
+        Ok(jobs) => jobs,
+        Err(e) => return AdminMessage::problem(e.into()),
+    };
+    let progress = progress_of(&job);
+    let current = progress.get("stage").and_then(Value::as_str).unwrap_or("");
+    let at = BUILD_STAGES.iter().position(|s| *s == current);
+    let stages = BUILD_STAGES
+        .iter()
+        .enumerate()
+        .map(|(i, &name)| StageStep {
+            name,
+            status: match at {
+                Some(k) if i < k || (i == k && name == "done") => "done",
+                Some(k) if i == k => "current",
+                _ => "todo",
+            },
+        })
+        .collect();
+    let log = match progress.get("log") {
+        Some(Value::Array(lines)) => lines.iter().filter_map(Value::as_str).map(str::to_string).collect(),
+        Some(Value::String(text)) => text.lines().map(str::to_string).collect(),
+        _ => Vec::new(),
+    };
+    let mut renders: Vec<RenderRow> = jobs
+        .iter()
+        .filter(|j| j.kind == "render_sequence" && subject_version(&j.subject) == job.subject)
+        .map(|j| {
+            let p = progress_of(j);
+            RenderRow {
+                subject: j.subject.clone(),
+                state: j.state.to_string(),
+                attempts: j.attempts,
+                worker: j.lease_owner.clone().unwrap_or_default(),
+                message: p.get("message").and_then(Value::as_str).unwrap_or("").to_string(),
+                error: j.error.clone().unwrap_or_default(),
+            }
+        })
+        .collect();
+    renders.sort_by(|a, b| a.subject.cmp(&b.subject));
+    let draft_exists = matches!(state.store.release(&job.subject).await, Ok(r) if r.state == ReleaseState::Draft);
+    JobPage {
+        refresh: matches!(job.state, JobState::Queued | JobState::Running),
+        stages,
+        log,
+        error: job.error.clone().unwrap_or_default(),
+        attempts: job.attempts,
+        max_attempts: job.max_attempts,
+        renders,
+        draft_exists,
+        build: build_row(&job, &jobs),
+    }
+    .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_subjects_name_their_release() {
+        assert_eq!(subject_version("demo-2/scene_001/camera"), "demo-2");
+        assert_eq!(subject_version("demo-2"), "demo-2");
+    }
+}

@@ -1,0 +1,53 @@
+//! The operator's console at `/admin`: pages and plain HTML forms (no JavaScript) for what
+//! maintainers otherwise do with `curl` — start a regeneration from a config, watch its
+//! stages and render jobs, compare a draft's quality report with the current release's,
+//! publish, flag entries, refund quota. Every action goes through the same functions as
+//! the admin API (`routes::admin`); [`session`] says how an operator signs in.
+
+mod actions;
+mod console;
+mod quality;
+mod session;
+
+use askama::Template;
+use askama_web::WebTemplate;
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use serde::de::DeserializeOwned;
+
+pub use actions::{flag, publish, refund, regenerate, unflag};
+pub use console::{console, job};
+pub use quality::quality;
+pub use session::{AdminSession, login, login_form, logout};
+
+/// The sign-in page.
+#[derive(Template, WebTemplate)]
+#[template(path = "admin_login.html")]
+pub struct LoginPage {
+    pub error: Option<String>,
+}
+
+/// A console page that only says something (a refused form, a missing record).
+#[derive(Template, WebTemplate)]
+#[template(path = "admin_message.html")]
+pub struct AdminMessage {
+    pub title: String,
+    pub message: String,
+}
+
+impl AdminMessage {
+    pub fn page(status: StatusCode, title: &str, message: &str) -> Response {
+        (status, AdminMessage { title: title.into(), message: message.into() }).into_response()
+    }
+
+    /// The page of a refused action: the problem's status and words.
+    pub fn problem(problem: crate::problem::Problem) -> Response {
+        AdminMessage::page(problem.status, &problem.title, &problem.detail)
+    }
+}
+
+/// Bytes of an `application/x-www-form-urlencoded` body as `T`, or a page saying what is wrong.
+pub fn parse_form<T: DeserializeOwned>(body: &[u8]) -> Result<T, Response> {
+    serde_urlencoded::from_bytes(body)
+        .map_err(|e| AdminMessage::page(StatusCode::BAD_REQUEST, "Form not understood", &format!("The form's fields do not read: {e}.")))
+}

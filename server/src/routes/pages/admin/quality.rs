@@ -1,0 +1,225 @@
+//! `GET /admin/releases/{version}/quality`: a release's quality report beside the current
+//! release's — the bar's counts, the oracle's VQA accuracy per category, coverage and
+//! lighting measures averaged over scenes — and the draft's scenes one by one, so an
+//! operator sees what publishing would change before publishing.
+
+use std::collections::BTreeSet;
+
+use askama::Template;
+use askama_web::WebTemplate;
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use serde_json::Value;
+
+use super::{AdminMessage, AdminSession};
+use crate::routes::ApiPath;
+use crate::state::AppState;
+use crate::store::{ReleaseState, StoreError};
+
+/// Where a release keeps its quality report.
+const REPORT: &str = "quality/quality_report.json";
+
+/// One measure of both releases.
+pub struct Measure {
+    pub name: String,
+    pub this: String,
+    pub current: String,
+    /// The change reads as worse (more problems, less coverage).
+    pub worse: bool,
+}
+
+pub struct SceneRow {
+    pub scene: String,
+    pub subset: String,
+    pub prompt: String,
+    pub frames: String,
+    pub travelled: String,
+    pub degenerate: String,
+    pub mapped: String,
+    pub problems: Vec<String>,
+}
+
+#[derive(Template, WebTemplate)]
+#[template(path = "admin_quality.html")]
+pub struct QualityPage {
+    pub version: String,
+    pub current: Option<String>,
+    pub draft: bool,
+    pub form_token: String,
+    pub measures: Vec<Measure>,
+    pub problems: Vec<String>,
+    pub scenes: Vec<SceneRow>,
+}
+
+/// The summary numbers of a report, by name; `None` where the report has no such measure.
+fn summary(report: &Value) -> Vec<(String, Option<f64>, bool)> {
+    let scenes: Vec<&Value> = report["per_scene"].as_array().map(|a| a.iter().collect()).unwrap_or_default();
+    let count = |k: &str| report[k].as_f64();
+    let mean = |f: &dyn Fn(&Value) -> Option<f64>| {
+        let values: Vec<f64> = scenes.iter().filter_map(|s| f(s)).collect();
+        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+    };
+    let instances: Vec<&Value> = scenes.iter().flat_map(|s| s["instances"].as_array().into_iter().flatten()).collect();
+    let mapped = (!instances.is_empty()).then(|| instances.iter().filter(|i| i["mapped"].as_bool() == Some(true)).count() as f64 / instances.len() as f64);
+    // (name, value, higher is better)
+    let mut rows = vec![
+        ("scenes".to_string(), count("scenes"), true),
+        ("scenes passing the bar".to_string(), count("passed"), true),
+        ("scenes matching their prompt fully".to_string(), count("full_match"), true),
+        ("problems".to_string(), report["problems"].as_array().map(|p| p.len() as f64), false),
+        ("object instances mapped (share)".to_string(), mapped, true),
+        ("frames per scene (mean)".to_string(), mean(&|s| s["frames"].as_f64()), true),
+        ("camera travel per scene, m (mean)".to_string(), mean(&|s| s["travelled_m"].as_f64()), true),
+        ("degenerate frames (mean share)".to_string(), mean(&|s| s["degenerate_fraction"].as_f64()), false),
+    ];
+    let lightings: BTreeSet<String> = scenes.iter().flat_map(|s| s["lightings"].as_object().into_iter().flat_map(|m| m.keys().cloned())).collect();
+    for lighting in &lightings {
+        rows.push((format!("{lighting}: saturated pixels (median share, mean)"), mean(&|s| s["lightings"][lighting]["median_saturated"].as_f64()), false));
+        rows.push((format!("{lighting}: mean luma"), mean(&|s| s["lightings"][lighting]["mean_luma"].as_f64()), true));
+    }
+    if let Some(oracle) = report["oracle_vqa"].as_object() {
+        for (category, accuracy) in oracle {
+            rows.push((format!("oracle VQA accuracy, {category}"), accuracy.as_f64(), true));
+        }
+    }
+    rows
+}
+
+/// A measure as the page prints it.
+fn shown(value: Option<f64>) -> String {
+    match value {
+        None => "–".into(),
+        Some(v) if v.fract() == 0.0 && v.abs() < 1e9 => format!("{v:.0}"),
+        Some(v) if v.abs() < 1.0 => format!("{v:.3}"),
+        Some(v) => format!("{v:.1}"),
+    }
+}
+
+/// `this` beside `current`, measure by measure (the union of both reports' measures).
+fn compare(this: &Value, current: Option<&Value>) -> Vec<Measure> {
+    let ours = summary(this);
+    let theirs = current.map(summary).unwrap_or_default();
+    let mut names: Vec<(String, bool)> = ours.iter().map(|(n, _, up)| (n.clone(), *up)).collect();
+    names.extend(theirs.iter().filter(|(n, _, _)| !ours.iter().any(|(m, _, _)| m == n)).map(|(n, _, up)| (n.clone(), *up)));
+    names
+        .into_iter()
+        .map(|(name, higher_is_better)| {
+            let of = |rows: &[(String, Option<f64>, bool)]| rows.iter().find(|(n, _, _)| *n == name).and_then(|(_, v, _)| *v);
+            let (a, b) = (of(&ours), of(&theirs));
+            let worse = match (a, b) {
+                (Some(a), Some(b)) => {
+                    if higher_is_better {
+                        a < b - 1e-9
+                    } else {
+                        a > b + 1e-9
+                    }
+                }
+                _ => false,
+            };
+            Measure { this: shown(a), current: shown(b), worse, name }
+        })
+        .collect()
+}
+
+fn scene_rows(report: &Value) -> Vec<SceneRow> {
+    let text = |v: &Value| v.as_str().unwrap_or("").to_string();
+    report["per_scene"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|s| {
+            let instances = s["instances"].as_array().map(Vec::as_slice).unwrap_or_default();
+            let mapped = instances.iter().filter(|i| i["mapped"].as_bool() == Some(true)).count();
+            SceneRow {
+                scene: text(&s["scene"]),
+                subset: text(&s["subset"]),
+                prompt: text(&s["prompt_id"]),
+                frames: shown(s["frames"].as_f64()),
+                travelled: shown(s["travelled_m"].as_f64()),
+                degenerate: shown(s["degenerate_fraction"].as_f64()),
+                mapped: format!("{mapped}/{}", instances.len()),
+                problems: s["problems"].as_array().into_iter().flatten().map(text).collect(),
+            }
+        })
+        .collect()
+}
+
+/// The quality report of `version`, read from the blob store.
+async fn report_of(state: &AppState, version: &str) -> Result<Value, String> {
+    let key = format!("{}/{REPORT}", crate::releases::release_prefix(version));
+    let fetched = state.blobs.fetch(&key).await.map_err(|e| format!("release {version} has no readable quality report: {e}"))?;
+    let bytes = tokio::fs::read(fetched.path()).await.map_err(|e| format!("{REPORT} of {version}: {e}"))?;
+    serde_json::from_slice(&bytes).map_err(|e| format!("{REPORT} of {version} is not JSON: {e}"))
+}
+
+/// `GET /admin/releases/{version}/quality`.
+pub async fn quality(State(state): State<AppState>, session: AdminSession, ApiPath(version): ApiPath<String>) -> Response {
+    let release = match state.store.release(&version).await {
+        Ok(r) => r,
+        Err(StoreError::NotFound) => return AdminMessage::page(StatusCode::NOT_FOUND, "No such release", &format!("There is no release '{version}'.")),
+        Err(e) => return AdminMessage::problem(e.into()),
+    };
+    let this = match report_of(&state, &version).await {
+        Ok(report) => report,
+        Err(message) => return AdminMessage::page(StatusCode::NOT_FOUND, "No quality report", &message),
+    };
+    let current = match state.store.current_release().await {
+        Ok(current) if current.version != version => Some(current.version),
+        _ => None,
+    };
+    let current_report = match &current {
+        Some(v) => report_of(&state, v).await.ok(),
+        None => None,
+    };
+    QualityPage {
+        measures: compare(&this, current_report.as_ref()),
+        problems: this["problems"].as_array().into_iter().flatten().filter_map(|p| p.as_str().map(str::to_string)).collect(),
+        scenes: scene_rows(&this),
+        draft: release.state == ReleaseState::Draft,
+        form_token: session.form_token(),
+        current,
+        version,
+    }
+    .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn report(passed: u32, mapped: [bool; 2], problems: &[&str]) -> Value {
+        json!({
+            "scenes": 2, "passed": passed, "full_match": passed, "problems": problems, "oracle_vqa": {"counting": 0.9},
+            "per_scene": [
+                {"scene": "scene_000", "subset": "furniture", "prompt_id": "p1", "frames": 100, "travelled_m": 12.5, "degenerate_fraction": 0.01,
+                 "instances": [{"mapped": mapped[0]}, {"mapped": mapped[1]}], "problems": problems,
+                 "lightings": {"baseline": {"median_saturated": 0.001, "mean_luma": 120.0}}},
+                {"scene": "scene_001", "subset": "manipuland", "prompt_id": "p2", "frames": 80, "travelled_m": 7.5, "degenerate_fraction": 0.03,
+                 "instances": [], "problems": [], "lightings": {"baseline": {"median_saturated": 0.003, "mean_luma": 100.0}}}
+            ]
+        })
+    }
+
+    #[test]
+    fn a_draft_is_compared_measure_by_measure_and_regressions_are_marked() {
+        let draft = report(1, [true, false], &["scene_000: a prompted lamp is not mapped"]);
+        let current = report(2, [true, true], &[]);
+        let measures = compare(&draft, Some(&current));
+        let get = |name: &str| measures.iter().find(|m| m.name == name).unwrap();
+        let passing = get("scenes passing the bar");
+        assert_eq!((passing.this.as_str(), passing.current.as_str(), passing.worse), ("1", "2", true));
+        let mapped = get("object instances mapped (share)");
+        assert_eq!((mapped.this.as_str(), mapped.current.as_str(), mapped.worse), ("0.500", "1", true));
+        assert!(get("problems").worse, "more problems read as worse");
+        let travel = get("camera travel per scene, m (mean)");
+        assert_eq!((travel.this.as_str(), travel.worse), ("10", false));
+        assert_eq!(get("baseline: mean luma").this, "110");
+        assert_eq!(get("oracle VQA accuracy, counting").this, "0.900");
+        let alone = compare(&draft, None);
+        assert!(alone.iter().all(|m| m.current == "–" && !m.worse), "nothing to compare with");
+        let rows = scene_rows(&draft);
+        assert_eq!((rows[0].mapped.as_str(), rows[0].problems.len(), rows[1].mapped.as_str()), ("1/2", 1, "0/0"));
+    }
+}

@@ -1,0 +1,170 @@
+//! Signing in to the operator's pages: the admin token is typed once into a form; the
+//! server answers with a session token of its own (an admin-scope token in the store,
+//! valid for [`SESSION_HOURS`], revoked at sign-out) in an `HttpOnly`, `SameSite=Strict`
+//! cookie scoped to `/admin`, so the admin token itself never sits in a browser and every
+//! server of a deployment knows the session. Forms carry a token derived from the
+//! session ([`AdminSession::form_token`]); a POST without it, or from another origin, is
+//! refused.
+
+use axum::extract::{FromRequestParts, State};
+use axum::http::request::Parts;
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Redirect, Response};
+use serde::Deserialize;
+use sha2::{Digest, Sha256};
+
+use super::{AdminMessage, LoginPage, parse_form};
+use crate::auth::{Caller, caller_with_token, issue_token};
+use crate::clock::now_ms;
+use crate::state::AppState;
+
+/// The session cookie.
+pub const COOKIE: &str = "osmab_admin_session";
+/// How long a session lasts.
+pub const SESSION_HOURS: i64 = 12;
+
+/// A signed-in operator.
+#[derive(Debug, Clone)]
+pub struct AdminSession {
+    token: String,
+    token_id: String,
+}
+
+impl AdminSession {
+    /// The value every form of this session carries (a hash of the session token: other
+    /// sites cannot know it).
+    pub fn form_token(&self) -> String {
+        Sha256::digest(format!("osmab admin form\n{}", self.token)).iter().take(16).map(|b| format!("{b:02x}")).collect()
+    }
+
+    /// Refuse a form that lacks this session's form token or comes from another origin.
+    pub fn check_form(&self, headers: &HeaderMap, form_token: &str) -> Result<(), Response> {
+        let same_origin = match (headers.get(header::ORIGIN), headers.get(header::HOST)) {
+            (Some(origin), Some(host)) => {
+                let origin = origin.to_str().unwrap_or("");
+                origin.split_once("://").is_some_and(|(_, rest)| rest.as_bytes() == host.as_bytes())
+            }
+            // Without an Origin header (older browsers, curl) the form token decides.
+            _ => true,
+        };
+        let expected = self.form_token();
+        let matches = expected.len() == form_token.len() && expected.bytes().zip(form_token.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b)) == 0;
+        if same_origin && matches {
+            Ok(())
+        } else {
+            Err(AdminMessage::page(
+                StatusCode::FORBIDDEN,
+                "Form refused",
+                "This form did not come from this console's own page (or the page is from an earlier session). Reload the page and try again.",
+            ))
+        }
+    }
+}
+
+/// The value of cookie `name` in the request.
+fn cookie<'a>(headers: &'a HeaderMap, name: &str) -> Option<&'a str> {
+    headers
+        .get_all(header::COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(';'))
+        .filter_map(|pair| pair.trim().split_once('='))
+        .find(|(k, _)| *k == name)
+        .map(|(_, v)| v.trim())
+}
+
+impl FromRequestParts<AppState> for AdminSession {
+    type Rejection = Response;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
+        let to_login = || Redirect::to("/admin/login").into_response();
+        let Some(token) = cookie(&parts.headers, COOKIE) else {
+            return Err(to_login());
+        };
+        match caller_with_token(state, token).await {
+            Ok((Caller::Admin, record)) => Ok(AdminSession { token: token.to_string(), token_id: record.id }),
+            Ok(_) | Err(_) => Err(to_login()),
+        }
+    }
+}
+
+/// `GET /admin/login`.
+pub async fn login_form() -> Response {
+    LoginPage { error: None }.into_response()
+}
+
+#[derive(Deserialize)]
+struct LoginForm {
+    token: String,
+}
+
+fn session_cookie(value: &str, max_age_secs: i64) -> String {
+    format!("{COOKIE}={value}; Path=/admin; HttpOnly; SameSite=Strict; Max-Age={max_age_secs}")
+}
+
+/// `POST /admin/login` (`token`): start a session with an admin token.
+pub async fn login(State(state): State<AppState>, body: axum::body::Bytes) -> Response {
+    let form: LoginForm = match parse_form(&body) {
+        Ok(form) => form,
+        Err(response) => return response,
+    };
+    let refused = |message: String| (StatusCode::UNAUTHORIZED, LoginPage { error: Some(message) }).into_response();
+    match caller_with_token(&state, form.token.trim()).await {
+        Ok((Caller::Admin, _)) => {}
+        Ok(_) => return refused("That is a team token; the console needs the admin token.".into()),
+        Err(problem) => return refused(problem.detail),
+    }
+    let expires = now_ms() + SESSION_HOURS * 3_600_000;
+    let (session, record) = issue_token("admin", None, Some(expires));
+    if let Err(e) = state.store.insert_token(&record).await {
+        return crate::problem::Problem::from(e).into_response();
+    }
+    tracing::info!(session = %record.id, "operator signed in to the console");
+    ([(header::SET_COOKIE, session_cookie(&session, SESSION_HOURS * 3600))], Redirect::to("/admin")).into_response()
+}
+
+#[derive(Deserialize)]
+struct FormToken {
+    form_token: String,
+}
+
+/// `POST /admin/logout`: end the session (its token is revoked).
+pub async fn logout(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    let form: FormToken = match parse_form(&body) {
+        Ok(form) => form,
+        Err(response) => return response,
+    };
+    if let Err(refused) = session.check_form(&headers, &form.form_token) {
+        return refused;
+    }
+    if let Err(e) = state.store.revoke_token(&session.token_id, now_ms()).await {
+        return crate::problem::Problem::from(e).into_response();
+    }
+    ([(header::SET_COOKIE, session_cookie("", 0))], Redirect::to("/admin/login")).into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cookie_is_found_among_others_and_forms_need_the_session_token_from_this_origin() {
+        let mut headers = HeaderMap::new();
+        headers.insert(header::COOKIE, "a=1; osmab_admin_session=osmab_abc ; b=2".parse().unwrap());
+        assert_eq!(cookie(&headers, COOKIE), Some("osmab_abc"));
+        assert_eq!(cookie(&headers, "missing"), None);
+
+        let session = AdminSession { token: "osmab_abc".into(), token_id: "tok_1".into() };
+        let other = AdminSession { token: "osmab_xyz".into(), token_id: "tok_2".into() };
+        assert_ne!(session.form_token(), other.form_token());
+        let mut same = HeaderMap::new();
+        same.insert(header::HOST, "bench.example:8080".parse().unwrap());
+        same.insert(header::ORIGIN, "https://bench.example:8080".parse().unwrap());
+        assert!(session.check_form(&same, &session.form_token()).is_ok());
+        assert!(session.check_form(&same, &other.form_token()).is_err(), "another session's form");
+        assert!(session.check_form(&same, "").is_err());
+        let mut cross = same.clone();
+        cross.insert(header::ORIGIN, "https://evil.example".parse().unwrap());
+        assert!(session.check_form(&cross, &session.form_token()).is_err(), "another origin");
+    }
+}

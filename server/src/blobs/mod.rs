@@ -233,7 +233,7 @@ impl Blobs {
         let count = wanted.len();
         let downloads: Vec<(String, PathBuf)> = wanted.into_iter().map(|path| (format!("{prefix}/{path}"), partial.join(&path))).collect();
         let downloaded = futures_util::stream::iter(downloads.into_iter().map(|(key, target)| async move { object.download(&key, &target).await }))
-            .buffer_unordered(8)
+            .buffer_unordered(object::CONCURRENT_REQUESTS)
             .try_collect::<Vec<()>>()
             .await;
         if let Err(e) = downloaded {
@@ -268,7 +268,7 @@ impl Blobs {
         }
         let count = missing.len();
         futures_util::stream::iter(missing.into_iter().map(|(rel, path)| async move { object.upload(&format!("{prefix}/{rel}"), &path).await }))
-            .buffer_unordered(8)
+            .buffer_unordered(object::CONCURRENT_REQUESTS)
             .try_collect::<Vec<()>>()
             .await?;
         Ok(count)
@@ -289,7 +289,7 @@ impl Blobs {
         }
         let count = missing.len();
         futures_util::stream::iter(missing.into_iter().map(|(rel, target)| async move { object.download(&format!("{prefix}/{rel}"), &target).await }))
-            .buffer_unordered(8)
+            .buffer_unordered(object::CONCURRENT_REQUESTS)
             .try_collect::<Vec<()>>()
             .await?;
         Ok(count)

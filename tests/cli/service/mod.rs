@@ -221,7 +221,9 @@ impl Server<'_> {
 
     /// Import and publish the shared test release.
     pub fn import_test_release(&self) -> String {
-        let response = self.admin(self.post("/api/v1/admin/releases/import").json(&json!({"path": test_release(), "publish": true})));
+        // Into an object store the release's ~5,000 files take a while (moto: ~110 PUTs a second).
+        let request = self.post("/api/v1/admin/releases/import").timeout(Duration::from_secs(600));
+        let response = self.admin(request.json(&json!({"path": test_release(), "publish": true})));
         assert_eq!(response.status(), 201, "{}", response.text().unwrap());
         response.json::<Value>().unwrap()["version"].as_str().unwrap().to_string()
     }

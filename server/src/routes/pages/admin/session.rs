@@ -98,12 +98,15 @@ struct LoginForm {
     token: String,
 }
 
-fn session_cookie(value: &str, max_age_secs: i64) -> String {
-    format!("{COOKIE}={value}; Path=/admin; HttpOnly; SameSite=Strict; Max-Age={max_age_secs}")
+/// The session cookie's header; `Secure` when the request came over HTTPS (a TLS proxy in
+/// front says so with `X-Forwarded-Proto`), so the browser never sends it in clear.
+fn session_cookie(value: &str, max_age_secs: i64, headers: &HeaderMap) -> String {
+    let https = headers.get("x-forwarded-proto").and_then(|v| v.to_str().ok()).is_some_and(|v| v.eq_ignore_ascii_case("https"));
+    format!("{COOKIE}={value}; Path=/admin; HttpOnly; SameSite=Strict; Max-Age={max_age_secs}{}", if https { "; Secure" } else { "" })
 }
 
 /// `POST /admin/login` (`token`): start a session with an admin token.
-pub async fn login(State(state): State<AppState>, body: axum::body::Bytes) -> Response {
+pub async fn login(State(state): State<AppState>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
     let form: LoginForm = match parse_form(&body) {
         Ok(form) => form,
         Err(response) => return response,
@@ -120,7 +123,7 @@ pub async fn login(State(state): State<AppState>, body: axum::body::Bytes) -> Re
         return crate::problem::Problem::from(e).into_response();
     }
     tracing::info!(session = %record.id, "operator signed in to the console");
-    ([(header::SET_COOKIE, session_cookie(&session, SESSION_HOURS * 3600))], Redirect::to("/admin")).into_response()
+    ([(header::SET_COOKIE, session_cookie(&session, SESSION_HOURS * 3600, &headers))], Redirect::to("/admin")).into_response()
 }
 
 #[derive(Deserialize)]
@@ -140,7 +143,7 @@ pub async fn logout(State(state): State<AppState>, session: AdminSession, header
     if let Err(e) = state.store.revoke_token(&session.token_id, now_ms()).await {
         return crate::problem::Problem::from(e).into_response();
     }
-    ([(header::SET_COOKIE, session_cookie("", 0))], Redirect::to("/admin/login")).into_response()
+    ([(header::SET_COOKIE, session_cookie("", 0, &headers))], Redirect::to("/admin/login")).into_response()
 }
 
 #[cfg(test)]
@@ -166,5 +169,14 @@ mod tests {
         let mut cross = same.clone();
         cross.insert(header::ORIGIN, "https://evil.example".parse().unwrap());
         assert!(session.check_form(&cross, &session.form_token()).is_err(), "another origin");
+    }
+
+    #[test]
+    fn the_cookie_is_secure_behind_a_tls_proxy() {
+        let plain = session_cookie("v", 60, &HeaderMap::new());
+        assert_eq!(plain, "osmab_admin_session=v; Path=/admin; HttpOnly; SameSite=Strict; Max-Age=60");
+        let mut proxied = HeaderMap::new();
+        proxied.insert("x-forwarded-proto", "HTTPS".parse().unwrap());
+        assert!(session_cookie("v", 60, &proxied).ends_with("; Secure"));
     }
 }

@@ -94,6 +94,14 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         repeat: usize,
     },
+    /// Time the rank groups of a leaderboard: every pair of entries compared by a paired
+    /// bootstrap of 1,000 replicates (what each board rebuild does).
+    Ranking {
+        #[arg(long, default_value_t = 200)]
+        entries: usize,
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+    },
     /// Time index build and queries of the nearest-neighbour association in-process.
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
@@ -128,6 +136,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Vqa { scenes, lightings, objects, questions, repeat } => {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
+        BenchCommand::Ranking { entries, repeat } => ranking(entries, repeat),
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
             let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
             println!("threads {}", rayon::current_num_threads());
@@ -350,5 +359,31 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
         estimate / 60.0,
         estimate / 3600.0
     );
+    Ok(())
+}
+
+/// `osmab bench ranking`: `entries` synthetic entries, evenly spread in mIoU, each with
+/// 1,000 replicates of scene noise (shared between entries, as resamples are) plus noise
+/// of its own; the time of `rank_groups` over all of them.
+fn ranking(entries: usize, repeat: usize) -> anyhow::Result<()> {
+    use crate::leaderboard::ranking::{Standing, rank_groups};
+    let mut rng = osmab_evaluator::synthetic::Rng::new(11);
+    let shared: Vec<f64> = (0..osmab_evaluator::bootstrap::ROUNDS).map(|_| rng.range(-0.05, 0.05)).collect();
+    let standings: Vec<Standing> = (0..entries)
+        .map(|i| {
+            let value = 0.9 - 0.8 * i as f64 / entries.max(1) as f64;
+            Standing { value: Some(value), replicates: shared.iter().map(|s| Some(value + s + rng.range(-0.01, 0.01))).collect() }
+        })
+        .collect();
+    for run in 0..repeat {
+        let clock = Instant::now();
+        let groups = rank_groups(&standings);
+        let distinct = groups.iter().collect::<std::collections::BTreeSet<_>>().len();
+        println!(
+            "run {run}: {entries} entries, {} pairs compared, {distinct} distinct groups in {:.3} s",
+            entries * entries.saturating_sub(1) / 2,
+            clock.elapsed().as_secs_f64()
+        );
+    }
     Ok(())
 }

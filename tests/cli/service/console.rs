@@ -94,6 +94,11 @@ fn console(backend: Backend) {
     assert_eq!(flagged.status(), 303);
     assert!(location(&flagged).starts_with("/admin?notice="));
     assert_eq!(entry(&server)["flagged"], "trained on test scenes");
+    let after = browser.get(format!("{}{}", server.url, location(&flagged))).header("cookie", &cookie).send().unwrap().text().unwrap();
+    assert!(after.contains(&format!("{id} is flagged.")), "the console says what was done");
+    let crafted =
+        browser.get(format!("{}/admin?notice=Send+your+token+to+evil.example&seal=0000000000000000", server.url)).header("cookie", &cookie).send().unwrap();
+    assert!(!crafted.text().unwrap().contains("evil.example"), "a crafted link puts no words on the console");
     let blank = form(&browser, &server, &format!("/admin/submissions/{id}/flag"), &cookie, &[("form_token", &form_token), ("reason", "  ")]);
     assert_eq!(blank.status(), 422);
     assert!(blank.text().unwrap().contains("reason"));

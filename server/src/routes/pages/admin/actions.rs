@@ -23,9 +23,9 @@ trait FormWithToken: serde::de::DeserializeOwned {
     fn form_token(&self) -> &str;
 }
 
-/// The console with a notice on top.
-fn back(notice: &str) -> Response {
-    Redirect::to(&format!("/admin?notice={}", urlencoding(notice))).into_response()
+/// The console with a notice on top (sealed for this session).
+fn back(session: &AdminSession, notice: &str) -> Response {
+    Redirect::to(&format!("/admin?notice={}&seal={}", urlencoding(notice), session.seal(notice))).into_response()
 }
 
 /// `text` percent-encoded for a query value.
@@ -83,7 +83,7 @@ pub async fn regenerate(State(state): State<AppState>, session: AdminSession, he
 async fn token_form(session: &AdminSession, headers: &HeaderMap, body: &[u8], action: impl Future<Output = Result<String, Problem>>) -> Response {
     match checked::<TokenOnly>(session, headers, body) {
         Ok(_) => match action.await {
-            Ok(notice) => back(&notice),
+            Ok(notice) => back(session, &notice),
             Err(problem) => AdminMessage::problem(problem),
         },
         Err(refused) => refused,
@@ -121,7 +121,7 @@ pub async fn flag(State(state): State<AppState>, session: AdminSession, headers:
         Err(refused) => return refused,
     };
     match admin::set_flag(&state, &id, Some(&form.reason)).await {
-        Ok(()) => back(&format!("{id} is flagged.")),
+        Ok(()) => back(&session, &format!("{id} is flagged.")),
         Err(problem) => AdminMessage::problem(problem),
     }
 }

@@ -73,6 +73,7 @@ pub struct ConsolePage {
 #[derive(Debug, Deserialize, Default)]
 pub struct ConsoleQuery {
     notice: Option<String>,
+    seal: Option<String>,
 }
 
 /// The version a job's subject names (`version` or `version/scene/lighting`).
@@ -129,7 +130,8 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
     let team_name = |id: &str| teams.iter().find(|t| t.id == id).map_or_else(|| id.to_string(), |t| t.name.clone());
     let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == "build_release").take(10).map(|j| build_row(j, &jobs)).collect();
     ConsolePage {
-        notice: query.notice,
+        // Only notices this server wrote for this session (see `AdminSession::seal`).
+        notice: query.notice.filter(|n| query.seal.as_deref() == Some(session.seal(n).as_str())),
         form_token: session.form_token(),
         refresh: builds.iter().any(|b| b.state == "queued" || b.state == "running"),
         releases: releases

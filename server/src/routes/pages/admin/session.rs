@@ -37,6 +37,12 @@ impl AdminSession {
         Sha256::digest(format!("osmab admin form\n{}", self.token)).iter().take(16).map(|b| format!("{b:02x}")).collect()
     }
 
+    /// A seal over a notice the console shows after an action, so a crafted link cannot
+    /// put words of its own on the console.
+    pub fn seal(&self, notice: &str) -> String {
+        Sha256::digest(format!("osmab admin notice\n{}\n{notice}", self.token)).iter().take(8).map(|b| format!("{b:02x}")).collect()
+    }
+
     /// Refuse a form that lacks this session's form token or comes from another origin.
     pub fn check_form(&self, headers: &HeaderMap, form_token: &str) -> Result<(), Response> {
         let same_origin = match (headers.get(header::ORIGIN), headers.get(header::HOST)) {

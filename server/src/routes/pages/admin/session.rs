@@ -45,13 +45,16 @@ impl AdminSession {
 
     /// Refuse a form that lacks this session's form token or comes from another origin.
     pub fn check_form(&self, headers: &HeaderMap, form_token: &str) -> Result<(), Response> {
-        let same_origin = match (headers.get(header::ORIGIN), headers.get(header::HOST)) {
-            (Some(origin), Some(host)) => {
+        // The page's host as the browser saw it: the Host header, or the one a proxy in
+        // front forwarded (some proxies rewrite Host).
+        let hosts = [headers.get(header::HOST), headers.get("x-forwarded-host")];
+        let same_origin = match headers.get(header::ORIGIN) {
+            Some(origin) => {
                 let origin = origin.to_str().unwrap_or("");
-                origin.split_once("://").is_some_and(|(_, rest)| rest.as_bytes() == host.as_bytes())
+                origin.split_once("://").is_some_and(|(_, rest)| hosts.iter().flatten().any(|host| rest.as_bytes() == host.as_bytes()))
             }
             // Without an Origin header (older browsers, curl) the form token decides.
-            _ => true,
+            None => true,
         };
         let expected = self.form_token();
         let matches = expected.len() == form_token.len() && expected.bytes().zip(form_token.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b)) == 0;
@@ -175,6 +178,11 @@ mod tests {
         let mut cross = same.clone();
         cross.insert(header::ORIGIN, "https://evil.example".parse().unwrap());
         assert!(session.check_form(&cross, &session.form_token()).is_err(), "another origin");
+        let mut proxied = cross.clone();
+        proxied.insert(header::ORIGIN, "https://bench.example".parse().unwrap());
+        proxied.insert(header::HOST, "10.0.0.5:8080".parse().unwrap());
+        proxied.insert("x-forwarded-host", "bench.example".parse().unwrap());
+        assert!(session.check_form(&proxied, &session.form_token()).is_ok(), "a proxy that rewrites Host forwards the public one");
     }
 
     #[test]

@@ -1,5 +1,5 @@
-//! Time as the records keep it (Unix milliseconds), RFC 3339 for people and JSON, UTC
-//! days for quotas, and random identifiers.
+//! Time as the records keep it (Unix milliseconds), RFC 3339 for people and JSON, and
+//! random identifiers.
 
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -9,16 +9,6 @@ pub fn now_ms() -> i64 {
 }
 
 const DAY_MS: i64 = 86_400_000;
-
-/// Start of the UTC day holding `ms`.
-pub fn utc_day_start(ms: i64) -> i64 {
-    ms.div_euclid(DAY_MS) * DAY_MS
-}
-
-/// Start of the next UTC day after `ms`.
-pub fn next_utc_day(ms: i64) -> i64 {
-    utc_day_start(ms) + DAY_MS
-}
 
 /// `ms` as RFC 3339 UTC with milliseconds (`2026-11-22T05:00:00.000Z`).
 pub fn rfc3339(ms: i64) -> String {
@@ -88,13 +78,6 @@ mod tests {
         assert_eq!(http_date(0), "Thu, 01 Jan 1970 00:00:00 GMT");
         assert_eq!(http_date(951_782_400_000), "Tue, 29 Feb 2000 00:00:00 GMT");
         assert_eq!(http_date(1_795_323_723_456), "Sun, 22 Nov 2026 05:02:03 GMT");
-    }
-
-    #[test]
-    fn utc_days_split_at_midnight() {
-        let t = 1_795_323_723_456;
-        assert_eq!(rfc3339(utc_day_start(t)), "2026-11-22T00:00:00.000Z");
-        assert_eq!(rfc3339(next_utc_day(t)), "2026-11-23T00:00:00.000Z");
     }
 
     #[test]

@@ -57,8 +57,11 @@ pub struct Settings {
     pub workers: usize,
     /// Build the demo release and score the baselines on an empty database (`OSMAB_DEMO`).
     pub demo: bool,
-    /// Submissions per team per UTC day unless the team has its own (`OSMAB_DAILY_QUOTA`).
+    /// Test-split submissions per team per 24 hours unless an administrator set the
+    /// split's policy or the team has its own limit (`OSMAB_DAILY_QUOTA`).
     pub daily_quota: i64,
+    /// Val-split submissions per team per 24 hours, likewise (`OSMAB_VAL_QUOTA`).
+    pub val_quota: i64,
     /// Largest upload in bytes (`OSMAB_MAX_UPLOAD_BYTES`).
     pub max_upload_bytes: u64,
     /// Largest unpacked submission in bytes (`OSMAB_MAX_UNPACKED_BYTES`).
@@ -107,6 +110,7 @@ struct FileSettings {
     workers: Option<usize>,
     demo: Option<bool>,
     daily_quota: Option<i64>,
+    val_quota: Option<i64>,
     max_upload_bytes: Option<u64>,
     max_unpacked_bytes: Option<u64>,
     job_lease_secs: Option<u64>,
@@ -174,6 +178,7 @@ impl Settings {
             workers: layer!("OSMAB_WORKERS", from_file.workers, 1),
             demo: layer!("OSMAB_DEMO", from_file.demo, true),
             daily_quota: layer!("OSMAB_DAILY_QUOTA", from_file.daily_quota, 5),
+            val_quota: layer!("OSMAB_VAL_QUOTA", from_file.val_quota, 50),
             max_upload_bytes: layer!("OSMAB_MAX_UPLOAD_BYTES", from_file.max_upload_bytes, 4 << 30),
             max_unpacked_bytes: layer!("OSMAB_MAX_UNPACKED_BYTES", from_file.max_unpacked_bytes, 16 << 30),
             job_lease_secs: layer!("OSMAB_JOB_LEASE_SECS", from_file.job_lease_secs, 60),
@@ -197,6 +202,7 @@ impl Settings {
 
     fn check(&self) -> anyhow::Result<()> {
         anyhow::ensure!(self.daily_quota >= 0, "daily_quota must be 0 or more, found {}", self.daily_quota);
+        anyhow::ensure!(self.val_quota >= 0, "val_quota must be 0 or more, found {}", self.val_quota);
         anyhow::ensure!(self.job_lease_secs >= 1, "job_lease_secs must be at least 1");
         anyhow::ensure!(self.job_max_attempts >= 1, "job_max_attempts must be at least 1");
         anyhow::ensure!(self.poll_ms >= 10, "poll_ms must be at least 10");

@@ -18,6 +18,7 @@ mod receipts;
 mod releases;
 mod routes;
 mod serve;
+mod split_secret;
 mod state;
 mod store;
 mod telemetry;

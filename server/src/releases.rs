@@ -8,6 +8,7 @@ use std::path::Path;
 
 use osmab_dataset::release::manifest::{FileEntry, hash_file};
 use osmab_dataset::release::verify_release;
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::pack_directory_as;
 use osmab_evaluator::submission::release::GROUND_TRUTH_DIR;
 use serde_json::{Value, json};
@@ -19,6 +20,20 @@ use crate::store::{ReleaseFile, ReleaseRecord, Store, StoreError};
 /// Blob folder of release `version`.
 pub fn release_prefix(version: &str) -> String {
     format!("releases/{version}")
+}
+
+/// The splits of a served manifest's scenes, test first (a scene without one is val).
+pub fn manifest_splits(manifest: &str) -> Vec<Split> {
+    let value: Value = serde_json::from_str(manifest).unwrap_or_default();
+    let of_scenes: Vec<Split> =
+        value["scenes"].as_array().into_iter().flatten().map(|s| s["split"].as_str().and_then(|n| n.parse().ok()).unwrap_or_default()).collect();
+    Split::ALL.into_iter().filter(|split| of_scenes.contains(split)).collect()
+}
+
+/// The split a release's main leaderboard ranks and uploads go to by default: test when
+/// the release has a test split, else val.
+pub fn primary_split(manifest: &str) -> Split {
+    if manifest_splits(manifest).contains(&Split::Test) { Split::Test } else { Split::Val }
 }
 
 /// A version string safe as a path component and URL segment.

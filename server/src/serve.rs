@@ -36,6 +36,7 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     }
     if blobs.is_object_store() {
         share_receipt_keys(&blobs, &settings.data_dir.join(RECEIPT_KEYS)).await?;
+        crate::split_secret::share(&blobs, &settings.data_dir.join(crate::split_secret::SPLIT_SECRET_DIR)).await?;
     }
     tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), blobs = %blobs.describe(), "store opened");
     AppState::new(settings, store, blobs)

@@ -9,6 +9,7 @@ use crate::metrics::Metrics;
 use crate::rate_limit::RateLimiter;
 use crate::receipts::ReceiptKeys;
 use crate::store::Store;
+use osmab_dataset::release::split::SplitSecret;
 
 /// Shared service state (cheap to clone).
 #[derive(Clone)]
@@ -23,6 +24,8 @@ pub struct AppState {
     pub validation: Arc<tokio::sync::Semaphore>,
     /// The keys that sign score receipts.
     pub receipts: Arc<ReceiptKeys>,
+    /// The operator's secret that shapes the test scenes of the releases it builds.
+    pub split_secret: SplitSecret,
 }
 
 impl AppState {
@@ -31,6 +34,7 @@ impl AppState {
     pub fn new(settings: Settings, store: Store, blobs: Blobs) -> anyhow::Result<Self> {
         let limiter = RateLimiter::new(settings.rate_limit, settings.rate_burst);
         let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join(crate::serve::RECEIPT_KEYS))?);
+        let split_secret = crate::split_secret::open(&settings.data_dir.join(crate::split_secret::SPLIT_SECRET_DIR))?;
         Ok(Self {
             settings: Arc::new(settings),
             store,
@@ -40,6 +44,7 @@ impl AppState {
             limiter: Arc::new(limiter),
             validation: Arc::new(tokio::sync::Semaphore::new(2)),
             receipts,
+            split_secret,
         })
     }
 }

@@ -5,6 +5,7 @@ use std::path::Path;
 use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 
+use super::split::SplitsConfig;
 use crate::openai::ServiceConfig;
 use crate::render::sequence::SensorSettings;
 
@@ -203,6 +204,9 @@ pub struct ReleaseConfig {
     pub render: RenderConfig,
     #[serde(default)]
     pub quality: QualityConfig,
+    /// The hidden test split; every scene is val without it.
+    #[serde(default, skip_serializing_if = "SplitsConfig::is_empty")]
+    pub splits: SplitsConfig,
 }
 
 impl ReleaseConfig {
@@ -240,6 +244,14 @@ impl ReleaseConfig {
         }
         if let Some(l) = config.render.lightings.iter().find(|l| !crate::render::LIGHTINGS.contains(&l.as_str())) {
             return bad("render.lightings", &format!("unknown lighting '{l}' (expected some of {})", crate::render::LIGHTINGS.join(", ")));
+        }
+        for (field, test, scenes) in [
+            ("splits.test_furniture", config.splits.test_furniture, config.selection.furniture),
+            ("splits.test_manipuland", config.splits.test_manipuland, config.selection.manipuland),
+        ] {
+            if test > scenes {
+                return bad(field, &format!("at most the subset's {scenes} selected scenes"));
+            }
         }
         // The config text is published in the manifest: secrets come from the environment.
         for (field, service, variable) in [

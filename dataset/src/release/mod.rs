@@ -10,6 +10,7 @@ pub mod contact;
 pub mod instances;
 pub mod manifest;
 pub mod quality;
+pub mod split;
 pub mod stages;
 
 use std::collections::BTreeMap;
@@ -28,13 +29,19 @@ use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
 use instances::InstanceLabels;
 use manifest::{digest, list_files};
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::vqa::is_prompt_grounded;
 use quality::{Rendered, SceneQuality, oracle_ceiling};
+use split::SplitSecret;
 use stages::{Build, INSTANCES_JSON, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK};
 
-/// Ground truth, kept by the server and never served (not in the public manifest).
+/// Ground truth: the val scenes' is public (listed in the manifest, so teams score val
+/// offline); the test scenes' stays with the server, with the full quality report.
 pub const GROUND_TRUTH: &str = "ground_truth";
+/// The quality report with every measure of every scene (the public one leaves out what
+/// tells a test scene's ground truth), kept with the ground truth.
+pub const FULL_QUALITY_REPORT: &str = "quality_report.json";
 /// Every scene's preview frame under every lighting, one row per scene.
 pub const OVERVIEW: &str = "quality/contact_sheets/overview.png";
 
@@ -42,8 +49,8 @@ pub const OVERVIEW: &str = "quality/contact_sheets/overview.png";
 /// scene's synthesis, conversion and trajectory, each scene settled on a prompt that
 /// passes the planned quality check); returns every sequence of the release and
 /// whether it is rendered already.
-pub fn prepare_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Vec<(SequenceUnit, bool)>> {
-    let build = Build::open(config_path, out)?;
+pub fn prepare_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, progress: &dyn Fn(&str)) -> Result<Vec<(SequenceUnit, bool)>> {
+    let build = Build::open(config_path, out, secret)?;
     let selection = build.prompts(progress)?;
     let mut units = Vec::new();
     for index in 0..selection.scenes.len() {
@@ -58,17 +65,18 @@ pub fn prepare_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) 
 }
 
 /// Stage 5 for one sequence of a prepared build (see [`prepare_release`]).
-pub fn render_release_sequence(config_path: &Path, out: &Path, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
-    let build = Build::open(config_path, out)?;
+pub fn render_release_sequence(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
+    let build = Build::open(config_path, out, secret)?;
     if !build.config.render.lightings.contains(&unit.lighting) {
         return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
     }
     build.render_sequence(unit, progress).map(|_| ())
 }
 
-/// Build the release of `config_path` into `out`.
-pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) -> Result<Value> {
-    let build = Build::open(config_path, out)?;
+/// Build the release of `config_path` into `out` (a config with a test split needs the
+/// operator's `secret`).
+pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, progress: &dyn Fn(&str)) -> Result<Value> {
+    let build = Build::open(config_path, out, secret)?;
     let (config, config_text) = (&build.config, &build.config_text);
     let work = &build.work;
     let selection = build.prompts(progress)?;
@@ -82,6 +90,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     for i in 0..selection.scenes.len() {
         let scene = scene_name(i);
         let settled = build.settle_scene(i, &selection, progress)?;
+        let split = build.split_of(i);
         let prompt = &settled.prompt;
         let habitat = build.habitat_dir(i);
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
@@ -96,7 +105,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         let gt_dir = build.ground_truth(i, progress)?;
         write_json(
             &out.join("scenes").join(&scene).join("prompt.json"),
-            &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "prompt": prompt.text, "spec": prompt.spec}),
+            &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "split": split, "prompt": prompt.text, "spec": prompt.spec}),
         )?;
         let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
         let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
@@ -104,6 +113,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         scenes_json.push(json!({
             "id": scene,
             "subset": prompt.spec.regime,
+            "split": split,
             "prompt": prompt.text,
             "questions": format!("questions/{scene}.json"),
             "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
@@ -126,6 +136,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
 
         let unmet: Vec<String> = read_json(&build.unmet_path(i))?;
         let rendered = Rendered {
+            split,
             spec: &prompt.spec,
             conversion: &conversion,
             unmet: &unmet,
@@ -162,7 +173,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     write_json(&out.join("classes.json"), &classes_json)?;
     let full = quality.iter().filter(|q| q.full_match).count();
     write_json(
-        &out.join("quality/quality_report.json"),
+        &out.join(GROUND_TRUTH).join(FULL_QUALITY_REPORT),
         &json!({
             "scenes": quality.len(),
             "full_match": full,
@@ -173,6 +184,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
             "per_scene": quality,
         }),
     )?;
+    write_json(&out.join("quality/quality_report.json"), &public_quality_report(&quality, config, &oracle_accuracy, &failures))?;
     if config.quality.enforce && !failures.is_empty() {
         return Err(InputError::new(
             out.join("quality/quality_report.json"),
@@ -183,6 +195,7 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
     let scene_names: Vec<String> = quality.iter().map(|q| q.scene.clone()).collect();
     let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
     let mut gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
+    gt_expected.push(FULL_QUALITY_REPORT.into());
     for scene in &scene_names {
         gt_expected.extend([format!("questions/{scene}.json"), format!("objects/{scene}.json")]);
     }
@@ -197,6 +210,9 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         }
     }
     refuse_leftovers(out, &files, &expected)?;
+    let test_scenes: Vec<&str> = quality.iter().filter(|q| q.split == Split::Test).map(|q| q.scene.as_str()).collect();
+    let val_scenes: Vec<&str> = quality.iter().filter(|q| q.split == Split::Val).map(|q| q.scene.as_str()).collect();
+    let files = public_files(files, &gt_files, &test_scenes, &val_scenes);
     let manifest = json!({
         "version": config.version,
         "created": config.created,
@@ -215,6 +231,51 @@ pub fn build_release(config_path: &Path, out: &Path, progress: &dyn Fn(&str)) ->
         manifest["digest"].as_str().unwrap_or("")
     ));
     Ok(manifest)
+}
+
+/// The public files of a release: everything built outside the ground truth except the
+/// semantic frames of test scenes, and the ground truth of val scenes (under
+/// `ground_truth/`, where the scorer reads it), sorted by path.
+fn public_files(built: Vec<manifest::FileEntry>, ground_truth: &[manifest::FileEntry], test: &[&str], val: &[&str]) -> Vec<manifest::FileEntry> {
+    let hidden = |path: &str| {
+        let parts: Vec<&str> = path.split('/').collect();
+        matches!(parts.as_slice(), ["sequences", _, scene, "results", name] if test.contains(scene) && name.starts_with("semantic"))
+    };
+    let open = |path: &str| {
+        let scene = path.split('/').next().unwrap_or_default();
+        let file_scene = path.rsplit('/').next().and_then(|n| n.strip_suffix(".json")).unwrap_or_default();
+        val.contains(&scene) || ((path.starts_with("questions/") || path.starts_with("objects/")) && val.contains(&file_scene))
+    };
+    let mut files: Vec<manifest::FileEntry> = built.into_iter().filter(|f| !hidden(&f.path)).collect();
+    files.extend(ground_truth.iter().filter(|f| open(&f.path)).map(|f| manifest::FileEntry {
+        path: format!("{GROUND_TRUTH}/{}", f.path),
+        size: f.size,
+        sha256: f.sha256.clone(),
+    }));
+    files.sort_by(|a, b| a.path.cmp(&b.path));
+    files
+}
+
+/// The quality report as published: every measure of val scenes, the frame and path
+/// measures of test scenes (see [`SceneQuality::public`]); the counts and problems are
+/// those of the val scenes when the release has a test split.
+fn public_quality_report(quality: &[SceneQuality], config: &config::ReleaseConfig, oracle: &BTreeMap<String, f64>, problems: &[String]) -> Value {
+    let test: Vec<&str> = quality.iter().filter(|q| q.split == Split::Test).map(|q| q.scene.as_str()).collect();
+    let open: Vec<&SceneQuality> = quality.iter().filter(|q| q.split == Split::Val).collect();
+    let mut report = json!({
+        "scenes": quality.len(),
+        "full_match": open.iter().filter(|q| q.full_match).count(),
+        "passed": open.iter().filter(|q| q.problems.is_empty()).count(),
+        "bar": config.quality,
+        "oracle_vqa": oracle,
+        "problems": problems.iter().filter(|p| !test.iter().any(|t| p.starts_with(&format!("{t}: ")))).collect::<Vec<_>>(),
+        "per_scene": quality.iter().map(SceneQuality::public).collect::<Vec<_>>(),
+    });
+    if !test.is_empty() {
+        report["test_scenes"] = json!(test);
+        report["counted_over"] = json!("val scenes: the test scenes' semantic measures are kept with the hidden ground truth");
+    }
+    report
 }
 
 /// A release lists exactly what its config built: a file no scene or lighting of the

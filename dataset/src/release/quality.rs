@@ -11,6 +11,7 @@
 
 use std::collections::BTreeMap;
 
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::vqa::SceneQuestions;
 use osmab_evaluator::vqa::answer::ClassifiedGraph;
 use osmab_evaluator::vqa::graph::SceneGraph;
@@ -94,6 +95,7 @@ pub struct Replaced {
 pub struct SceneQuality {
     pub scene: String,
     pub subset: Regime,
+    pub split: Split,
     pub prompt_id: String,
     /// Prompts tried for this scene before this one, and why they were replaced.
     pub replaced: Vec<Replaced>,
@@ -231,6 +233,7 @@ pub fn oracle_vqa(questions: &SceneQuestions, objects: &[SceneObject], lexicon: 
 
 /// Everything measured of a rendered scene, for [`SceneQuality::measure`].
 pub struct Rendered<'a> {
+    pub split: Split,
     pub spec: &'a SceneSpec,
     pub conversion: &'a ConversionReport,
     pub unmet: &'a [String],
@@ -242,7 +245,41 @@ pub struct Rendered<'a> {
     pub lexicon: &'a [String],
 }
 
+/// What the public quality report shows of a test scene: the measures of its frames and
+/// path, not those of its semantics (classes, instances, relations met, the oracle's
+/// answers), which would tell its hidden ground truth.
+#[derive(Serialize)]
+struct PublicTestScene<'a> {
+    scene: &'a str,
+    subset: Regime,
+    split: Split,
+    prompt_id: &'a str,
+    frames: usize,
+    travelled_m: f64,
+    degenerate_fraction: f64,
+    lightings: &'a BTreeMap<String, LightingQuality>,
+}
+
 impl SceneQuality {
+    /// This scene as the public quality report shows it: everything for a val scene,
+    /// the frame and path measures only for a test scene.
+    pub fn public(&self) -> Value {
+        match self.split {
+            Split::Val => serde_json::to_value(self),
+            Split::Test => serde_json::to_value(PublicTestScene {
+                scene: &self.scene,
+                subset: self.subset,
+                split: self.split,
+                prompt_id: &self.prompt_id,
+                frames: self.frames,
+                travelled_m: self.travelled_m,
+                degenerate_fraction: self.degenerate_fraction,
+                lightings: &self.lightings,
+            }),
+        }
+        .expect("serialisable")
+    }
+
     /// Measure a rendered scene and judge it against `config`.
     pub fn measure(scene: &str, prompt_id: &str, replaced: Vec<Replaced>, r: &Rendered, config: &QualityConfig) -> SceneQuality {
         let points = |id: i64| r.instances.instances.get(&id).map_or(0, |p| p.points);
@@ -277,6 +314,7 @@ impl SceneQuality {
         let mut quality = SceneQuality {
             scene: scene.to_string(),
             subset: r.spec.regime,
+            split: r.split,
             prompt_id: prompt_id.to_string(),
             replaced,
             prompted,

@@ -20,6 +20,7 @@ use super::config::ReleaseConfig;
 use super::instances::label_instances;
 use super::manifest::{self, digest, list_files};
 use super::quality::{Replaced, planned_problems};
+use super::split::{SPLIT_SECRET_VARIABLE, SplitSecret};
 use crate::convert::habitat::{ConversionReport, ConvertOptions, write_habitat_scene};
 use crate::convert::scene::load_scene;
 use crate::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
@@ -30,6 +31,7 @@ use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
 use crate::selection::select;
 use crate::spec::Regime;
+use osmab_evaluator::scores::Split;
 
 /// Where the build keeps its intermediate stages (not part of the release).
 pub const WORK: &str = ".work";
@@ -128,6 +130,7 @@ pub struct Build {
     pub out: PathBuf,
     pub work: PathBuf,
     inputs: String,
+    secret: Option<SplitSecret>,
 }
 
 /// The name of the scene at `index` of the selection.
@@ -141,13 +144,47 @@ fn spare_count(wanted: usize) -> usize {
 }
 
 impl Build {
-    /// Open the build of `config_path` into `out`.
-    pub fn open(config_path: &Path, out: &Path) -> Result<Build> {
+    /// Open the build of `config_path` into `out`; a config with a test split needs the
+    /// operator's `secret`.
+    pub fn open(config_path: &Path, out: &Path, secret: Option<&SplitSecret>) -> Result<Build> {
         let (config, config_text) = ReleaseConfig::read(config_path)?;
+        if !config.splits.is_empty() && secret.is_none() {
+            return Err(InputError::new(
+                config_path,
+                "splits",
+                format!(
+                    "the config holds a hidden test split, whose scenes are shaped by the operator's secret: set {SPLIT_SECRET_VARIABLE} (the server keeps one in its data folder)"
+                ),
+            ));
+        }
         let work = out.join(WORK);
         std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
         let inputs = inputs_digest(&config);
-        Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs })
+        let secret = if config.splits.is_empty() { None } else { secret.cloned() };
+        Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs, secret })
+    }
+
+    /// The split of scene `index`.
+    pub fn split_of(&self, index: usize) -> Split {
+        self.config.splits.split_of(index, self.config.selection.furniture, self.config.selection.manipuland)
+    }
+
+    /// What a scene's stages are built from beyond the config: for a test scene, the
+    /// secret's id, so a build resumed under another secret redoes it.
+    fn split_inputs(&self, index: usize) -> String {
+        match (self.split_of(index), &self.secret) {
+            (Split::Test, Some(secret)) => format!("{} split test {}", self.inputs, secret.id()),
+            _ => self.inputs.clone(),
+        }
+    }
+
+    /// The synthesis seed of scene `index`: the config's for a val scene, one derived
+    /// from the operator's secret for a test scene.
+    fn synthesis_seed(&self, index: usize) -> u64 {
+        match (self.split_of(index), &self.secret) {
+            (Split::Test, Some(secret)) => secret.scene_seed(self.config.seed, index),
+            _ => self.config.seed.wrapping_add(index as u64),
+        }
     }
 
     /// Stages 1 and 2: the prompt pools, then the selected prompts with their spares.
@@ -213,9 +250,9 @@ impl Build {
         Ok(Selection { scenes: read_json(&selected_dir.join("final_prompts.json"))?, spares: read_json(&selected_dir.join("spare_prompts.json"))? })
     }
 
-    /// The inputs of a scene's stages: the config's content and the scene's prompt.
-    fn scene_inputs(&self, prompt: &ScenePrompt) -> String {
-        format!("{} prompt {}", self.inputs, prompt.id)
+    /// The inputs of a scene's stages: the config's content, its split and its prompt.
+    fn scene_inputs(&self, index: usize, prompt: &ScenePrompt) -> String {
+        format!("{} prompt {}", self.split_inputs(index), prompt.id)
     }
 
     fn settled_path(&self, index: usize) -> PathBuf {
@@ -241,7 +278,7 @@ impl Build {
             InputError::new(&self.config_path, "(selection)", format!("the selection has {} scenes; there is no scene {index}", selection.scenes.len()))
         })?;
         let path = self.settled_path(index);
-        staged(&self.work.join("scenes").join(format!("{scene}.done")), &self.inputs, &path, || {
+        staged(&self.work.join("scenes").join(format!("{scene}.done")), &self.split_inputs(index), &path, || {
             // Spares taken or rejected by earlier scenes are not tried again.
             let mut used: Vec<String> = Vec::new();
             for earlier in 0..index {
@@ -293,17 +330,25 @@ impl Build {
     /// Stages 3 and 4 for scene `index` from `prompt`: synthesis and conversion.
     pub fn scene_assets(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<()> {
         let (config, scene) = (&self.config, scene_name(index));
-        let inputs = self.scene_inputs(prompt);
+        let inputs = self.scene_inputs(index, prompt);
         let scenesmith = self.scenesmith_dir(index);
         let unmet_path = self.unmet_path(index);
         staged(&self.work.join("scenesmith").join(format!("{scene}.done")), &inputs, &scenesmith, || {
             progress(&format!("{scene}: synthesis ({})", prompt.id));
             let unmet = if config.synthesis.command.is_empty() {
-                crate::synthesis::synthesize(prompt, config.seed.wrapping_add(index as u64), &scenesmith, config.synthesis.ceiling)?
+                // A grammar prompt carries the seed of the layout it was written from, and the
+                // pool is public: a test scene is placed afresh from its secret seed instead,
+                // honouring every relation the prompt states.
+                let placed = match self.split_of(index) {
+                    Split::Test => ScenePrompt { layout_seed: None, ..prompt.clone() },
+                    Split::Val => prompt.clone(),
+                };
+                crate::synthesis::synthesize(&placed, self.synthesis_seed(index), &scenesmith, config.synthesis.ceiling)?
             } else {
                 crate::synthesis::external::run_external(
                     &config.synthesis.command,
                     &prompt.text,
+                    self.synthesis_seed(index),
                     &scenesmith,
                     std::time::Duration::from_secs(config.synthesis.timeout_secs),
                 )?;
@@ -326,7 +371,7 @@ impl Build {
     pub fn plan(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<Plan> {
         let (config, scene) = (&self.config, scene_name(index));
         let path = self.plan_path(index);
-        staged(&self.work.join("plans").join(format!("{scene}.done")), &self.scene_inputs(prompt), &path, || {
+        staged(&self.work.join("plans").join(format!("{scene}.done")), &self.scene_inputs(index, prompt), &path, || {
             progress(&format!("{scene}: planning the trajectory"));
             let motion = config.render.motion(prompt.spec.regime, config.seed.wrapping_add(index as u64));
             let coverage = CoverageGoals { min_travel: config.quality.min_travel, ..Default::default() };
@@ -351,7 +396,8 @@ impl Build {
     pub fn sequence_rendered(&self, unit: &SequenceUnit) -> Result<bool> {
         let prompt = self.settled(unit.scene_index)?.prompt;
         let (sequence_dir, _, marker) = self.sequence_paths(unit);
-        Ok(std::fs::read_to_string(&marker).is_ok_and(|recorded| marker_text(&self.scene_inputs(&prompt), &sequence_dir).is_ok_and(|now| now == recorded)))
+        Ok(std::fs::read_to_string(&marker)
+            .is_ok_and(|recorded| marker_text(&self.scene_inputs(unit.scene_index, &prompt), &sequence_dir).is_ok_and(|now| now == recorded)))
     }
 
     /// Stage 5 for one sequence (its scene must be settled); returns its summary.
@@ -362,7 +408,7 @@ impl Build {
         let habitat = self.habitat_dir(unit.scene_index);
         let (sequence_dir, summary_path, marker) = self.sequence_paths(unit);
         let sensor = config.render.sensor();
-        staged(&marker, &self.scene_inputs(&prompt), &sequence_dir, || {
+        staged(&marker, &self.scene_inputs(unit.scene_index, &prompt), &sequence_dir, || {
             progress(&format!("{scene}: rendering {lighting}"));
             let plan: Plan = read_json(&self.plan_path(unit.scene_index))?;
             if config.render.command.is_empty() {
@@ -399,7 +445,7 @@ impl Build {
         let source = if lightings.iter().any(|l| l == "baseline") { "baseline" } else { lightings[0].as_str() };
         let gt_source = self.out.join("sequences").join(source).join(&scene);
         let habitat = self.habitat_dir(index);
-        staged(&self.work.join("gt").join(format!("{scene}.done")), &self.scene_inputs(&prompt), &gt_dir, || {
+        staged(&self.work.join("gt").join(format!("{scene}.done")), &self.scene_inputs(index, &prompt), &gt_dir, || {
             progress(&format!("{scene}: ground truth"));
             let sequence = Sequence::open(&gt_source)?;
             let gt = GroundTruth::build(&sequence)?;

@@ -32,7 +32,7 @@ enforce = false
 fn build(dir: &Path, out: &str) -> serde_json::Value {
     let config = dir.join("release.toml");
     std::fs::write(&config, TINY).unwrap();
-    build_release(&config, &dir.join(out), &|_| {}).unwrap()
+    build_release(&config, &dir.join(out), None, &|_| {}).unwrap()
 }
 
 #[test]
@@ -114,13 +114,13 @@ fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume(
     std::fs::create_dir_all(b.join("sequences/camera/scene_000")).unwrap();
     std::fs::write(b.join("sequences/camera/scene_000/traj.txt"), b"old").unwrap();
     let config = dir.path().join("release.toml");
-    let err = build_release(&config, &b, &|_| {}).unwrap_err();
+    let err = build_release(&config, &b, None, &|_| {}).unwrap_err();
     assert!(err.message.contains("sequences/camera/scene_000/traj.txt") && err.message.contains("fresh directory"), "{err}");
 
     // A changed config rebuilds what it changes instead of reusing the old stages.
     std::fs::remove_dir_all(b.join("sequences/camera")).unwrap();
     std::fs::write(&config, TINY.replace("max_frames = 24", "max_frames = 12")).unwrap();
-    let shorter = build_release(&config, &b, &|_| {}).unwrap();
+    let shorter = build_release(&config, &b, None, &|_| {}).unwrap();
     assert_ne!(shorter["digest"], first["digest"]);
     let frames = std::fs::read_to_string(b.join("sequences/baseline/scene_000/traj.txt")).unwrap().lines().count();
     assert!(frames <= 12, "{frames} poses after lowering max_frames to 12");
@@ -170,7 +170,7 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     let command = format!("command = [\"cp\", \"-r\", \"{}/{{lighting}}/{{scene}}/.\", \"{{out}}\"]\n", source.display());
     let path = dir.path().join("external.toml");
     std::fs::write(&path, TINY.replace("[quality]", &format!("{command}[quality]"))).unwrap();
-    let external = build_release(&path, &dir.path().join("external"), &|_| {}).unwrap();
+    let external = build_release(&path, &dir.path().join("external"), None, &|_| {}).unwrap();
     let files = |m: &serde_json::Value| -> Vec<serde_json::Value> {
         m["files"].as_array().unwrap().iter().filter(|f| f["path"] != "quality/quality_report.json").cloned().collect()
     };
@@ -181,7 +181,7 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     // A renderer that writes nothing usable is named.
     let broken = TINY.replace("[quality]", "command = [\"true\"]\n[quality]");
     std::fs::write(&path, broken).unwrap();
-    let err = build_release(&path, &dir.path().join("broken"), &|_| {}).unwrap_err();
+    let err = build_release(&path, &dir.path().join("broken"), None, &|_| {}).unwrap_err();
     assert!(err.to_string().contains("camera_params.yaml"), "{err}");
 }
 
@@ -232,7 +232,7 @@ fn a_release_that_misses_its_quality_bar_is_not_published_and_says_why() {
     let config = dir.path().join("release.toml");
     std::fs::write(&config, TINY.replace("enforce = false", "enforce = true\nreplacements = 2")).unwrap();
     let out = dir.path().join("rel");
-    let err = build_release(&config, &out, &|_| {}).unwrap_err().to_string();
+    let err = build_release(&config, &out, None, &|_| {}).unwrap_err().to_string();
     assert!(err.contains("scene_000") && err.contains("no prompt for scene_000 passes"), "{err}");
     assert!(err.contains("camera travel") || err.contains("instances mapped"), "{err}");
     assert_eq!(err.matches(" | ").count(), 2, "the selected prompt and two spares were tried: {err}");
@@ -246,7 +246,7 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     let dir = tempfile::tempdir().unwrap();
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/release-demo.toml");
     let out = dir.path().join("demo");
-    build_release(&config, &out, &|_| {}).expect("the demo release passes its quality bar");
+    build_release(&config, &out, None, &|_| {}).expect("the demo release passes its quality bar");
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("quality/quality_report.json")).unwrap()).unwrap();
     assert_eq!((report["scenes"].as_u64(), report["full_match"].as_u64(), report["passed"].as_u64()), (Some(3), Some(3), Some(3)));
     for (category, accuracy) in report["oracle_vqa"].as_object().unwrap() {

@@ -187,17 +187,17 @@ fn an_external_synthesizer_is_run_and_checked() {
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/fixtures/scenesmith/scene_000");
     let out = tempfile::tempdir().unwrap();
     let copy = vec!["cp".to_string(), "-r".into(), format!("{}/.", fixture.display()), "{out}".into()];
-    run_external(&copy, "A bedroom with 1 bed.", out.path(), std::time::Duration::from_secs(60)).unwrap();
+    run_external(&copy, "A bedroom with 1 bed.", 7, out.path(), std::time::Duration::from_secs(60)).unwrap();
     assert_eq!(std::fs::read_to_string(out.path().join("prompt.txt")).unwrap(), "A bedroom with 1 bed.");
     assert!(load_scene(out.path()).is_ok());
 
     let failing = vec!["sh".to_string(), "-c".into(), "echo 'CUDA out of memory' >&2; exit 3".into()];
-    let err = run_external(&failing, "p", tempfile::tempdir().unwrap().path(), std::time::Duration::from_secs(60)).unwrap_err();
+    let err = run_external(&failing, "p", 7, tempfile::tempdir().unwrap().path(), std::time::Duration::from_secs(60)).unwrap_err();
     assert!(err.message.contains("CUDA out of memory"), "{err}");
     let slow = vec!["sleep".to_string(), "5".into()];
-    let err = run_external(&slow, "p", tempfile::tempdir().unwrap().path(), std::time::Duration::from_millis(300)).unwrap_err();
+    let err = run_external(&slow, "p", 7, tempfile::tempdir().unwrap().path(), std::time::Duration::from_millis(300)).unwrap_err();
     assert!(err.message.contains("ran longer than"), "{err}");
     let silent = vec!["true".to_string()];
-    let err = run_external(&silent, "p", tempfile::tempdir().unwrap().path(), std::time::Duration::from_secs(60)).unwrap_err();
+    let err = run_external(&silent, "p", 7, tempfile::tempdir().unwrap().path(), std::time::Duration::from_secs(60)).unwrap_err();
     assert!(err.message.contains("wrote no SceneSmith scene"), "{err}");
 }

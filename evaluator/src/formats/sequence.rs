@@ -38,6 +38,13 @@ impl Sequence {
         if color_frames.is_empty() {
             return Err(InputError::new(&results, "frame*.jpg", "the sequence has no frames"));
         }
+        if semantic_frames.is_empty() {
+            return Err(InputError::new(
+                &results,
+                "semantic*.png",
+                "the sequence has no semantic frames (the scenes of a release's hidden test split publish none), so no ground truth can be built from it",
+            ));
+        }
         for (kind, frames) in [("depth*.png", &depth_frames), ("semantic*.png", &semantic_frames)] {
             if frames.len() != color_frames.len() {
                 return Err(InputError::new(&results, kind, format!("expected one per colour frame ({}), found {}", color_frames.len(), frames.len())));

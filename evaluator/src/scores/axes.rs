@@ -39,6 +39,13 @@ macro_rules! axis {
             }
         }
 
+        impl TryFrom<String> for $ty {
+            type Error = String;
+            fn try_from(s: String) -> Result<Self, String> {
+                s.parse()
+            }
+        }
+
         impl FromStr for $ty {
             type Err = String;
             fn from_str(s: &str) -> Result<Self, String> {
@@ -112,6 +119,23 @@ axis!(
         Manipuland = "manipuland", "Manipuland";
     ]
 );
+
+axis!(
+    /// The two splits of a release: `val` scenes are open (their ground truth is public,
+    /// so teams score them offline); `test` scenes publish no semantics and no answers,
+    /// and are scored by the server only.
+    Split, "split", [
+        Test = "test", "Test";
+        Val = "val", "Validation";
+    ]
+);
+
+impl Default for Split {
+    /// A scene of a release built before splits existed: all its files are public.
+    fn default() -> Self {
+        Split::Val
+    }
+}
 
 axis!(
     /// The two sets of VQA questions.

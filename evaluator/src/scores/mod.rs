@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime};
+pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime, Split};
 pub use vqa::{Accuracy, AnswerRow, QuestionSetScores, SceneAnswers, SetsScores, VqaCell, VqaScores};
 
 use crate::semseg::report::MetricTriple;
@@ -36,6 +36,10 @@ pub struct Scores {
     /// Semantic segmentation, per lighting.
     #[serde(default)]
     pub semseg: BTreeMap<Lighting, LightingScores>,
+    /// The split whose scenes were scored (absent when scored against every scene, as
+    /// before releases had splits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<Split>,
     /// VQA, when the submission has scene graphs or answers and the release questions.
     #[serde(default)]
     pub vqa: Option<VqaScores>,

@@ -8,7 +8,7 @@ use serde::Deserialize;
 
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
-use crate::scores::{Lighting, Regime};
+use crate::scores::{Lighting, Regime, Split};
 
 /// Folder of a release directory holding the private ground truth, one folder per scene.
 pub const GROUND_TRUTH_DIR: &str = "ground_truth";
@@ -20,6 +20,9 @@ pub struct ReleaseScene {
     pub id: String,
     /// The subset (prompt regime) it belongs to.
     pub subset: Regime,
+    /// The split it belongs to (`val` in releases built before splits existed).
+    #[serde(default)]
+    pub split: Split,
 }
 
 /// The facts of a release that validation and scoring need.
@@ -29,8 +32,14 @@ pub struct ReleaseIndex {
     pub root: PathBuf,
     /// The release version.
     pub version: String,
-    /// Its scenes in manifest order.
+    /// Its scenes in manifest order (those of [`ReleaseIndex::split`] only, when the
+    /// index is restricted to one split).
     pub scenes: Vec<ReleaseScene>,
+    /// The split this index is restricted to ([`ReleaseIndex::for_split`]), if any.
+    pub split: Option<Split>,
+    /// The release's scenes outside that split: a submission's files for them are
+    /// ignored, not refused.
+    pub outside_split: Vec<String>,
     /// Its lightings in manifest order.
     pub lightings: Vec<Lighting>,
     /// The release's classes (`classes.json`).
@@ -74,7 +83,48 @@ impl ReleaseIndex {
                 *frames.entry(scene.to_string()).or_default() += 1;
             }
         }
-        Ok(Self { root: root.to_path_buf(), version: fields.version, scenes: fields.scenes, lightings: fields.lightings, classes, frames })
+        Ok(Self {
+            root: root.to_path_buf(),
+            version: fields.version,
+            scenes: fields.scenes,
+            split: None,
+            outside_split: Vec::new(),
+            lightings: fields.lightings,
+            classes,
+            frames,
+        })
+    }
+
+    /// The splits the release's scenes belong to, test first.
+    pub fn splits(&self) -> Vec<Split> {
+        Split::ALL.into_iter().filter(|split| self.scenes.iter().any(|s| s.split == *split)).collect()
+    }
+
+    /// The split a leaderboard ranks and a submission goes to unless it says otherwise:
+    /// the hidden test split when the release has one, else the open val split.
+    pub fn primary_split(&self) -> Split {
+        if self.scenes.iter().any(|s| s.split == Split::Test) { Split::Test } else { Split::Val }
+    }
+
+    /// This index restricted to the scenes of `split`: what a submission to that split
+    /// is validated and scored against. Fails, naming the release's splits, when no
+    /// scene belongs to it.
+    pub fn for_split(&self, split: Split) -> Result<ReleaseIndex> {
+        let (scenes, outside): (Vec<ReleaseScene>, Vec<ReleaseScene>) = self.scenes.iter().cloned().partition(|s| s.split == split);
+        if scenes.is_empty() {
+            let has: Vec<&str> = self.splits().into_iter().map(Split::name).collect();
+            return Err(InputError::new(
+                self.root.join("manifest.json"),
+                "scenes[].split",
+                format!("release {} has no scene in split '{split}' (it has {})", self.version, has.join(", ")),
+            ));
+        }
+        let mut index = self.clone();
+        index.frames.retain(|scene, _| scenes.iter().any(|s| &s.id == scene));
+        index.scenes = scenes;
+        index.split = Some(split);
+        index.outside_split.extend(outside.into_iter().map(|s| s.id));
+        Ok(index)
     }
 
     /// The most points a map of any scene may hold: one per pixel of every frame of the

@@ -103,6 +103,7 @@ pub fn score_submission(
         relative_change,
         release: release.version.clone(),
         semseg,
+        split: release.split,
         vqa,
     })
 }

@@ -161,6 +161,9 @@ pub struct ValidSubmission {
     pub complete: bool,
     /// `lighting/scene` pairs without a map.
     pub missing_maps: Vec<String>,
+    /// Files for scenes of the release's other split, ignored (a submission to one
+    /// split may carry a whole release's maps).
+    pub outside_split: Vec<String>,
     /// Points read over all maps.
     pub points: u64,
 }
@@ -359,6 +362,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
     let mut entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry> = BTreeMap::new();
     let mut ground_truth: BTreeMap<String, Option<GroundTruth>> = BTreeMap::new();
     let mut points = 0u64;
+    let mut outside_split: Vec<String> = Vec::new();
     for name in &files {
         if is_archiver_noise(name) || name == "submission.json" || name == "text_features.npz" {
             continue;
@@ -391,9 +395,18 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
             ));
             continue;
         };
+        if release.outside_split.iter().any(|s| s == scene) {
+            outside_split.push(name.clone());
+            continue;
+        }
         if release.scene(scene).is_none() {
             let known: Vec<&str> = release.scenes.iter().map(|s| s.id.as_str()).collect();
-            problems.push(InputError::new(name.as_str(), "(path)", format!("unknown scene '{scene}'; release {} has {}", release.version, known.join(", "))));
+            let of = release.split.map_or(String::new(), |split| format!(" (split {split})"));
+            problems.push(InputError::new(
+                name.as_str(),
+                "(path)",
+                format!("unknown scene '{scene}'; release {}{of} has {}", release.version, known.join(", ")),
+            ));
             continue;
         }
         let path = root.join(name);
@@ -472,6 +485,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         text_features: text.map(|t| t.source),
         complete: missing_maps.is_empty(),
         missing_maps,
+        outside_split,
         entries: entries.into_values().collect(),
         points,
     })

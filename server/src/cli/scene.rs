@@ -288,7 +288,14 @@ fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[Stri
         let result = if command.is_empty() {
             osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir, ceiling)
         } else {
-            osmab_dataset::synthesis::external::run_external(command, &prompt.text, &dir, std::time::Duration::from_secs(24 * 3600)).map(|()| Vec::new())
+            osmab_dataset::synthesis::external::run_external(
+                command,
+                &prompt.text,
+                seed.wrapping_add(i as u64),
+                &dir,
+                std::time::Duration::from_secs(24 * 3600),
+            )
+            .map(|()| Vec::new())
         };
         // One failed scene does not lose the others; the report says which failed.
         match result {

@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use osmab_evaluator::InputError;
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, ValidSubmission, unpack, validate};
 use serde_json::Value;
 
@@ -27,14 +28,16 @@ fn release_named(unpacked: &Path) -> Option<String> {
     value.get("release")?.as_str().map(str::to_string)
 }
 
-/// Unpack and validate an upload (blocking). `current` is used when submission.json names
-/// no release. With `open`, a release outside it is refused before anything is validated
+/// Unpack and validate an upload (blocking) against the scenes of `split` (the release's
+/// primary split when `None`); the index returned is restricted to them. `current` is
+/// used when submission.json names no release. With `open`, a release outside it is refused before anything is validated
 /// against it (so a dry run tells nothing of a draft's scenes).
 pub fn check(
     state: &AppState,
     upload: &Path,
     unpack_to: &Path,
     current: Option<&str>,
+    split: Option<Split>,
     open: Option<&BTreeSet<String>>,
 ) -> Result<(ValidSubmission, ReleaseIndex), Error> {
     let limits = ArchiveLimits { max_entries: 20_000, max_total_bytes: state.settings.max_unpacked_bytes };
@@ -54,6 +57,8 @@ pub fn check(
         return Err(Error::ReleaseNotOpen(version));
     }
     let release = ReleaseIndex::read(&dir).map_err(Error::internal)?;
+    let split = split.unwrap_or_else(|| release.primary_split());
+    let release = release.for_split(split).map_err(|e| Error::Invalid(vec![InputError::new("(request)", "split", e.message)]))?;
     let submission = validate(unpack_to, &release, SubmissionLimits::for_release(&release, state.settings.max_unpacked_bytes))
         .map_err(|problems| Error::Invalid(problems.into_iter().map(|e| as_uploaded(e, upload, unpack_to)).collect()))?;
     Ok((submission, release))

@@ -62,20 +62,24 @@ fn invalid(problems: &[InputError]) -> Problem {
     Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_submission", "Invalid submission", detail).with("errors", Value::Array(errors))
 }
 
-/// The 429 of a used-up quota, with `Retry-After` the end of the day.
+/// The 429 of a used-up quota, with `Retry-After` when the next submission is possible.
 pub fn quota_exceeded(quota: Quota) -> Problem {
-    let Quota { limit, used, resets_at } = quota;
-    let seconds = ((resets_at - now_ms()) / 1000).max(1) as u64;
+    let view = quota.view();
+    let hours = view.window_hours;
+    let (when, seconds) = match quota.next_at() {
+        Some(at) => (format!("the next one is possible at {} (UTC)", rfc3339(at)), ((at - now_ms()) / 1000).max(1) as u64),
+        None => ("the organisers allow none at the moment (UTC clock)".to_string(), (quota.window_secs.max(1)) as u64),
+    };
     Problem::new(
         StatusCode::TOO_MANY_REQUESTS,
         "quota_exceeded",
-        "Daily submission quota used",
+        "Submission quota used",
         format!(
-            "Your team has used {used} of its {limit} submissions for this UTC day; the next one is possible at {}. Dry runs (?dry_run=true) are free.",
-            rfc3339(resets_at)
+            "Your team has used {} of its {} submissions to the {} split in the last {hours} hours; {when}. Dry runs (?dry_run=true) are free, and `osmab client validate` scores the val split offline.",
+            view.used, view.limit, view.split
         ),
     )
-    .with("quota", serde_json::to_value(quota.view()).expect("a quota serialises"))
+    .with("quota", serde_json::to_value(view).expect("a quota serialises"))
     .retry_after(seconds)
 }
 
@@ -117,12 +121,13 @@ mod tests {
     #[test]
     fn every_refusal_has_its_status_and_stable_code() {
         let file = || InputError::new("maps/baseline/scene_000.npz", "points", "NaN in row 3");
-        let quota = Quota { limit: 5, used: 5, resets_at: now_ms() + 3_600_000 };
+        let now = now_ms();
+        let quota = Quota { split: osmab_evaluator::scores::Split::Test, limit: 5, window_secs: 86_400, counted: vec![now - 3_600_000; 5], at: now };
         let cases: Vec<(Error, u16, &str)> = vec![
             (Error::InvalidArchive(file()), 422, "invalid_archive"),
             (Error::Invalid(vec![file(), file()]), 422, "invalid_submission"),
             (Error::ReleaseNotOpen("2026.2".into()), 409, "release_not_open"),
-            (Error::QuotaExceeded(quota), 429, "quota_exceeded"),
+            (Error::QuotaExceeded(quota.clone()), 429, "quota_exceeded"),
             (Error::KeyReused("sub_1".into()), 422, "idempotency_key_reused"),
             (Error::Store(StoreError::NotFound), 404, "not_found"),
             (Error::StorageUnavailable("connection refused".into()), 503, "storage_unavailable"),
@@ -136,6 +141,8 @@ mod tests {
         assert!(invalid.detail.starts_with("The submission was not accepted: 2 problems, the first: maps/baseline/scene_000.npz"), "{}", invalid.detail);
         assert!(!Problem::from(Error::Internal("disk full at /srv/osmab".into())).detail.contains("/srv"), "internal causes are logged, not sent");
         let limited = Problem::from(Error::QuotaExceeded(quota));
-        assert!(limited.detail.contains("used 5 of its 5 submissions"), "{}", limited.detail);
+        assert!(limited.detail.contains("used 5 of its 5 submissions to the test split in the last 24 hours"), "{}", limited.detail);
+        let retry: u64 = limited.retry_after.expect("Retry-After");
+        assert!((82_700..=82_800).contains(&retry), "23 hours until the oldest leaves the window: {retry}");
     }
 }

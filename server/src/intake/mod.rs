@@ -13,11 +13,12 @@ mod upload;
 
 use std::collections::BTreeSet;
 
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::ValidSubmission;
 
 pub use check::check;
 pub use error::{Error, quota_exceeded};
-pub use quota::{Quota, QuotaView};
+pub use quota::{Policy, Quota, QuotaView};
 pub use upload::{Upload, declared_sha256, hex, idempotency_key, receive, too_large};
 
 use crate::blobs::Scratch;
@@ -42,24 +43,38 @@ pub struct Request {
     /// The release to validate against when `submission.json` names none (the current one
     /// when `None`).
     pub release: Option<String>,
+    /// The split the submission is made to (the release's primary split when `None`:
+    /// test when it has one).
+    pub split: Option<Split>,
 }
 
 /// What accepting an upload did.
 #[derive(Debug)]
 pub enum Accepted {
-    /// A new submission, queued for scoring; the quota after it.
-    New { id: String, submission: ValidSubmission, quota: Option<Quota> },
+    /// A new submission to `split`, queued for scoring; the quota after it.
+    New { id: String, submission: ValidSubmission, split: Split, quota: Option<Quota> },
     /// Nothing new: the team's earlier submission (its id) of the same archive, or made
     /// with the same idempotency key.
     Repeat { id: String },
-    /// A dry run: the upload is valid.
-    Valid { submission: ValidSubmission },
+    /// A dry run: the upload is valid for `split`.
+    Valid { submission: ValidSubmission, split: Split },
+}
+
+/// The split of an upload that names none, as known before it is unpacked: the current
+/// release's primary split (test when it has one).
+pub async fn default_split(state: &AppState) -> Result<Split, StoreError> {
+    match state.store.current_release().await {
+        Ok(release) => Ok(crate::releases::primary_split(&release.manifest)),
+        Err(StoreError::NotFound) => Ok(Split::Val),
+        Err(e) => Err(e),
+    }
 }
 
 /// Accept `upload` from `team` as `request` asks.
 pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Request) -> Result<Accepted, Error> {
-    if !request.dry_run {
-        match state.store.repeated_submission(&team.id, &upload.sha256_hex(), request.idempotency_key.as_deref()).await? {
+    // A repeat is known before unpacking when the split is (else the recording finds it).
+    if let (false, Some(split)) = (request.dry_run, request.split) {
+        match state.store.repeated_submission(&team.id, &upload.sha256_hex(), split, request.idempotency_key.as_deref()).await? {
             Some(Recorded::Repeat(id)) => return Ok(Accepted::Repeat { id }),
             Some(Recorded::KeyReused(id)) => return Err(Error::KeyReused(id)),
             _ => {}
@@ -72,13 +87,15 @@ pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Re
     };
     let open: BTreeSet<String> = state.store.releases().await?.into_iter().filter(|r| r.state == ReleaseState::Published).map(|r| r.version).collect();
     let unpack_to = Scratch(state.blobs.scratch("unpack"));
-    let (state_for_check, upload_path, unpack_path) = (state.clone(), upload.path.clone(), unpack_to.0.clone());
+    let (state_for_check, upload_path, unpack_path, split) = (state.clone(), upload.path.clone(), unpack_to.0.clone(), request.split);
     // Unpacking and validation are heavy (disk and memory): a few at a time, the rest wait.
     let _permit = state.validation.acquire().await.map_err(Error::internal)?;
     let open_only = (!request.baseline).then_some(open);
-    let (submission, _) = tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref(), open_only.as_ref()))
-        .await
-        .map_err(Error::internal)??;
+    let (submission, release) =
+        tokio::task::spawn_blocking(move || check(&state_for_check, &upload_path, &unpack_path, current.as_deref(), split, open_only.as_ref()))
+            .await
+            .map_err(Error::internal)??;
+    let split = release.split.expect("checked against one split");
     if !request.baseline {
         // Published while this upload was checked is fine; withdrawn meanwhile is not.
         match state.store.release(&submission.release).await {
@@ -88,21 +105,21 @@ pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Re
         }
     }
     if request.dry_run {
-        return Ok(Accepted::Valid { submission });
+        return Ok(Accepted::Valid { submission, split });
     }
     // The quota again: another upload of the same team may have finished meanwhile.
     let quota = match request.enforce_quota {
-        true => Some(Quota::of(state, team).await?),
+        true => Some(Quota::of(state, team, split).await?),
         false => None,
     };
-    if let Some(quota) = quota.filter(Quota::exhausted) {
-        return Err(Error::QuotaExceeded(quota));
+    if let Some(quota) = quota.as_ref().filter(|q| q.exhausted()) {
+        return Err(Error::QuotaExceeded(quota.clone()));
     }
-    match record(state, team, upload, &submission, request, validating_at, quota).await? {
-        Recorded::New(id) => Ok(Accepted::New { id, submission, quota: quota.map(Quota::after_one) }),
+    match record(state, team, upload, &submission, split, request, validating_at, quota.as_ref()).await? {
+        Recorded::New(id) => Ok(Accepted::New { id, submission, split, quota: quota.map(Quota::after_one) }),
         Recorded::Repeat(id) => Ok(Accepted::Repeat { id }),
         Recorded::KeyReused(id) => Err(Error::KeyReused(id)),
-        Recorded::QuotaExceeded => Err(Error::QuotaExceeded(Quota::of(state, team).await?)),
+        Recorded::QuotaExceeded => Err(Error::QuotaExceeded(Quota::of(state, team, split).await?)),
     }
 }
 
@@ -115,9 +132,10 @@ async fn record(
     team: &Team,
     upload: &Upload,
     submission: &ValidSubmission,
+    split: Split,
     request: &Request,
     validating_at: i64,
-    quota: Option<Quota>,
+    quota: Option<&Quota>,
 ) -> Result<Recorded, Error> {
     let id = new_id("sub");
     let key = format!("submissions/{id}/upload");
@@ -140,12 +158,13 @@ async fn record(
         external_data: submission.method.external_data.clone(),
         compute: submission.method.compute.clone(),
         anonymous: submission.method.anonymous,
+        split,
         received_at: upload.received_at,
         validating_at,
         queued_at,
     };
     let job = crate::jobs::new_job(&ScoreSubmission { submission_id: id.clone(), rescore: false }, state);
-    let outcome = state.store.create_submission(&new, &job, quota.map(|q| (q.limit, q.day_start()))).await;
+    let outcome = state.store.create_submission(&new, &job, quota.map(|q| (q.limit, q.window_start()))).await;
     if !matches!(outcome, Ok(Recorded::New(_))) {
         let _ = state.blobs.remove_prefix(&format!("submissions/{id}")).await;
     }

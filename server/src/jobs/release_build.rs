@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 
 use osmab_dataset::baselines::{BASELINES, write_baseline};
 use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_sequence};
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::pack_directory;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -159,9 +160,9 @@ fn fanned_out(progress: &str) -> Option<Vec<String>> {
 /// Prepare the build (stages 1–4) and queue a render job for every sequence not rendered
 /// yet; returns their subjects.
 async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
-    let (config, out_dir) = (config_path.to_path_buf(), out.to_path_buf());
+    let (config, out_dir, secret) = (config_path.to_path_buf(), out.to_path_buf(), ctx.state.split_secret.clone());
     pull_build(&ctx.state, version).await?;
-    let units = blocking_stage(ctx, "prepare", move |progress| prepare_release(&config, &out_dir, progress)).await?;
+    let units = blocking_stage(ctx, "prepare", move |progress| prepare_release(&config, &out_dir, Some(&secret), progress)).await?;
     push_build(&ctx.state, version).await?;
     let mut subjects = Vec::new();
     for (unit, rendered) in units {
@@ -236,8 +237,8 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
             return Err(JobError::Waiting(WAIT_FOR_RENDERING));
         }
         pull_build(state, &version).await?;
-        let (config_for_build, out_for_build) = (config_path.clone(), out.clone());
-        blocking_stage(&ctx, "assemble", move |progress| build_release(&config_for_build, &out_for_build, progress)).await?;
+        let (config_for_build, out_for_build, secret) = (config_path.clone(), out.clone(), state.split_secret.clone());
+        blocking_stage(&ctx, "assemble", move |progress| build_release(&config_for_build, &out_for_build, Some(&secret), progress)).await?;
         ctx.progress(&json!({"stage": "import", "message": format!("importing release {version}")})).await;
         let now = now_ms();
         if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
@@ -266,11 +267,11 @@ async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError
     let (config_path, out) = build_paths(&ctx.state, &request.version);
     pull_build(&ctx.state, &request.version).await?;
     let blocking_ctx = ctx.clone();
-    let unit = request.unit.clone();
+    let (unit, secret) = (request.unit.clone(), ctx.state.split_secret.clone());
     tokio::task::spawn_blocking(move || {
         let progress = |message: &str| blocking_ctx.progress_blocking(&json!({"stage": "render", "message": message}));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
-        render_release_sequence(&config_path, &out, &unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+        render_release_sequence(&config_path, &out, Some(&secret), &unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
     .await
     .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;
@@ -293,14 +294,17 @@ pub async fn baseline_team(state: &AppState) -> Result<Team, StoreError> {
     }
 }
 
-/// Submit every reference baseline of `version` (built in `release`) that is not there yet.
+/// Submit every reference baseline of `version` (built in `release`) to every split of
+/// the release, where it is not there yet: the oracle of a test split exists only here.
 pub async fn queue_baselines(state: &AppState, version: &str, release: &std::path::Path) -> Result<usize, JobError> {
     let team = baseline_team(state).await?;
     let existing = state.store.submissions(Some(&team.id), 1000).await?;
+    let splits = osmab_evaluator::submission::ReleaseIndex::read(release).map_err(|e| JobError::Retryable(e.to_string()))?.splits();
     let mut queued = 0;
-    for name in BASELINES {
+    let runs: Vec<(&str, Split)> = BASELINES.iter().flat_map(|name| splits.iter().map(|split| (*name, *split))).collect();
+    for (name, split) in runs {
         let method = format!("baseline-{name}");
-        if existing.iter().any(|s| s.release == version && s.method_name == method && s.state != SubmissionState::Failed) {
+        if existing.iter().any(|s| s.release == version && s.method_name == method && s.split == split && s.state != SubmissionState::Failed) {
             continue;
         }
         let (dir, archive) = (Scratch(state.blobs.scratch("baseline")), Scratch(state.blobs.scratch("baseline-tar")));
@@ -314,7 +318,7 @@ pub async fn queue_baselines(state: &AppState, version: &str, release: &std::pat
         .await
         .map_err(JobError::retryable)??;
         let upload = Upload { path: archive.0.clone(), size, sha256, received_at: now_ms() };
-        let request = crate::intake::Request { public: true, baseline: true, release: Some(version.to_string()), ..Default::default() };
+        let request = crate::intake::Request { public: true, baseline: true, release: Some(version.to_string()), split: Some(split), ..Default::default() };
         match crate::intake::accept(state, &team, &upload, &request).await {
             Ok(_) => {}
             // The baselines come from the release itself: one that does not validate is a defect of the build.

@@ -78,12 +78,12 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let unpack_to = Scratch(state.blobs.scratch("score"));
     let max_unpacked = state.settings.max_unpacked_bytes;
     let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
-    let blocking_ctx = ctx.clone();
+    let (blocking_ctx, split) = (ctx.clone(), submission.split);
     let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
         let root = unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
         unpack(stored.path(), &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
-        let index = ReleaseIndex::read(&release).map_err(|e| JobError::Retryable(e.to_string()))?;
+        let index = ReleaseIndex::read(&release).and_then(|index| index.for_split(split)).map_err(|e| JobError::Retryable(e.to_string()))?;
         let limits = SubmissionLimits::for_release(&index, max_unpacked);
         let valid =
             validate(&root, &index, limits).map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;

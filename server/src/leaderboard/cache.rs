@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
-use osmab_evaluator::scores::Lighting;
+use osmab_evaluator::scores::{Lighting, Split};
 use sha2::Digest;
 
 use super::Leaderboard;
@@ -56,6 +56,9 @@ pub enum BoardError {
     /// The release named does not exist or is not published (`None`: no current release).
     #[error("no published release")]
     NotPublished(Option<String>),
+    /// The release (its version) has no scene in the split asked for (it has these).
+    #[error("no such split")]
+    NoSplit(String, Split, Vec<Split>),
     #[error(transparent)]
     Store(#[from] StoreError),
 }
@@ -93,10 +96,12 @@ impl LeaderboardCache {
         self.boards.write().expect("cache lock").insert(key.to_string(), (Instant::now(), generation, rendered.clone()));
     }
 
-    /// The leaderboard of the published `release` (`None`: the current release), from
-    /// memory while fresh, else rebuilt from `store`.
-    pub async fn board(&self, store: &Store, release: Option<&str>) -> Result<Arc<Rendered>, BoardError> {
-        let key = release.unwrap_or(CURRENT);
+    /// The leaderboard of `split` (`None`: the release's primary split) of the published
+    /// `release` (`None`: the current release), from memory while fresh, else rebuilt
+    /// from `store`.
+    pub async fn board(&self, store: &Store, release: Option<&str>, split: Option<Split>) -> Result<Arc<Rendered>, BoardError> {
+        let key = format!("{}#{}", release.unwrap_or(CURRENT), split.map_or("", Split::name));
+        let key = key.as_str();
         if let Some(rendered) = self.fresh(key) {
             return Ok(rendered);
         }
@@ -115,13 +120,19 @@ impl LeaderboardCache {
             Ok(_) | Err(StoreError::NotFound) => return Err(BoardError::NotPublished(release.map(str::to_string))),
             Err(e) => return Err(e.into()),
         };
-        if let Some(rendered) = self.fresh(&record.version) {
+        let splits = crate::releases::manifest_splits(&record.manifest);
+        let split = split.unwrap_or_else(|| crate::releases::primary_split(&record.manifest));
+        if !splits.contains(&split) {
+            return Err(BoardError::NoSplit(record.version, split, splits));
+        }
+        let resolved = format!("{}#{split}", record.version);
+        if let Some(rendered) = self.fresh(&resolved) {
             self.remember(key, &rendered, generation);
             return Ok(rendered);
         }
         let rows = store.leaderboard_rows(&record.version).await?;
-        let rendered = Arc::new(Rendered::new(Leaderboard::new(&record.version, manifest_lightings(&record.manifest), rows)));
-        self.remember(&record.version, &rendered, generation);
+        let rendered = Arc::new(Rendered::new(Leaderboard::new(&record.version, manifest_lightings(&record.manifest), split, splits, rows)));
+        self.remember(&resolved, &rendered, generation);
         self.remember(key, &rendered, generation);
         Ok(rendered)
     }

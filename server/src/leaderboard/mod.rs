@@ -1,4 +1,5 @@
-//! The leaderboard of a release: every scored public submission (and the baselines) with
+//! The leaderboard of a release's split (the hidden test split is the main board, the
+//! open val split has its own): every scored public submission to it (and the baselines) with
 //! the summary of its latest score, ranked by pooled mIoU under the release's first
 //! lighting, with rank groups and robustness columns ([`ranking`]). [`cache`] builds it
 //! at most once per second per release and serves it from memory as ready JSON and CSV
@@ -11,7 +12,7 @@ pub mod csv;
 pub mod ranking;
 pub mod vqa;
 
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime, Scores};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime, Scores, Split};
 use serde::{Deserialize, Serialize};
 
 pub use cache::{LeaderboardCache, Rendered};
@@ -68,22 +69,30 @@ impl Entry {
     }
 }
 
-/// The leaderboard of one release.
+/// The leaderboard of one split of one release.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Leaderboard {
     pub entries: Vec<Entry>,
     /// The release's lightings in manifest order.
     pub lightings: Vec<Lighting>,
     pub release: String,
+    /// The split ranked here (`val` from a server before splits).
+    #[serde(default)]
+    pub split: Split,
+    /// Every split of the release, test first: each has a board (`?split=`).
+    #[serde(default)]
+    pub splits: Vec<Split>,
 }
 
 impl Leaderboard {
-    /// Rank `rows` of `release`: pooled mIoU under the first lighting, best first, then
-    /// the earlier submission; an entry without that metric last.
-    pub fn new(release: &str, lightings: Vec<Lighting>, rows: Vec<LeaderboardRow>) -> Self {
+    /// Rank the `rows` of `release` made to `split` (of the release's `splits`): pooled
+    /// mIoU under the first lighting, best first, then the earlier submission; an entry
+    /// without that metric last.
+    pub fn new(release: &str, lightings: Vec<Lighting>, split: Split, splits: Vec<Split>, rows: Vec<LeaderboardRow>) -> Self {
         let key = lightings.first().copied().unwrap_or(Lighting::BASELINE);
         let mut ranked: Vec<(Entry, Standing)> = rows
             .into_iter()
+            .filter(|row| row.split == split)
             .map(|row| {
                 let standing = Standing {
                     value: row.scores.semseg(key, None, Aggregate::Overall, Metric::Miou),
@@ -115,7 +124,7 @@ impl Leaderboard {
             entry.rank = rank + 1;
             entry.rank_group = group;
         }
-        Self { entries, lightings, release: release.to_string() }
+        Self { entries, lightings, release: release.to_string(), split, splits }
     }
 
     /// Entries with VQA scores, in rank order.

@@ -11,7 +11,7 @@ pub mod keys;
 
 use std::collections::BTreeMap;
 
-use osmab_evaluator::scores::{Lighting, Scores};
+use osmab_evaluator::scores::{Lighting, Scores, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -50,6 +50,9 @@ pub struct Receipt {
     pub results_sha256: String,
     pub results_url: String,
     pub scored_at: String,
+    /// The split whose scenes were scored (absent before releases had splits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<Split>,
     pub submission_id: String,
     pub summary: ReceiptSummary,
     pub team: String,
@@ -97,6 +100,7 @@ impl Receipt {
             results_sha256: sha256_hex(results_document(scores).as_bytes()),
             results_url: format!("/api/v1/submissions/{}/results.json", facts.submission_id),
             scored_at: crate::clock::rfc3339(facts.scored_at_ms),
+            split: scores.split,
             submission_id: facts.submission_id.into(),
             summary,
             team: facts.team.into(),

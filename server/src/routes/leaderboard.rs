@@ -5,7 +5,7 @@ use std::sync::Arc;
 use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use osmab_evaluator::scores::Lighting;
+use osmab_evaluator::scores::{Lighting, Split};
 use serde::{Deserialize, Serialize};
 
 use super::ApiQuery;
@@ -19,11 +19,18 @@ use crate::state::AppState;
 pub struct LeaderboardQuery {
     /// A release version; the current release by default.
     pub release: Option<String>,
+    /// `test` or `val`; the release's test split by default when it has one.
+    pub split: Option<Split>,
 }
 
-/// The rendered leaderboard of `release` (the current one when `None`).
-pub async fn rendered(state: &AppState, release: Option<&str>) -> ApiResult<Arc<Rendered>> {
-    state.leaderboard.board(&state.store, release).await.map_err(|e| match e {
+/// The rendered leaderboard of `split` of `release` (the current one, its primary split,
+/// when `None`).
+pub async fn rendered(state: &AppState, release: Option<&str>, split: Option<Split>) -> ApiResult<Arc<Rendered>> {
+    state.leaderboard.board(&state.store, release, split).await.map_err(|e| match e {
+        BoardError::NoSplit(version, split, has) => Problem::not_found(format!(
+            "Release {version} has no {split} split; its boards: {}.",
+            has.iter().map(|s| format!("?split={s}")).collect::<Vec<_>>().join(", ")
+        )),
         BoardError::NotPublished(Some(v)) => Problem::not_found(format!("There is no published release '{v}'; see GET /api/v1/releases.")),
         BoardError::NotPublished(None) => {
             Problem::not_found("No release has been published yet; the demo release is built on first start and appears within a minute.")
@@ -41,7 +48,7 @@ fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {
     let etag = (header::ETAG, tag.clone());
     let vary = (header::VARY, "Accept".to_string());
     if csv {
-        let disposition = (header::CONTENT_DISPOSITION, format!("inline; filename=\"leaderboard-{}.csv\"", board.board.release));
+        let disposition = (header::CONTENT_DISPOSITION, format!("inline; filename=\"leaderboard-{}-{}.csv\"", board.board.release, board.board.split));
         ([(header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()), cache, etag, vary, disposition], board.csv.clone()).into_response()
     } else {
         ([(header::CONTENT_TYPE, "application/json".to_string()), cache, etag, vary], board.json.clone()).into_response()
@@ -50,14 +57,14 @@ fn respond(board: &Rendered, headers: &HeaderMap, csv: bool) -> Response {
 
 /// `GET /api/v1/leaderboard`.
 pub async fn json_or_csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
-    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = rendered(&state, query.release.as_deref(), query.split).await?;
     let wants_csv = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("text/csv"));
     Ok(respond(&board, &headers, wants_csv))
 }
 
 /// `GET /api/v1/leaderboard.csv`.
 pub async fn csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<LeaderboardQuery>, headers: HeaderMap) -> ApiResult<Response> {
-    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = rendered(&state, query.release.as_deref(), query.split).await?;
     Ok(respond(&board, &headers, true))
 }
 
@@ -65,6 +72,8 @@ pub async fn csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<Leader
 pub struct VqaQuery {
     /// A release version; the current release by default.
     pub release: Option<String>,
+    /// `test` or `val`; the release's test split by default when it has one.
+    pub split: Option<Split>,
     /// `2` or `3`: one table only (the CSV needs one).
     pub table: Option<u8>,
 }
@@ -84,7 +93,7 @@ pub struct VqaTables {
 
 /// `GET /api/v1/leaderboard/vqa`: the paper's Table II and Table III shapes as JSON.
 pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<axum::Json<VqaTables>> {
-    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = rendered(&state, query.release.as_deref(), query.split).await?;
     let board = &board.board;
     let (two, three) = match query.table {
         None => (true, true),
@@ -102,7 +111,7 @@ pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery
 
 /// `GET /api/v1/leaderboard/vqa.csv?table=2|3`: one of the tables as CSV.
 pub async fn vqa_table_csv(State(state): State<AppState>, ApiQuery(query): ApiQuery<VqaQuery>) -> ApiResult<Response> {
-    let board = rendered(&state, query.release.as_deref()).await?;
+    let board = rendered(&state, query.release.as_deref(), query.split).await?;
     let board = &board.board;
     let text = match query.table {
         Some(2) => table_two_csv(&table_two(board), &board.lightings),

@@ -9,6 +9,7 @@ mod jobs;
 mod leaderboard;
 mod openapi;
 mod pages;
+mod quota_policies;
 mod receipts;
 mod releases;
 pub mod submission_view;
@@ -165,6 +166,7 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/releases/{version}/manifest.json", get(releases::manifest))
         .route("/api/v1/releases/{version}/files/{*path}", get(releases::file))
         .route("/api/v1/me", get(submissions::me))
+        .route("/api/v1/quota", get(submissions::quotas))
         .route("/api/v1/submissions", post(submissions::create).get(submissions::list))
         .route("/api/v1/submissions/{id}", get(submissions::show).patch(submissions::update))
         .route("/api/v1/submissions/{id}/receipt", get(receipts::receipt))
@@ -187,7 +189,9 @@ pub fn router(state: AppState) -> Router {
         .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
         .route("/api/v1/admin/submissions/{id}/flag", put(admin::flag).delete(admin::unflag))
         .route("/api/v1/admin/submissions/{id}/refund", post(admin::refund_quota))
-        .route("/api/v1/admin/jobs", get(admin::list_jobs));
+        .route("/api/v1/admin/jobs", get(admin::list_jobs))
+        .route("/api/v1/admin/quotas", get(quota_policies::list))
+        .route("/api/v1/admin/quotas/{split}", put(quota_policies::set));
     let resumable = Router::new()
         .route("/api/v1/uploads", post(uploads::create).options(uploads::options))
         .route("/api/v1/uploads/{id}", axum::routing::head(uploads::head).patch(uploads::patch).delete(uploads::delete))

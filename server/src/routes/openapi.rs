@@ -142,7 +142,15 @@ pub const OPERATIONS: &[Operation] = &[
         200,
     )
     .returns_other("application/octet-stream"),
-    op("get", "/api/v1/me", Auth::Team, "The calling team and its quota for today (UTC).", 200).returns::<Me>(),
+    op("get", "/api/v1/me", Auth::Team, "The calling team and its quota for the split uploads go to by default.", 200).returns::<Me>(),
+    op(
+        "get",
+        "/api/v1/quota",
+        Auth::Team,
+        "Before uploading: the team's quota of every split (limit, used, remaining, window, when the next submission is possible) and the split an upload goes to by default.",
+        200,
+    )
+    .returns::<super::submissions::Quotas>(),
     Operation {
         input: Input::Archive,
         ..op(
@@ -269,6 +277,11 @@ pub const OPERATIONS: &[Operation] = &[
         200,
     )
     .returns::<super::admin::Refunded>(),
+    op("get", "/api/v1/admin/quotas", Auth::Admin, "The limit of every split (submissions per rolling window), set or default.", 200)
+        .returns::<super::quota_policies::PolicyList>(),
+    op("put", "/api/v1/admin/quotas/{split}", Auth::Admin, "Set a split's limit: `{\"limit\", \"window_hours\"}`.", 200)
+        .takes::<super::quota_policies::PolicyBody>()
+        .returns::<super::quota_policies::PolicyView>(),
 ];
 
 /// Every problem `code` with what it means and what to do.

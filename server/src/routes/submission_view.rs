@@ -4,7 +4,7 @@
 //!
 //! Fields are declared in the order of their JSON keys.
 
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 use serde::Serialize;
 
 use crate::auth::Caller;
@@ -94,6 +94,8 @@ pub struct SubmissionView {
     /// The latest score, when scored.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scores: Option<Scores>,
+    /// The split it was made to (its board).
+    pub split: Split,
     pub state: SubmissionState,
     /// The team's name.
     pub team: String,
@@ -144,6 +146,7 @@ impl SubmissionView {
             release: s.release.clone(),
             score_history,
             scores: scores.pop().and_then(|c| c.scores),
+            split: s.split,
             state: s.state,
             team: if hidden { crate::leaderboard::ANONYMOUS.to_string() } else { team.name },
             updated_at: rfc3339(s.updated_at),
@@ -179,6 +182,7 @@ pub struct SubmissionItem {
     pub public: bool,
     pub reason: Option<String>,
     pub release: String,
+    pub split: Split,
     pub state: SubmissionState,
     pub url: String,
 }
@@ -193,6 +197,7 @@ impl From<&SubmissionRecord> for SubmissionItem {
             public: s.public,
             reason: s.reason.clone(),
             release: s.release.clone(),
+            split: s.split,
             state: s.state,
             url: format!("/api/v1/submissions/{}", s.id),
         }

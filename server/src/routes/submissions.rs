@@ -6,7 +6,7 @@ use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use futures_util::StreamExt;
-use osmab_evaluator::scores::Lighting;
+use osmab_evaluator::scores::{Lighting, Split};
 use serde::{Deserialize, Serialize};
 
 use super::submission_view::{SubmissionItem, SubmissionList, SubmissionView};
@@ -26,6 +26,10 @@ pub struct UploadQuery {
     dry_run: bool,
     /// Show the submission on the public leaderboard (default true).
     public: Option<bool>,
+    /// The split to submit to: `test` (the hidden scenes, the main board; few per window)
+    /// or `val` (the open scenes, their own board). Default: the release's test split when
+    /// it has one, else val.
+    split: Option<Split>,
     /// Submit the completed resumable upload with this id (`/api/v1/uploads`) instead of
     /// a request body.
     upload: Option<String>,
@@ -41,14 +45,37 @@ pub struct TeamRef {
 /// `GET /api/v1/me`.
 #[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct Me {
+    /// The quota of the split uploads go to by default (the current release's test split
+    /// when it has one).
     pub quota: QuotaView,
     pub team: TeamRef,
 }
 
 /// `GET /api/v1/me`: the calling team and its quota.
 pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Me>> {
-    let quota = Quota::of(&state, &team).await?;
+    let quota = Quota::of(&state, &team, intake::default_split(&state).await?).await?;
     Ok(axum::Json(Me { quota: quota.view(), team: TeamRef { id: team.id, name: team.name } }))
+}
+
+/// `GET /api/v1/quota`.
+#[derive(Debug, Serialize, schemars::JsonSchema)]
+pub struct Quotas {
+    /// The split an upload that names none goes to.
+    pub default_split: Split,
+    /// The team's quota of every split, test first.
+    pub splits: Vec<QuotaView>,
+    pub team: TeamRef,
+}
+
+/// `GET /api/v1/quota`: before uploading, what the calling team may still submit to each
+/// split, and when more becomes possible.
+pub async fn quotas(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Quotas>> {
+    let mut splits = Vec::new();
+    for split in Split::ALL {
+        splits.push(Quota::of(&state, &team, split).await?.view());
+    }
+    let default_split = intake::default_split(&state).await?;
+    Ok(axum::Json(Quotas { default_split, splits, team: TeamRef { id: team.id, name: team.name } }))
 }
 
 /// The answer to an accepted upload (202) or to one that repeats an earlier submission
@@ -62,6 +89,7 @@ pub struct Created {
     pub quota: QuotaView,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub repeat: bool,
+    pub split: Split,
     pub state: SubmissionState,
     pub url: String,
 }
@@ -83,10 +111,14 @@ pub struct DryRun {
     pub entries: Vec<CoveredEntry>,
     pub method: osmab_evaluator::submission::MethodCard,
     pub missing_maps: Vec<String>,
+    /// Files for scenes of the release's other split, which this split ignores.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub outside_split: Vec<String>,
     pub points: u64,
     pub release: String,
     pub sha256: String,
     pub size: u64,
+    pub split: Split,
     pub valid: bool,
 }
 
@@ -155,14 +187,18 @@ pub async fn create(
         None => None,
     };
     if !query.dry_run {
-        let quota = Quota::of(&state, &team).await?;
+        let split = match query.split {
+            Some(split) => split,
+            None => intake::default_split(&state).await?,
+        };
+        let quota = Quota::of(&state, &team, split).await?;
         // A repeat costs no quota: with the quota used up, an upload that names an earlier
         // submission (its key, or its declared digest) is still read and answered.
         let may_repeat = match (&key, declared_digest) {
             (None, None) => false,
             _ => {
                 let digest = declared_digest.map(|d| hex(&d)).unwrap_or_default();
-                state.store.repeated_submission(&team.id, &digest, key.as_deref()).await?.is_some()
+                state.store.repeated_submission(&team.id, &digest, split, key.as_deref()).await?.is_some()
             }
         };
         if quota.exhausted() && !may_repeat {
@@ -207,9 +243,10 @@ pub async fn create(
         idempotency_key: key,
         enforce_quota: true,
         release: None,
+        split: query.split,
     };
     let (status, id, body) = match intake::accept(&state, &team, &upload, &request).await? {
-        Accepted::Valid { submission: valid } => {
+        Accepted::Valid { submission: valid, split } => {
             let entries = valid
                 .entries
                 .iter()
@@ -226,16 +263,18 @@ pub async fn create(
                 entries,
                 method: valid.method,
                 missing_maps: valid.missing_maps,
+                outside_split: valid.outside_split,
                 points: valid.points,
                 release: valid.release,
                 sha256: upload.sha256_hex(),
                 size: upload.size,
+                split,
                 valid: true,
             };
             return Ok(axum::Json(report).into_response());
         }
         Accepted::Repeat { id } => repeat_answer(&state, &team, id).await?,
-        Accepted::New { id, submission, quota } => {
+        Accepted::New { id, submission, split, quota } => {
             tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
             let quota = quota.expect("the quota is enforced").view();
             let body = Created {
@@ -243,6 +282,7 @@ pub async fn create(
                 missing_maps: Some(submission.missing_maps),
                 quota,
                 repeat: false,
+                split,
                 state: SubmissionState::Queued,
                 url: format!("/api/v1/submissions/{id}"),
                 id: id.clone(),
@@ -260,9 +300,17 @@ pub async fn create(
 async fn repeat_answer(state: &AppState, team: &crate::store::Team, id: String) -> ApiResult<(StatusCode, String, Created)> {
     let s = state.store.submission(&id).await?;
     tracing::info!(submission = %id, team = %team.name, "repeated upload answered with the earlier submission");
-    let quota = Quota::of(state, team).await?.view();
-    let body =
-        Created { complete: s.complete, missing_maps: None, quota, repeat: true, state: s.state, url: format!("/api/v1/submissions/{id}"), id: id.clone() };
+    let quota = Quota::of(state, team, s.split).await?.view();
+    let body = Created {
+        complete: s.complete,
+        missing_maps: None,
+        quota,
+        repeat: true,
+        split: s.split,
+        state: s.state,
+        url: format!("/api/v1/submissions/{id}"),
+        id: id.clone(),
+    };
     Ok((StatusCode::OK, id, body))
 }
 

@@ -80,7 +80,7 @@ pub async fn create(State(state): State<AppState>, TeamCaller(team): TeamCaller,
         return Err(Problem::bad_request("invalid_header", "Send Upload-Length: the archive's size in bytes."));
     };
     // A team out of quota learns it before sending the archive, not after.
-    let quota = Quota::of(&state, &team).await?;
+    let quota = Quota::of(&state, &team, crate::intake::default_split(&state).await?).await?;
     if quota.exhausted() {
         return Err(crate::intake::quota_exceeded(quota));
     }

@@ -7,6 +7,7 @@ mod jobs;
 mod models;
 mod postgres;
 mod queue;
+mod quotas;
 mod releases;
 mod scores;
 mod sqlite;
@@ -21,6 +22,7 @@ mod uploads;
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
 pub use queue::Standing;
+pub use quotas::QuotaPolicyRecord;
 pub use states::{JobState, ReleaseState, SubmissionState};
 pub use uploads::{UploadPart, UploadRecord};
 

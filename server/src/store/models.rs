@@ -1,6 +1,6 @@
 //! Records as the store returns them.
 
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 use serde::Serialize;
 
 use super::{JobState, ReleaseState, SubmissionState};
@@ -84,6 +84,9 @@ pub struct SubmissionRecord {
     pub anonymous: bool,
     /// An organiser's flag on the entry (its reason).
     pub flag: Option<String>,
+    /// The split it was made to.
+    #[sqlx(try_from = "String")]
+    pub split: Split,
 }
 
 /// One state change of a submission.
@@ -138,6 +141,7 @@ pub struct LeaderboardRow {
     pub anonymous: bool,
     pub flag: Option<String>,
     pub created_at: i64,
+    pub split: Split,
     pub scores: Scores,
 }
 
@@ -161,6 +165,8 @@ pub struct NewSubmission {
     pub external_data: Option<String>,
     pub compute: Option<String>,
     pub anonymous: bool,
+    /// The split it is made to.
+    pub split: Split,
     /// When the upload began and when validation began and ended (history timestamps).
     pub received_at: i64,
     pub validating_at: i64,

@@ -1,7 +1,7 @@
 //! Scores: one row per scoring of a submission (re-scoring adds rows). The score document
 //! is kept as its JSON text and read back typed; nothing outside the store sees the text.
 
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 
 use super::{LeaderboardRow, ScoreRecord, Store, StoreResult, on_pool};
 
@@ -45,6 +45,8 @@ struct BoardRow {
     anonymous: bool,
     flag: Option<String>,
     created_at: i64,
+    #[sqlx(try_from = "String")]
+    split: Split,
     body: String,
 }
 
@@ -76,7 +78,7 @@ impl Store {
     pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
         let rows: Vec<BoardRow> = on_pool!(self, |pool| {
             sqlx::query_as(
-            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.anonymous, s.flag, s.created_at, c.body \
+            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.anonymous, s.flag, s.created_at, s.split, c.body \
              FROM submissions s JOIN teams t ON t.id = s.team_id \
              JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
              WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
@@ -101,6 +103,7 @@ impl Store {
                     anonymous: r.anonymous,
                     flag: r.flag,
                     created_at: r.created_at,
+                    split: r.split,
                 })
             })
             .collect())

@@ -2,13 +2,13 @@
 //! changes (each with one history event), scoring results and failures, quota counts.
 
 use super::{JobRecord, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool};
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 
 /// A team's earlier submission with the idempotency key `$2` (first) or, active, of the
-/// archive `$3`: its id, archive and key.
+/// archive `$3` to the split `$5`: its id, archive and key.
 /// `$4` is a submission to leave out (the one just inserted, in the recording transaction).
 const REPEAT_QUERY: &str = "SELECT id, archive_sha256, idempotency_key FROM submissions \
-     WHERE team_id = $1 AND id <> $4 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
+     WHERE team_id = $1 AND id <> $4 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND split = $5 AND state NOT IN ('failed', 'cancelled'))) \
      ORDER BY CASE WHEN idempotency_key = $2 THEN 0 ELSE 1 END, created_at LIMIT 1";
 
 /// What an earlier submission `(id, archive, key)` found by [`REPEAT_QUERY`] makes of an
@@ -20,7 +20,7 @@ fn repeat_of((id, earlier_archive, _key): (String, String, Option<String>), arch
 const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
 
 /// Columns later migrations added, read with the others.
-const SUBMISSION_LATER_COLUMNS: &str = "quota_refunded, external_data, compute, anonymous, flag";
+const SUBMISSION_LATER_COLUMNS: &str = "quota_refunded, external_data, compute, anonymous, flag, split";
 
 /// The history event of `$submission` entering `$state` (a [`SubmissionState`]) with
 /// `$reason` at `$at`, for either backend (a macro so each infers its own types).
@@ -60,9 +60,15 @@ impl Store {
     /// The team's earlier submission a new upload repeats: the one made with the same
     /// idempotency key (any state), else an active one (not failed or cancelled) of the
     /// same archive. `Repeat` or `KeyReused` (the key with another archive), if any.
-    pub async fn repeated_submission(&self, team_id: &str, archive_sha256: &str, idempotency_key: Option<&str>) -> StoreResult<Option<Recorded>> {
-        let row: Option<(String, String, Option<String>)> =
-            on_pool!(self, |pool| sqlx::query_as(REPEAT_QUERY).bind(team_id).bind(idempotency_key).bind(archive_sha256).bind("").fetch_optional(pool).await)?;
+    pub async fn repeated_submission(&self, team_id: &str, archive_sha256: &str, split: Split, idempotency_key: Option<&str>) -> StoreResult<Option<Recorded>> {
+        let row: Option<(String, String, Option<String>)> = on_pool!(self, |pool| sqlx::query_as(REPEAT_QUERY)
+            .bind(team_id)
+            .bind(idempotency_key)
+            .bind(archive_sha256)
+            .bind("")
+            .bind(split.name())
+            .fetch_optional(pool)
+            .await)?;
         Ok(row.map(|row| repeat_of(row, archive_sha256)))
     }
 
@@ -74,8 +80,8 @@ impl Store {
     /// transaction, so parallel uploads cannot overrun it).
     pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<Recorded> {
         let sql = format!(
-            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, external_data, compute, anonymous) \
-             VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18)"
+            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, external_data, compute, anonymous, split) \
+             VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19)"
         );
         let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
@@ -105,20 +111,28 @@ impl Store {
                 .bind(&s.external_data)
                 .bind(&s.compute)
                 .bind(s.anonymous)
+                .bind(s.split.name())
                 .execute(&mut *tx)
                 .await?;
-            let earlier: Option<(String, String, Option<String>)> =
-                sqlx::query_as(REPEAT_QUERY).bind(&s.team_id).bind(&s.idempotency_key).bind(&s.archive_sha256).bind(&s.id).fetch_optional(&mut *tx).await?;
+            let earlier: Option<(String, String, Option<String>)> = sqlx::query_as(REPEAT_QUERY)
+                .bind(&s.team_id)
+                .bind(&s.idempotency_key)
+                .bind(&s.archive_sha256)
+                .bind(&s.id)
+                .bind(s.split.name())
+                .fetch_optional(&mut *tx)
+                .await?;
             if let Some(row) = earlier {
                 tx.rollback().await?;
                 return Ok(repeat_of(row, &s.archive_sha256));
             }
             if let Some((limit, since)) = quota {
                 let used: i64 = sqlx::query_scalar(
-                    "SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE AND quota_refunded = FALSE",
+                    "SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND split = $3 AND baseline = FALSE AND quota_refunded = FALSE",
                 )
                 .bind(&s.team_id)
                 .bind(since)
+                .bind(s.split.name())
                 .fetch_one(&mut *tx)
                 .await?;
                 if used > limit {
@@ -333,14 +347,17 @@ impl Store {
         self.submission(id).await.map(|_| false)
     }
 
-    /// Submissions a team made since `since` (quota), baselines and dry runs never count.
-    pub async fn submissions_since(&self, team_id: &str, since: i64) -> StoreResult<i64> {
+    /// When the submissions a team made to `split` since `since` were made, oldest first
+    /// (what its quota counts): baselines, dry runs and refunded ones never count.
+    pub async fn submissions_since(&self, team_id: &str, split: Split, since: i64) -> StoreResult<Vec<i64>> {
         Ok(on_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT COUNT(*) FROM submissions WHERE team_id = $1 AND created_at >= $2 AND baseline = FALSE AND quota_refunded = FALSE"
+            "SELECT created_at FROM submissions WHERE team_id = $1 AND created_at >= $2 AND split = $3 AND baseline = FALSE AND quota_refunded = FALSE \
+             ORDER BY created_at"
         )
         .bind(team_id)
         .bind(since)
-        .fetch_one(pool)
+        .bind(split.name())
+        .fetch_all(pool)
         .await)?)
     }
 

@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::clock::now_ms;
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 
 /// A store of each backend; PostgreSQL databases are dropped when the guard goes.
 pub struct TestStores {
@@ -68,6 +68,7 @@ fn submission(id: &str, team_id: &str, t: i64) -> NewSubmission {
         external_data: None,
         compute: None,
         anonymous: false,
+        split: Split::Test,
         received_at: t,
         validating_at: t,
         queued_at: t,
@@ -214,7 +215,17 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert!(matches!(store.job("js9").await, Err(StoreError::NotFound)));
         let s = store.submission("sub_1").await.unwrap();
         assert_eq!(s.state, SubmissionState::Queued);
-        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1);
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), 1);
+        // Each split has its own count, and the same archive to the other split is a new submission.
+        let to_val = NewSubmission { id: "sub_v".into(), split: Split::Val, ..new.clone() };
+        assert_eq!(store.create_submission(&to_val, &job("jsv", t), Some((1, t - 1))).await.unwrap(), Recorded::New("sub_v".into()));
+        assert_eq!(store.submission("sub_v").await.unwrap().split, Split::Val);
+        assert_eq!(store.submissions_since(&team.id, Split::Val, t - 1).await.unwrap(), [t]);
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), 1, "val does not count against test");
+        let again = NewSubmission { id: "sub_v2".into(), ..to_val.clone() };
+        assert_eq!(store.repeated_submission(&team.id, "ab", Split::Val, None).await.unwrap(), Some(Recorded::Repeat("sub_v".into())));
+        assert_eq!(store.create_submission(&again, &job("jsv2", t), None).await.unwrap(), Recorded::Repeat("sub_v".into()));
+        store.cancel_job("jsv", t).await.unwrap();
 
         // Scoring: the score lands with the job's success, only for the lease holder.
         let claimed = store.claim_next_job("w", t + 3, t + 60_000).await.unwrap().unwrap();
@@ -291,6 +302,22 @@ async fn a_failed_transaction_leaves_no_submission_behind() {
 }
 
 #[tokio::test]
+async fn an_administrators_quota_policy_replaces_the_one_before() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        assert!(store.quota_policies().await.unwrap().is_empty(), "no policy: the service's defaults");
+        let test = QuotaPolicyRecord { split: Split::Test, max_submissions: 3, window_secs: 86_400, updated_at: 1 };
+        store.set_quota_policy(&test).await.unwrap();
+        store.set_quota_policy(&QuotaPolicyRecord { max_submissions: 2, window_secs: 7_200, updated_at: 2, ..test.clone() }).await.unwrap();
+        let val = QuotaPolicyRecord { split: Split::Val, max_submissions: 40, window_secs: 86_400, updated_at: 3 };
+        store.set_quota_policy(&val).await.unwrap();
+        let policies = store.quota_policies().await.unwrap();
+        assert_eq!(policies, [QuotaPolicyRecord { split: Split::Test, max_submissions: 2, window_secs: 7_200, updated_at: 2 }, val], "{}", store.backend());
+    }
+    stores.drop_all().await;
+}
+
+#[tokio::test]
 async fn tokens_are_found_by_hash_and_revocation_is_kept() {
     let stores = TestStores::new().await;
     for store in &stores.stores {
@@ -333,22 +360,22 @@ async fn a_cancelled_submission_is_not_scored_and_a_failed_job_fails_its_submiss
         assert_eq!((failed.state, failed.reason.as_deref()), (SubmissionState::Failed, Some("maps/baseline/scene_000.npz: points: NaN")));
         assert_eq!(store.job("k2").await.unwrap().state, JobState::Failed);
         assert!(!failed.quota_refunded, "a failure of the input counts against the quota");
-        let counted = store.submissions_since(&team.id, t - 1).await.unwrap();
+        let counted = store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len();
 
         // A failure that was not the team's gives the quota unit back.
         let mut third = job("k3", t + 5);
         third.subject = "sub_c".into();
         store.create_submission(&NewSubmission { archive_sha256: "01".into(), ..new("sub_c") }, &third, None).await.unwrap();
-        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted + 1);
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), counted + 1);
         store.claim_next_job("w", t + 6, t + 60_000).await.unwrap().unwrap();
         assert!(store.fail_job("k3", "w", "Stopped after 3 attempts.", Some("sub_c"), true, t + 7).await.unwrap());
         assert!(store.submission("sub_c").await.unwrap().quota_refunded);
-        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted, "{}: refunded", store.backend());
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), counted, "{}: refunded", store.backend());
 
         // An organiser gives back the unit of a failure the team was charged for, once.
         assert!(store.refund_quota("sub_b", t + 8).await.unwrap());
         assert!(!store.refund_quota("sub_b", t + 9).await.unwrap(), "a second refund changes nothing");
-        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), counted - 1);
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), counted - 1);
         assert!(matches!(store.refund_quota("sub_missing", t + 9).await, Err(StoreError::NotFound)));
     }
     stores.drop_all().await;
@@ -403,12 +430,12 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
         }
         // The key with another archive is a reuse; another archive without it is new.
         assert_eq!(store.create_submission(&upload("sub_2", "bb", Some("key-1")), &job("j2", t), None).await.unwrap(), Recorded::KeyReused("sub_1".into()));
-        assert_eq!(store.repeated_submission(&team.id, "bb", Some("key-1")).await.unwrap(), Some(Recorded::KeyReused("sub_1".into())));
-        assert_eq!(store.repeated_submission(&team.id, "aa", None).await.unwrap(), Some(Recorded::Repeat("sub_1".into())));
-        assert_eq!(store.repeated_submission(&team.id, "", Some("key-9")).await.unwrap(), None);
+        assert_eq!(store.repeated_submission(&team.id, "bb", Split::Test, Some("key-1")).await.unwrap(), Some(Recorded::KeyReused("sub_1".into())));
+        assert_eq!(store.repeated_submission(&team.id, "aa", Split::Test, None).await.unwrap(), Some(Recorded::Repeat("sub_1".into())));
+        assert_eq!(store.repeated_submission(&team.id, "", Split::Test, Some("key-9")).await.unwrap(), None);
         assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "{}: nothing recorded", store.backend());
         assert!(matches!(store.job("j2").await, Err(StoreError::NotFound)));
-        assert_eq!(store.submissions_since(&team.id, t - 1).await.unwrap(), 1, "one quota unit");
+        assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), 1, "one quota unit");
         // A cancelled submission's archive may be submitted anew.
         assert!(store.set_submission_state("sub_1", &[SubmissionState::Queued], SubmissionState::Cancelled, Some("by the team"), t + 1).await.unwrap());
         assert_eq!(store.create_submission(&upload("sub_3", "aa", None), &job("j3", t), None).await.unwrap(), Recorded::New("sub_3".into()));

@@ -12,6 +12,7 @@ mod submit;
 mod verify;
 mod view;
 
+use osmab_evaluator::scores::Split;
 use std::path::PathBuf;
 
 use anyhow::bail;
@@ -64,6 +65,10 @@ pub enum ClientCommand {
         /// A downloaded release; without it the release facts are fetched from the server.
         #[arg(long)]
         release_dir: Option<PathBuf>,
+        /// The split to validate against (`test` or `val`); the release's test split when it
+        /// has one. Every split whose ground truth the folder holds (val's is public) is scored.
+        #[arg(long)]
+        split: Option<Split>,
         #[arg(long)]
         url: Option<String>,
     },
@@ -79,6 +84,10 @@ pub enum ClientCommand {
         /// Follow the evaluation until it ends.
         #[arg(long)]
         watch: bool,
+        /// The split to submit to: `test` (hidden scenes, the main board, few per window) or
+        /// `val` (open scenes, their own board); the release's test split when it has one.
+        #[arg(long)]
+        split: Option<Split>,
         #[arg(long)]
         url: Option<String>,
     },
@@ -109,10 +118,18 @@ pub enum ClientCommand {
         #[arg(long)]
         results: Option<PathBuf>,
     },
+    /// Print the team's quota of every split: what it may still submit, and when more.
+    Quota {
+        #[arg(long)]
+        url: Option<String>,
+    },
     /// Print the leaderboard.
     Leaderboard {
         #[arg(long)]
         release: Option<String>,
+        /// `test` or `val`; the release's test split when it has one.
+        #[arg(long)]
+        split: Option<Split>,
         #[arg(long)]
         lighting: Option<String>,
         #[arg(long)]
@@ -139,12 +156,14 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let path = session.save()?;
             let quota = &me["quota"];
             println!(
-                "Logged in to {} as team {} (token {}); {} of {} submissions left today. Saved to {} (owner-only).",
+                "Logged in to {} as team {} (token {}); {} of {} {} submissions left in this {}-hour window. Saved to {} (owner-only).",
                 session.url,
                 me["team"]["name"].as_str().unwrap_or("?"),
                 session::hint(&token),
                 quota["remaining"],
                 quota["limit"],
+                quota["split"].as_str().unwrap_or("daily"),
+                quota["window_hours"].as_f64().unwrap_or(24.0),
                 path.display()
             );
             Ok(())
@@ -156,20 +175,22 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             println!("{fetched} downloads done, {skipped} files already present and verified; the release is in {}", out.display());
             Ok(())
         }
-        ClientCommand::Validate { submission, release_dir, url } => {
+        ClientCommand::Validate { submission, release_dir, split, url } => {
             let api = if release_dir.is_none() { Some(api(url.as_deref())?) } else { None };
-            if offline::validate_offline(&submission, release_dir.as_deref(), api.as_ref())? { Ok(()) } else { std::process::exit(1) }
+            if offline::validate_offline(&submission, release_dir.as_deref(), split, api.as_ref())? { Ok(()) } else { std::process::exit(1) }
         }
-        ClientCommand::Submit { submission, dry_run, private, watch, url } => {
+        ClientCommand::Quota { url } => view::quota(&api(url.as_deref())?),
+        ClientCommand::Submit { submission, dry_run, private, watch, split, url } => {
             let api = api(url.as_deref())?;
             let packed = submit::pack(&submission)?;
             eprintln!("{}: {} bytes, SHA-256 {}", submission.display(), packed.size, packed.sha256_hex());
             // A dry run sends the archive once, stores nothing; a submission goes resumably.
-            let answer = if dry_run { submit::upload(&api, &packed, true, !private)? } else { resumable::submit(&api, &packed, !private)? };
+            let answer = if dry_run { submit::upload(&api, &packed, true, !private, split)? } else { resumable::submit(&api, &packed, !private, split)? };
             if dry_run {
                 let covered = answer["entries"].as_array().map_or(0, Vec::len);
                 println!(
-                    "Valid on the server (dry run, no quota used): {covered} scene-lighting pairs, {}, {} points",
+                    "Valid on the server for the {} split (dry run, no quota used): {covered} scene-lighting pairs, {}, {} points",
+                    answer["split"].as_str().unwrap_or("?"),
                     if answer["complete"] == true { "complete" } else { "incomplete" },
                     answer["points"]
                 );
@@ -180,7 +201,13 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             if answer["repeat"] == true {
                 eprintln!("The server already had this archive as {id} ({}); no quota was used.", answer["state"].as_str().unwrap_or("?"));
             } else {
-                eprintln!("Submitted as {id} ({}); follow it with `osmab client status {id} --watch`.", answer["state"].as_str().unwrap_or("?"));
+                eprintln!(
+                    "Submitted to the {} split as {id} ({}); {} of {} left in the window; follow it with `osmab client status {id} --watch`.",
+                    answer["split"].as_str().unwrap_or("?"),
+                    answer["state"].as_str().unwrap_or("?"),
+                    answer["quota"]["remaining"],
+                    answer["quota"]["limit"]
+                );
             }
             if watch && view::status(&api, &id, true)? != "scored" {
                 std::process::exit(1);
@@ -200,6 +227,8 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             print!("{}", verify::describe(&checked, results.is_some()));
             Ok(())
         }
-        ClientCommand::Leaderboard { release, lighting, url } => view::leaderboard(&api(url.as_deref())?, release.as_deref(), lighting.as_deref()),
+        ClientCommand::Leaderboard { release, split, lighting, url } => {
+            view::leaderboard(&api(url.as_deref())?, release.as_deref(), split, lighting.as_deref())
+        }
     }
 }

@@ -1,11 +1,13 @@
-//! `osmab client validate`: the server's own validation, offline — and, when the release
-//! folder holds the ground truth, the server's own scoring — so a team knows what the
-//! server will say before spending quota. Without `--release-dir`, the public release
-//! facts (manifest, classes, questions) are fetched from the server.
+//! `osmab client validate`: the server's own validation, offline — and, for every split
+//! whose ground truth the release folder holds (a downloaded release holds the val
+//! split's), the server's own scoring — so a team knows what the server will say before
+//! spending quota. Without `--release-dir`, the public release facts (manifest, classes,
+//! questions) are fetched from the server.
 
 use std::path::Path;
 
 use anyhow::{Context, anyhow};
+use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::archive::{ArchiveLimits, unpack};
 use osmab_evaluator::submission::release::ReleaseIndex;
 use osmab_evaluator::submission::score_submission;
@@ -40,7 +42,7 @@ fn named_release(root: &Path) -> Option<String> {
 
 /// Validate (and, with ground truth, score) `submission`; prints the report, returns
 /// whether it is valid.
-pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Option<&Api>) -> anyhow::Result<bool> {
+pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Option<Split>, api: Option<&Api>) -> anyhow::Result<bool> {
     let unpacked;
     let root = if submission.is_dir() {
         submission.to_path_buf()
@@ -60,7 +62,9 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
             facts.path().to_path_buf()
         }
     };
-    let index = ReleaseIndex::read(&release_root).map_err(|e| anyhow!("{e}"))?;
+    let release = ReleaseIndex::read(&release_root).map_err(|e| anyhow!("{e}"))?;
+    let split = split.unwrap_or_else(|| release.primary_split());
+    let index = release.for_split(split).map_err(|e| anyhow!("{e}"))?;
     // The server's own checks (its configured size limit is not known here).
     let limits = SubmissionLimits::for_release(&index, u64::MAX);
     let valid = match validate(&root, &index, limits) {
@@ -77,14 +81,24 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
     let graphs = valid.entries.iter().filter(|e| e.graph.is_some()).count();
     let answers = valid.entries.iter().filter(|e| e.answers.is_some()).count();
     println!(
-        "Valid for release {}: {maps} maps, {graphs} scene graphs, {answers} answer files, {} points; {}",
+        "Valid for the {split} split of release {}: {maps} maps, {graphs} scene graphs, {answers} answer files, {} points; {}",
         index.version,
         valid.points,
         if valid.complete { "every scene and lighting covered".to_string() } else { format!("incomplete, no map for {}", valid.missing_maps.join(", ")) }
     );
-    if index.has_ground_truth() {
+    let mut scored_any = false;
+    for other in release.splits() {
+        let Ok(index) = release.for_split(other) else { continue };
+        if !index.has_ground_truth() {
+            continue;
+        }
+        // Another split is scored when the submission carries maps for its scenes too.
+        let valid = match (other == split).then(|| Ok(valid.clone())).unwrap_or_else(|| validate(&root, &index, limits)) {
+            Ok(valid) if valid.entries.iter().any(|e| e.map.is_some() || e.graph.is_some()) => valid,
+            _ => continue,
+        };
         let scores = score_submission(&valid, &index, limits, Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
-        println!("Scored against the local ground truth (what the server will compute):");
+        println!("Scored the {other} split against the local ground truth ({} scenes; what the server will compute):", index.scenes.len());
         for (lighting, table) in &scores.semseg {
             let m = &table.overall;
             println!("  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}", m.miou * 100.0, m.fmiou * 100.0, m.macc * 100.0);
@@ -92,8 +106,12 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, api: Opti
         for (lighting, v) in scores.vqa.iter().flat_map(|v| &v.lightings) {
             println!("  {lighting}: VQA accuracy {:.1} % ({} of {} questions)", v.overall.accuracy.unwrap_or(0.0) * 100.0, v.overall.correct, v.overall.total);
         }
-    } else {
-        println!("(The release folder has no ground truth, so scores are computed on the server only.)");
+        scored_any = true;
+    }
+    if !scored_any {
+        println!("(The release folder has no ground truth for the scenes submitted, so scores are computed on the server only.)");
+    } else if release.splits().contains(&Split::Test) && !release.for_split(Split::Test).is_ok_and(|t| t.has_ground_truth()) {
+        println!("(The test split's ground truth is hidden: its scores are computed on the server only.)");
     }
     Ok(true)
 }

@@ -7,6 +7,7 @@
 //! `Content-Digest` and an `Idempotency-Key` derived from the upload, so a retried or
 //! resumed submit never makes two submissions.
 
+use osmab_evaluator::scores::Split;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -85,7 +86,7 @@ fn kept_upload(api: &Api, token: &str, state: &PathBuf, size: u64) -> anyhow::Re
 }
 
 /// Send `packed` as a resumable upload and submit it; returns the server's answer.
-pub fn submit(api: &Api, packed: &Packed, public: bool) -> anyhow::Result<Value> {
+pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) -> anyhow::Result<Value> {
     let token = api.session.token()?.to_string();
     let sha256 = packed.sha256_hex();
     let state = state_file(&sha256)?;
@@ -166,6 +167,9 @@ pub fn submit(api: &Api, packed: &Packed, public: bool) -> anyhow::Result<Value>
     let mut url = format!("{}?upload={id}", api.url("/api/v1/submissions"));
     if !public {
         url.push_str("&public=false");
+    }
+    if let Some(split) = split {
+        url.push_str(&format!("&split={split}"));
     }
     let response = with_retries("submitting the upload", || {
         api.client

@@ -4,6 +4,7 @@
 //! with the submission it already made), after asking whether the server recorded the
 //! upload already (to spare sending it again).
 
+use osmab_evaluator::scores::Split;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -99,7 +100,7 @@ fn already_recorded(api: &Api, sha256: &str) -> Option<Value> {
 }
 
 /// Upload `packed`; returns the server's answer (202 body, or the dry run's report).
-pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool) -> anyhow::Result<Value> {
+pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool, split: Option<Split>) -> anyhow::Result<Value> {
     let token = api.session.token()?.to_string();
     let digest = format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(packed.sha256));
     let mut query = Vec::new();
@@ -109,6 +110,8 @@ pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool) -> anyhow
     if !public {
         query.push("public=false");
     }
+    let split_query = split.map(|split| format!("split={split}"));
+    query.extend(split_query.as_deref());
     let url = format!("{}{}", api.url("/api/v1/submissions"), if query.is_empty() { String::new() } else { format!("?{}", query.join("&")) });
     let kind = content_type(&packed.path)?;
     // One key for every attempt: the server answers a repeat with the submission the

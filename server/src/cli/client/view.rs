@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::bail;
 
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
@@ -118,11 +118,9 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
 }
 
 /// `osmab client leaderboard [--release V] [--lighting L]`.
-pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> anyhow::Result<()> {
-    let path = match release {
-        Some(v) => format!("/api/v1/leaderboard?release={v}"),
-        None => "/api/v1/leaderboard".to_string(),
-    };
+pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, lighting: Option<&str>) -> anyhow::Result<()> {
+    let query: Vec<String> = release.map(|v| format!("release={v}")).into_iter().chain(split.map(|s| format!("split={s}"))).collect();
+    let path = if query.is_empty() { "/api/v1/leaderboard".to_string() } else { format!("/api/v1/leaderboard?{}", query.join("&")) };
     let board: Leaderboard = serde_json::from_value(api.get_json(&path)?).map_err(|e| anyhow::anyhow!("the server's leaderboard does not read: {e}"))?;
     let names: Vec<&str> = board.lightings.iter().map(|l| l.name()).collect();
     let lighting = match lighting {
@@ -165,9 +163,40 @@ pub fn leaderboard(api: &Api, release: Option<&str>, lighting: Option<&str>) -> 
         })
         .collect();
     println!(
-        "Leaderboard of {} — {lighting} lighting, pooled (%), ± half the 95 % interval; entries within noise share a group; VQA accuracy (%)\n{}",
+        "Leaderboard of {}, {} split{} — {lighting} lighting, pooled (%), ± half the 95 % interval; entries within noise share a group; VQA accuracy (%)\n{}",
         board.release,
+        board.split,
+        match board.splits.iter().find(|s| **s != board.split) {
+            Some(other) => format!(" (also: --split {other})"),
+            None => String::new(),
+        },
         table_text(&header, &rows)
     );
+    Ok(())
+}
+
+/// Print the team's quota of every split (`GET /api/v1/quota`).
+pub fn quota(api: &Api) -> anyhow::Result<()> {
+    let answer = api.get_team_json("/api/v1/quota")?;
+    let header: Vec<String> = ["split", "used", "limit", "remaining", "window (h)", "next possible", ""].iter().map(|s| s.to_string()).collect();
+    let default = answer["default_split"].as_str().unwrap_or_default();
+    let rows: Vec<Vec<String>> = answer["splits"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|q| {
+            let split = q["split"].as_str().unwrap_or("?");
+            vec![
+                split.to_string(),
+                q["used"].to_string(),
+                q["limit"].to_string(),
+                q["remaining"].to_string(),
+                q["window_hours"].to_string(),
+                q["next_at"].as_str().unwrap_or("now").to_string(),
+                if split == default { "default".into() } else { String::new() },
+            ]
+        })
+        .collect();
+    println!("Quota of team {}\n{}", answer["team"]["name"].as_str().unwrap_or("?"), table_text(&header, &rows));
     Ok(())
 }

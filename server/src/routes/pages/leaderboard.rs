@@ -6,7 +6,7 @@ use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Regime, Split};
 use serde::Deserialize;
 
 use super::chart::{Axis, BarChart, Series, Size};
@@ -19,6 +19,8 @@ use crate::state::AppState;
 #[derive(Debug, Deserialize, Default)]
 pub struct BoardQuery {
     release: Option<String>,
+    /// `test` or `val` (the release's test split by default).
+    split: Option<String>,
     /// `overall` (pooled, default) or `overall_mean`.
     agg: Option<String>,
     /// `all` (default), `furniture` or `manipuland`.
@@ -61,8 +63,8 @@ impl View {
         format!("{}/{}/{}.{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
     }
 
-    fn link(&self, release: &str) -> String {
-        format!("/?release={release}&agg={}&subset={}&sort={}.{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
+    fn link(&self, board: &Leaderboard) -> String {
+        format!("/?{}&agg={}&subset={}&sort={}.{}", board_query(board), self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
     }
 
     fn value(&self, e: &Entry, lighting: Lighting, metric: Metric) -> Option<f64> {
@@ -135,6 +137,11 @@ pub struct Choice {
 #[template(path = "leaderboard.html")]
 pub struct LeaderboardPage {
     pub release: String,
+    /// The split ranked, and what it means.
+    pub split: Split,
+    pub split_note: &'static str,
+    /// The boards of the release's splits (empty with one split).
+    pub boards: Vec<Choice>,
     pub lighting_groups: Vec<(&'static str, usize)>,
     pub columns: Vec<Column>,
     pub change_headers: Vec<&'static str>,
@@ -151,7 +158,8 @@ pub struct LeaderboardPage {
 
 /// `GET /`: the leaderboard of the current (or chosen) release.
 pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuery<BoardQuery>) -> Response {
-    let rendered = match crate::routes::leaderboard::rendered(&state, query.release.as_deref()).await {
+    let split = query.split.as_deref().and_then(|s| s.parse::<Split>().ok());
+    let rendered = match crate::routes::leaderboard::rendered(&state, query.release.as_deref(), split).await {
         Ok(r) => r,
         Err(problem) => {
             let status = problem.status;
@@ -162,6 +170,11 @@ pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuer
     let view = View::of(&query, &rendered.board);
     let page = rendered.page(&view.key(), || board_page(&rendered.board, view).render().unwrap_or_else(|e| format!("template error: {e}")));
     ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
+}
+
+/// The query naming `board`: its release and split.
+fn board_query(board: &Leaderboard) -> String {
+    format!("release={}&split={}", board.release, board.split)
 }
 
 /// The leaderboard page of `board` for one view.
@@ -178,7 +191,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
             columns.push(Column {
                 label: lighting.label(),
                 metric_label: metric.label(),
-                sort_link: View { sort: (lighting, metric), ..view }.link(release),
+                sort_link: View { sort: (lighting, metric), ..view }.link(board),
                 sorted: (lighting, metric) == view.sort,
                 first_of_lighting: k == 0,
             });
@@ -208,11 +221,11 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         .collect();
     let aggregates = Aggregate::ALL
         .iter()
-        .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(release), active: aggregate == view.aggregate })
+        .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
         .collect();
     let subsets = std::iter::once(None)
         .chain(Regime::ALL.iter().copied().map(Some))
-        .map(|subset| Choice { label: subset.map_or("All scenes", Regime::label), link: View { subset, ..view }.link(release), active: subset == view.subset })
+        .map(|subset| Choice { label: subset.map_or("All scenes", Regime::label), link: View { subset, ..view }.link(board), active: subset == view.subset })
         .collect();
     // The chart keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
     let chart = BarChart {
@@ -224,8 +237,27 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         size: Size::Wide,
     }
     .to_svg();
+    let boards = match board.splits.len() {
+        0 | 1 => Vec::new(),
+        _ => board
+            .splits
+            .iter()
+            .map(|&split| Choice {
+                label: split.label(),
+                link: format!("/?release={release}&split={split}&agg={}&subset={}", view.aggregate, view.subset_name()),
+                active: split == board.split,
+            })
+            .collect(),
+    };
+    let split_note = match board.split {
+        Split::Test => "Test split: scenes whose semantics and answers are hidden; scored by the server only, a few submissions per team and window.",
+        Split::Val => "Validation split: open scenes whose ground truth is public; `osmab client validate` scores them offline.",
+    };
     LeaderboardPage {
         release: release.clone(),
+        split: board.split,
+        split_note,
+        boards,
         lighting_groups: board.lightings.iter().map(|l| (l.label(), Metric::COLUMNS.len())).collect(),
         columns,
         change_headers: others.iter().map(|l| l.short_label()).collect(),
@@ -233,9 +265,9 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         aggregates,
         subsets,
         chart,
-        csv_link: format!("/api/v1/leaderboard.csv?release={release}"),
-        json_link: format!("/api/v1/leaderboard?release={release}"),
-        vqa: vqa::vqa_view(release, &board.lightings, &entries, view.subset),
+        csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
+        json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
+        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset),
         ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
     }
 }

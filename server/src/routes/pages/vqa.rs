@@ -40,7 +40,7 @@ fn column_label(set: QuestionSet, group: QuestionGroup) -> String {
 
 /// The section for `entries` (in the page's order), over all scenes or one `subset`;
 /// `None` when no entry has VQA scores.
-pub fn vqa_view(release: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>) -> Option<VqaView> {
+pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>) -> Option<VqaView> {
     let with_vqa: Vec<&Entry> = entries.iter().copied().filter(|e| e.scores.vqa.is_some()).collect();
     if with_vqa.is_empty() {
         return None;
@@ -77,9 +77,9 @@ pub fn vqa_view(release: &str, lightings: &[Lighting], entries: &[&Entry], subse
         columns: columns.iter().map(|&(set, group)| column_label(set, group)).collect(),
         rows,
         charts,
-        table_two_csv: format!("/api/v1/leaderboard/vqa.csv?table=2&release={release}"),
-        table_three_csv: format!("/api/v1/leaderboard/vqa.csv?table=3&release={release}"),
-        tables_json: format!("/api/v1/leaderboard/vqa?release={release}"),
+        table_two_csv: format!("/api/v1/leaderboard/vqa.csv?table=2&{board_query}"),
+        table_three_csv: format!("/api/v1/leaderboard/vqa.csv?table=3&{board_query}"),
+        tables_json: format!("/api/v1/leaderboard/vqa?{board_query}"),
     })
 }
 

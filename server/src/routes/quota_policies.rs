@@ -1,0 +1,82 @@
+//! `GET /api/v1/admin/quotas` and `PUT /api/v1/admin/quotas/{split}`: the administrator's
+//! limit per split (submissions per rolling window), shown to teams by `GET /api/v1/quota`.
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use osmab_evaluator::scores::Split;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::{ApiJson, ApiPath};
+use crate::auth::AdminCaller;
+use crate::clock::now_ms;
+use crate::intake::Policy;
+use crate::problem::{ApiResult, Problem};
+use crate::state::AppState;
+use crate::store::QuotaPolicyRecord;
+
+/// The longest window a policy may have.
+const MAX_WINDOW_HOURS: i64 = 24 * 366;
+
+/// One split's limit.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct PolicyView {
+    /// Submissions a team may make to the split per window.
+    pub limit: i64,
+    /// Set by an administrator (false: the service's default).
+    pub set: bool,
+    pub split: Split,
+    pub window_hours: i64,
+}
+
+/// Every split's limit.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct PolicyList {
+    pub policies: Vec<PolicyView>,
+}
+
+/// A split's new limit.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PolicyBody {
+    /// Submissions per window, 0 or more (0 closes the split to teams).
+    pub limit: i64,
+    /// The window in hours, 1 to 8784.
+    pub window_hours: i64,
+}
+
+async fn view(state: &AppState, split: Split) -> ApiResult<PolicyView> {
+    let set = state.store.quota_policies().await?.iter().any(|p| p.split == split);
+    let policy = Policy::of(state, split).await?;
+    Ok(PolicyView { limit: policy.limit, set, split, window_hours: policy.window_secs / 3600 })
+}
+
+/// `GET /api/v1/admin/quotas`.
+pub async fn list(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<PolicyList>> {
+    let mut policies = Vec::new();
+    for split in Split::ALL {
+        policies.push(view(&state, split).await?);
+    }
+    Ok(axum::Json(PolicyList { policies }))
+}
+
+/// `PUT /api/v1/admin/quotas/{split}` `{"limit", "window_hours"}`.
+pub async fn set(
+    State(state): State<AppState>,
+    _: AdminCaller,
+    ApiPath(split): ApiPath<String>,
+    ApiJson(body): ApiJson<PolicyBody>,
+) -> ApiResult<axum::Json<PolicyView>> {
+    let invalid = |detail: String| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid request", detail);
+    let split: Split = split.parse().map_err(|e: String| Problem::not_found(format!("{e}; see GET /api/v1/admin/quotas")))?;
+    if body.limit < 0 {
+        return Err(invalid(format!("limit: expected 0 or more submissions per window, found {}", body.limit)));
+    }
+    if !(1..=MAX_WINDOW_HOURS).contains(&body.window_hours) {
+        return Err(invalid(format!("window_hours: expected 1 to {MAX_WINDOW_HOURS} hours, found {}", body.window_hours)));
+    }
+    let record = QuotaPolicyRecord { split, max_submissions: body.limit, window_secs: body.window_hours * 3600, updated_at: now_ms() };
+    state.store.set_quota_policy(&record).await?;
+    tracing::info!(%split, limit = body.limit, window_hours = body.window_hours, "quota policy set by an admin");
+    Ok(axum::Json(view(&state, split).await?))
+}

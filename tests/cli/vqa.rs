@@ -137,6 +137,7 @@ mod release_questions {
 
     use std::collections::BTreeMap;
 
+    use osmab_evaluator::scores::Split;
     use osmab_evaluator::submission::release::ReleaseIndex;
     use osmab_evaluator::submission::validate::{SubmissionLimits, validate};
     use osmab_evaluator::vqa::answer::ClassifiedGraph;
@@ -200,7 +201,11 @@ mod release_questions {
             let manifest: Value = serde_json::from_slice(&std::fs::read(test_release().join("manifest.json")).unwrap()).unwrap();
             let listed = manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == format!("questions/{}.json", scene.id));
             assert!(listed, "the public questions are release files");
-            assert!(!manifest["files"].as_array().unwrap().iter().any(|f| f["path"].as_str().unwrap().starts_with("ground_truth")));
+            let public = std::fs::read_to_string(test_release().join(format!("questions/{}.json", scene.id))).unwrap();
+            assert!(!public.contains("\"answer\""), "the public question files carry no answers");
+            // Val scenes publish their answered questions with their ground truth; test scenes would not.
+            let answered = format!("ground_truth/questions/{}.json", scene.id);
+            assert_eq!(manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == answered), scene.split == Split::Val);
         }
     }
 

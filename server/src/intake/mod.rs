@@ -72,7 +72,7 @@ pub async fn default_split(state: &AppState) -> Result<Split, StoreError> {
 
 /// Accept `upload` from `team` as `request` asks.
 pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Request) -> Result<Accepted, Error> {
-    // A repeat is known before unpacking when the split is (else the recording finds it).
+    // A repeat is known before unpacking when the split is (else once the release says it).
     if let (false, Some(split)) = (request.dry_run, request.split) {
         match state.store.repeated_submission(&team.id, &upload.sha256_hex(), split, request.idempotency_key.as_deref()).await? {
             Some(Recorded::Repeat(id)) => return Ok(Accepted::Repeat { id }),
@@ -96,6 +96,13 @@ pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Re
             .await
             .map_err(Error::internal)??;
     let split = release.split.expect("checked against one split");
+    if let (false, None) = (request.dry_run, request.split) {
+        match state.store.repeated_submission(&team.id, &upload.sha256_hex(), split, request.idempotency_key.as_deref()).await? {
+            Some(Recorded::Repeat(id)) => return Ok(Accepted::Repeat { id }),
+            Some(Recorded::KeyReused(id)) => return Err(Error::KeyReused(id)),
+            _ => {}
+        }
+    }
     if !request.baseline {
         // Published while this upload was checked is fine; withdrawn meanwhile is not.
         match state.store.release(&submission.release).await {

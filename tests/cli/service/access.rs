@@ -5,7 +5,8 @@ use serde_json::{Value, json};
 use super::{ADMIN, Backend, Deployment, baseline_dir, on_both_backends, problem, tar_of};
 
 fn quotas_and_tokens(backend: Backend) {
-    let deployment = Deployment::new(backend, &[("OSMAB_DAILY_QUOTA", "1")]);
+    // The test release has val scenes only: its uploads count against the val quota.
+    let deployment = Deployment::new(backend, &[("OSMAB_VAL_QUOTA", "1")]);
     let server = deployment.serve();
     server.import_test_release();
     let token = server.team("Team Quota");

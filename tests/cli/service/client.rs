@@ -91,7 +91,7 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     // Offline validation with the downloaded release; a broken submission is explained.
     let submission = baseline_dir("label-noise");
     let valid = ok(&client(&config, &["validate", submission.path().to_str().unwrap(), "--release-dir", out.path().to_str().unwrap()]));
-    assert!(valid.contains("Valid for release"), "{valid}");
+    assert!(valid.contains("Valid for the val split of release"), "{valid}");
     let broken = baseline_dir("label-noise");
     std::fs::write(broken.path().join("maps/baseline/scene_000.npz"), b"not an npz").unwrap();
     let refused = client(&config, &["validate", broken.path().to_str().unwrap()]);

@@ -23,7 +23,13 @@ fn journey(backend: Backend) {
     let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
     let archives = manifest["archives"].as_array().unwrap();
     assert_eq!(archives.len(), 2 * 4, "one archive per scene and lighting");
-    assert!(manifest["files"].as_array().unwrap().iter().all(|f| !f["path"].as_str().unwrap().starts_with("ground_truth")));
+    // Its scenes are val (a config without a test split): their ground truth is public, the
+    // full quality report and the ground truth's own manifest are not.
+    let ground_truth: Vec<&str> =
+        manifest["files"].as_array().unwrap().iter().map(|f| f["path"].as_str().unwrap()).filter(|p| p.starts_with("ground_truth/")).collect();
+    assert!(ground_truth.contains(&"ground_truth/scene_001/semantic.npy") && ground_truth.contains(&"ground_truth/questions/scene_000.json"));
+    assert!(!ground_truth.iter().any(|p| *p == "ground_truth/manifest.json" || *p == "ground_truth/quality_report.json"), "{ground_truth:?}");
+    assert!(manifest["scenes"].as_array().unwrap().iter().all(|s| s["split"] == "val"));
 
     // A file with a range, its ETag, and a conditional request.
     let traj = manifest["files"].as_array().unwrap().iter().find(|f| f["path"].as_str().unwrap().ends_with("traj.txt")).unwrap();
@@ -43,8 +49,9 @@ fn journey(backend: Backend) {
     assert_eq!(tail.bytes().unwrap().as_ref(), &bytes[bytes.len() - 5..]);
     assert_eq!(server.get(&url).header("if-none-match", &etag).send().unwrap().status(), 304);
     super::problem(server.get(&url).header("range", format!("bytes={}-", bytes.len() + 10)).send().unwrap(), 416, "range_not_satisfiable");
-    // Ground truth is never served, whatever the path.
-    for hidden in ["ground_truth/scene_000/semantic.npy", "../ground_truth/scene_000/semantic.npy", "manifest.json.original"] {
+    // What the manifest does not list is never served, whatever the path (the val scenes'
+    // ground truth is listed; the full quality report and the ground truth's manifest are not).
+    for hidden in ["ground_truth/manifest.json", "ground_truth/quality_report.json", "../ground_truth/scene_000/semantic.npy", "manifest.json.original"] {
         let status = server.get(&format!("/api/v1/releases/{version}/files/{hidden}")).send().unwrap().status();
         assert_eq!(status, 404, "{hidden}");
     }

@@ -13,6 +13,7 @@ mod object_store;
 mod receipts;
 mod regeneration;
 mod schema;
+mod splits;
 mod workers;
 
 use std::io::{BufRead, BufReader};
@@ -317,9 +318,14 @@ pub fn test_release() -> &'static Path {
 
 /// The baseline `name` of the test release as a submission folder.
 pub fn baseline_dir(name: &str) -> tempfile::TempDir {
+    baseline_dir_of(test_release(), name)
+}
+
+/// The baseline `name` of the release built in `release` as a submission folder.
+pub fn baseline_dir_of(release: &Path, name: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_osmab"))
-        .args(["baseline", name, "--release", test_release().to_str().unwrap(), "--out", dir.path().to_str().unwrap()])
+        .args(["baseline", name, "--release", release.to_str().unwrap(), "--out", dir.path().to_str().unwrap()])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

@@ -726,6 +726,34 @@ def main() -> int:
             finally:
                 page.close()
 
+        def leaderboard_splits():
+            # The demo holds out a test split: the default board ranks it, the val board is one link away.
+            page, dom, shot = load("/", "15-leaderboard-test-split")
+            try:
+                expect(board.get("split") == "test" and board.get("splits") == ["test", "val"], f"the default board is {board.get('split')} of {board.get('splits')}")
+                marker = dom.find(id="split")
+                expect(marker is not None and marker.attrs.get("data-split") == "test", "the page does not say it shows the test split")
+                links = [a.attrs["href"] for a in dom.find_all("a", cls="board-choice")]
+                val_link = next((h for h in links if "split=val" in h), None)
+                expect(val_link is not None, f"no link to the val board among {links}")
+            finally:
+                page.close()
+            # The baselines of both splits are scored one after another: wait for val's too.
+            deadline = time.monotonic() + 180
+            while True:
+                val_board = get_json(f"{base}/api/v1/leaderboard?split=val")
+                if len(val_board["entries"]) >= EXPECTED_ENTRIES or time.monotonic() > deadline:
+                    break
+                time.sleep(0.5)
+            expect(val_board["split"] == "val" and len(val_board["entries"]) == EXPECTED_ENTRIES, f"the val board has {len(val_board['entries'])} entries")
+            page, dom, shot_val = load(val_link, "16-leaderboard-val-split")
+            try:
+                expect(dom.find(id="split").attrs.get("data-split") == "val", "the val board's page does not say val")
+                summary = check_board(dom, val_board, "overall", "all", f"{val_board['lightings'][0]}.miou", state["labels"])
+                return f"test board by default, val board linked and equal to its API ({summary}); {shot}, {shot_val}"
+            finally:
+                page.close()
+
         def leaderboard_sorted():
             page, dom, shot = load("/?release=" + board["release"] + "&agg=overall_mean&subset=all&sort=no_lights.macc", "02-leaderboard-sorted-no-lights-macc")
             try:
@@ -873,6 +901,7 @@ def main() -> int:
         run("leaderboard question answering", leaderboard_vqa)
         run("leaderboard sort=no_lights.macc agg=overall_mean", leaderboard_sorted)
         run("leaderboard subset=manipuland", leaderboard_manipuland)
+        run("leaderboard test and val boards", leaderboard_splits)
         run("follow a sort link from the leaderboard", follow_sort_link)
         run("release page", release_page)
         run("submission page", submission_page)

@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use osmab_dataset::release::split::SplitSecret;
 use osmab_dataset::release::{GROUND_TRUTH, WORK, build_release, verify_release};
 use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
@@ -43,10 +44,13 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
     assert_eq!(manifest["scenes"].as_array().unwrap().len(), 2);
     assert_eq!(manifest["lightings"], serde_json::json!(["baseline", "no_lights"]));
     let files = manifest["files"].as_array().unwrap();
-    assert!(
-        files.iter().all(|f| !f["path"].as_str().unwrap().starts_with(GROUND_TRUTH) && !f["path"].as_str().unwrap().starts_with(WORK)),
-        "ground truth and work files are not public"
-    );
+    let path = |f: &serde_json::Value| f["path"].as_str().unwrap().to_string();
+    assert!(files.iter().all(|f| !path(f).starts_with(WORK)), "work files are not public");
+    // Without a test split every scene is val: its ground truth is public, the full quality
+    // report and the ground truth's own manifest are not.
+    assert!(manifest["scenes"].as_array().unwrap().iter().all(|s| s["split"] == "val"));
+    assert!(files.iter().any(|f| path(f) == "ground_truth/scene_001/semantic.npy"));
+    assert!(!files.iter().any(|f| path(f) == "ground_truth/manifest.json" || path(f) == "ground_truth/quality_report.json"));
     for expected in [
         "classes.json",
         "quality/quality_report.json",
@@ -83,6 +87,36 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
     std::fs::write(&traj, "tampered").unwrap();
     let err = verify_release(&rel).unwrap_err();
     assert!(err.file.ends_with("traj.txt") && err.message.contains("SHA-256"), "{err}");
+}
+
+#[test]
+fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("split.toml");
+    std::fs::write(&config, format!("{TINY}\n[splits]\ntest_manipuland = 1\n")).unwrap();
+    let refused = build_release(&config, &dir.path().join("none"), None, &|_| {}).unwrap_err();
+    assert!(refused.message.contains("OSMAB_SPLIT_SECRET"), "{refused}");
+    let secret = SplitSecret::new("the operator's own secret", "test").unwrap();
+    let first = build_release(&config, &dir.path().join("a"), Some(&secret), &|_| {}).unwrap();
+    let again = build_release(&config, &dir.path().join("b"), Some(&secret), &|_| {}).unwrap();
+    assert_eq!(first["digest"], again["digest"], "the same config and secret give the same release");
+    let splits: Vec<&str> = first["scenes"].as_array().unwrap().iter().map(|s| s["split"].as_str().unwrap()).collect();
+    assert_eq!(splits, ["val", "test"]);
+    let listed = |m: &serde_json::Value| -> std::collections::BTreeMap<String, String> {
+        m["files"].as_array().unwrap().iter().map(|f| (f["path"].as_str().unwrap().to_string(), f["sha256"].as_str().unwrap().to_string())).collect()
+    };
+    let files = listed(&first);
+    assert!(!files.keys().any(|p| p.contains("scene_001/results/semantic")), "no semantic frame of the test scene is listed");
+    assert!(dir.path().join("a/sequences/baseline/scene_001/results/semantic000000.png").is_file(), "the operator's copy keeps them");
+    assert!(files.contains_key("ground_truth/scene_000/semantic.npy") && !files.keys().any(|p| p.starts_with("ground_truth/") && p.contains("scene_001")));
+    assert_eq!(verify_release(&dir.path().join("a")).unwrap(), files.len());
+    // Another secret: the same val scene, another test room.
+    let other = SplitSecret::new("somebody's guess at it", "test").unwrap();
+    let guessed = listed(&build_release(&config, &dir.path().join("c"), Some(&other), &|_| {}).unwrap());
+    let traj = |scene: &str| format!("sequences/baseline/{scene}/traj.txt");
+    assert_eq!(guessed[&traj("scene_000")], files[&traj("scene_000")]);
+    assert_ne!(guessed[&traj("scene_001")], files[&traj("scene_001")]);
+    assert!(files.iter().filter(|(p, _)| p.contains("scene_000")).all(|(p, sha)| guessed.get(p) == Some(sha)), "every val file is the same");
 }
 
 #[test]
@@ -176,7 +210,10 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     };
     assert_eq!(files(&external), files(&built_in));
     let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
-    let gt_files = |d: &str| serde_json::from_slice::<serde_json::Value>(&gt_manifest(d)).unwrap()["files"].clone();
+    let gt_files = |d: &str| -> Vec<serde_json::Value> {
+        let files = serde_json::from_slice::<serde_json::Value>(&gt_manifest(d)).unwrap()["files"].clone();
+        files.as_array().unwrap().iter().filter(|f| f["path"] != "quality_report.json").cloned().collect()
+    };
     assert_eq!(gt_files("external"), gt_files("built-in"), "the same ground truth, instances included");
     // A renderer that writes nothing usable is named.
     let broken = TINY.replace("[quality]", "command = [\"true\"]\n[quality]");
@@ -246,8 +283,11 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     let dir = tempfile::tempdir().unwrap();
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/release-demo.toml");
     let out = dir.path().join("demo");
-    build_release(&config, &out, None, &|_| {}).expect("the demo release passes its quality bar");
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("quality/quality_report.json")).unwrap()).unwrap();
+    let secret = SplitSecret::new("the demo test's secret", "test").unwrap();
+    build_release(&config, &out, Some(&secret), &|_| {}).expect("the demo release passes its quality bar");
+    let public: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("quality/quality_report.json")).unwrap()).unwrap();
+    assert_eq!((public["full_match"].as_u64(), public["test_scenes"].clone()), (Some(1), serde_json::json!(["scene_001", "scene_002"])), "val counted");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join(GROUND_TRUTH).join("quality_report.json")).unwrap()).unwrap();
     assert_eq!((report["scenes"].as_u64(), report["full_match"].as_u64(), report["passed"].as_u64()), (Some(3), Some(3), Some(3)));
     for (category, accuracy) in report["oracle_vqa"].as_object().unwrap() {
         assert_eq!(accuracy.as_f64(), Some(1.0), "the oracle answers every {category} question");

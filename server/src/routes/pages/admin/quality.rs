@@ -145,10 +145,18 @@ fn scene_rows(report: &Value) -> Vec<SceneRow> {
         .collect()
 }
 
-/// The quality report of `version`, read from the blob store.
+/// The full quality report, kept with the ground truth (every measure of the test scenes
+/// too); releases built before splits have the public one only.
+const FULL_REPORT: &str = "ground_truth/quality_report.json";
+
+/// The quality report of `version`, read from the blob store: the full one when the
+/// release keeps it, else the public one.
 async fn report_of(state: &AppState, version: &str) -> Result<Value, String> {
-    let key = format!("{}/{REPORT}", crate::releases::release_prefix(version));
-    let fetched = state.blobs.fetch(&key).await.map_err(|e| format!("release {version} has no readable quality report: {e}"))?;
+    let prefix = crate::releases::release_prefix(version);
+    let fetched = match state.blobs.fetch(&format!("{prefix}/{FULL_REPORT}")).await {
+        Ok(full) => full,
+        Err(_) => state.blobs.fetch(&format!("{prefix}/{REPORT}")).await.map_err(|e| format!("release {version} has no readable quality report: {e}"))?,
+    };
     let bytes = tokio::fs::read(fetched.path()).await.map_err(|e| format!("{REPORT} of {version}: {e}"))?;
     serde_json::from_slice(&bytes).map_err(|e| format!("{REPORT} of {version} is not JSON: {e}"))
 }

@@ -458,7 +458,7 @@ class ExportTest(unittest.TestCase):
         self.assertEqual(osmab_export.main(["conceptgraphs", "--map", path, "--lighting", "baseline", "--scene", scene, "--out", out]), 0)
         done = subprocess.run([os.environ["OSMAB_BIN"], "client", "validate", out, "--release-dir", release], capture_output=True, text=True)
         self.assertEqual(done.returncode, 0, done.stdout + done.stderr)
-        self.assertIn("Valid for release", done.stdout)
+        self.assertIn("Valid for the val split of release", done.stdout)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ mod jobs;
 mod leaderboard;
 mod openapi;
 mod pages;
-mod quota_policies;
+pub mod quota_policies;
 mod receipts;
 mod releases;
 pub mod submission_view;
@@ -210,6 +210,7 @@ pub fn router(state: AppState) -> Router {
         .route("/admin/submissions/{id}/flag", post(pages::admin::flag))
         .route("/admin/submissions/{id}/unflag", post(pages::admin::unflag))
         .route("/admin/submissions/{id}/refund", post(pages::admin::refund))
+        .route("/admin/quotas", post(pages::admin::set_quota))
         .route("/api/docs", get(api_docs::docs_page))
         .route("/static/{file}", get(pages::static_file));
     let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));

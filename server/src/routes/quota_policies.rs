@@ -45,28 +45,29 @@ pub struct PolicyBody {
     pub window_hours: i64,
 }
 
-async fn view(state: &AppState, split: Split) -> ApiResult<PolicyView> {
+/// The limit of `split` as it stands.
+pub async fn view(state: &AppState, split: Split) -> ApiResult<PolicyView> {
     let set = state.store.quota_policies().await?.iter().any(|p| p.split == split);
     let policy = Policy::of(state, split).await?;
     Ok(PolicyView { limit: policy.limit, set, split, window_hours: policy.window_secs / 3600 })
 }
 
-/// `GET /api/v1/admin/quotas`.
-pub async fn list(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<PolicyList>> {
+/// The limit of every split, test first.
+pub async fn views(state: &AppState) -> ApiResult<Vec<PolicyView>> {
     let mut policies = Vec::new();
     for split in Split::ALL {
-        policies.push(view(&state, split).await?);
+        policies.push(view(state, split).await?);
     }
-    Ok(axum::Json(PolicyList { policies }))
+    Ok(policies)
 }
 
-/// `PUT /api/v1/admin/quotas/{split}` `{"limit", "window_hours"}`.
-pub async fn set(
-    State(state): State<AppState>,
-    _: AdminCaller,
-    ApiPath(split): ApiPath<String>,
-    ApiJson(body): ApiJson<PolicyBody>,
-) -> ApiResult<axum::Json<PolicyView>> {
+/// `GET /api/v1/admin/quotas`.
+pub async fn list(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<PolicyList>> {
+    Ok(axum::Json(PolicyList { policies: views(&state).await? }))
+}
+
+/// Set the limit of the split named `split` (the API's and the console's action).
+pub async fn apply(state: &AppState, split: &str, body: &PolicyBody) -> ApiResult<PolicyView> {
     let invalid = |detail: String| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid request", detail);
     let split: Split = split.parse().map_err(|e: String| Problem::not_found(format!("{e}; see GET /api/v1/admin/quotas")))?;
     if body.limit < 0 {
@@ -78,5 +79,15 @@ pub async fn set(
     let record = QuotaPolicyRecord { split, max_submissions: body.limit, window_secs: body.window_hours * 3600, updated_at: now_ms() };
     state.store.set_quota_policy(&record).await?;
     tracing::info!(%split, limit = body.limit, window_hours = body.window_hours, "quota policy set by an admin");
-    Ok(axum::Json(view(&state, split).await?))
+    view(state, split).await
+}
+
+/// `PUT /api/v1/admin/quotas/{split}` `{"limit", "window_hours"}`.
+pub async fn set(
+    State(state): State<AppState>,
+    _: AdminCaller,
+    ApiPath(split): ApiPath<String>,
+    ApiJson(body): ApiJson<PolicyBody>,
+) -> ApiResult<axum::Json<PolicyView>> {
+    Ok(axum::Json(apply(&state, &split, &body).await?))
 }

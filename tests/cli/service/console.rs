@@ -113,6 +113,32 @@ fn console(backend: Backend) {
     let unknown = form(&browser, &server, "/admin/submissions/sub_none/refund", &cookie, &[("form_token", &form_token)]);
     assert_eq!(unknown.status(), 404);
 
+    // The quotas: the console shows each split's limit and sets one; a bad number is refused.
+    let page = browser.get(format!("{}/admin", server.url)).header("cookie", &cookie).send().unwrap().text().unwrap();
+    assert!(page.contains("id=\"admin-quotas\"") && page.contains("data-split=\"test\"") && page.contains("the service's default"));
+    let set = form(&browser, &server, "/admin/quotas", &cookie, &[("form_token", &form_token), ("split", "val"), ("limit", "7"), ("window_hours", "12")]);
+    assert_eq!(set.status(), 303);
+    assert!(location(&set).contains("7%20submissions%20per%20team%20per%2012%20hours"), "{}", location(&set));
+    let policies: Value = server.admin(server.get("/api/v1/admin/quotas")).json().unwrap();
+    let val = policies["policies"].as_array().unwrap().iter().find(|p| p["split"] == "val").unwrap().clone();
+    assert_eq!((val["limit"].as_i64(), val["window_hours"].as_i64(), val["set"].as_bool()), (Some(7), Some(12), Some(true)));
+    let quota: Value = server.get("/api/v1/quota").bearer_auth(&token).send().unwrap().json().unwrap();
+    assert_eq!(quota["splits"][1]["limit"], 7, "teams see it before uploading: {quota}");
+    for (limit, window) in [("many", "12"), ("3", "0")] {
+        let bad =
+            form(&browser, &server, "/admin/quotas", &cookie, &[("form_token", &form_token), ("split", "val"), ("limit", limit), ("window_hours", window)]);
+        assert_eq!(bad.status(), 422, "{limit} per {window} h");
+    }
+    let forged = form(
+        &browser,
+        &server,
+        "/admin/quotas",
+        &cookie,
+        &[("form_token", "0123456789abcdef0123456789abcdef"), ("split", "val"), ("limit", "0"), ("window_hours", "1")],
+    );
+    assert_eq!(forged.status(), 403);
+    assert_eq!(server.get("/api/v1/quota").bearer_auth(&token).send().unwrap().json::<Value>().unwrap()["splits"][1]["limit"], 7, "nothing changed");
+
     // A broken configuration is refused with the field named, and nothing is queued.
     let jobs_before = server.admin(server.get("/api/v1/admin/jobs")).json::<Value>().unwrap()["jobs"].as_array().unwrap().len();
     let broken = form(&browser, &server, "/admin/regenerate", &cookie, &[("form_token", &form_token), ("config", "version = \"x-1\"\n[[nonsense")]);

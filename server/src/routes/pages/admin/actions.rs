@@ -9,7 +9,7 @@ use serde::Deserialize;
 
 use super::{AdminMessage, AdminSession, parse_form};
 use crate::problem::Problem;
-use crate::routes::{ApiPath, admin};
+use crate::routes::{ApiPath, admin, quota_policies};
 use crate::state::AppState;
 
 /// A form body after its form token was checked.
@@ -152,6 +152,46 @@ pub async fn refund(
         })
     })
     .await
+}
+
+#[derive(Deserialize)]
+struct QuotaForm {
+    form_token: String,
+    split: String,
+    limit: String,
+    window_hours: String,
+}
+
+impl FormWithToken for QuotaForm {
+    fn form_token(&self) -> &str {
+        &self.form_token
+    }
+}
+
+/// `POST /admin/quotas` (`split`, `limit`, `window_hours`): a split's limit per window.
+pub async fn set_quota(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    let form: QuotaForm = match checked(&session, &headers, &body) {
+        Ok(form) => form,
+        Err(refused) => return refused,
+    };
+    let number = |field: &str, text: &str| {
+        text.trim().parse::<i64>().map_err(|_| {
+            AdminMessage::problem(Problem::new(
+                axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+                "invalid_request",
+                "Invalid request",
+                format!("{field}: expected a whole number, found '{text}'"),
+            ))
+        })
+    };
+    let body = match (number("limit", &form.limit), number("window_hours", &form.window_hours)) {
+        (Ok(limit), Ok(window_hours)) => quota_policies::PolicyBody { limit, window_hours },
+        (Err(refused), _) | (_, Err(refused)) => return refused,
+    };
+    match quota_policies::apply(&state, &form.split, &body).await {
+        Ok(set) => back(&session, &format!("The {} split: {} submissions per team per {} hours.", set.split, set.limit, set.window_hours)),
+        Err(problem) => AdminMessage::problem(problem),
+    }
 }
 
 #[cfg(test)]

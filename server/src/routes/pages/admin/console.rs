@@ -68,6 +68,8 @@ pub struct ConsolePage {
     pub submissions: Vec<SubmissionRow>,
     pub demo_config: &'static str,
     pub refresh: bool,
+    /// Every split's submission limit.
+    pub quotas: Vec<crate::routes::quota_policies::PolicyView>,
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -127,6 +129,10 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
         Ok(loaded) => loaded,
         Err(e) => return AdminMessage::problem(e.into()),
     };
+    let quotas = match crate::routes::quota_policies::views(&state).await {
+        Ok(quotas) => quotas,
+        Err(problem) => return AdminMessage::problem(problem),
+    };
     let team_name = |id: &str| teams.iter().find(|t| t.id == id).map_or_else(|| id.to_string(), |t| t.name.clone());
     let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == "build_release").take(10).map(|j| build_row(j, &jobs)).collect();
     ConsolePage {
@@ -160,6 +166,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
             })
             .collect(),
         demo_config: crate::jobs::release_build::DEMO_CONFIG,
+        quotas,
     }
     .into_response()
 }

@@ -15,7 +15,7 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
 
-pub use actions::{flag, publish, refund, regenerate, unflag};
+pub use actions::{flag, publish, refund, regenerate, set_quota, unflag};
 pub use console::{console, job};
 pub use quality::quality;
 pub use session::{AdminSession, login, login_form, logout};

@@ -46,16 +46,23 @@ def ensure_venv():
 
 
 def parse_sizes(text):
-    """`GxP` (the room's shell unmapped, as many methods leave it) or `GxP:room` (the map
-    also covers floor, walls and ceiling) -> [(G, P, covers_room)]."""
+    """`GxP` (the room's shell unmapped, as many methods leave it, ground truth frame by
+    frame), with variants after `:` joined by `+`: `room` (the map also covers floor, walls
+    and ceiling), `random` (the ground-truth points in a random order, as a shuffled or
+    voxel-downsampled ground truth arrives) -> [(G, P, covers_room, random_order)]."""
     sizes = []
     for item in text.split(","):
-        item, _, variant = item.lower().partition(":")
-        if variant not in ("", "room"):
-            sys.exit(f"error: unknown size variant ':{variant}' (expected ':room' or nothing)")
+        item, _, variants = item.lower().partition(":")
+        flags = set(filter(None, variants.split("+")))
+        if flags - {"room", "random"}:
+            sys.exit(f"error: unknown size variant(s) {sorted(flags - {'room', 'random'})} (expected room, random)")
         g, p = item.split("x")
-        sizes.append((int(g), int(p), variant == "room"))
+        sizes.append((int(g), int(p), "room" in flags, "random" in flags))
     return sizes
+
+
+def case_name(g, p, covers_room, random_order):
+    return f"{g}x{p}" + ("-room" if covers_room else "") + ("-random" if random_order else "")
 
 
 def run_timed(cmd, env=None):
@@ -114,7 +121,8 @@ def machine():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="5000000x1000000,5000000x1000000:room,20000000x2000000,20000000x2000000:room",
+    ap.add_argument("--sizes", default="5000000x1000000,5000000x1000000:room,5000000x1000000:random,5000000x1000000:room+random,"
+                    "20000000x2000000,20000000x2000000:room,20000000x2000000:random,20000000x2000000:room+random",
                     help="comma-separated GT_POINTSxMAP_POINTS (default: %(default)s)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per tool and size (default: %(default)s)")
     ap.add_argument("--out", default="docs/performance-semseg.json", help="raw results JSON (default: %(default)s)")
@@ -129,12 +137,13 @@ def main():
     unset = {k: os.environ.get(k) for k in REF_UNSET}  # original values (None = was not set)
 
     results = []
-    for g, p, covers_room in sizes:
-        d = Path(f"bench/data/{g}x{p}" + ("-room" if covers_room else ""))
+    for g, p, covers_room, random_order in sizes:
+        d = Path("bench/data") / case_name(g, p, covers_room, random_order)
         if not (d / ".complete").exists():
             print(f"generating {d} ...", file=sys.stderr)
             subprocess.run([str(OSMAB), "bench", "synth", "--gt-points", str(g), "--map-points", str(p),
-                            *(["--map-covers-room"] if covers_room else []), "--out", str(d)], check=True)
+                            *(["--map-covers-room"] if covers_room else []), *(["--shuffle"] if random_order else []),
+                            "--out", str(d)], check=True)
             (d / ".complete").touch()
         inputs = ["--gt", str(d / "gt"), "--map", str(d / "map.npz"),
                   "--text-features", str(d / "text_features.npz")]
@@ -152,14 +161,16 @@ def main():
                    for stage, vals in (("nearest-neighbour association", nn),
                                        ("whole eval semseg", {t: [r["wall_s"] for r in runs[t]] for t in runs}))}
         peak = {t: max(r["maxrss_kib"] for r in runs[t]) / 1024 for t in runs}
-        results.append({"gt_points": g, "map_points": p, "map_covers_room": covers_room, "runs": runs, "median_s": summary,
+        results.append({"gt_points": g, "map_points": p, "map_covers_room": covers_room, "random_order": random_order,
+                        "runs": runs, "median_s": summary,
                         "peak_rss_mib": peak, "agreement": compare(out_rust, out_ref)})
 
     lines = ["| size | stage | osmab median s | SciPy median s | speed-up | osmab peak RSS MiB | SciPy peak RSS MiB |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for r in results:
         size = f"{r['gt_points']:,} GT × {r['map_points']:,} map" + (
-            ", map covers the room" if r["map_covers_room"] else ", room shell unmapped")
+            ", map covers the room" if r["map_covers_room"] else ", room shell unmapped") + (
+            ", GT in random order" if r.get("random_order") else ", GT frame by frame")
         for stage, med in r["median_s"].items():
             lines.append(f"| {size} | {stage} | {med['osmab']:.3f} | {med['scipy']:.3f} | "
                          f"{med['scipy'] / med['osmab']:.1f}× | {r['peak_rss_mib']['osmab']:.0f} | "
@@ -174,7 +185,7 @@ def main():
                        f"differently ({a['differing_cells']} confusion cells differ)")
         else:
             verdict = "LABELS DIFFER"
-        lines.append(f"- agreement {r['gt_points']}x{r['map_points']}{'-room' if r['map_covers_room'] else ''}: {verdict}; "
+        lines.append(f"- agreement {case_name(r['gt_points'], r['map_points'], r['map_covers_room'], r.get('random_order'))}: {verdict}; "
                      f"max |metric diff| = {a['max_abs_metric_diff']:.2e}")
     m = machine()
     lines += ["", f"Machine: {m['nproc']} CPUs, {m.get('cpu', '?')}, {m.get('mem_total_gib', '?')} GiB RAM; "

@@ -16,6 +16,58 @@ use rayon::prelude::*;
 const LEAF_SIZE: usize = 16;
 /// Queries handled in order by one thread (each warm-starts from its predecessor).
 const QUERY_CHUNK: usize = 4096;
+/// Queries put in Z-order together: large enough that neighbours in space fall in one
+/// block even when the input has no order, small enough that the ordering costs a few
+/// megabytes (8 bytes a query, plus 4 for its answer).
+const LOCALITY_BLOCK: usize = 1 << 20;
+/// Bits per axis of the Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
+const MORTON_BITS: u32 = 10;
+
+/// Whether consecutive queries of `block` are already neighbours (a cloud read frame by
+/// frame and row by row): their mean step, over up to 4,096 evenly spaced pairs, is within
+/// four times the spacing `block` would have if spread evenly over `bounds`. Such a
+/// block is answered in its own order; any other is put in Z-order first.
+fn is_coherent(block: &[[f32; 3]], bounds: &Node) -> bool {
+    if block.len() < 2 {
+        return true;
+    }
+    let pairs = (block.len() - 1).min(4096);
+    let stride = (block.len() - 1) / pairs;
+    let step: f64 = (0..pairs)
+        .map(|k| {
+            let (a, b) = (block[k * stride], block[k * stride + 1]);
+            (((a[0] - b[0]) as f64).powi(2) + ((a[1] - b[1]) as f64).powi(2) + ((a[2] - b[2]) as f64).powi(2)).sqrt()
+        })
+        .sum::<f64>()
+        / pairs as f64;
+    let extent: [f64; 3] = std::array::from_fn(|a| ((bounds.max[a] - bounds.min[a]) as f64).max(1e-6));
+    let spacing = (extent[0] * extent[1] * extent[2] / block.len() as f64).cbrt();
+    step <= 4.0 * spacing
+}
+
+/// Spread the low 10 bits of `v` to every third bit.
+#[inline(always)]
+fn spread_bits(v: u32) -> u32 {
+    let mut x = v & 0x3FF;
+    x = (x | (x << 16)) & 0x030000FF;
+    x = (x | (x << 8)) & 0x0300F00F;
+    x = (x | (x << 4)) & 0x030C30C3;
+    x = (x | (x << 2)) & 0x09249249;
+    x
+}
+
+/// The Z-order (Morton) key of `q` in the grid of `2^MORTON_BITS` cells per axis over
+/// `bounds` (queries outside it are clamped to its faces).
+#[inline(always)]
+fn morton_key(q: &[f32; 3], bounds: &Node) -> u32 {
+    let cells = ((1u32 << MORTON_BITS) - 1) as f32;
+    let cell = |a: usize| {
+        let extent = bounds.max[a] - bounds.min[a];
+        let t = if extent > 0.0 { (q[a] - bounds.min[a]) / extent } else { 0.0 };
+        (t.clamp(0.0, 1.0) * cells) as u32
+    };
+    spread_bits(cell(0)) | (spread_bits(cell(1)) << 1) | (spread_bits(cell(2)) << 2)
+}
 
 /// A node's bounding box and the smallest original index below it.
 #[derive(Debug, Clone, Copy)]
@@ -204,18 +256,51 @@ impl NearestIndex {
         self.nearest_from(q, 0).id
     }
 
-    /// The nearest indexed point of every query, in parallel. Consecutive queries
-    /// (as in scanned clouds) warm-start from their predecessor's answer.
-    pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
-        let mut out = vec![0u32; queries.len()];
-        out.par_chunks_mut(QUERY_CHUNK).zip(queries.par_chunks(QUERY_CHUNK)).for_each(|(answers, qs)| {
+    /// Answer `queries` in their own order, in parallel chunks, each query warm-started
+    /// from its predecessor's answer.
+    fn nearest_in_order(&self, queries: &[[f32; 3]], answers: &mut [u32]) {
+        answers.par_chunks_mut(QUERY_CHUNK).zip(queries.par_chunks(QUERY_CHUNK)).for_each(|(found, qs)| {
             let mut hint = 0;
-            for (answer, &q) in answers.iter_mut().zip(qs) {
+            for (answer, &q) in found.iter_mut().zip(qs) {
                 let best = self.nearest_from(q, hint);
                 hint = best.position;
                 *answer = best.id;
             }
         });
+    }
+
+    /// The nearest indexed point of every query, in parallel, whatever the queries'
+    /// order: each block of [`LOCALITY_BLOCK`] queries is visited along a Z-order curve
+    /// over the index's box, so consecutive queries are neighbours — each warm-starts from
+    /// its predecessor's answer and finds the tree's path in cache — as in a scanned cloud
+    /// read frame by frame, but also for a shuffled or voxel-downsampled one.
+    pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
+        let mut out = vec![0u32; queries.len()];
+        let root = self.nodes[1];
+        let mut order: Vec<u64> = Vec::with_capacity(LOCALITY_BLOCK.min(queries.len()));
+        let mut sorted_answers: Vec<u32> = Vec::with_capacity(LOCALITY_BLOCK.min(queries.len()));
+        for (answers, block) in out.chunks_mut(LOCALITY_BLOCK).zip(queries.chunks(LOCALITY_BLOCK)) {
+            if is_coherent(block, &root) {
+                self.nearest_in_order(block, answers);
+                continue;
+            }
+            order.clear();
+            order.par_extend(block.par_iter().enumerate().map(|(i, q)| (u64::from(morton_key(q, &root)) << 32) | i as u64));
+            order.par_sort_unstable();
+            sorted_answers.clear();
+            sorted_answers.resize(block.len(), 0);
+            sorted_answers.par_chunks_mut(QUERY_CHUNK).zip(order.par_chunks(QUERY_CHUNK)).for_each(|(found, keys)| {
+                let mut hint = 0;
+                for (answer, key) in found.iter_mut().zip(keys) {
+                    let best = self.nearest_from(block[(key & 0xFFFF_FFFF) as usize], hint);
+                    hint = best.position;
+                    *answer = best.id;
+                }
+            });
+            for (key, &answer) in order.iter().zip(&sorted_answers) {
+                answers[(key & 0xFFFF_FFFF) as usize] = answer;
+            }
+        }
         out
     }
 }

@@ -84,3 +84,30 @@ fn duplicate_points_spread_over_many_leaves_resolve_to_the_lowest_index() {
         assert_eq!(nearest_brute_force(&points, q), first);
     }
 }
+
+#[test]
+fn shuffled_queries_get_the_answers_of_the_same_queries_in_scan_order() {
+    // A scan-like cloud (neighbouring queries one after another, answered in their own
+    // order) and the same queries shuffled (put in Z-order block by block, more than one
+    // block): the same answer for every query.
+    let mut rng = Rng::new(21);
+    let points = random_points(&mut rng, 20_000, 2.0, None);
+    let index = NearestIndex::build(&points);
+    let scan: Vec<[f32; 3]> = (0..1_200_000)
+        .map(|i| {
+            let t = i as f32 / 1_200_000.0;
+            [2.0 * (t * 40.0).sin() * (1.0 - t), 2.0 * (t * 31.0).cos(), 4.0 * t - 2.0]
+        })
+        .collect();
+    let in_order = index.nearest_all(&scan);
+    let mut permutation: Vec<usize> = (0..scan.len()).collect();
+    for i in (1..permutation.len()).rev() {
+        permutation.swap(i, (rng.range(0.0, 1.0) * (i + 1) as f64) as usize % (i + 1));
+    }
+    let shuffled: Vec<[f32; 3]> = permutation.iter().map(|&i| scan[i]).collect();
+    let answers = index.nearest_all(&shuffled);
+    assert!(permutation.iter().zip(&answers).all(|(&i, &a)| in_order[i] == a), "every shuffled query has its scan-order answer");
+    for k in (0..scan.len()).step_by(99_991) {
+        assert_eq!(in_order[k], nearest_brute_force(&points, scan[k]), "query {k}");
+    }
+}

@@ -30,6 +30,10 @@ pub enum BenchCommand {
         /// Let the map cover the floor, walls and ceiling too (no far-away queries).
         #[arg(long)]
         map_covers_room: bool,
+        /// Write the ground-truth points (with their labels) in a random order, as a
+        /// shuffled or voxel-downsampled ground truth arrives: no frame or row coherence.
+        #[arg(long)]
+        shuffle: bool,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -113,13 +117,25 @@ pub enum BenchCommand {
         /// Let the map cover the floor, walls and ceiling too.
         #[arg(long)]
         map_covers_room: bool,
+        /// Query the ground-truth points in a random order (no frame or row coherence).
+        #[arg(long)]
+        shuffle: bool,
     },
 }
 
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
-        BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, map_covers_room, out } => {
-            let scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room });
+        BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, map_covers_room, shuffle: random_order, out } => {
+            let mut scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room });
+            if random_order {
+                // One permutation for the points, their labels and colours.
+                let gt = &mut scene.ground_truth;
+                let mut permutation: Vec<usize> = (0..gt.points.len()).collect();
+                shuffle(&mut permutation, seed);
+                gt.points = permutation.iter().map(|&i| gt.points[i]).collect();
+                gt.labels = permutation.iter().map(|&i| gt.labels[i]).collect();
+                gt.colors = gt.colors.take().map(|colors| permutation.iter().map(|&i| colors[i]).collect());
+            }
             let gt_dir = out.join("gt");
             scene.ground_truth.write(&gt_dir)?;
             scene.classes.write(&gt_dir.join("embed_semseg_classes.json"))?;
@@ -137,9 +153,12 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
         BenchCommand::Ranking { entries, repeat } => ranking(entries, repeat),
-        BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room } => {
-            let scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
-            println!("threads {}", rayon::current_num_threads());
+        BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room, shuffle: random_order } => {
+            let mut scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
+            if random_order {
+                shuffle(&mut scene.ground_truth.points, 7);
+            }
+            println!("threads {}, queries {}", rayon::current_num_threads(), if random_order { "in random order" } else { "frame by frame" });
             for run in 0..repeat {
                 let clock = Instant::now();
                 let index = NearestIndex::build(&scene.map.points);
@@ -386,4 +405,21 @@ fn ranking(entries: usize, repeat: usize) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Shuffle `items` in place (Fisher–Yates with SplitMix64 from `seed`): queries with no
+/// frame or row coherence.
+pub fn shuffle<T>(items: &mut [T], seed: u64) {
+    let mut state = seed;
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    for i in (1..items.len()).rev() {
+        let j = (next() % (i as u64 + 1)) as usize;
+        items.swap(i, j);
+    }
 }

@@ -95,7 +95,15 @@ pub fn score_submission(
             );
         }
     }
-    let vqa = crate::vqa::score::score_vqa(submission, release, open)?;
+    let mut vqa = crate::vqa::score::score_vqa(submission, release, open)?;
+    if release.split == Some(crate::scores::Split::Test) {
+        // A test scene's answers stay hidden: per question, the answer given and whether it
+        // was right would tell them (the oracle's document would list them all). Scene
+        // counts and the accuracies stay.
+        for scene in vqa.iter_mut().flat_map(|v| v.scenes.values_mut()).flat_map(|scenes| scenes.values_mut()) {
+            scene.answers.clear();
+        }
+    }
     Ok(Scores {
         complete: submission.complete,
         evaluator_version: EVALUATOR_VERSION.to_string(),

@@ -155,6 +155,16 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
         let scenes: Vec<&String> = done["scores"]["semseg"]["baseline"]["scenes"].as_object().unwrap().keys().collect();
         assert_eq!(scenes, [scene], "scored on its split's scenes only");
         assert_eq!((done["split"].as_str(), done["scores"]["split"].as_str()), (answer["split"].as_str(), answer["split"].as_str()));
+        // Per question, the answer given and whether it was right: shown for val, never for
+        // test (the oracle's results document would list the hidden answers), public or not.
+        let id = answer["id"].as_str().unwrap();
+        let results: Value = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().json().unwrap();
+        for document in [&done["scores"], &results] {
+            let rows = &document["vqa"]["scenes"]["baseline"][scene];
+            let listed = rows["answers"].as_array().map_or(0, Vec::len);
+            assert!(rows["total"].as_u64().unwrap() > 0, "{rows}");
+            assert_eq!(listed > 0, scene == "scene_000", "{scene}: {listed} answers listed");
+        }
     }
 
     // The test quota is used: refused with problem+json and Retry-After; dry runs stay free.

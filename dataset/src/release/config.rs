@@ -253,6 +253,12 @@ impl ReleaseConfig {
                 return bad(field, &format!("at most the subset's {scenes} selected scenes"));
             }
         }
+        if !config.splits.is_empty() && !config.synthesis.command.is_empty() && !config.synthesis.command.iter().any(|a| a.contains("{seed}")) {
+            return bad(
+                "synthesis.command",
+                "with a test split the external synthesizer must take {seed} (derived from the operator's secret for test scenes); without it the published config rebuilds them",
+            );
+        }
         // The config text is published in the manifest: secrets come from the environment.
         for (field, service, variable) in [
             ("prompts.llm.api_key", &mut config.prompts.llm, LLM_KEY_VARIABLE),

@@ -184,7 +184,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
             "per_scene": quality,
         }),
     )?;
-    write_json(&out.join("quality/quality_report.json"), &public_quality_report(&quality, config, &oracle_accuracy, &failures))?;
+    write_json(&out.join("quality/quality_report.json"), &public_quality_report(&quality, config))?;
     if config.quality.enforce && !failures.is_empty() {
         return Err(InputError::new(
             out.join("quality/quality_report.json"),
@@ -234,12 +234,14 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
 }
 
 /// The public files of a release: everything built outside the ground truth except the
-/// semantic frames of test scenes, and the ground truth of val scenes (under
+/// frames of test scenes other than colour and depth (their semantic frames), and the ground truth of val scenes (under
 /// `ground_truth/`, where the scorer reads it), sorted by path.
 fn public_files(built: Vec<manifest::FileEntry>, ground_truth: &[manifest::FileEntry], test: &[&str], val: &[&str]) -> Vec<manifest::FileEntry> {
     let hidden = |path: &str| {
         let parts: Vec<&str> = path.split('/').collect();
-        matches!(parts.as_slice(), ["sequences", _, scene, "results", name] if test.contains(scene) && name.starts_with("semantic"))
+        // An allow-list: of a test sequence's frames only colour and depth are public, whatever
+        // else a renderer wrote beside them (semantic, instance or label images).
+        matches!(parts.as_slice(), ["sequences", _, scene, "results", name] if test.contains(scene) && !(name.starts_with("frame") || name.starts_with("depth")))
     };
     let open = |path: &str| {
         let scene = path.split('/').next().unwrap_or_default();
@@ -257,18 +259,21 @@ fn public_files(built: Vec<manifest::FileEntry>, ground_truth: &[manifest::FileE
 }
 
 /// The quality report as published: every measure of val scenes, the frame and path
-/// measures of test scenes (see [`SceneQuality::public`]); the counts and problems are
-/// those of the val scenes when the release has a test split.
-fn public_quality_report(quality: &[SceneQuality], config: &config::ReleaseConfig, oracle: &BTreeMap<String, f64>, problems: &[String]) -> Value {
+/// measures of test scenes (see [`SceneQuality::public`]); the counts, the oracle's
+/// accuracy and the problems are those of the val scenes (the oracle's misses name
+/// questions) when the release has a test split.
+fn public_quality_report(quality: &[SceneQuality], config: &config::ReleaseConfig) -> Value {
     let test: Vec<&str> = quality.iter().filter(|q| q.split == Split::Test).map(|q| q.scene.as_str()).collect();
-    let open: Vec<&SceneQuality> = quality.iter().filter(|q| q.split == Split::Val).collect();
+    let open: Vec<SceneQuality> = quality.iter().filter(|q| q.split == Split::Val).cloned().collect();
+    let (oracle, oracle_problems) = oracle_ceiling(&open, config.quality.min_oracle_vqa);
+    let problems: Vec<String> = open.iter().flat_map(|q| q.problems.iter().map(move |p| format!("{}: {p}", q.scene))).chain(oracle_problems).collect();
     let mut report = json!({
         "scenes": quality.len(),
         "full_match": open.iter().filter(|q| q.full_match).count(),
         "passed": open.iter().filter(|q| q.problems.is_empty()).count(),
         "bar": config.quality,
         "oracle_vqa": oracle,
-        "problems": problems.iter().filter(|p| !test.iter().any(|t| p.starts_with(&format!("{t}: ")))).collect::<Vec<_>>(),
+        "problems": problems,
         "per_scene": quality.iter().map(SceneQuality::public).collect::<Vec<_>>(),
     });
     if !test.is_empty() {

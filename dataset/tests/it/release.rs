@@ -234,6 +234,15 @@ fn release_configs_with_secrets_or_impossible_cameras_are_rejected_by_field() {
         (&TINY.replace("height = 48\n", "height = 48\nhfov = 180.0\n"), "render.hfov", "(0, 180)"),
         (&TINY.replace("height = 48\n", "height = 48\nsensor_height = 0.0\n"), "render.sensor_height", "(0, 1.5)"),
         (&TINY.replace("width = 64", "width = 0"), "render.width", "16..=8192"),
+        (&format!("{TINY}\n[splits]\ntest_furniture = 2\n"), "splits.test_furniture", "at most the subset's 1"),
+        (
+            &format!(
+                "{}\n[splits]\ntest_manipuland = 1\n",
+                TINY.replace("[render]", "[synthesis]\ncommand = [\"scenesmith\", \"{prompt}\", \"{out}\"]\n[render]")
+            ),
+            "synthesis.command",
+            "{seed}",
+        ),
     ] {
         std::fs::write(&path, text).unwrap();
         let message = ReleaseConfig::read(&path).unwrap_err().to_string();

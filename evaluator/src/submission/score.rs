@@ -98,10 +98,11 @@ pub fn score_submission(
     let mut vqa = crate::vqa::score::score_vqa(submission, release, open)?;
     if release.split == Some(crate::scores::Split::Test) {
         // A test scene's answers stay hidden: per question, the answer given and whether it
-        // was right would tell them (the oracle's document would list them all). Scene
-        // counts and the accuracies stay.
-        for scene in vqa.iter_mut().flat_map(|v| v.scenes.values_mut()).flat_map(|scenes| scenes.values_mut()) {
-            scene.answers.clear();
+        // was right would tell them (the oracle's document would list them all), and per
+        // scene and lighting the number right lets one submission try four answer sets.
+        // The pooled accuracies (per category, group and lighting) stay.
+        for v in vqa.iter_mut() {
+            v.scenes.clear();
         }
     }
     Ok(Scores {

@@ -80,6 +80,22 @@ impl Quota {
         Ok(Quota { split, limit, window_secs: policy.window_secs, counted, at })
     }
 
+    /// The quota to refuse an upload with before its body is read, if any: the named
+    /// split's when used up; with no split named (it is known only once the archive names
+    /// its release), the default split's when every split is used up.
+    pub async fn refusal_before_upload(state: &AppState, team: &Team, split: Option<Split>, default: Split) -> StoreResult<Option<Quota>> {
+        if let Some(split) = split {
+            let quota = Quota::of(state, team, split).await?;
+            return Ok(quota.exhausted().then_some(quota));
+        }
+        for split in Split::ALL {
+            if !Quota::of(state, team, split).await?.exhausted() {
+                return Ok(None);
+            }
+        }
+        Ok(Some(Quota::of(state, team, default).await?))
+    }
+
     /// Submissions counted in the window.
     pub fn used(&self) -> i64 {
         self.counted.len() as i64

@@ -187,22 +187,21 @@ pub async fn create(
         None => None,
     };
     if !query.dry_run {
-        let split = match query.split {
-            Some(split) => split,
-            None => intake::default_split(&state).await?,
-        };
-        let quota = Quota::of(&state, &team, split).await?;
-        // A repeat costs no quota: with the quota used up, an upload that names an earlier
-        // submission (its key, or its declared digest) is still read and answered.
-        let may_repeat = match (&key, declared_digest) {
-            (None, None) => false,
-            _ => {
-                let digest = declared_digest.map(|d| hex(&d)).unwrap_or_default();
-                state.store.repeated_submission(&team.id, &digest, split, key.as_deref()).await?.is_some()
+        let default = intake::default_split(&state).await?;
+        let refusal = Quota::refusal_before_upload(&state, &team, query.split, default).await?;
+        if let Some(quota) = refusal {
+            // A repeat costs no quota: with the quota used up, an upload that names an earlier
+            // submission (its key, or its declared digest) is still read and answered.
+            let may_repeat = match (&key, declared_digest) {
+                (None, None) => false,
+                _ => {
+                    let digest = declared_digest.map(|d| hex(&d)).unwrap_or_default();
+                    state.store.repeated_submission(&team.id, &digest, quota.split, key.as_deref()).await?.is_some()
+                }
+            };
+            if !may_repeat {
+                return Err(drain_then(body, declared_length, quota_exceeded(quota)).await);
             }
-        };
-        if quota.exhausted() && !may_repeat {
-            return Err(drain_then(body, declared_length, quota_exceeded(quota)).await);
         }
     }
     let (upload, _upload_scratch) = match assembled {

@@ -80,8 +80,9 @@ pub async fn create(State(state): State<AppState>, TeamCaller(team): TeamCaller,
         return Err(Problem::bad_request("invalid_header", "Send Upload-Length: the archive's size in bytes."));
     };
     // A team out of quota learns it before sending the archive, not after.
-    let quota = Quota::of(&state, &team, crate::intake::default_split(&state).await?).await?;
-    if quota.exhausted() {
+    // (The split is named when the upload is submitted: refused here only when every split is used up.)
+    let default = crate::intake::default_split(&state).await?;
+    if let Some(quota) = Quota::refusal_before_upload(&state, &team, None, default).await? {
         return Err(crate::intake::quota_exceeded(quota));
     }
     let metadata = headers.get("upload-metadata").and_then(|v| v.to_str().ok()).unwrap_or("");

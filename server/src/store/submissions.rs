@@ -105,7 +105,9 @@ impl Store {
                 .bind(s.complete)
                 .bind(s.archive_size)
                 .bind(&s.archive_sha256)
-                .bind(s.received_at)
+                // created_at is when it is recorded (what quotas count): a resumable upload may
+                // have begun long before (its start is the `received` event's time).
+                .bind(s.queued_at)
                 .bind(s.queued_at)
                 .bind(&s.idempotency_key)
                 .bind(&s.external_data)

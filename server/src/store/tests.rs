@@ -220,7 +220,7 @@ async fn submissions_scores_and_releases_keep_their_history() {
         let to_val = NewSubmission { id: "sub_v".into(), split: Split::Val, ..new.clone() };
         assert_eq!(store.create_submission(&to_val, &job("jsv", t), Some((1, t - 1))).await.unwrap(), Recorded::New("sub_v".into()));
         assert_eq!(store.submission("sub_v").await.unwrap().split, Split::Val);
-        assert_eq!(store.submissions_since(&team.id, Split::Val, t - 1).await.unwrap(), [t]);
+        assert_eq!(store.submissions_since(&team.id, Split::Val, t - 1).await.unwrap(), [t + 2], "counted from when it was recorded (queued)");
         assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), 1, "val does not count against test");
         let again = NewSubmission { id: "sub_v2".into(), ..to_val.clone() };
         assert_eq!(store.repeated_submission(&team.id, "ab", Split::Val, None).await.unwrap(), Some(Recorded::Repeat("sub_v".into())));

@@ -89,7 +89,11 @@ fn kept_upload(api: &Api, token: &str, state: &PathBuf, size: u64) -> anyhow::Re
 pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) -> anyhow::Result<Value> {
     let token = api.session.token()?.to_string();
     let sha256 = packed.sha256_hex();
-    let state = state_file(&sha256)?;
+    // One kept upload per archive and split: a submit to another split starts its own.
+    let state = state_file(&match split {
+        Some(split) => format!("{sha256}-{split}"),
+        None => sha256.clone(),
+    })?;
     let (path, mut offset) = match kept_upload(api, &token, &state, packed.size)? {
         Some((path, offset)) => {
             eprintln!("resuming the upload at byte {offset} of {}", packed.size);

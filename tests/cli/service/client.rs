@@ -10,7 +10,7 @@ use serde_json::Value;
 use super::{Backend, Deployment, baseline_dir};
 
 /// Run `osmab client …` with its own configuration file.
-fn client(config: &Path, args: &[&str]) -> Output {
+pub fn client(config: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_osmab"))
         .arg("client")
         .args(args)

@@ -10,6 +10,7 @@ use std::sync::OnceLock;
 
 use serde_json::{Value, json};
 
+use super::client::client;
 use super::{Backend, Deployment, TEST_RELEASE_CONFIG, baseline_dir_of, on_both_backends, problem, tar_of};
 
 /// The operator's secret the split release is built with.
@@ -42,18 +43,6 @@ fn split_release() -> &'static Path {
         assert!(built.status.success(), "the split release builds: {}", String::from_utf8_lossy(&built.stderr));
         out
     })
-}
-
-/// Run `osmab client …` with its own configuration file.
-fn client(config: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_osmab"))
-        .arg("client")
-        .args(args)
-        .env_clear()
-        .env("PATH", std::env::var("PATH").unwrap_or_default())
-        .env("OSMAB_CLIENT_CONFIG", config)
-        .output()
-        .expect("osmab runs")
 }
 
 fn said(out: &Output) -> String {

@@ -57,13 +57,15 @@ impl Rng {
     }
 }
 
-/// An axis-aligned box standing on the floor (y up).
-#[derive(Debug, Clone, Copy)]
-struct Block {
-    min: [f32; 3],
-    max: [f32; 3],
-    class: i64,
+/// An axis-aligned box standing on the floor (y up): an object of the room.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SyntheticObject {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub class: i64,
 }
+
+type Block = SyntheticObject;
 
 /// Sizes and seed of a synthetic scene.
 #[derive(Debug, Clone, Copy)]
@@ -86,6 +88,8 @@ pub struct SceneSpec {
 
 /// A generated scene: ground truth, class list, map and text features.
 pub struct SyntheticScene {
+    /// The objects standing in the room (boxes with their class).
+    pub objects: Vec<SyntheticObject>,
     /// The classes (0 other, objects, floor, wall, ceiling).
     pub classes: ClassList,
     /// The scanned ground truth.
@@ -107,7 +111,16 @@ pub fn generate(spec: SceneSpec) -> SyntheticScene {
     let ground_truth = scan(&mut rng, &blocks, spec.gt_points);
     let text = text_features(&mut rng, &classes, spec.feature_dim);
     let map = map_of(&mut rng, &blocks, &text, spec.map_points, spec.map_covers_room);
-    SyntheticScene { classes, ground_truth, map, text }
+    SyntheticScene { objects: blocks, classes, ground_truth, map, text }
+}
+
+impl SyntheticScene {
+    /// Another map of the same room (a method run again, e.g. under another lighting):
+    /// `spec`'s map size and coverage, object features near `text`'s (which may be
+    /// another scene's, for one embedding over many scenes), drawn from `seed`.
+    pub fn another_map(&self, spec: SceneSpec, text: &TextFeatures, seed: u64) -> PredictedMap {
+        map_of(&mut Rng::new(seed), &self.objects, text, spec.map_points, spec.map_covers_room)
+    }
 }
 
 fn place_blocks(rng: &mut Rng, count: usize) -> Vec<Block> {

@@ -225,3 +225,22 @@ fn gt_build_writes_a_cloud_that_eval_semseg_reads() {
     let out = osmab(&["gt", "build", path(&dir.path().join("absent")), "--out", path(&gt_dir)]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("camera_params.yaml"), "the missing file is named");
 }
+
+#[test]
+fn bench_submission_scores_a_generated_submission_stage_by_stage() {
+    // A tiny whole submission (2 scenes × 4 lightings): generated once, then scored from
+    // its archive with a line for every stage; a second run reuses the data.
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["bench", "submission", "--data", path(dir.path()), "--scenes", "2", "--gt-points", "30000", "--map-points", "3000", "--objects", "8"];
+    let first = stdout(&osmab(&args));
+    assert!(first.starts_with("generated "), "{first}");
+    assert!(first.contains("run 0: 8 maps, 0 M ground-truth points associated"), "{first}");
+    for stage in ["unpack the archive", "validate every file", "associate ground-truth points", "VQA: answer and judge", "whole submission"] {
+        assert!(first.lines().any(|l| l.contains(stage) && l.trim_end().ends_with(" s")), "{stage}:\n{first}");
+    }
+    let scores = |out: &str| out.lines().find(|l| l.starts_with("run 0")).map(str::to_string).unwrap();
+    let second = stdout(&osmab(&args));
+    assert!(!second.contains("generated "), "the data is reused:\n{second}");
+    assert_eq!(scores(&second), scores(&first), "the same submission scores the same");
+    assert!(dir.path().join("submission.tar").is_file() && dir.path().join("release/ground_truth/scene_001/semantic.npy").is_file());
+}

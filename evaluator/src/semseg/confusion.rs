@@ -37,6 +37,17 @@ impl ConfusionMatrix {
     /// outside the vocabulary counts in the -1 column.
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
+        Self::count_points(ground_truth, |i| predicted[i], vocabulary)
+    }
+
+    /// As [`ConfusionMatrix::from_labels`], where ground-truth point `i` is predicted the
+    /// label `point_labels[nearest[i]]` of its nearest map point (no per-point copy).
+    pub fn from_nearest(ground_truth: &[i64], nearest: &[u32], point_labels: &[i64], vocabulary: &[i64]) -> Self {
+        assert_eq!(ground_truth.len(), nearest.len(), "one nearest map point per ground-truth point");
+        Self::count_points(ground_truth, |i| point_labels[nearest[i] as usize], vocabulary)
+    }
+
+    fn count_points(ground_truth: &[i64], predicted: impl Fn(usize) -> i64 + Sync, vocabulary: &[i64]) -> Self {
         let mut labels = vocabulary.to_vec();
         labels.push(UNMATCHED);
         let n = labels.len();
@@ -44,13 +55,13 @@ impl ConfusionMatrix {
         let lookup = DenseLookup::new(&position);
         let counts = ground_truth
             .par_chunks(COUNT_CHUNK)
-            .zip(predicted.par_chunks(COUNT_CHUNK))
-            .map(|(gt, pred)| {
+            .enumerate()
+            .map(|(chunk, gt)| {
                 let mut counts = vec![0u64; n * n];
-                for (&g, &p) in gt.iter().zip(pred) {
+                for (i, &g) in (chunk * COUNT_CHUNK..).zip(gt) {
                     // The -1 row is kept (it only arises from mesh ground truth), as the reference does.
                     let Some(row) = lookup.get(g) else { continue };
-                    let col = lookup.get(p).unwrap_or(n - 1);
+                    let col = lookup.get(predicted(i)).unwrap_or(n - 1);
                     counts[row * n + col] += 1;
                 }
                 counts

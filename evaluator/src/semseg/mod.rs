@@ -15,12 +15,12 @@ pub mod report;
 
 use std::time::{Duration, Instant};
 
-use rayon::prelude::*;
-
 pub use confusion::ConfusionMatrix;
 pub use metrics::{ClassScore, SegmentationMetrics};
 pub use nearest::NearestIndex;
 pub use report::{LightingComparison, MetricTriple, MetricsTable};
+
+use rayon::prelude::*;
 
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
@@ -75,6 +75,18 @@ pub struct StageTimings {
     pub confusion: Duration,
 }
 
+impl std::ops::Add for StageTimings {
+    type Output = StageTimings;
+    fn add(self, other: StageTimings) -> StageTimings {
+        StageTimings {
+            labels: self.labels + other.labels,
+            index: self.index + other.index,
+            query: self.query + other.query,
+            confusion: self.confusion + other.confusion,
+        }
+    }
+}
+
 /// The outcome of scoring one scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneScore {
@@ -88,33 +100,96 @@ pub struct SceneScore {
 
 /// Score `map` against `ground_truth`.
 pub fn score_scene(ground_truth: &GroundTruth, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
-    if let Some(i) = ground_truth.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(InputError::new(&ground_truth.source, "points", format!("point {i} has a non-finite coordinate")));
+    check_finite(ground_truth)?;
+    let vocabulary = scored_vocabulary(ground_truth, classes)?;
+    let cloud = Cloud { points: &ground_truth.points, labels: &ground_truth.labels, vocabulary: &vocabulary, in_z_order: false };
+    score_cloud(cloud, map, classes, text)
+}
+
+/// A scene's ground truth prepared once for scoring several maps against it (the maps
+/// of its lightings): its points checked, its scored vocabulary found, and its points
+/// with their labels put in Z-order, so that every map's association visits them in
+/// that order without sorting them again. A confusion matrix does not depend on the
+/// order of the points, so the scores are those of [`score_scene`].
+pub struct PreparedGroundTruth {
+    points: Vec<[f32; 3]>,
+    labels: Vec<i64>,
+    vocabulary: Vocabulary,
+}
+
+impl PreparedGroundTruth {
+    /// Check and reorder `ground_truth` (its colours, never scored, are dropped).
+    pub fn new(ground_truth: GroundTruth, classes: &ClassList) -> Result<Self> {
+        check_finite(&ground_truth)?;
+        let vocabulary = scored_vocabulary(&ground_truth, classes)?;
+        let order = nearest::z_order(&ground_truth.points);
+        let points = order.par_iter().map(|&i| ground_truth.points[i as usize]).collect();
+        let labels = order.par_iter().map(|&i| ground_truth.labels[i as usize]).collect();
+        Ok(Self { points, labels, vocabulary })
     }
-    if map.points.len() >= u32::MAX as usize {
-        return Err(InputError::new(&map.source, "points", format!("{} points are more than the evaluator indexes (2^32 - 1)", map.points.len())));
+
+    /// Number of ground-truth points.
+    pub fn len(&self) -> usize {
+        self.points.len()
     }
+
+    /// Whether there are no points (never, for a prepared cloud).
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+/// Score `map` against a prepared ground truth.
+pub fn score_prepared(ground_truth: &PreparedGroundTruth, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
+    let cloud = Cloud { points: &ground_truth.points, labels: &ground_truth.labels, vocabulary: &ground_truth.vocabulary, in_z_order: true };
+    score_cloud(cloud, map, classes, text)
+}
+
+fn check_finite(ground_truth: &GroundTruth) -> Result<()> {
+    match ground_truth.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(i) => Err(InputError::new(&ground_truth.source, "points", format!("point {i} has a non-finite coordinate"))),
+        None => Ok(()),
+    }
+}
+
+fn scored_vocabulary(ground_truth: &GroundTruth, classes: &ClassList) -> Result<Vocabulary> {
     let vocabulary = Vocabulary::from_ground_truth(&ground_truth.labels, classes);
     if vocabulary.is_empty() {
         return Err(InputError::new(&ground_truth.source, "labels", "the ground truth has no scored class (every point is class 0)"));
     }
+    Ok(vocabulary)
+}
+
+/// Ground-truth points with their labels and scored vocabulary, as a scene is scored.
+struct Cloud<'a> {
+    points: &'a [[f32; 3]],
+    labels: &'a [i64],
+    vocabulary: &'a Vocabulary,
+    /// Whether the points already visit neighbours one after another.
+    in_z_order: bool,
+}
+
+fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
+    if map.points.len() >= u32::MAX as usize {
+        return Err(InputError::new(&map.source, "points", format!("{} points are more than the evaluator indexes (2^32 - 1)", map.points.len())));
+    }
+    let vocabulary = ground_truth.vocabulary;
     let mut timings = StageTimings::default();
     let clock = Instant::now();
-    let point_labels = labels::predicted_point_labels(map, &vocabulary, classes, text)?;
+    let point_labels = labels::predicted_point_labels(map, vocabulary, classes, text)?;
     timings.labels = clock.elapsed();
 
     let clock = Instant::now();
     let index = NearestIndex::build(&map.points);
     timings.index = clock.elapsed();
     let clock = Instant::now();
-    let nearest = index.nearest_all(&ground_truth.points);
+    let nearest = if ground_truth.in_z_order { index.nearest_all_in_order(ground_truth.points) } else { index.nearest_all(ground_truth.points) };
     drop(index);
     timings.query = clock.elapsed();
 
     let clock = Instant::now();
-    let predicted: Vec<i64> = nearest.par_iter().map(|&i| point_labels[i as usize]).collect();
+    let confusion = ConfusionMatrix::from_nearest(ground_truth.labels, &nearest, &point_labels, vocabulary.ids());
     drop(nearest);
-    let confusion = ConfusionMatrix::from_labels(&ground_truth.labels, &predicted, vocabulary.ids());
     let metrics = SegmentationMetrics::from_confusion(&confusion);
     timings.confusion = clock.elapsed();
     Ok(SceneScore { confusion, metrics, timings })

@@ -9,41 +9,34 @@
 //! is computed with the same float32 operations as a point's distance, and rounding
 //! is monotone, so no point behind a pruned bound can have a smaller computed
 //! distance, nor an equal one with a lower index.
+//!
+//! Queries are answered in batches of neighbours: visited along a Z-order curve (block
+//! by block, or once for a cloud scored against several maps, [`z_order`]), consecutive
+//! queries whose box spans about a leaf share one search for the leaves that can hold
+//! their answers, bounded by the distance from each member to the nearest point of the
+//! batch's middle query; each member then scans only those leaves its own best so far
+//! cannot rule out. Queries far from every point, whose candidate leaves are too many to
+//! share, are searched one by one, each warm-started from its predecessor's answer.
 
 use rayon::prelude::*;
 
-/// Points per leaf at most.
+/// Points per leaf at most; every leaf has this many slots, the unused ones padded with
+/// points at infinity that never win, so a leaf is scanned with fixed-width arithmetic.
 const LEAF_SIZE: usize = 16;
-/// Queries handled in order by one thread (each warm-starts from its predecessor).
+/// Queries handled in order by one thread.
 const QUERY_CHUNK: usize = 4096;
 /// Queries put in Z-order together: large enough that neighbours in space fall in one
 /// block even when the input has no order, small enough that the ordering costs a few
-/// megabytes (8 bytes a query, plus 4 for its answer).
+/// megabytes (16 bytes a query: its key, and the sort's scratch space, which then holds
+/// its answer).
 const LOCALITY_BLOCK: usize = 1 << 20;
 /// Bits per axis of the Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
 const MORTON_BITS: u32 = 10;
-
-/// Whether consecutive queries of `block` are already neighbours (a cloud read frame by
-/// frame and row by row): their mean step, over up to 4,096 evenly spaced pairs, is within
-/// four times the spacing `block` would have if spread evenly over `bounds`. Such a
-/// block is answered in its own order; any other is put in Z-order first.
-fn is_coherent(block: &[[f32; 3]], bounds: &Node) -> bool {
-    if block.len() < 2 {
-        return true;
-    }
-    let pairs = (block.len() - 1).min(4096);
-    let stride = (block.len() - 1) / pairs;
-    let step: f64 = (0..pairs)
-        .map(|k| {
-            let (a, b) = (block[k * stride], block[k * stride + 1]);
-            (((a[0] - b[0]) as f64).powi(2) + ((a[1] - b[1]) as f64).powi(2) + ((a[2] - b[2]) as f64).powi(2)).sqrt()
-        })
-        .sum::<f64>()
-        / pairs as f64;
-    let extent: [f64; 3] = std::array::from_fn(|a| ((bounds.max[a] - bounds.min[a]) as f64).max(1e-6));
-    let spacing = (extent[0] * extent[1] * extent[2] / block.len() as f64).cbrt();
-    step <= 4.0 * spacing
-}
+/// Most queries answered together as one batch.
+const BATCH_QUERIES: usize = 64;
+/// Most leaves a batch shares. A batch whose neighbourhood reaches more (queries far from
+/// every indexed point, where the answer's distance is large) is answered query by query.
+const BATCH_LEAVES: usize = 32;
 
 /// Spread the low 10 bits of `v` to every third bit.
 #[inline(always)]
@@ -90,18 +83,20 @@ struct Split {
 pub struct NearestIndex {
     /// Leaves are at this level (the root, node 1, is level 0; node i has children 2i, 2i+1).
     depth: u32,
-    /// Positions in tree order, structure of arrays.
+    /// Positions in tree order, structure of arrays, [`LEAF_SIZE`] slots a leaf (leaf
+    /// `l` holds slots `l·LEAF_SIZE ..`); unused slots are at +∞.
     xs: Vec<f32>,
     ys: Vec<f32>,
     zs: Vec<f32>,
-    /// Original index of each point in tree order.
+    /// Original index of the point in each slot (`u32::MAX` in unused slots).
     ids: Vec<u32>,
-    /// Start of each leaf's points in tree order, then the end (leaves left to right).
-    leaf_bounds: Vec<usize>,
     /// Split of each internal node (index 0 unused).
     splits: Vec<Split>,
     /// Box of every node, heap-numbered from 1.
     nodes: Vec<Node>,
+    /// Squared diagonal a batch of queries may span: about a leaf's, so that the leaves
+    /// near a batch are few.
+    batch_span: f32,
 }
 
 /// Squared distance exactly as pytorch3d accumulates it in float32.
@@ -122,7 +117,23 @@ fn box_bound(q: [f32; 3], node: &Node) -> f32 {
     (gx * gx + gy * gy) + gz * gz
 }
 
-/// The best candidate so far: its distance, original index and position in tree order.
+/// A lower bound of `squared_distance` from any query inside the box `lo..=hi` to any
+/// point inside the node's box. Rounding is monotone, so for such a query and point
+/// each computed coordinate difference is at least the computed gap between the boxes.
+#[inline(always)]
+fn box_box_bound(lo: [f32; 3], hi: [f32; 3], node: &Node) -> f32 {
+    let gap = |a: usize| (node.min[a] - hi[a]).max(lo[a] - node.max[a]).max(0.0);
+    let (gx, gy, gz) = (gap(0), gap(1), gap(2));
+    (gx * gx + gy * gy) + gz * gz
+}
+
+/// The squared diagonal of the box `lo..=hi`.
+#[inline(always)]
+fn span(lo: [f32; 3], hi: [f32; 3]) -> f32 {
+    squared_distance(lo, hi[0], hi[1], hi[2])
+}
+
+/// The best candidate so far: its distance, original index and slot in tree order.
 #[derive(Debug, Clone, Copy)]
 struct Best {
     distance: f32,
@@ -154,23 +165,6 @@ impl NearestIndex {
         let mut order: Vec<u32> = (0..n as u32).collect();
         split(points, &mut order, depth);
         let first_leaf = 1usize << depth;
-        let mut index = Self {
-            depth,
-            xs: order.iter().map(|&i| points[i as usize][0]).collect(),
-            ys: order.iter().map(|&i| points[i as usize][1]).collect(),
-            zs: order.iter().map(|&i| points[i as usize][2]).collect(),
-            ids: order,
-            leaf_bounds: Vec::with_capacity(first_leaf + 1),
-            splits: vec![Split { pivot: 0.0, axis: 0 }; first_leaf],
-            nodes: vec![Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX }; 2 * first_leaf],
-        };
-        index.fill_nodes(n);
-        index
-    }
-
-    /// Leaf ranges, boxes bottom-up, and the split plane the build used at each node.
-    fn fill_nodes(&mut self, n: usize) {
-        let first_leaf = 1usize << self.depth;
         // Ranges follow the build's rule: a range splits at its middle position.
         let mut ranges = vec![(0usize, n); 2 * first_leaf];
         for node in 1..first_leaf {
@@ -179,20 +173,37 @@ impl NearestIndex {
             ranges[2 * node] = (start, mid);
             ranges[2 * node + 1] = (mid, end);
         }
-        self.leaf_bounds = (first_leaf..2 * first_leaf).map(|node| ranges[node].0).collect();
-        self.leaf_bounds.push(n);
-        for node in first_leaf..2 * first_leaf {
-            let (start, end) = ranges[node];
-            let leaf = &mut self.nodes[node];
-            for i in start..end {
-                let p = [self.xs[i], self.ys[i], self.zs[i]];
+        let slots = first_leaf * LEAF_SIZE;
+        let mut index = Self {
+            depth,
+            xs: vec![f32::INFINITY; slots],
+            ys: vec![f32::INFINITY; slots],
+            zs: vec![f32::INFINITY; slots],
+            ids: vec![u32::MAX; slots],
+            splits: vec![Split { pivot: 0.0, axis: 0 }; first_leaf],
+            nodes: vec![Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX }; 2 * first_leaf],
+            batch_span: 0.0,
+        };
+        for (leaf, &(start, end)) in ranges[first_leaf..].iter().enumerate() {
+            let box_ = &mut index.nodes[first_leaf + leaf];
+            for (slot, &id) in (leaf * LEAF_SIZE..).zip(&order[start..end]) {
+                let p = points[id as usize];
+                (index.xs[slot], index.ys[slot], index.zs[slot], index.ids[slot]) = (p[0], p[1], p[2], id);
                 for a in 0..3 {
-                    leaf.min[a] = leaf.min[a].min(p[a]);
-                    leaf.max[a] = leaf.max[a].max(p[a]);
+                    box_.min[a] = box_.min[a].min(p[a]);
+                    box_.max[a] = box_.max[a].max(p[a]);
                 }
-                leaf.min_id = leaf.min_id.min(self.ids[i]);
+                box_.min_id = box_.min_id.min(id);
             }
         }
+        index.fill_inner_nodes();
+        index.batch_span = index.typical_leaf_span();
+        index
+    }
+
+    /// Boxes bottom-up, and the split plane the build used at each node.
+    fn fill_inner_nodes(&mut self) {
+        let first_leaf = 1usize << self.depth;
         for node in (1..first_leaf).rev() {
             let (l, r) = (self.nodes[2 * node], self.nodes[2 * node + 1]);
             let min = std::array::from_fn(|a| l.min[a].min(r.min[a]));
@@ -206,13 +217,34 @@ impl NearestIndex {
         }
     }
 
-    /// Improve `best` with every point of leaf `leaf` (0-based, left to right).
+    /// The median squared diagonal of the leaves' boxes.
+    fn typical_leaf_span(&self) -> f32 {
+        let first_leaf = 1usize << self.depth;
+        let mut spans: Vec<f32> = self.nodes[first_leaf..].iter().map(|n| span(n.min, n.max)).collect();
+        let mid = spans.len() / 2;
+        *spans.select_nth_unstable_by(mid, f32::total_cmp).1
+    }
+
+    /// Improve `best` with every point of leaf `leaf` (0-based, left to right): the
+    /// distances of all slots with fixed-width arithmetic, then, only if one of them can
+    /// win, the tie rule slot by slot.
     #[inline(always)]
     fn scan_leaf(&self, q: [f32; 3], leaf: usize, best: &mut Best) {
-        for i in self.leaf_bounds[leaf]..self.leaf_bounds[leaf + 1] {
-            let d = squared_distance(q, self.xs[i], self.ys[i], self.zs[i]);
-            if better(d, self.ids[i], best) {
-                *best = Best { distance: d, id: self.ids[i], position: i };
+        let start = leaf * LEAF_SIZE;
+        let slots = start..start + LEAF_SIZE;
+        let (xs, ys, zs): (&[f32; LEAF_SIZE], &[f32; LEAF_SIZE], &[f32; LEAF_SIZE]) = (
+            self.xs[slots.clone()].try_into().expect("a leaf's slots"),
+            self.ys[slots.clone()].try_into().expect("a leaf's slots"),
+            self.zs[slots.clone()].try_into().expect("a leaf's slots"),
+        );
+        let distances: [f32; LEAF_SIZE] = std::array::from_fn(|i| squared_distance(q, xs[i], ys[i], zs[i]));
+        let reach = best.distance;
+        if !distances.iter().fold(false, |hit, &d| hit | (d <= reach)) {
+            return;
+        }
+        for (i, (&d, &id)) in distances.iter().zip(&self.ids[slots]).enumerate() {
+            if better(d, id, best) {
+                *best = Best { distance: d, id, position: start + i };
             }
         }
     }
@@ -242,11 +274,16 @@ impl NearestIndex {
         }
     }
 
-    /// The nearest point to `q`, starting from the candidate at tree position `hint`
-    /// (a neighbour's answer, whose coordinates are still in cache).
+    /// The candidate at slot `position`, as seen from `q`.
+    #[inline(always)]
+    fn candidate(&self, q: [f32; 3], position: usize) -> Best {
+        Best { distance: squared_distance(q, self.xs[position], self.ys[position], self.zs[position]), id: self.ids[position], position }
+    }
+
+    /// The nearest point to `q`, starting from the candidate at slot `hint` (a
+    /// neighbour's answer, whose coordinates are still in cache).
     fn nearest_from(&self, q: [f32; 3], hint: usize) -> Best {
-        let distance = squared_distance(q, self.xs[hint], self.ys[hint], self.zs[hint]);
-        let mut best = Best { distance, id: self.ids[hint], position: hint };
+        let mut best = self.candidate(q, hint);
         self.search(q, 1, &mut best);
         best
     }
@@ -256,52 +293,171 @@ impl NearestIndex {
         self.nearest_from(q, 0).id
     }
 
-    /// Answer `queries` in their own order, in parallel chunks, each query warm-started
-    /// from its predecessor's answer.
-    fn nearest_in_order(&self, queries: &[[f32; 3]], answers: &mut [u32]) {
-        answers.par_chunks_mut(QUERY_CHUNK).zip(queries.par_chunks(QUERY_CHUNK)).for_each(|(found, qs)| {
-            let mut hint = 0;
-            for (answer, &q) in found.iter_mut().zip(qs) {
-                let best = self.nearest_from(q, hint);
-                hint = best.position;
-                *answer = best.id;
+    /// The leaves whose boxes come within `reach` (squared) of the box `lo..=hi`, into
+    /// `leaves`; false, with `leaves` incomplete, if there are more than [`BATCH_LEAVES`].
+    fn leaves_within(&self, lo: [f32; 3], hi: [f32; 3], reach: f32, leaves: &mut Vec<u32>) -> bool {
+        leaves.clear();
+        let first_leaf = 1usize << self.depth;
+        // Depth-first: each step pops one node and pushes at most two, so the stack
+        // never holds more than one node a level plus one.
+        let mut stack = [0usize; 66];
+        let mut top = 1;
+        stack[0] = 1;
+        while top > 0 {
+            top -= 1;
+            let node = stack[top];
+            if box_box_bound(lo, hi, &self.nodes[node]) > reach {
+                continue;
             }
-        });
+            if node >= first_leaf {
+                if leaves.len() == BATCH_LEAVES {
+                    return false;
+                }
+                leaves.push((node - first_leaf) as u32);
+            } else {
+                stack[top] = 2 * node + 1;
+                stack[top + 1] = 2 * node;
+                top += 2;
+            }
+        }
+        true
+    }
+
+    /// Answer `queries` (neighbours in space follow each other) into `answers`. Consecutive queries whose box stays within about a leaf's size
+    /// form a batch: the nearest point of its middle query bounds every member's answer
+    /// distance, the leaves within that bound of the batch's box are found once, and
+    /// each member scans only those of them its own best so far cannot rule out.
+    fn answer_batches(&self, count: usize, query: impl Fn(usize) -> [f32; 3], mut record: impl FnMut(usize, u32)) {
+        let first_leaf = 1usize << self.depth;
+        let mut leaves = Vec::with_capacity(BATCH_LEAVES);
+        let mut hint = 0;
+        let mut start = 0;
+        while start < count {
+            let first = query(start);
+            let (mut lo, mut hi) = (first, first);
+            let mut end = start + 1;
+            while end < count && end - start < BATCH_QUERIES {
+                let q = query(end);
+                let (grown_lo, grown_hi) = (std::array::from_fn(|a| lo[a].min(q[a])), std::array::from_fn(|a| hi[a].max(q[a])));
+                if span(grown_lo, grown_hi) > self.batch_span {
+                    break;
+                }
+                (lo, hi) = (grown_lo, grown_hi);
+                end += 1;
+            }
+            let anchor = self.nearest_from(query(start + (end - start) / 2), hint);
+            hint = anchor.position;
+            // Each member's answer is no farther than the anchor's point.
+            let reach = (start..end).fold(0.0f32, |r, k| r.max(self.candidate(query(k), anchor.position).distance));
+            if self.leaves_within(lo, hi, reach, &mut leaves) {
+                for k in start..end {
+                    let q = query(k);
+                    let mut best = self.candidate(q, anchor.position);
+                    for &leaf in &leaves {
+                        let node = &self.nodes[first_leaf + leaf as usize];
+                        if better(box_bound(q, node), node.min_id, &best) {
+                            self.scan_leaf(q, leaf as usize, &mut best);
+                        }
+                    }
+                    record(k, best.id);
+                }
+            } else {
+                for k in start..end {
+                    let q = query(k);
+                    let best = self.nearest_from(q, hint);
+                    hint = best.position;
+                    record(k, best.id);
+                }
+            }
+            start = end;
+        }
     }
 
     /// The nearest indexed point of every query, in parallel, whatever the queries'
     /// order: each block of [`LOCALITY_BLOCK`] queries is visited along a Z-order curve
-    /// over the index's box, so consecutive queries are neighbours — each warm-starts from
-    /// its predecessor's answer and finds the tree's path in cache — as in a scanned cloud
-    /// read frame by frame, but also for a shuffled or voxel-downsampled one.
+    /// over the index's box, so consecutive queries are neighbours, and answered in
+    /// batches of neighbours that share the search for their candidate leaves.
     pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
         let mut out = vec![0u32; queries.len()];
         let root = self.nodes[1];
-        let mut order: Vec<u64> = Vec::with_capacity(LOCALITY_BLOCK.min(queries.len()));
-        let mut sorted_answers: Vec<u32> = Vec::with_capacity(LOCALITY_BLOCK.min(queries.len()));
+        let capacity = LOCALITY_BLOCK.min(queries.len());
+        // The keys, then the block's answers in key order in the sort's scratch space.
+        let (mut order, mut scratch): (Vec<u64>, Vec<u64>) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
         for (answers, block) in out.chunks_mut(LOCALITY_BLOCK).zip(queries.chunks(LOCALITY_BLOCK)) {
-            if is_coherent(block, &root) {
-                self.nearest_in_order(block, answers);
-                continue;
-            }
             order.clear();
             order.par_extend(block.par_iter().enumerate().map(|(i, q)| (u64::from(morton_key(q, &root)) << 32) | i as u64));
-            order.par_sort_unstable();
-            sorted_answers.clear();
-            sorted_answers.resize(block.len(), 0);
-            sorted_answers.par_chunks_mut(QUERY_CHUNK).zip(order.par_chunks(QUERY_CHUNK)).for_each(|(found, keys)| {
-                let mut hint = 0;
-                for (answer, key) in found.iter_mut().zip(keys) {
-                    let best = self.nearest_from(block[(key & 0xFFFF_FFFF) as usize], hint);
-                    hint = best.position;
-                    *answer = best.id;
-                }
-            });
-            for (key, &answer) in order.iter().zip(&sorted_answers) {
-                answers[(key & 0xFFFF_FFFF) as usize] = answer;
+            sort_by_morton_key(&mut order, &mut scratch);
+            scratch
+                .par_chunks_mut(QUERY_CHUNK)
+                .zip(order.par_chunks(QUERY_CHUNK))
+                .for_each(|(found, keys)| self.answer_batches(keys.len(), |k| block[(keys[k] & 0xFFFF_FFFF) as usize], |k, id| found[k] = u64::from(id)));
+            for (key, &answer) in order.iter().zip(&scratch) {
+                answers[(key & 0xFFFF_FFFF) as usize] = answer as u32;
             }
         }
         out
+    }
+}
+
+impl NearestIndex {
+    /// The nearest indexed point of every query, in parallel, answered in the queries' own
+    /// order, which must already visit neighbours in space one after another — a cloud put
+    /// in [`z_order`] once and scored against several maps — else this is slower than
+    /// [`NearestIndex::nearest_all`] (the answers are the same).
+    pub fn nearest_all_in_order(&self, queries: &[[f32; 3]]) -> Vec<u32> {
+        let mut out = vec![0u32; queries.len()];
+        out.par_chunks_mut(QUERY_CHUNK)
+            .zip(queries.par_chunks(QUERY_CHUNK))
+            .for_each(|(found, qs)| self.answer_batches(qs.len(), |k| qs[k], |k, id| found[k] = id));
+        out
+    }
+}
+
+/// The order visiting `points` along a Z-order curve over their own bounding box (points
+/// of one cell of the curve in their input order): `points[order[0]]`, `points[order[1]]`, ….
+pub fn z_order(points: &[[f32; 3]]) -> Vec<u32> {
+    assert!(points.len() < u32::MAX as usize, "too many points for 32-bit indices");
+    let (min, max) = points
+        .par_iter()
+        .fold(
+            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))),
+        )
+        .reduce(
+            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), (l, h)| (std::array::from_fn(|a| lo[a].min(l[a])), std::array::from_fn(|a| hi[a].max(h[a]))),
+        );
+    let bounds = Node { min, max, min_id: 0 };
+    let mut keys: Vec<u64> = points.par_iter().enumerate().map(|(i, q)| (u64::from(morton_key(q, &bounds)) << 32) | i as u64).collect();
+    sort_by_morton_key(&mut keys, &mut Vec::new());
+    keys.into_par_iter().map(|key| (key & 0xFFFF_FFFF) as u32).collect()
+}
+
+/// Sort `keys` — a 30-bit Z-order key in the high half, a query's index in the low half —
+/// by key, stably: least-significant-digit radix sort, two passes of 15 bits through
+/// `scratch`.
+fn sort_by_morton_key(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
+    const DIGIT_BITS: u32 = 15;
+    scratch.clear();
+    scratch.resize(keys.len(), 0);
+    let mut counts = vec![0usize; 1 << DIGIT_BITS];
+    for pass in 0..(3 * MORTON_BITS).div_ceil(DIGIT_BITS) {
+        let shift = 32 + pass * DIGIT_BITS;
+        let digit = |key: u64| ((key >> shift) & ((1 << DIGIT_BITS) - 1)) as usize;
+        counts.fill(0);
+        for &key in keys.iter() {
+            counts[digit(key)] += 1;
+        }
+        let mut next = 0;
+        for count in counts.iter_mut() {
+            (*count, next) = (next, next + *count);
+        }
+        for &key in keys.iter() {
+            let slot = &mut counts[digit(key)];
+            scratch[*slot] = key;
+            *slot += 1;
+        }
+        std::mem::swap(keys, scratch);
     }
 }
 

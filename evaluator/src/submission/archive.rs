@@ -148,7 +148,7 @@ impl Writer<'_> {
         let mut file = File::create(&path).map_err(|e| unwritable(self.archive, name, &e))?;
         let budget = self.limits.max_total_bytes - self.out.bytes;
         // Count what actually arrives: declared sizes in headers can lie.
-        let written = std::io::copy(&mut content.take(budget + 1), &mut file).map_err(|e| truncated(self.archive, name, &e))?;
+        let written = std::io::copy(&mut content.take(budget.saturating_add(1)), &mut file).map_err(|e| truncated(self.archive, name, &e))?;
         if written > budget {
             return Err(InputError::new(
                 self.archive,

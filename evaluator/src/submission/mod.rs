@@ -13,7 +13,7 @@ pub mod validate;
 
 pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, unpack};
 pub use release::ReleaseIndex;
-pub use score::score_submission;
+pub use score::{ScoringTimings, score_submission, score_submission_timed};
 pub use validate::{MethodCard, SubmissionLimits, ValidSubmission, validate};
 
 /// The `format` value of `submission.json`.

@@ -4,6 +4,7 @@
 //! pooled aggregates carry bootstrap intervals over the release's scenes.
 
 use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
 
 use super::release::ReleaseIndex;
 use super::validate::{SubmissionLimits, ValidSubmission};
@@ -16,7 +17,28 @@ use crate::semseg::bootstrap::Replicates;
 use crate::semseg::confusion::ConfusionMatrix;
 use crate::semseg::metrics::ClassCount;
 use crate::semseg::report::{MetricTriple, MetricsTable};
-use crate::semseg::score_scene;
+use crate::semseg::{PreparedGroundTruth, StageTimings, score_prepared};
+
+/// Where the time of scoring a submission went, summed over its maps.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ScoringTimings {
+    /// Maps scored.
+    pub maps: usize,
+    /// Ground-truth points associated, over all maps.
+    pub ground_truth_points: u64,
+    /// Reading the ground truth of each scene (once a scene).
+    pub read_ground_truth: Duration,
+    /// Checking each scene's ground truth and putting it in Z-order (once a scene).
+    pub prepare_ground_truth: Duration,
+    /// Reading the maps.
+    pub read_maps: Duration,
+    /// The stages of [`score_scene`], summed.
+    pub scenes: StageTimings,
+    /// Per-lighting tables, subsets, bootstrap intervals and relative changes.
+    pub tables: Duration,
+    /// Answering and judging the questions.
+    pub vqa: Duration,
+}
 
 /// Score `submission` against the ground truth in `release`; `progress` hears of each
 /// (lighting, scene) done and the number in all.
@@ -29,25 +51,54 @@ pub fn score_submission(
     open: crate::vqa::score::OpenBackends,
     progress: &dyn Fn(usize, usize),
 ) -> Result<Scores> {
+    score_submission_timed(submission, release, limits, open, progress).map(|(scores, _)| scores)
+}
+
+/// [`score_submission`], also telling where the time went. Maps are scored scene by
+/// scene, so one scene's ground truth is read once and held only while its maps are
+/// scored.
+pub fn score_submission_timed(
+    submission: &ValidSubmission,
+    release: &ReleaseIndex,
+    limits: SubmissionLimits,
+    open: crate::vqa::score::OpenBackends,
+    progress: &dyn Fn(usize, usize),
+) -> Result<(Scores, ScoringTimings)> {
     if !release.has_ground_truth() {
         return Err(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against"));
     }
+    let mut timings = ScoringTimings::default();
     let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
-    let maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
-    let mut ground_truth: BTreeMap<&str, (GroundTruth, crate::formats::classes::ClassList)> = BTreeMap::new();
+    let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
+    maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
+    let mut ground_truth: Option<(&str, PreparedGroundTruth, crate::formats::classes::ClassList)> = None;
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
-        if !ground_truth.contains_key(entry.scene.as_str()) {
+        if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
+            // The previous scene's cloud goes before the next one is read.
+            drop(ground_truth.take());
+            let clock = Instant::now();
             let classes = release.scene_classes(&entry.scene)?;
             let gt = GroundTruth::read(&release.ground_truth_dir(&entry.scene), &classes)?;
-            ground_truth.insert(entry.scene.as_str(), (gt, classes));
+            timings.read_ground_truth += clock.elapsed();
+            let clock = Instant::now();
+            let gt = PreparedGroundTruth::new(gt, &classes)?;
+            timings.prepare_ground_truth += clock.elapsed();
+            ground_truth = Some((entry.scene.as_str(), gt, classes));
         }
-        let (gt, classes) = &ground_truth[entry.scene.as_str()];
+        let (_, gt, classes) = ground_truth.as_ref().expect("read above");
+        let clock = Instant::now();
         let map = PredictedMap::read(map_path, limits.arrays)?;
-        let scored = score_scene(gt, &map, classes, text.as_ref())?;
+        timings.read_maps += clock.elapsed();
+        let scored = score_prepared(gt, &map, classes, text.as_ref())?;
+        timings.scenes = timings.scenes + scored.timings;
+        timings.maps += 1;
+        timings.ground_truth_points += gt.len() as u64;
         by_lighting.entry(entry.lighting).or_default().push((entry.scene.clone(), scored.confusion));
         progress(done + 1, maps.len());
     }
+    drop(ground_truth);
+    let clock = Instant::now();
 
     let mut semseg = BTreeMap::new();
     let mut tables: BTreeMap<Lighting, MetricsTable> = BTreeMap::new();
@@ -95,6 +146,8 @@ pub fn score_submission(
             );
         }
     }
+    timings.tables = clock.elapsed();
+    let clock = Instant::now();
     let mut vqa = crate::vqa::score::score_vqa(submission, release, open)?;
     if release.split == Some(crate::scores::Split::Test) {
         // A test scene's answers stay hidden: per question, the answer given and whether it
@@ -105,7 +158,8 @@ pub fn score_submission(
             v.scenes.clear();
         }
     }
-    Ok(Scores {
+    timings.vqa = clock.elapsed();
+    let scores = Scores {
         complete: submission.complete,
         evaluator_version: EVALUATOR_VERSION.to_string(),
         missing_maps: submission.missing_maps.clone(),
@@ -114,5 +168,6 @@ pub fn score_submission(
         semseg,
         split: release.split,
         vqa,
-    })
+    };
+    Ok((scores, timings))
 }

@@ -17,7 +17,7 @@ use super::release::ReleaseIndex;
 use crate::error::InputError;
 use crate::formats::map::{MapSemantics, PredictedMap, TextFeatures};
 use crate::formats::npy::ReadLimits;
-use crate::ground_truth::GroundTruth;
+use crate::formats::pcd::read_pcd;
 
 /// At most this many problems are reported (the rest are counted).
 pub const MAX_REPORTED_PROBLEMS: usize = 50;
@@ -261,17 +261,28 @@ fn check_answers(value: &Value, name: &str, scene: &str, known: Option<&BTreeSet
     Ok(())
 }
 
-/// A map in another frame than the release (say, relative to the first camera) overlaps
-/// the scene's ground-truth box only by accident: refuse it with that explanation.
-fn check_frame(map: &PredictedMap, ground_truth: &GroundTruth, name: &str) -> Result<(), InputError> {
+/// The lowest and highest coordinates of a cloud.
+type Extent = ([f32; 3], [f32; 3]);
+
+/// The box of a scene's ground-truth points, from its `pointcloud.pcd` (labels are not
+/// needed to place a map). Only the box is kept: a submission's scenes are checked one
+/// after another without holding their clouds.
+fn ground_truth_extent(release: &ReleaseIndex, scene: &str) -> Option<Extent> {
+    let cloud = read_pcd(&release.ground_truth_dir(scene).join("pointcloud.pcd")).ok()?;
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
-    for p in &ground_truth.points {
+    for p in &cloud.points {
         for a in 0..3 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
         }
     }
+    (!cloud.points.is_empty()).then_some((lo, hi))
+}
+
+/// A map in another frame than the release (say, relative to the first camera) overlaps
+/// the scene's ground-truth box `(lo, hi)` only by accident: refuse it with that explanation.
+fn check_frame(map: &PredictedMap, (lo, hi): Extent, name: &str) -> Result<(), InputError> {
     let margin = 0.5;
     let inside = map.points.iter().filter(|p| (0..3).all(|a| p[a] >= lo[a] - margin && p[a] <= hi[a] + margin)).count();
     if (inside as f64) < 0.5 * map.points.len() as f64 {
@@ -360,7 +371,7 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
     };
 
     let mut entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry> = BTreeMap::new();
-    let mut ground_truth: BTreeMap<String, Option<GroundTruth>> = BTreeMap::new();
+    let mut extents: BTreeMap<String, Option<Extent>> = BTreeMap::new();
     let mut points = 0u64;
     let mut outside_split: Vec<String> = Vec::new();
     for name in &files {
@@ -426,12 +437,9 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
                         if let Err(e) = check_semantics(&map, release, text.as_ref(), name) {
                             problems.push(e);
                         }
-                        let gt = ground_truth.entry(scene.to_string()).or_insert_with(|| {
-                            let dir = release.ground_truth_dir(scene);
-                            release.scene_classes(scene).and_then(|classes| GroundTruth::read(&dir, &classes)).ok()
-                        });
-                        if let Some(gt) = gt
-                            && let Err(e) = check_frame(&map, gt, name)
+                        let extent = *extents.entry(scene.to_string()).or_insert_with(|| ground_truth_extent(release, scene));
+                        if let Some(extent) = extent
+                            && let Err(e) = check_frame(&map, extent, name)
                         {
                             problems.push(e);
                         }

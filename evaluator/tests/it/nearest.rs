@@ -111,3 +111,89 @@ fn shuffled_queries_get_the_answers_of_the_same_queries_in_scan_order() {
         assert_eq!(in_order[k], nearest_brute_force(&points, scan[k]), "query {k}");
     }
 }
+
+/// Points near the plane z = 0 (a scanned wall): `n` of them over `extent` × `extent`,
+/// with `noise` out of the plane, coordinates snapped to `grid` when given.
+fn surface_points(rng: &mut Rng, n: usize, extent: f64, noise: f64, grid: Option<f64>) -> Vec<[f32; 3]> {
+    let snap = |v: f64| grid.map_or(v, |g| (v / g).round() * g) as f32;
+    (0..n).map(|_| [snap(rng.range(0.0, extent)), snap(rng.range(0.0, extent)), snap(rng.range(-noise, noise))]).collect()
+}
+
+#[test]
+fn dense_queries_answered_in_batches_agree_with_exhaustive_search() {
+    // Ten queries per indexed point on the same surface: neighbouring queries share a
+    // leaf-sized box and are answered together from one set of candidate leaves.
+    let mut rng = Rng::new(33);
+    let points = surface_points(&mut rng, 20_000, 4.0, 0.01, None);
+    let index = NearestIndex::build(&points);
+    let queries = surface_points(&mut rng, 200_000, 4.0, 0.02, None);
+    let answers = index.nearest_all(&queries);
+    for k in (0..queries.len()).step_by(7) {
+        assert_eq!(answers[k], nearest_brute_force(&points, queries[k]), "query {k} {:?}", queries[k]);
+    }
+}
+
+#[test]
+fn dense_queries_on_a_grid_of_duplicates_resolve_ties_to_the_lowest_index() {
+    // Indexed points and queries snapped to grids: every batch meets equal distances
+    // (duplicates, and queries halfway between grid points).
+    let mut rng = Rng::new(34);
+    let points = surface_points(&mut rng, 8_000, 1.0, 0.05, Some(0.05));
+    let index = NearestIndex::build(&points);
+    let queries = surface_points(&mut rng, 100_000, 1.0, 0.06, Some(0.025));
+    let answers = index.nearest_all(&queries);
+    for k in (0..queries.len()).step_by(3) {
+        assert_eq!(answers[k], nearest_brute_force(&points, queries[k]), "query {k} {:?}", queries[k]);
+    }
+}
+
+#[test]
+fn dense_queries_far_from_every_point_are_answered_exactly() {
+    // A cluster of queries metres away from a small indexed surface: their candidate
+    // leaves are too many to share, so they are answered one by one.
+    let mut rng = Rng::new(35);
+    let points = surface_points(&mut rng, 30_000, 2.0, 0.01, None);
+    let index = NearestIndex::build(&points);
+    let queries: Vec<[f32; 3]> = surface_points(&mut rng, 50_000, 0.3, 0.3, None).into_iter().map(|q| [q[0] + 0.8, q[1] + 0.8, q[2] + 3.0]).collect();
+    let answers = index.nearest_all(&queries);
+    for k in (0..queries.len()).step_by(5) {
+        assert_eq!(answers[k], nearest_brute_force(&points, queries[k]), "query {k} {:?}", queries[k]);
+    }
+}
+
+#[test]
+fn z_order_is_a_permutation_that_keeps_neighbours_together() {
+    use osmab_evaluator::semseg::nearest::z_order;
+    let mut rng = Rng::new(36);
+    let points = random_points(&mut rng, 50_000, 4.0, None);
+    let order = z_order(&points);
+    let mut seen = vec![false; points.len()];
+    for &i in &order {
+        assert!(!std::mem::replace(&mut seen[i as usize], true), "index {i} twice");
+    }
+    assert!(seen.iter().all(|&s| s), "every point once");
+    // Consecutive points along the curve are far closer than in the random input.
+    let mean_step = |visit: &mut dyn Iterator<Item = usize>| {
+        let path: Vec<[f32; 3]> = visit.map(|i| points[i]).collect();
+        path.windows(2).map(|w| (0..3).map(|a| (w[0][a] - w[1][a]).powi(2)).sum::<f32>().sqrt()).sum::<f32>() / (path.len() - 1) as f32
+    };
+    let (input, curve) = (mean_step(&mut (0..points.len())), mean_step(&mut order.iter().map(|&i| i as usize)));
+    assert!(curve < input / 10.0, "mean step {curve} along the curve, {input} in input order");
+}
+
+#[test]
+fn queries_in_z_order_get_the_answers_of_any_order() {
+    use osmab_evaluator::semseg::nearest::z_order;
+    let mut rng = Rng::new(37);
+    let points = surface_points(&mut rng, 30_000, 3.0, 0.01, Some(0.004));
+    let index = NearestIndex::build(&points);
+    let queries = surface_points(&mut rng, 300_000, 3.2, 0.3, Some(0.002));
+    let any_order = index.nearest_all(&queries);
+    let order = z_order(&queries);
+    let sorted: Vec<[f32; 3]> = order.iter().map(|&i| queries[i as usize]).collect();
+    let in_order = index.nearest_all_in_order(&sorted);
+    assert!(order.iter().zip(&in_order).all(|(&i, &a)| any_order[i as usize] == a), "the same answer for every query");
+    for k in (0..queries.len()).step_by(97) {
+        assert_eq!(any_order[k], nearest_brute_force(&points, queries[k]), "query {k}");
+    }
+}

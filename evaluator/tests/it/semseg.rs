@@ -174,3 +174,49 @@ fn non_finite_ground_truth_is_an_error_not_a_panic() {
     let err = score_scene(&gt, &map, &classes(5), None).unwrap_err();
     assert!(err.message.contains("point 17"), "{err}");
 }
+
+#[test]
+fn a_prepared_ground_truth_scores_every_map_as_scoring_it_alone_does() {
+    // A synthetic room scanned frame by frame and three maps of it: putting the ground
+    // truth in Z-order once changes the order points are visited in, not the counts.
+    use osmab_evaluator::semseg::{PreparedGroundTruth, score_prepared};
+    use osmab_evaluator::synthetic::{SceneSpec, generate};
+    let spec = SceneSpec { gt_points: 60_000, map_points: 6_000, objects: 10, feature_dim: 8, seed: 4, map_covers_room: false };
+    let scene = generate(spec);
+    let prepared = PreparedGroundTruth::new(scene.ground_truth.clone(), &scene.classes).unwrap();
+    assert_eq!(prepared.len(), scene.ground_truth.points.len());
+    for seed in [1, 2, 3] {
+        let map = scene.another_map(spec, &scene.text, seed);
+        let alone = score_scene(&scene.ground_truth, &map, &scene.classes, Some(&scene.text)).unwrap();
+        let shared = score_prepared(&prepared, &map, &scene.classes, Some(&scene.text)).unwrap();
+        assert_eq!(shared.confusion, alone.confusion, "map {seed}");
+        assert_eq!(shared.metrics, alone.metrics, "map {seed}");
+    }
+}
+
+#[test]
+fn preparing_a_ground_truth_refuses_what_scoring_refuses() {
+    use osmab_evaluator::semseg::PreparedGroundTruth;
+    let mut gt = ground_truth();
+    gt.points[7][1] = f32::NAN;
+    let err = PreparedGroundTruth::new(gt, &classes(5)).err().unwrap();
+    assert!(err.to_string().contains("point 7 has a non-finite coordinate"), "{err}");
+    let mut gt = ground_truth();
+    gt.labels.iter_mut().for_each(|l| *l = 0);
+    let err = PreparedGroundTruth::new(gt, &classes(5)).err().unwrap();
+    assert!(err.to_string().contains("no scored class"), "{err}");
+}
+
+#[test]
+fn counting_through_the_nearest_points_equals_counting_their_labels() {
+    use osmab_evaluator::semseg::ConfusionMatrix;
+    // Ground truth with an unscored class (0) and a map with a class outside the vocabulary (9).
+    let ground_truth = [1, 1, 2, 0, 2, 3, 1];
+    let point_labels = [1, 2, 9, 3];
+    let nearest = [0u32, 1, 1, 2, 3, 3, 2];
+    let predicted: Vec<i64> = nearest.iter().map(|&i| point_labels[i as usize]).collect();
+    let by_nearest = ConfusionMatrix::from_nearest(&ground_truth, &nearest, &point_labels, &[1, 2, 3]);
+    assert_eq!(by_nearest, ConfusionMatrix::from_labels(&ground_truth, &predicted, &[1, 2, 3]));
+    // Row 1 (class 1): one right, one predicted 2, one outside the vocabulary (-1 column).
+    assert_eq!((by_nearest.count(0, 0), by_nearest.count(0, 1), by_nearest.count(0, 3)), (1, 1, 1));
+}

@@ -107,6 +107,32 @@ pub enum BenchCommand {
         repeat: usize,
     },
     /// Time index build and queries of the nearest-neighbour association in-process.
+    /// Score a whole submission — every scene under every lighting, at a full release's
+    /// sizes, with scene graphs and questions — from its archive as the worker does, and
+    /// print the time of each stage. The data is generated under `--data` once.
+    Submission {
+        /// Where the release and the submission archive are generated (and reused).
+        #[arg(long, default_value = "bench/data/submission")]
+        data: PathBuf,
+        /// Scenes (24 furniture + 16 manipuland in a full release).
+        #[arg(long, default_value_t = 40)]
+        scenes: usize,
+        /// Ground-truth points a scene: a full release's ~390 frames a sequence at
+        /// 1200×680, every 5th frame, every 10th point (OSMa-Bench's procedure).
+        #[arg(long, default_value_t = 6_400_000)]
+        gt_points: usize,
+        /// Points a map (a ConceptGraphs-style map of such a room at 2.5 cm voxels).
+        #[arg(long, default_value_t = 500_000)]
+        map_points: usize,
+        /// Objects in each room.
+        #[arg(long, default_value_t = 40)]
+        objects: usize,
+        /// Maps cover the room's floor, walls and ceiling too.
+        #[arg(long)]
+        map_covers_room: bool,
+        #[arg(long, default_value_t = 1)]
+        repeat: usize,
+    },
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
         gt_points: usize,
@@ -153,6 +179,10 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
         BenchCommand::Ranking { entries, repeat } => ranking(entries, repeat),
+        BenchCommand::Submission { data, scenes, gt_points, map_points, objects, map_covers_room, repeat } => {
+            let size = super::bench_submission::SubmissionBenchSize { scenes, gt_points, map_points, objects, map_covers_room };
+            super::bench_submission::run(&size, &data, repeat)
+        }
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room, shuffle: random_order } => {
             let mut scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
             if random_order {

@@ -30,8 +30,8 @@ const QUERY_CHUNK: usize = 4096;
 /// megabytes (16 bytes a query: its key, and the sort's scratch space, which then holds
 /// its answer).
 const LOCALITY_BLOCK: usize = 1 << 20;
-/// Bits per axis of the Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
-const MORTON_BITS: u32 = 10;
+/// Bits per axis of a Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
+const KEY_BITS: u32 = 10;
 /// Most queries answered together as one batch.
 const BATCH_QUERIES: usize = 64;
 /// Most leaves a batch shares. A batch whose neighbourhood reaches more (queries far from
@@ -49,17 +49,29 @@ fn spread_bits(v: u32) -> u32 {
     x
 }
 
-/// The Z-order (Morton) key of `q` in the grid of `2^MORTON_BITS` cells per axis over
-/// `bounds` (queries outside it are clamped to its faces).
-#[inline(always)]
-fn morton_key(q: &[f32; 3], bounds: &Node) -> u32 {
-    let cells = ((1u32 << MORTON_BITS) - 1) as f32;
-    let cell = |a: usize| {
-        let extent = bounds.max[a] - bounds.min[a];
-        let t = if extent > 0.0 { (q[a] - bounds.min[a]) / extent } else { 0.0 };
-        (t.clamp(0.0, 1.0) * cells) as u32
-    };
-    spread_bits(cell(0)) | (spread_bits(cell(1)) << 1) | (spread_bits(cell(2)) << 2)
+/// A grid of `2^KEY_BITS` cells per axis over a box, numbering cells along a Z-order
+/// (Morton) curve.
+struct ZGrid {
+    min: [f32; 3],
+    /// Cells per unit length along each axis.
+    scale: [f32; 3],
+}
+
+/// The last cell's number along an axis.
+const LAST_CELL: f32 = ((1u32 << KEY_BITS) - 1) as f32;
+
+impl ZGrid {
+    fn over(min: [f32; 3], max: [f32; 3]) -> Self {
+        let scale = std::array::from_fn(|a| if max[a] > min[a] { LAST_CELL / (max[a] - min[a]) } else { 0.0 });
+        Self { min, scale }
+    }
+
+    /// The cell of `q` along the curve (points outside the box go to its faces).
+    #[inline(always)]
+    fn key(&self, q: &[f32; 3]) -> u32 {
+        let cell = |a: usize| ((q[a] - self.min[a]) * self.scale[a]).clamp(0.0, LAST_CELL) as u32;
+        spread_bits(cell(0)) | (spread_bits(cell(1)) << 1) | (spread_bits(cell(2)) << 2)
+    }
 }
 
 /// A node's bounding box and the smallest original index below it.
@@ -162,8 +174,10 @@ impl NearestIndex {
         while n.div_ceil(1 << depth) > LEAF_SIZE {
             depth += 1;
         }
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        split(points, &mut order, depth);
+        // The build moves the points themselves (with their indices), not indices into
+        // them: each level's passes then read memory in order.
+        let mut order: Vec<IndexedPoint> = points.par_iter().enumerate().map(|(id, &p)| IndexedPoint { p, id: id as u32 }).collect();
+        split(&mut order, depth);
         let first_leaf = 1usize << depth;
         // Ranges follow the build's rule: a range splits at its middle position.
         let mut ranges = vec![(0usize, n); 2 * first_leaf];
@@ -186,8 +200,7 @@ impl NearestIndex {
         };
         for (leaf, &(start, end)) in ranges[first_leaf..].iter().enumerate() {
             let box_ = &mut index.nodes[first_leaf + leaf];
-            for (slot, &id) in (leaf * LEAF_SIZE..).zip(&order[start..end]) {
-                let p = points[id as usize];
+            for (slot, &IndexedPoint { p, id }) in (leaf * LEAF_SIZE..).zip(&order[start..end]) {
                 (index.xs[slot], index.ys[slot], index.zs[slot], index.ids[slot]) = (p[0], p[1], p[2], id);
                 for a in 0..3 {
                     box_.min[a] = box_.min[a].min(p[a]);
@@ -379,14 +392,14 @@ impl NearestIndex {
     /// batches of neighbours that share the search for their candidate leaves.
     pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
         let mut out = vec![0u32; queries.len()];
-        let root = self.nodes[1];
+        let grid = ZGrid::over(self.nodes[1].min, self.nodes[1].max);
         let capacity = LOCALITY_BLOCK.min(queries.len());
         // The keys, then the block's answers in key order in the sort's scratch space.
         let (mut order, mut scratch): (Vec<u64>, Vec<u64>) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
         for (answers, block) in out.chunks_mut(LOCALITY_BLOCK).zip(queries.chunks(LOCALITY_BLOCK)) {
             order.clear();
-            order.par_extend(block.par_iter().enumerate().map(|(i, q)| (u64::from(morton_key(q, &root)) << 32) | i as u64));
-            sort_by_morton_key(&mut order, &mut scratch);
+            order.par_extend(block.par_iter().enumerate().map(|(i, q)| (u64::from(grid.key(q)) << 32) | i as u64));
+            sort_by_key(&mut order, &mut scratch);
             scratch
                 .par_chunks_mut(QUERY_CHUNK)
                 .zip(order.par_chunks(QUERY_CHUNK))
@@ -427,23 +440,23 @@ pub fn z_order(points: &[[f32; 3]]) -> Vec<u32> {
             || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
             |(lo, hi), (l, h)| (std::array::from_fn(|a| lo[a].min(l[a])), std::array::from_fn(|a| hi[a].max(h[a]))),
         );
-    let bounds = Node { min, max, min_id: 0 };
-    let mut keys: Vec<u64> = points.par_iter().enumerate().map(|(i, q)| (u64::from(morton_key(q, &bounds)) << 32) | i as u64).collect();
-    sort_by_morton_key(&mut keys, &mut Vec::new());
+    let grid = ZGrid::over(min, max);
+    let mut keys: Vec<u64> = points.par_iter().enumerate().map(|(i, q)| (u64::from(grid.key(q)) << 32) | i as u64).collect();
+    sort_by_key(&mut keys, &mut Vec::new());
     keys.into_par_iter().map(|key| (key & 0xFFFF_FFFF) as u32).collect()
 }
 
-/// Sort `keys` — a 30-bit Z-order key in the high half, a query's index in the low half —
-/// by key, stably: least-significant-digit radix sort, two passes of 15 bits through
-/// `scratch`.
-fn sort_by_morton_key(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
-    const DIGIT_BITS: u32 = 15;
+/// Sort `keys` — a Z-order key of `3 × KEY_BITS` bits in the high half, a query's index
+/// in the low half — by key, stably: least-significant-digit radix sort, two passes of
+/// 15 bits through `scratch`.
+fn sort_by_key(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
+    let digit_bits = (3 * KEY_BITS).div_ceil(2);
     scratch.clear();
     scratch.resize(keys.len(), 0);
-    let mut counts = vec![0usize; 1 << DIGIT_BITS];
-    for pass in 0..(3 * MORTON_BITS).div_ceil(DIGIT_BITS) {
-        let shift = 32 + pass * DIGIT_BITS;
-        let digit = |key: u64| ((key >> shift) & ((1 << DIGIT_BITS) - 1)) as usize;
+    let mut counts = vec![0usize; 1 << digit_bits];
+    for pass in 0..2 {
+        let shift = 32 + pass * digit_bits;
+        let digit = |key: u64| ((key >> shift) & ((1 << digit_bits) - 1)) as usize;
         counts.fill(0);
         for &key in keys.iter() {
             counts[digit(key)] += 1;
@@ -461,29 +474,35 @@ fn sort_by_morton_key(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
     }
 }
 
+/// A point with its index in the map, as the build moves it.
+#[derive(Debug, Clone, Copy)]
+struct IndexedPoint {
+    p: [f32; 3],
+    id: u32,
+}
+
 /// Reorder `order` into a balanced k-d tree of `depth` levels: each range is split at
 /// its middle position along the widest axis of its points.
-fn split(points: &[[f32; 3]], order: &mut [u32], depth: u32) {
+fn split(order: &mut [IndexedPoint], depth: u32) {
     if depth == 0 || order.len() < 2 {
         return;
     }
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for &i in order.iter() {
-        let p = points[i as usize];
+    for item in order.iter() {
         for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
+            lo[a] = lo[a].min(item.p[a]);
+            hi[a] = hi[a].max(item.p[a]);
         }
     }
     let axis = widest_axis(lo, hi);
     let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
+    order.select_nth_unstable_by(mid, |a, b| a.p[axis].total_cmp(&b.p[axis]));
     let (left, right) = order.split_at_mut(mid);
-    if left.len() > 1 << 15 {
-        rayon::join(|| split(points, left, depth - 1), || split(points, right, depth - 1));
+    if left.len() > 1 << 14 {
+        rayon::join(|| split(left, depth - 1), || split(right, depth - 1));
     } else {
-        split(points, left, depth - 1);
-        split(points, right, depth - 1);
+        split(left, depth - 1);
+        split(right, depth - 1);
     }
 }
 

@@ -18,6 +18,7 @@ use crate::error::InputError;
 use crate::formats::map::{MapSemantics, PredictedMap, TextFeatures};
 use crate::formats::npy::ReadLimits;
 use crate::formats::pcd::read_pcd;
+use rayon::prelude::*;
 
 /// At most this many problems are reported (the rest are counted).
 pub const MAX_REPORTED_PROBLEMS: usize = 50;
@@ -265,19 +266,37 @@ fn check_answers(value: &Value, name: &str, scene: &str, known: Option<&BTreeSet
 type Extent = ([f32; 3], [f32; 3]);
 
 /// The box of a scene's ground-truth points, from its `pointcloud.pcd` (labels are not
-/// needed to place a map). Only the box is kept: a submission's scenes are checked one
-/// after another without holding their clouds.
+/// needed to place a map). Only the box is kept, and kept for the life of the process
+/// (per file, its length and modification time): a release's clouds are hundreds of
+/// megabytes, and the same scenes are checked for every upload and again when scored.
 fn ground_truth_extent(release: &ReleaseIndex, scene: &str) -> Option<Extent> {
-    let cloud = read_pcd(&release.ground_truth_dir(scene).join("pointcloud.pcd")).ok()?;
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in &cloud.points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
+    use std::sync::{Mutex, OnceLock};
+    type Identity = (PathBuf, u64, Option<std::time::SystemTime>);
+    static KNOWN: OnceLock<Mutex<BTreeMap<Identity, Extent>>> = OnceLock::new();
+    let path = release.ground_truth_dir(scene).join("pointcloud.pcd");
+    let meta = std::fs::metadata(&path).ok()?;
+    let identity = (path.clone(), meta.len(), meta.modified().ok());
+    let known = KNOWN.get_or_init(Default::default);
+    if let Some(extent) = known.lock().unwrap_or_else(|e| e.into_inner()).get(&identity) {
+        return Some(*extent);
     }
-    (!cloud.points.is_empty()).then_some((lo, hi))
+    let cloud = read_pcd(&path).ok()?;
+    let (lo, hi) = cloud
+        .points
+        .par_iter()
+        .fold(
+            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))),
+        )
+        .reduce(
+            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), (l, h)| (std::array::from_fn(|a| lo[a].min(l[a])), std::array::from_fn(|a| hi[a].max(h[a]))),
+        );
+    if cloud.points.is_empty() {
+        return None;
+    }
+    known.lock().unwrap_or_else(|e| e.into_inner()).insert(identity, (lo, hi));
+    Some((lo, hi))
 }
 
 /// A map in another frame than the release (say, relative to the first camera) overlaps

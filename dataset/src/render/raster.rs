@@ -114,27 +114,50 @@ fn to_camera(m: &Matrix4<f64>, p: [f32; 3]) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
+/// Whether a camera-space triangle in front of the near plane lies wholly beyond one
+/// edge of the image, by more than a pixel: its projection could cover no pixel centre,
+/// so it is dropped before projecting (most of a room's triangles, for any one view).
+/// The margin keeps this single-precision test on the safe side of the exact one.
+fn outside_the_image(cam: &[[f32; 3]; 3], camera: &Camera) -> bool {
+    let (fx, fy, cx, cy) = (camera.fx as f32, camera.fy as f32, camera.cx as f32, camera.cy as f32);
+    let (w, h) = (camera.width as f32, camera.height as f32);
+    // Screen x = fx·x/z + cx with z > 0: x < -1 ⟺ fx·x + (cx + 1)·z < 0, and so on.
+    let left = cam.iter().all(|p| fx * p[0] + (cx + 1.0) * p[2] < 0.0);
+    let right = cam.iter().all(|p| fx * p[0] + (cx - w) * p[2] > 0.0);
+    let above = cam.iter().all(|p| fy * p[1] + (cy + 1.0) * p[2] < 0.0);
+    let below = cam.iter().all(|p| fy * p[1] + (cy - h) * p[2] > 0.0);
+    left || right || above || below
+}
+
 /// Clip a camera-space triangle against the near plane and project it.
 fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut Vec<ScreenTriangle>) {
     let inside = cam.map(|p| p[2] >= NEAR);
     if !inside.iter().any(|&i| i) {
         return;
     }
+    if inside.iter().all(|&i| i) && outside_the_image(cam, camera) {
+        return;
+    }
     let corners = [[1.0f32, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    // Sutherland–Hodgman against z = NEAR, carrying barycentric coordinates.
-    let mut poly: Vec<([f32; 3], [f32; 3])> = Vec::with_capacity(4);
+    // Sutherland–Hodgman against z = NEAR, carrying barycentric coordinates: at most four
+    // vertices, kept on the stack (this runs for every triangle of every frame).
+    let mut poly = [([0.0f32; 3], [0.0f32; 3]); 4];
+    let mut vertices = 0;
     for i in 0..3 {
         let (a, b) = ((cam[i], corners[i]), (cam[(i + 1) % 3], corners[(i + 1) % 3]));
         let (ia, ib) = (inside[i], inside[(i + 1) % 3]);
         if ia {
-            poly.push(a);
+            poly[vertices] = a;
+            vertices += 1;
         }
         if ia != ib {
             let t = (NEAR - a.0[2]) / (b.0[2] - a.0[2]);
             let lerp = |x: [f32; 3], y: [f32; 3]| [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1]), x[2] + t * (y[2] - x[2])];
-            poly.push((lerp(a.0, b.0), lerp(a.1, b.1)));
+            poly[vertices] = (lerp(a.0, b.0), lerp(a.1, b.1));
+            vertices += 1;
         }
     }
+    let poly = &poly[..vertices];
     let project = |p: [f32; 3]| [camera.fx * p[0] as f64 / p[2] as f64 + camera.cx, camera.fy * p[1] as f64 / p[2] as f64 + camera.cy];
     // The plane n·P = d of the source triangle: on the ray of pixel (x, y),
     // 1/z = n·((x − cx)/fx, (y − cy)/fy, 1) / d, affine in x and y.

@@ -249,3 +249,29 @@ fn obj_meshes_carry_their_materials_uvs_and_base_colour_textures() {
     let err = read_obj(&dir.path().join("bad.obj")).unwrap_err();
     assert!(err.to_string().contains("bad.obj") && err.to_string().contains("line 3"), "{err}");
 }
+
+#[test]
+fn triangles_at_the_image_edges_draw_their_pixels_and_those_beyond_draw_none() {
+    // Triangles wholly beyond an edge are dropped before projection; those reaching a
+    // pixel centre across the edge must still draw it. Camera 160×120, fx = fy = 80,
+    // at z = 1: pixel column u = 80·x + 79.5, row v = 80·y + 59.5.
+    let (x, y) = (|u: f32| (u - 79.5) / 80.0, |v: f32| (v - 59.5) / 80.0);
+    let cam = camera(Matrix4::identity());
+    let drawn = |triangles: Vec<Triangle>| {
+        let mut frame = Frame::default();
+        render(&world(triangles), &cam, &Shading::Flat, &mut frame);
+        frame.semantic.iter().filter(|&&s| s == 5).count()
+    };
+    // Reaching a fifth of a pixel into the image: one column or row of pixels.
+    assert_eq!(drawn(quad(x(-5.0), x(0.2), y(9.5), y(19.5), 1.0, 0, 5).to_vec()), 10, "left edge");
+    assert_eq!(drawn(quad(x(158.8), x(165.0), y(9.5), y(19.5), 1.0, 0, 5).to_vec()), 10, "right edge");
+    assert_eq!(drawn(quad(x(9.5), x(19.5), y(-5.0), y(0.2), 1.0, 0, 5).to_vec()), 10, "top edge");
+    assert_eq!(drawn(quad(x(9.5), x(19.5), y(118.8), y(125.0), 1.0, 0, 5).to_vec()), 10, "bottom edge");
+    // Stopping short of the first pixel centre, by less than a pixel and by far.
+    for (u0, u1) in [(-5.0, -0.4), (-500.0, -300.0), (159.4, 165.0), (300.0, 500.0)] {
+        assert_eq!(drawn(quad(x(u0), x(u1), y(9.5), y(19.5), 1.0, 0, 5).to_vec()), 0, "columns {u0}..{u1}");
+    }
+    for (v0, v1) in [(-5.0, -0.4), (-500.0, -300.0), (119.4, 125.0), (300.0, 500.0)] {
+        assert_eq!(drawn(quad(x(9.5), x(19.5), y(v0), y(v1), 1.0, 0, 5).to_vec()), 0, "rows {v0}..{v1}");
+    }
+}

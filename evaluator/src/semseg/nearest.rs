@@ -447,31 +447,39 @@ pub fn z_order(points: &[[f32; 3]]) -> Vec<u32> {
 }
 
 /// Sort `keys` — a Z-order key of `3 × KEY_BITS` bits in the high half, a query's index
-/// in the low half — by key, stably: least-significant-digit radix sort, two passes of
-/// 15 bits through `scratch`.
+/// in the low half, so no two are equal — through `scratch`: one counting pass on the
+/// key's high 15 bits scatters them into cells of a few hundred, then every cell is
+/// sorted on its own, in cache and in parallel.
 fn sort_by_key(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
-    let digit_bits = (3 * KEY_BITS).div_ceil(2);
+    const HIGH_BITS: u32 = 15;
+    let shift = 32 + 3 * KEY_BITS - HIGH_BITS;
+    let cell = |key: u64| ((key >> shift) & ((1 << HIGH_BITS) - 1)) as usize;
+    let mut sizes = vec![0usize; 1 << HIGH_BITS];
+    for &key in keys.iter() {
+        sizes[cell(key)] += 1;
+    }
+    let mut next = Vec::with_capacity(sizes.len());
+    let mut start = 0;
+    for &size in &sizes {
+        next.push(start);
+        start += size;
+    }
     scratch.clear();
     scratch.resize(keys.len(), 0);
-    let mut counts = vec![0usize; 1 << digit_bits];
-    for pass in 0..2 {
-        let shift = 32 + pass * digit_bits;
-        let digit = |key: u64| ((key >> shift) & ((1 << digit_bits) - 1)) as usize;
-        counts.fill(0);
-        for &key in keys.iter() {
-            counts[digit(key)] += 1;
-        }
-        let mut next = 0;
-        for count in counts.iter_mut() {
-            (*count, next) = (next, next + *count);
-        }
-        for &key in keys.iter() {
-            let slot = &mut counts[digit(key)];
-            scratch[*slot] = key;
-            *slot += 1;
-        }
-        std::mem::swap(keys, scratch);
+    for &key in keys.iter() {
+        let slot = &mut next[cell(key)];
+        scratch[*slot] = key;
+        *slot += 1;
     }
+    let mut cells = Vec::with_capacity(sizes.len());
+    let mut rest = &mut scratch[..];
+    for &size in &sizes {
+        let (cell, after) = std::mem::take(&mut rest).split_at_mut(size);
+        cells.push(cell);
+        rest = after;
+    }
+    cells.into_par_iter().for_each(|cell| cell.sort_unstable());
+    std::mem::swap(keys, scratch);
 }
 
 /// A point with its index in the map, as the build moves it.

@@ -67,8 +67,9 @@ pub fn quota_exceeded(quota: Quota) -> Problem {
     let view = quota.view();
     let hours = view.window_hours;
     let (when, seconds) = match quota.next_at() {
-        // Rounded up, and a second more: the window counts its first millisecond.
-        Some(at) => (format!("the next one is possible at {} (UTC)", rfc3339(at)), ((at - now_ms()).max(0) as u64).div_ceil(1000) + 1),
+        // Whole seconds, rounded up: waiting that long always suffices, and never more
+        // than the window (a submission is at least a millisecond old when counted).
+        Some(at) => (format!("the next one is possible at {} (UTC)", rfc3339(at)), ((at - now_ms()).max(1) as u64).div_ceil(1000)),
         None => ("the organisers allow none at the moment (UTC clock)".to_string(), (quota.window_secs.max(1)) as u64),
     };
     Problem::new(
@@ -144,6 +145,6 @@ mod tests {
         let limited = Problem::from(Error::QuotaExceeded(quota));
         assert!(limited.detail.contains("used 5 of its 5 submissions to the test split in the last 24 hours"), "{}", limited.detail);
         let retry: u64 = limited.retry_after.expect("Retry-After");
-        assert!((82_700..=82_802).contains(&retry), "23 hours until the oldest leaves the window (rounded up, a second more): {retry}");
+        assert!((82_700..=82_802).contains(&retry), "23 hours until the oldest leaves the window (rounded up): {retry}");
     }
 }

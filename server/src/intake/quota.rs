@@ -111,14 +111,15 @@ impl Quota {
         self.at - self.window_secs * 1000
     }
 
-    /// When the next submission is possible, while the quota is used up: when enough
-    /// counted submissions have left the window (`None` with a limit of 0: never).
+    /// When the next submission is possible, while the quota is used up: the first
+    /// millisecond at which enough counted submissions have left the window (which counts
+    /// its first millisecond; `None` with a limit of 0: never).
     pub fn next_at(&self) -> Option<i64> {
         if !self.exhausted() || self.limit <= 0 {
             return None;
         }
         let freeing = (self.used() - self.limit) as usize;
-        self.counted.get(freeing).map(|made| made + self.window_secs * 1000)
+        self.counted.get(freeing).map(|made| made + self.window_secs * 1000 + 1)
     }
 
     /// The same quota with one more submission used (now).
@@ -132,7 +133,7 @@ impl Quota {
             limit: self.limit,
             next_at: self.next_at().map(rfc3339),
             remaining: (self.limit - self.used()).max(0),
-            resets_at: self.counted.first().map(|made| rfc3339(made + self.window_secs * 1000)),
+            resets_at: self.counted.first().map(|made| rfc3339(made + self.window_secs * 1000 + 1)),
             split: self.split,
             used: self.used(),
             window_hours: self.window_secs as f64 / 3600.0,
@@ -155,10 +156,10 @@ mod tests {
         assert_eq!(open.view().remaining, 1);
         let full = open.clone().after_one();
         assert!(full.exhausted());
-        assert_eq!(full.next_at(), Some(9_000_000 + 3_600_000), "when the oldest leaves the window");
+        assert_eq!(full.next_at(), Some(9_000_000 + 3_600_000 + 1), "the millisecond after the oldest's last in the window");
         // A limit lowered below the count: the next one waits for two to leave.
         let lowered = quota(1, &[9_000_000, 9_500_000]);
-        assert_eq!(lowered.next_at(), Some(9_500_000 + 3_600_000));
+        assert_eq!(lowered.next_at(), Some(9_500_000 + 3_600_000 + 1));
         assert_eq!(quota(0, &[]).next_at(), None, "a limit of 0 never opens");
         let view = full.view();
         assert_eq!((view.used, view.remaining, view.window_hours, view.split), (3, 0, 1.0, Split::Test));

@@ -179,7 +179,7 @@ pub fn kept_pixels(sequence: &Sequence) -> Result<Vec<(usize, Vec<u32>)>> {
 }
 
 /// Every ground-truth label must be a class of the release.
-fn check_labels(labels: &[i64], classes: &ClassList, file: &Path) -> Result<()> {
+pub(crate) fn check_labels(labels: &[i64], classes: &ClassList, file: &Path) -> Result<()> {
     let unknown: Vec<i64> = unique_labels(labels).into_iter().filter(|&l| l != -1 && !classes.contains(l)).collect();
     if unknown.is_empty() {
         Ok(())

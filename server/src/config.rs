@@ -98,6 +98,9 @@ pub struct Settings {
     /// Seconds an unfinished resumable upload is kept after its last byte
     /// (`OSMAB_UPLOAD_EXPIRY_SECS`).
     pub upload_expiry_secs: u64,
+    /// Bytes of ground truth a node keeps prepared for scoring (in Z-order) under
+    /// `DATA_DIR/cache/prepared-ground-truth` (`OSMAB_GROUND_TRUTH_CACHE_BYTES`); 0 keeps none.
+    pub ground_truth_cache_bytes: u64,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -127,6 +130,7 @@ struct FileSettings {
     llm_model: Option<String>,
     storage_url: Option<String>,
     upload_expiry_secs: Option<u64>,
+    ground_truth_cache_bytes: Option<u64>,
 }
 
 impl Settings {
@@ -195,6 +199,7 @@ impl Settings {
             llm_model: env("OSMAB_LLM_MODEL").filter(|s| !s.trim().is_empty()).or(from_file.llm_model.clone()),
             storage,
             upload_expiry_secs: layer!("OSMAB_UPLOAD_EXPIRY_SECS", from_file.upload_expiry_secs, 24 * 3600),
+            ground_truth_cache_bytes: layer!("OSMAB_GROUND_TRUTH_CACHE_BYTES", from_file.ground_truth_cache_bytes, 8 << 30),
         };
         settings.check()?;
         Ok(settings)

@@ -6,10 +6,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use osmab_dataset::release::manifest::{FileEntry, hash_file};
-use osmab_dataset::release::verify_release;
+use osmab_dataset::release::manifest::FileEntry;
+use osmab_dataset::release::{packed_sequence_archive, verify_release};
 use osmab_evaluator::scores::Split;
-use osmab_evaluator::submission::pack_directory_as;
+use osmab_evaluator::submission::pack_directory_into;
 use osmab_evaluator::submission::release::GROUND_TRUTH_DIR;
 use serde_json::{Value, json};
 
@@ -49,25 +49,97 @@ pub struct PreparedRelease {
     pub files: Vec<ReleaseFile>,
 }
 
-fn copy_tree(source: &Path, target: &Path) -> std::io::Result<()> {
+fn copy_tree(source: &Path, target: &Path, provenance: Provenance) -> std::io::Result<()> {
     std::fs::create_dir_all(target)?;
     for entry in std::fs::read_dir(source)? {
         let entry = entry?;
         let kind = entry.file_type()?;
         let to = target.join(entry.file_name());
         if kind.is_dir() {
-            copy_tree(&entry.path(), &to)?;
+            copy_tree(&entry.path(), &to, provenance)?;
         } else if kind.is_file() {
-            std::fs::copy(entry.path(), &to)?;
+            provenance.take(&entry.path(), &to)?;
         }
     }
     Ok(())
 }
 
+/// Where a release to import comes from, which decides how it is checked and taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Provenance {
+    /// Assembled by this node's build job just before: the manifest's sizes and hashes were
+    /// computed from these very files, in a build folder the service never rewrites in
+    /// place, so every file is checked for its size (not hashed again) and hard-linked into
+    /// the staging copy where the filesystem allows it, and the sequence archives the render
+    /// jobs packed are taken with the hashes their stage markers recorded.
+    JustBuilt,
+    /// Anywhere else (`osmab import`, the admin import): every file is hashed against the
+    /// manifest and copied, so later edits of the source folder cannot reach the stored release.
+    External,
+}
+
+impl Provenance {
+    /// Put a copy of `from` at `to`: a hard link for a just-built release (when `to` is on
+    /// the same filesystem), else a copy.
+    fn take(self, from: &Path, to: &Path) -> std::io::Result<()> {
+        if self == Provenance::JustBuilt && std::fs::hard_link(from, to).is_ok() {
+            return Ok(());
+        }
+        std::fs::copy(from, to).map(|_| ())
+    }
+
+    /// Check the release in `dir` against its manifest as far as this provenance needs.
+    fn check(self, dir: &Path) -> anyhow::Result<()> {
+        match self {
+            Provenance::External => verify_release(dir).map(|_| ()).map_err(|e| anyhow::anyhow!("the release does not match its manifest: {e}")),
+            Provenance::JustBuilt => {
+                let manifest: Value = serde_json::from_slice(&std::fs::read(dir.join("manifest.json"))?)?;
+                let entries: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone())?;
+                for entry in &entries {
+                    anyhow::ensure!(!entry.path.contains("..") && !entry.path.starts_with('/'), "'{}' is not a path inside the release", entry.path);
+                    let path = dir.join(&entry.path);
+                    let size = std::fs::metadata(&path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?.len();
+                    anyhow::ensure!(size == entry.size, "{}: the manifest lists {} bytes, the build holds {size}", path.display(), entry.size);
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+/// A writer that hashes what passes through it.
+struct Hashing<W> {
+    inner: W,
+    sha256: sha2::Sha256,
+    size: u64,
+}
+
+impl<W: std::io::Write> std::io::Write for Hashing<W> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        let written = self.inner.write(bytes)?;
+        sha2::Digest::update(&mut self.sha256, &bytes[..written]);
+        self.size += written as u64;
+        Ok(written)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Pack the sequence folder `dir` into the archive `target` (names under `prefix`), its
+/// size and SHA-256 computed as it is written.
+fn pack_sequence(dir: &Path, prefix: &str, target: &Path) -> anyhow::Result<(u64, String)> {
+    let sink = Hashing { inner: std::io::BufWriter::new(std::fs::File::create(target)?), sha256: sha2::Digest::new(), size: 0 };
+    let (_, Hashing { inner, sha256, size }) = pack_directory_into(dir, prefix, sink, target)?;
+    inner.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+    Ok((size, osmab_dataset::release::manifest::hex(&sha2::Digest::finalize(sha256))))
+}
+
 /// Verify the release in `dir` and stage it into blob storage (blocking work). Fails
 /// with a message naming the file when the release is inconsistent.
-pub fn stage_release(blobs: &Blobs, dir: &Path) -> anyhow::Result<(PreparedRelease, std::path::PathBuf)> {
-    verify_release(dir).map_err(|e| anyhow::anyhow!("the release does not match its manifest: {e}"))?;
+pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyhow::Result<(PreparedRelease, std::path::PathBuf)> {
+    provenance.check(dir)?;
     let manifest_path = dir.join("manifest.json");
     let mut manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path)?)?;
     let version = manifest["version"].as_str().unwrap_or_default().to_string();
@@ -82,10 +154,10 @@ pub fn stage_release(blobs: &Blobs, dir: &Path) -> anyhow::Result<(PreparedRelea
         for entry in &entries {
             let target = staging.join(&entry.path);
             std::fs::create_dir_all(target.parent().expect("files sit in folders"))?;
-            std::fs::copy(dir.join(&entry.path), &target)?;
+            provenance.take(&dir.join(&entry.path), &target)?;
         }
         std::fs::copy(&manifest_path, staging.join("manifest.json.original"))?;
-        copy_tree(&dir.join(GROUND_TRUTH_DIR), &staging.join(GROUND_TRUTH_DIR))?;
+        copy_tree(&dir.join(GROUND_TRUTH_DIR), &staging.join(GROUND_TRUTH_DIR), provenance)?;
 
         let mut files: Vec<ReleaseFile> = entries
             .iter()
@@ -103,8 +175,15 @@ pub fn stage_release(blobs: &Blobs, dir: &Path) -> anyhow::Result<(PreparedRelea
             let path = format!("archives/sequences/{lighting}/{scene}.tar");
             let target = staging.join(&path);
             std::fs::create_dir_all(target.parent().expect("nested"))?;
-            pack_directory_as(&staging.join("sequences").join(lighting).join(scene), &format!("sequences/{lighting}/{scene}/"), &target)?;
-            let (size, sha256) = hash_file(&target)?;
+            // A just-built release brings the archives its render jobs packed; else pack them here.
+            let packed = (provenance == Provenance::JustBuilt).then(|| packed_sequence_archive(dir, lighting, scene)).flatten();
+            let (size, sha256) = match packed {
+                Some((archive, size, sha256)) => {
+                    provenance.take(&archive, &target)?;
+                    (size, sha256)
+                }
+                None => pack_sequence(&staging.join("sequences").join(lighting).join(scene), &format!("sequences/{lighting}/{scene}/"), &target)?,
+            };
             archives.push(json!({"path": path, "lighting": lighting, "scene": scene, "size": size, "sha256": sha256}));
             files.push(ReleaseFile { version: version.clone(), path, size: size as i64, sha256, kind: "archive".into() });
         }
@@ -141,14 +220,14 @@ pub enum Imported {
     Unchanged(String),
 }
 
-/// Import the built release in `dir`; `publish` also makes it the current release.
-pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: bool) -> anyhow::Result<Imported> {
+/// Import the built release in `dir` (from `provenance`); `publish` also makes it the current release.
+pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, provenance: Provenance, publish: bool) -> anyhow::Result<Imported> {
     // One import at a time in this process, so two imports of one version cannot
     // replace each other's blobs (builds of one version are one job, by the jobs' index).
     static IMPORTING: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
     let _one_at_a_time = IMPORTING.lock().await;
     let (blobs_for_stage, dir_owned) = (blobs.clone(), dir.to_path_buf());
-    let (prepared, staging) = tokio::task::spawn_blocking(move || stage_release(&blobs_for_stage, &dir_owned)).await??;
+    let (prepared, staging) = tokio::task::spawn_blocking(move || stage_release(&blobs_for_stage, &dir_owned, provenance)).await??;
     // Whatever happens below, the staged copy goes (after a local store's rename there is nothing left).
     let _staged = crate::blobs::Scratch(staging.clone());
     let version = prepared.record.version.clone();
@@ -177,4 +256,75 @@ pub async fn import_release(store: &Store, blobs: &Blobs, dir: &Path, publish: b
         store.publish_release(&version, now_ms()).await?;
     }
     Ok(outcome)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::os::unix::fs::MetadataExt;
+
+    use osmab_dataset::release::manifest::hash_file;
+    use serde_json::json;
+
+    use super::*;
+
+    fn release_with(files: &[(&str, &[u8])]) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        let mut entries = Vec::new();
+        for (path, bytes) in files {
+            let target = dir.path().join(path);
+            std::fs::create_dir_all(target.parent().unwrap()).unwrap();
+            std::fs::write(&target, bytes).unwrap();
+            let (size, sha256) = hash_file(&target).unwrap();
+            entries.push(json!({"path": path, "size": size, "sha256": sha256}));
+        }
+        std::fs::write(dir.path().join("manifest.json"), json!({"files": entries}).to_string()).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_just_built_release_is_linked_and_an_external_one_copied() {
+        let release = release_with(&[("classes.json", b"{}")]);
+        let source = release.path().join("classes.json");
+        for (provenance, shares_the_file) in [(Provenance::JustBuilt, true), (Provenance::External, false)] {
+            let target = release.path().join(format!("{provenance:?}.json"));
+            provenance.take(&source, &target).unwrap();
+            assert_eq!(std::fs::read(&target).unwrap(), b"{}");
+            let same = std::fs::metadata(&source).unwrap().ino() == std::fs::metadata(&target).unwrap().ino();
+            assert_eq!(same, shares_the_file, "{provenance:?}");
+        }
+    }
+
+    #[test]
+    fn a_just_built_release_is_checked_by_size_and_an_external_one_by_hash() {
+        let release = release_with(&[("questions/scene_000.json", b"[1, 2, 3]")]);
+        assert!(Provenance::JustBuilt.check(release.path()).is_ok());
+        // Same size, other bytes: only hashing sees it.
+        std::fs::write(release.path().join("questions/scene_000.json"), b"[1, 2, 4]").unwrap();
+        assert!(Provenance::JustBuilt.check(release.path()).is_ok());
+        let err = Provenance::External.check(release.path()).unwrap_err().to_string();
+        assert!(err.contains("questions/scene_000.json") && err.contains("SHA-256"), "{err}");
+        // Another size: both see it, naming the file.
+        std::fs::write(release.path().join("questions/scene_000.json"), b"[1]").unwrap();
+        let err = Provenance::JustBuilt.check(release.path()).unwrap_err().to_string();
+        assert!(err.contains("questions/scene_000.json") && err.contains("lists 9 bytes, the build holds 3"), "{err}");
+    }
+
+    #[test]
+    fn a_just_built_manifest_may_not_point_outside_the_release() {
+        let release = release_with(&[]);
+        std::fs::write(release.path().join("manifest.json"), json!({"files": [{"path": "../etc/passwd", "size": 1, "sha256": "00"}]}).to_string()).unwrap();
+        let err = Provenance::JustBuilt.check(release.path()).unwrap_err().to_string();
+        assert!(err.contains("'../etc/passwd' is not a path inside the release"), "{err}");
+    }
+
+    #[test]
+    fn a_sequence_archive_is_hashed_as_it_is_written() {
+        let release = release_with(&[("sequences/baseline/scene_000/results/frame000000.jpg", b"jpeg"), ("sequences/baseline/scene_000/traj.txt", b"1 0 0")]);
+        let sequence = release.path().join("sequences/baseline/scene_000");
+        let (hashed, packed) = (release.path().join("hashed.tar"), release.path().join("packed.tar"));
+        let (size, sha256) = pack_sequence(&sequence, "sequences/baseline/scene_000/", &hashed).unwrap();
+        assert_eq!((size, sha256), hash_file(&hashed).unwrap());
+        osmab_evaluator::submission::pack_directory_as(&sequence, "sequences/baseline/scene_000/", &packed).unwrap();
+        assert_eq!(std::fs::read(&hashed).unwrap(), std::fs::read(&packed).unwrap(), "the same archive as pack_directory_as");
+    }
 }

@@ -34,7 +34,7 @@ use osmab_evaluator::vqa::is_prompt_grounded;
 use quality::{Rendered, SceneQuality, oracle_ceiling};
 use split::SplitSecret;
 use stages::{Build, INSTANCES_JSON, read_json, scene_name, write_json};
-pub use stages::{SequenceUnit, WORK};
+pub use stages::{SequenceUnit, WORK, packed_sequence_archive};
 
 /// Ground truth: the val scenes' is public (listed in the manifest, so teams score val
 /// offline); the test scenes' stays with the server, with the full quality report.
@@ -64,13 +64,22 @@ pub fn prepare_release(config_path: &Path, out: &Path, secret: Option<&SplitSecr
     Ok(units)
 }
 
-/// Stage 5 for one sequence of a prepared build (see [`prepare_release`]).
+/// Stage 5 for one sequence of a prepared build (see [`prepare_release`]), with what
+/// depends on that sequence alone: its contact sheet, its download archive and, from the sequence the ground
+/// truth comes from, the scene's ground truth (stage 6), so that the work left to the
+/// build's assembly does not grow with the frames.
 pub fn render_release_sequence(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
     let build = Build::open(config_path, out, secret)?;
     if !build.config.render.lightings.contains(&unit.lighting) {
         return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
     }
-    build.render_sequence(unit, progress).map(|_| ())
+    let summary = build.render_sequence(unit, progress)?;
+    build.contact_sheet(unit, &summary)?;
+    build.sequence_archive(unit)?;
+    if unit.lighting == build.ground_truth_lighting() {
+        build.ground_truth(unit.scene_index, progress)?;
+    }
+    Ok(())
 }
 
 /// Build the release of `config_path` into `out` (a config with a test split needs the
@@ -97,9 +106,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
         for lighting in &lightings {
             let unit = SequenceUnit { scene_index: i, scene: scene.clone(), lighting: lighting.to_string() };
             let summary = build.render_sequence(&unit, progress)?;
-            let sequence_dir = out.join("sequences").join(lighting).join(&scene);
-            let sheet = out.join("quality/contact_sheets").join(lighting).join(format!("{scene}.png"));
-            contact::write_contact_sheet(&sequence_dir, &summary, &sheet)?;
+            build.contact_sheet(&unit, &summary)?;
             summaries.insert(lighting.to_string(), summary);
         }
         let gt_dir = build.ground_truth(i, progress)?;

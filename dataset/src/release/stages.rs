@@ -59,6 +59,31 @@ fn fingerprint(output: &Path) -> Result<String> {
     }
 }
 
+/// Where the build in `work` keeps the archive of a sequence, and its stage marker.
+fn archive_paths(work: &Path, lighting: &str, scene: &str) -> (PathBuf, PathBuf) {
+    let dir = work.join("archives").join(lighting);
+    (dir.join(format!("{scene}.tar")), dir.join(format!("{scene}.done")))
+}
+
+/// What a sequence's archive is made from: the sequence as its marker records it.
+fn archive_inputs(sequence_marker: &str) -> String {
+    format!("sequence {}", sequence_marker.replace('\n', " "))
+}
+
+/// The archive of sequence `lighting`/`scene` that the build of the release in `out`
+/// packed when it rendered it, with its size and SHA-256 as its stage marker recorded
+/// them, if there is one made from the sequence as its marker says it is now (a release
+/// built without the service's render jobs has none: its import packs the archives).
+pub fn packed_sequence_archive(out: &Path, lighting: &str, scene: &str) -> Option<(PathBuf, u64, String)> {
+    let work = out.join(WORK);
+    let rendered = std::fs::read_to_string(work.join("rendered").join(lighting).join(format!("{scene}.done"))).ok()?;
+    let (archive, marker) = archive_paths(&work, lighting, scene);
+    let recorded = std::fs::read_to_string(&marker).ok()?;
+    let sha256 = recorded.strip_prefix(&format!("inputs {}\noutput ", archive_inputs(&rendered)))?.strip_suffix('\n')?;
+    let size = std::fs::metadata(&archive).ok()?.len();
+    (sha256.len() == 64 && sha256.bytes().all(|b| b.is_ascii_hexdigit())).then(|| (archive, size, sha256.to_string()))
+}
+
 /// A stage marker: what the stage was built from and the fingerprint of what it wrote.
 fn marker_text(inputs: &str, output: &Path) -> Result<String> {
     Ok(format!("inputs {inputs}\noutput {}\n", fingerprint(output)?))
@@ -435,15 +460,47 @@ impl Build {
         read_json(&summary_path)
     }
 
+    /// The contact sheet of a rendered sequence (a grid of its telling frames), made again
+    /// whenever the sequence is.
+    pub fn contact_sheet(&self, unit: &SequenceUnit, summary: &SequenceSummary) -> Result<PathBuf> {
+        let (sequence_dir, _, sequence_marker) = self.sequence_paths(unit);
+        let sheet = self.out.join("quality/contact_sheets").join(&unit.lighting).join(format!("{}.png", unit.scene));
+        let marker = self.work.join("contact_sheets").join(&unit.lighting).join(format!("{}.done", unit.scene));
+        let rendered = std::fs::read_to_string(&sequence_marker).map_err(|e| InputError::io(&sequence_marker, &e))?;
+        staged(&marker, &format!("sequence {}", rendered.replace('\n', " ")), &sheet, || super::contact::write_contact_sheet(&sequence_dir, summary, &sheet))?;
+        Ok(sheet)
+    }
+
+    /// The sequence's download archive (`.work/archives/LIGHTING/SCENE.tar`, names under
+    /// `sequences/LIGHTING/SCENE/`), packed by the job that rendered it so the import of
+    /// the release need not (see [`packed_sequence_archive`]); made again whenever the
+    /// sequence is.
+    pub fn sequence_archive(&self, unit: &SequenceUnit) -> Result<PathBuf> {
+        let (sequence_dir, _, sequence_marker) = self.sequence_paths(unit);
+        let (archive, marker) = archive_paths(&self.work, &unit.lighting, &unit.scene);
+        let rendered = std::fs::read_to_string(&sequence_marker).map_err(|e| InputError::io(&sequence_marker, &e))?;
+        staged(&marker, &archive_inputs(&rendered), &archive, || {
+            std::fs::create_dir_all(archive.parent().expect("in the archives folder")).map_err(|e| InputError::io(&archive, &e))?;
+            let prefix = format!("sequences/{}/{}/", unit.lighting, unit.scene);
+            osmab_evaluator::submission::pack_directory_as(&sequence_dir, &prefix, &archive).map(|_| ())
+        })?;
+        Ok(archive)
+    }
+
+    /// The lighting whose sequence the ground truth is built from: baseline when the
+    /// release has it.
+    pub fn ground_truth_lighting(&self) -> &str {
+        let lightings = &self.config.render.lightings;
+        if lightings.iter().any(|l| l == "baseline") { "baseline" } else { lightings[0].as_str() }
+    }
+
     /// Stage 6 for scene `index`: the ground truth from the baseline sequence, with the
     /// object instance of every point.
     pub fn ground_truth(&self, index: usize, progress: &dyn Fn(&str)) -> Result<PathBuf> {
         let scene = scene_name(index);
         let prompt = self.settled(index)?.prompt;
-        let lightings = &self.config.render.lightings;
         let gt_dir = self.out.join(super::GROUND_TRUTH).join(&scene);
-        let source = if lightings.iter().any(|l| l == "baseline") { "baseline" } else { lightings[0].as_str() };
-        let gt_source = self.out.join("sequences").join(source).join(&scene);
+        let gt_source = self.out.join("sequences").join(self.ground_truth_lighting()).join(&scene);
         let habitat = self.habitat_dir(index);
         staged(&self.work.join("gt").join(format!("{scene}.done")), &self.scene_inputs(index, &prompt), &gt_dir, || {
             progress(&format!("{scene}: ground truth"));

@@ -11,6 +11,7 @@ pub mod confusion;
 pub mod labels;
 pub mod metrics;
 pub mod nearest;
+pub mod prepared_cache;
 pub mod report;
 
 use std::time::{Duration, Instant};
@@ -126,6 +127,26 @@ impl PreparedGroundTruth {
         let points = order.par_iter().map(|&i| ground_truth.points[i as usize]).collect();
         let labels = order.par_iter().map(|&i| ground_truth.labels[i as usize]).collect();
         Ok(Self { points, labels, vocabulary })
+    }
+
+    /// Points already in Z-order (an entry of a [`prepared_cache::PreparedCache`]) from
+    /// `source`, checked as [`GroundTruth::read`] and [`PreparedGroundTruth::new`] check them.
+    pub(crate) fn from_z_ordered(source: &std::path::Path, points: Vec<[f32; 3]>, labels: Vec<i64>, classes: &ClassList) -> Result<Self> {
+        let ground_truth = GroundTruth { source: source.to_path_buf(), points, colors: None, labels };
+        crate::ground_truth::check_labels(&ground_truth.labels, classes, &source.join("semantic.npy"))?;
+        check_finite(&ground_truth)?;
+        let vocabulary = scored_vocabulary(&ground_truth, classes)?;
+        Ok(Self { points: ground_truth.points, labels: ground_truth.labels, vocabulary })
+    }
+
+    /// The points, in Z-order.
+    pub fn points(&self) -> &[[f32; 3]] {
+        &self.points
+    }
+
+    /// Each point's class id.
+    pub fn labels(&self) -> &[i64] {
+        &self.labels
     }
 
     /// Number of ground-truth points.

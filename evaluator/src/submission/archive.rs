@@ -296,9 +296,17 @@ pub fn pack_directory(dir: &Path, out: &Path) -> Result<usize> {
 /// As [`pack_directory`], with every name inside the archive starting with `prefix`
 /// (`sequences/baseline/scene_000/`).
 pub fn pack_directory_as(dir: &Path, prefix: &str, out: &Path) -> Result<usize> {
-    let files = list_tree(dir)?;
     let sink = File::create(out).map_err(|e| InputError::io(out, &e))?;
-    let mut builder = tar::Builder::new(std::io::BufWriter::new(sink));
+    let (files, writer) = pack_directory_into(dir, prefix, std::io::BufWriter::new(sink), out)?;
+    writer.into_inner().map_err(|e| InputError::io(out, &e.into_error()))?.sync_all().map_err(|e| InputError::io(out, &e))?;
+    Ok(files)
+}
+
+/// As [`pack_directory_as`], writing the archive to `sink` (named `out` in errors) and
+/// giving it back, with the number of files, once the archive is complete.
+pub fn pack_directory_into<W: std::io::Write>(dir: &Path, prefix: &str, sink: W, out: &Path) -> Result<(usize, W)> {
+    let files = list_tree(dir)?;
+    let mut builder = tar::Builder::new(sink);
     builder.mode(tar::HeaderMode::Deterministic);
     for name in &files {
         let path = dir.join(name);
@@ -315,6 +323,5 @@ pub fn pack_directory_as(dir: &Path, prefix: &str, out: &Path) -> Result<usize> 
         builder.append_data(&mut header, format!("{prefix}{name}"), &mut file).map_err(|e| InputError::io(out, &e))?;
     }
     let writer = builder.into_inner().map_err(|e| InputError::io(out, &e))?;
-    writer.into_inner().map_err(|e| InputError::io(out, &e.into_error()))?.sync_all().map_err(|e| InputError::io(out, &e))?;
-    Ok(files.len())
+    Ok((files.len(), writer))
 }

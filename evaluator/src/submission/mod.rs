@@ -11,7 +11,7 @@ pub mod release;
 pub mod score;
 pub mod validate;
 
-pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, unpack};
+pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, pack_directory_into, unpack};
 pub use release::ReleaseIndex;
 pub use score::{ScoringTimings, score_submission, score_submission_timed};
 pub use validate::{MethodCard, SubmissionLimits, ValidSubmission, validate};

@@ -4,30 +4,39 @@
 //! pooled aggregates carry bootstrap intervals over the release's scenes.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use super::release::ReleaseIndex;
 use super::validate::{SubmissionLimits, ValidSubmission};
 use crate::EVALUATOR_VERSION;
 use crate::error::{InputError, Result};
+use crate::formats::classes::ClassList;
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
 use crate::scores::{Lighting, LightingScores, Regime, RelativeChange, Scores, SubsetScores};
 use crate::semseg::bootstrap::Replicates;
 use crate::semseg::confusion::ConfusionMatrix;
 use crate::semseg::metrics::ClassCount;
+use crate::semseg::prepared_cache::{CacheKey, CacheMiss, PreparedCache};
 use crate::semseg::report::{MetricTriple, MetricsTable};
 use crate::semseg::{PreparedGroundTruth, StageTimings, score_prepared};
 
 /// Where the time of scoring a submission went, summed over its maps.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct ScoringTimings {
     /// Maps scored.
     pub maps: usize,
     /// Ground-truth points associated, over all maps.
     pub ground_truth_points: u64,
-    /// Reading the ground truth of each scene (once a scene).
+    /// Reading the ground truth of each scene (once a scene), from the release or
+    /// already prepared from the cache.
     pub read_ground_truth: Duration,
+    /// Scenes whose prepared ground truth came from the cache.
+    pub ground_truth_cached: usize,
+    /// Why a scene's ground truth was not taken from, or not kept in, the cache (at most
+    /// one line a scene).
+    pub cache_misses: Vec<String>,
     /// Checking each scene's ground truth and putting it in Z-order (once a scene).
     pub prepare_ground_truth: Duration,
     /// Reading the maps.
@@ -51,17 +60,48 @@ pub fn score_submission(
     open: crate::vqa::score::OpenBackends,
     progress: &dyn Fn(usize, usize),
 ) -> Result<Scores> {
-    score_submission_timed(submission, release, limits, open, progress).map(|(scores, _)| scores)
+    score_submission_timed(submission, release, limits, open, None, progress).map(|(scores, _)| scores)
 }
 
-/// [`score_submission`], also telling where the time went. Maps are scored scene by
-/// scene, so one scene's ground truth is read once and held only while its maps are
-/// scored.
+/// The ground truth in `dir` prepared for scoring: from `cache` when it holds it, else read
+/// and put in Z-order (and then kept in `cache`).
+fn prepared_ground_truth(dir: &Path, classes: &ClassList, cache: Option<&PreparedCache>, timings: &mut ScoringTimings) -> Result<PreparedGroundTruth> {
+    let clock = Instant::now();
+    let cached = cache.and_then(|cache| CacheKey::of(dir).map(|key| (cache, key)));
+    if let Some((cache, key)) = &cached {
+        match cache.load(key, dir, classes) {
+            Ok(gt) => {
+                timings.read_ground_truth += clock.elapsed();
+                timings.ground_truth_cached += 1;
+                return Ok(gt);
+            }
+            Err(CacheMiss(why)) => timings.cache_misses.push(format!("{}: {why}", dir.display())),
+        }
+    }
+    let clock = Instant::now();
+    let gt = GroundTruth::read(dir, classes)?;
+    timings.read_ground_truth += clock.elapsed();
+    let clock = Instant::now();
+    let gt = PreparedGroundTruth::new(gt, classes)?;
+    timings.prepare_ground_truth += clock.elapsed();
+    if let Some((cache, key)) = &cached
+        && let Err(CacheMiss(why)) = cache.store(key, &gt)
+    {
+        timings.cache_misses.push(format!("{}: not kept: {why}", dir.display()));
+    }
+    Ok(gt)
+}
+
+/// [`score_submission`], also telling where the time went, with each scene's ground truth
+/// taken from `cache` when it holds it (and kept there when it does not). Maps are scored
+/// scene by scene, so one scene's ground truth is read once and held only while its maps
+/// are scored.
 pub fn score_submission_timed(
     submission: &ValidSubmission,
     release: &ReleaseIndex,
     limits: SubmissionLimits,
     open: crate::vqa::score::OpenBackends,
+    cache: Option<&PreparedCache>,
     progress: &dyn Fn(usize, usize),
 ) -> Result<(Scores, ScoringTimings)> {
     if !release.has_ground_truth() {
@@ -71,19 +111,14 @@ pub fn score_submission_timed(
     let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
     let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
-    let mut ground_truth: Option<(&str, PreparedGroundTruth, crate::formats::classes::ClassList)> = None;
+    let mut ground_truth: Option<(&str, PreparedGroundTruth, ClassList)> = None;
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
         if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
             // The previous scene's cloud goes before the next one is read.
             drop(ground_truth.take());
-            let clock = Instant::now();
             let classes = release.scene_classes(&entry.scene)?;
-            let gt = GroundTruth::read(&release.ground_truth_dir(&entry.scene), &classes)?;
-            timings.read_ground_truth += clock.elapsed();
-            let clock = Instant::now();
-            let gt = PreparedGroundTruth::new(gt, &classes)?;
-            timings.prepare_ground_truth += clock.elapsed();
+            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, cache, &mut timings)?;
             ground_truth = Some((entry.scene.as_str(), gt, classes));
         }
         let (_, gt, classes) = ground_truth.as_ref().expect("read above");

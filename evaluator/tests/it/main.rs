@@ -6,4 +6,5 @@ mod formats;
 mod golden;
 mod ground_truth;
 mod nearest;
+mod prepared_cache;
 mod semseg;

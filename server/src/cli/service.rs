@@ -72,7 +72,7 @@ pub fn import(dir: &std::path::Path, publish: bool, args: ServiceArgs) -> anyhow
     let settings = settings(&args)?;
     runtime()?.block_on(async {
         let state = crate::serve::open(settings).await?;
-        let outcome = crate::releases::import_release(&state.store, &state.blobs, dir, publish).await;
+        let outcome = crate::releases::import_release(&state.store, &state.blobs, dir, crate::releases::Provenance::External, publish).await;
         state.store.close().await;
         match outcome? {
             crate::releases::Imported::New(version) => println!("release {version} imported{}", if publish { " and published" } else { " as a draft" }),

@@ -23,7 +23,7 @@ use super::{Job, JobContext, JobError};
 use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms};
 use crate::intake::Upload;
-use crate::releases::{Imported, import_release};
+use crate::releases::{Imported, Provenance, import_release};
 use crate::state::AppState;
 use crate::store::{JobRecord, JobState, StoreError, SubmissionState, Team};
 
@@ -244,7 +244,10 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
         if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
             return Err(JobError::Retryable("the lease was lost during the build; another worker took the job over".into()));
         }
-        match import_release(&state.store, &state.blobs, &out, request.publish).await.map_err(|e| JobError::Retryable(format!("import: {e:#}")))? {
+        match import_release(&state.store, &state.blobs, &out, Provenance::JustBuilt, request.publish)
+            .await
+            .map_err(|e| JobError::Retryable(format!("import: {e:#}")))?
+        {
             Imported::New(v) | Imported::Unchanged(v) => tracing::info!(release = %v, publish = request.publish, "release imported"),
         }
     } else if request.publish {

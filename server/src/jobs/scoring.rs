@@ -6,7 +6,8 @@ use std::path::Path;
 
 use osmab_evaluator::InputError;
 use osmab_evaluator::scores::Scores;
-use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission, unpack, validate};
+use osmab_evaluator::semseg::prepared_cache::PreparedCache;
+use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission_timed, unpack, validate};
 use osmab_evaluator::vqa::score::OpenBackends;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -79,6 +80,7 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let max_unpacked = state.settings.max_unpacked_bytes;
     let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
     let (blocking_ctx, split) = (ctx.clone(), submission.split);
+    let cache = ground_truth_cache(&state.settings);
     let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
         let root = unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
@@ -94,9 +96,21 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
             Some((answerer, judge)) => OpenBackends { answerer: Some(answerer), judge: Some(judge) },
             None => OpenBackends::default(),
         };
-        let scored = score_submission(&valid, &index, limits, open, &progress).map_err(|e| classify(e, &valid.root));
+        let scored = score_submission_timed(&valid, &index, limits, open, cache.as_ref(), &progress).map_err(|e| classify(e, &valid.root));
         drop(unpack_to);
-        scored
+        let (scores, timings) = scored?;
+        for why in &timings.cache_misses {
+            tracing::info!(%why, "ground truth prepared again");
+        }
+        tracing::info!(
+            maps = timings.maps,
+            ground_truth_cached = timings.ground_truth_cached,
+            read_ground_truth_s = timings.read_ground_truth.as_secs_f64(),
+            prepare_ground_truth_s = timings.prepare_ground_truth.as_secs_f64(),
+            associate_s = timings.scenes.query.as_secs_f64(),
+            "scored"
+        );
+        Ok(scores)
     })
     .await
     .map_err(|e| JobError::Retryable(format!("the scoring thread ended: {e}")))??;
@@ -107,4 +121,10 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
         tracing::warn!("the score was not recorded: the lease was lost or the submission was cancelled meanwhile");
     }
     Ok(())
+}
+
+/// This node's cache of ground truth prepared for scoring, unless it is turned off.
+fn ground_truth_cache(settings: &crate::config::Settings) -> Option<PreparedCache> {
+    (settings.ground_truth_cache_bytes > 0)
+        .then(|| PreparedCache::new(settings.data_dir.join("cache").join("prepared-ground-truth"), settings.ground_truth_cache_bytes))
 }

@@ -253,7 +253,9 @@ pub async fn import_release(State(state): State<AppState>, _: AdminCaller, ApiJs
     if !dir.join("manifest.json").is_file() {
         return Err(unprocessable(format!("path: '{}' holds no manifest.json", body.path)));
     }
-    let outcome = crate::releases::import_release(&state.store, &state.blobs, &dir, body.publish).await.map_err(|e| unprocessable(format!("{e:#}")))?;
+    let outcome = crate::releases::import_release(&state.store, &state.blobs, &dir, crate::releases::Provenance::External, body.publish)
+        .await
+        .map_err(|e| unprocessable(format!("{e:#}")))?;
     state.leaderboard.invalidate();
     let (status, version) = match outcome {
         crate::releases::Imported::New(v) => (StatusCode::CREATED, v),

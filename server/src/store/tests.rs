@@ -479,3 +479,30 @@ async fn a_resumable_upload_moves_once_per_offset_and_keeps_its_parts_in_order()
         assert!(matches!(store.upload("upl_1").await, Err(StoreError::NotFound)));
     }
 }
+
+#[tokio::test]
+async fn a_release_records_every_file_or_none() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        // More files than one statement writes, so the rows go in several statements.
+        let file = |i: usize| ReleaseFile {
+            version: "big".into(),
+            path: format!("sequences/s/{i:05}.jpg"),
+            size: i as i64,
+            sha256: format!("{i:064x}"),
+            kind: "file".into(),
+        };
+        let files: Vec<ReleaseFile> = (0..2_345).map(file).collect();
+        store.insert_release(&release("big"), &files).await.unwrap();
+        for i in [0, 999, 1_000, 2_344] {
+            assert_eq!(store.release_file("big", &file(i).path).await.unwrap(), file(i), "{}", store.backend());
+        }
+        // A path listed twice, in the last statement: nothing of the release is recorded.
+        let mut twice: Vec<ReleaseFile> = (0..2_345).map(|i| ReleaseFile { version: "twice".into(), ..file(i) }).collect();
+        twice.push(twice[2_000].clone());
+        assert!(store.insert_release(&release("twice"), &twice).await.is_err(), "{}", store.backend());
+        assert!(matches!(store.release("twice").await, Err(StoreError::NotFound)), "{}", store.backend());
+        assert!(matches!(store.release_file("twice", &file(3).path).await, Err(StoreError::NotFound)), "{}", store.backend());
+    }
+    stores.drop_all().await;
+}

@@ -2,13 +2,8 @@
 //! degraded baseline, watch them reach `scored`, read the leaderboard and the pages.
 
 use serde_json::Value;
-use sha2::Digest;
 
-use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of, test_release};
-
-fn sha256_hex(bytes: &[u8]) -> String {
-    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
-}
+use super::{Backend, Deployment, baseline_dir, on_both_backends, sha256_hex, tar_of, test_release};
 
 fn journey(backend: Backend) {
     let deployment = Deployment::new(backend, &[]);
@@ -95,7 +90,14 @@ fn journey(backend: Backend) {
     let twin = server.upload(&token, &tar_of(merged.path()), "");
     assert_eq!(twin.status(), 202);
     let twin_id = twin.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
-    assert_eq!(server.wait_done(&twin_id, &token)["state"], "scored");
+    let twin_view = server.wait_done(&twin_id, &token);
+    assert_eq!(twin_view["state"], "scored");
+    // The twin was scored from the ground truth the first scorings left prepared (in
+    // Z-order) in this node's cache, one entry a scene, and scores as the merge did.
+    let cache = deployment.data.path().join("cache/prepared-ground-truth");
+    let entries = std::fs::read_dir(&cache).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "zgt")).count();
+    assert_eq!(entries, 2, "one prepared ground truth a scene");
+    assert_eq!(twin_view["scores"]["semseg"], merge_view["scores"]["semseg"]);
 
     // Pooled values carry 95 % bootstrap intervals over scenes; the full document keeps
     // the replicates of pooled mIoU that rank comparisons pair up.

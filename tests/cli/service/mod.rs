@@ -349,3 +349,9 @@ pub fn problem(response: Response, status: u16, code: &str) -> Value {
     assert!(body["detail"].as_str().is_some_and(|d| !d.is_empty()) && body["title"].is_string() && body["type"].is_string(), "{body}");
     body
 }
+
+/// The SHA-256 of `bytes`, in lowercase hex (as manifests list it).
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}

@@ -58,6 +58,28 @@ fn a_release_built_through_the_api_fans_out_its_rendering(backend: Backend) {
     assert_eq!(release["state"], "published", "{release}");
     assert_eq!(release["current"], true, "{release}");
 
+    // Its sequence archives, packed by the render jobs, are the ones packing the release's
+    // sequences at import makes, byte for byte, and match the manifest.
+    let manifest: Value = server.get("/api/v1/releases/regen-1/manifest.json").send().unwrap().json().unwrap();
+    let archives = manifest["archives"].as_array().unwrap();
+    assert_eq!(archives.len(), 8, "{manifest}");
+    let packed = tempfile::tempdir().unwrap();
+    for archive in archives {
+        let (lighting, scene) = (archive["lighting"].as_str().unwrap(), archive["scene"].as_str().unwrap());
+        let served = server.get(&format!("/api/v1/releases/regen-1/files/{}", archive["path"].as_str().unwrap())).send().unwrap().bytes().unwrap();
+        let expected = packed.path().join(format!("{lighting}-{scene}.tar"));
+        let sequence = test_release().join("sequences").join(lighting).join(scene);
+        osmab_evaluator::submission::pack_directory_as(&sequence, &format!("sequences/{lighting}/{scene}/"), &expected).unwrap();
+        assert!(served[..] == std::fs::read(&expected).unwrap()[..], "{lighting}/{scene}: the served archive differs from packing the sequence");
+        assert_eq!((served.len() as u64, super::sha256_hex(&served)), (archive["size"].as_u64().unwrap(), archive["sha256"].as_str().unwrap().to_string()));
+        // The stored archive is the very file the render job packed (linked, not packed again).
+        use std::os::unix::fs::MetadataExt;
+        let data = deployment.data.path();
+        let by_render_job = data.join(format!("builds/regen-1/release/.work/archives/{lighting}/{scene}.tar"));
+        let stored = data.join("blobs/releases/regen-1").join(archive["path"].as_str().unwrap());
+        assert_eq!(std::fs::metadata(&stored).unwrap().ino(), std::fs::metadata(&by_render_job).unwrap().ino(), "{}", stored.display());
+    }
+
     for worker in &mut workers {
         let _ = worker.kill();
         let _ = worker.wait();

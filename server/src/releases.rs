@@ -80,8 +80,16 @@ pub enum Provenance {
 
 impl Provenance {
     /// Put a copy of `from` at `to`: a hard link for a just-built release (when `to` is on
-    /// the same filesystem), else a copy.
+    /// the same filesystem), else a copy. A file already at `to` is replaced, never written
+    /// through: it may be a link to `from` itself (a ground-truth file the manifest lists
+    /// is taken with the files and again with the ground-truth folder), and copying onto it
+    /// would truncate the source.
     fn take(self, from: &Path, to: &Path) -> std::io::Result<()> {
+        match std::fs::remove_file(to) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e),
+        }
         if self == Provenance::JustBuilt && std::fs::hard_link(from, to).is_ok() {
             return Ok(());
         }
@@ -158,6 +166,12 @@ pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyho
         }
         std::fs::copy(&manifest_path, staging.join("manifest.json.original"))?;
         copy_tree(&dir.join(GROUND_TRUTH_DIR), &staging.join(GROUND_TRUTH_DIR), provenance)?;
+        // What was staged is what the manifest lists, by size (a cheap guard against a
+        // copy gone wrong; the content was checked before, as the provenance asks).
+        for entry in &entries {
+            let staged = std::fs::metadata(staging.join(&entry.path))?.len();
+            anyhow::ensure!(staged == entry.size, "{}: staged with {staged} bytes, the manifest lists {}", entry.path, entry.size);
+        }
 
         let mut files: Vec<ReleaseFile> = entries
             .iter()
@@ -291,6 +305,21 @@ mod tests {
             assert_eq!(std::fs::read(&target).unwrap(), b"{}");
             let same = std::fs::metadata(&source).unwrap().ino() == std::fs::metadata(&target).unwrap().ino();
             assert_eq!(same, shares_the_file, "{provenance:?}");
+        }
+    }
+
+    #[test]
+    fn taking_a_file_twice_leaves_it_and_its_source_whole() {
+        let release = release_with(&[("ground_truth/scene_000/embed_semseg_classes.json", b"{\"classes\": []}")]);
+        let source = release.path().join("ground_truth/scene_000/embed_semseg_classes.json");
+        for provenance in [Provenance::JustBuilt, Provenance::External] {
+            let target = release.path().join(format!("{provenance:?}.json"));
+            provenance.take(&source, &target).unwrap();
+            // Again, onto the link or copy the first time made (the manifest's files, then
+            // the ground-truth folder, both name it).
+            provenance.take(&source, &target).unwrap();
+            assert_eq!(std::fs::read(&target).unwrap(), b"{\"classes\": []}", "{provenance:?}: the staged copy");
+            assert_eq!(std::fs::read(&source).unwrap(), b"{\"classes\": []}", "{provenance:?}: the build's own file");
         }
     }
 

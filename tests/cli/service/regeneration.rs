@@ -80,6 +80,38 @@ fn a_release_built_through_the_api_fans_out_its_rendering(backend: Backend) {
         assert_eq!(std::fs::metadata(&stored).unwrap().ino(), std::fs::metadata(&by_render_job).unwrap().ino(), "{}", stored.display());
     }
 
+    // The ground truth is stored whole, and the build folder it was linked from kept whole
+    // (the manifest lists some of its files, which are taken once with the files and again
+    // with the ground-truth folder).
+    let data = deployment.data.path();
+    let reference = test_release().join("ground_truth");
+    let mut compared = 0;
+    let mut folders = vec![std::path::PathBuf::new()];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(reference.join(&folder)).unwrap() {
+            let relative = folder.join(entry.unwrap().file_name());
+            if reference.join(&relative).is_dir() {
+                folders.push(relative);
+                continue;
+            }
+            // The ground truth's own manifest names the release's version; its files and digest are the same.
+            let comparable = |bytes: Vec<u8>| -> Vec<u8> {
+                if relative.as_os_str() != "manifest.json" {
+                    return bytes;
+                }
+                let manifest: Value = serde_json::from_slice(&bytes).unwrap();
+                serde_json::to_vec(&(&manifest["files"], &manifest["digest"])).unwrap()
+            };
+            let expected = comparable(std::fs::read(reference.join(&relative)).unwrap());
+            for copy in [data.join("blobs/releases/regen-1/ground_truth"), data.join("builds/regen-1/release/ground_truth")] {
+                let path = copy.join(&relative);
+                assert!(comparable(std::fs::read(&path).unwrap()) == expected, "{} differs from the one `osmab release build` makes", path.display());
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared >= 10, "{compared} ground-truth files");
+
     for worker in &mut workers {
         let _ = worker.kill();
         let _ = worker.wait();

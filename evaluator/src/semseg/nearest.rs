@@ -258,6 +258,14 @@ fn offer_to_lanes(
     }
 }
 
+/// A leaf's [`LEAF_SIZE`] slots, borrowed from the index's arrays.
+struct LeafSlots<'a> {
+    xs: &'a [f32; LEAF_SIZE],
+    ys: &'a [f32; LEAF_SIZE],
+    zs: &'a [f32; LEAF_SIZE],
+    ids: &'a [u32; LEAF_SIZE],
+}
+
 /// The best candidate so far: its distance, original index and slot in tree order.
 #[derive(Debug, Clone, Copy)]
 struct Best {
@@ -351,24 +359,31 @@ impl NearestIndex {
         *spans.select_nth_unstable_by(mid, f32::total_cmp).1
     }
 
+    /// The slots of leaf `leaf` (0-based, left to right): coordinates and original indices.
+    #[inline(always)]
+    fn leaf_slots(&self, leaf: usize) -> LeafSlots<'_> {
+        let slots = leaf * LEAF_SIZE..(leaf + 1) * LEAF_SIZE;
+        LeafSlots {
+            xs: self.xs[slots.clone()].try_into().expect("a leaf's slots"),
+            ys: self.ys[slots.clone()].try_into().expect("a leaf's slots"),
+            zs: self.zs[slots.clone()].try_into().expect("a leaf's slots"),
+            ids: self.ids[slots].try_into().expect("a leaf's slots"),
+        }
+    }
+
     /// Improve `best` with every point of leaf `leaf` (0-based, left to right): the
     /// distances of all slots with fixed-width arithmetic, then, only if one of them can
     /// win, the tie rule slot by slot.
     #[inline(always)]
     fn scan_leaf(&self, q: [f32; 3], leaf: usize, best: &mut Best) {
         let start = leaf * LEAF_SIZE;
-        let slots = start..start + LEAF_SIZE;
-        let (xs, ys, zs): (&[f32; LEAF_SIZE], &[f32; LEAF_SIZE], &[f32; LEAF_SIZE]) = (
-            self.xs[slots.clone()].try_into().expect("a leaf's slots"),
-            self.ys[slots.clone()].try_into().expect("a leaf's slots"),
-            self.zs[slots.clone()].try_into().expect("a leaf's slots"),
-        );
+        let LeafSlots { xs, ys, zs, ids } = self.leaf_slots(leaf);
         let distances: [f32; LEAF_SIZE] = std::array::from_fn(|i| squared_distance(q, xs[i], ys[i], zs[i]));
         let reach = best.distance;
         if !distances.iter().fold(false, |hit, &d| hit | (d <= reach)) {
             return;
         }
-        for (i, (&d, &id)) in distances.iter().zip(&self.ids[slots]).enumerate() {
+        for (i, (&d, &id)) in distances.iter().zip(ids).enumerate() {
             if better(d, id, best) {
                 *best = Best { distance: d, id, position: start + i };
             }
@@ -518,13 +533,7 @@ impl NearestIndex {
     #[inline(always)]
     fn scan_leaf_for_members(&self, leaf: usize, members: &mut Members) {
         let node = &self.nodes[(1usize << self.depth) + leaf];
-        let slots = leaf * LEAF_SIZE..(leaf + 1) * LEAF_SIZE;
-        let (xs, ys, zs, ids): (&[f32; LEAF_SIZE], &[f32; LEAF_SIZE], &[f32; LEAF_SIZE], &[u32; LEAF_SIZE]) = (
-            self.xs[slots.clone()].try_into().expect("a leaf's slots"),
-            self.ys[slots.clone()].try_into().expect("a leaf's slots"),
-            self.zs[slots.clone()].try_into().expect("a leaf's slots"),
-            self.ids[slots].try_into().expect("a leaf's slots"),
-        );
+        let LeafSlots { xs, ys, zs, ids } = self.leaf_slots(leaf);
         for g in 0..members.groups {
             if members.may_improve(g, node) {
                 // The group on the stack while it meets the leaf: the compiler then keeps its

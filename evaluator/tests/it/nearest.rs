@@ -148,6 +148,21 @@ fn dense_queries_on_a_grid_of_duplicates_resolve_ties_to_the_lowest_index() {
 }
 
 #[test]
+fn dense_queries_half_a_metre_from_every_point_are_answered_exactly() {
+    // A layer of queries half a metre above an indexed surface (a ceiling over a map that
+    // leaves it out): the leaf at a batch's centre bounds its answers too loosely to share
+    // the leaves within that bound, so the batch is bounded by its centre's exact answer.
+    let mut rng = Rng::new(38);
+    let points = surface_points(&mut rng, 30_000, 2.0, 0.01, None);
+    let index = NearestIndex::build(&points);
+    let queries: Vec<[f32; 3]> = surface_points(&mut rng, 100_000, 2.0, 0.02, None).into_iter().map(|q| [q[0], q[1], q[2] + 0.5]).collect();
+    let answers = index.nearest_all(&queries);
+    for k in (0..queries.len()).step_by(5) {
+        assert_eq!(answers[k], nearest_brute_force(&points, queries[k]), "query {k} {:?}", queries[k]);
+    }
+}
+
+#[test]
 fn dense_queries_far_from_every_point_are_answered_exactly() {
     // A cluster of queries metres away from a small indexed surface: their candidate
     // leaves are too many to share, so they are answered one by one.

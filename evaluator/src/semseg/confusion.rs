@@ -37,42 +37,60 @@ impl ConfusionMatrix {
     /// outside the vocabulary counts in the -1 column.
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
-        Self::count_points(ground_truth, |i| predicted[i], vocabulary)
+        let labels = Self::matrix_labels(vocabulary);
+        let columns = LabelPositions::new(&labels, labels.len() - 1);
+        Self::count_points(labels, ground_truth, |i| columns.get(predicted[i]))
     }
 
     /// As [`ConfusionMatrix::from_labels`], where ground-truth point `i` is predicted the
-    /// label `point_labels[nearest[i]]` of its nearest map point (no per-point copy).
+    /// label `point_labels[nearest[i]]` of its nearest map point (no per-point copy: each
+    /// map point's column is looked up once).
     pub fn from_nearest(ground_truth: &[i64], nearest: &[u32], point_labels: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), nearest.len(), "one nearest map point per ground-truth point");
-        Self::count_points(ground_truth, |i| point_labels[nearest[i] as usize], vocabulary)
+        let labels = Self::matrix_labels(vocabulary);
+        let columns = LabelPositions::new(&labels, labels.len() - 1);
+        let point_columns: Vec<u32> = point_labels.par_iter().map(|&l| columns.get(l) as u32).collect();
+        Self::count_points(labels, ground_truth, |i| point_columns[nearest[i] as usize] as usize)
     }
 
-    fn count_points(ground_truth: &[i64], predicted: impl Fn(usize) -> i64 + Sync, vocabulary: &[i64]) -> Self {
+    /// The vocabulary, then -1.
+    fn matrix_labels(vocabulary: &[i64]) -> Vec<i64> {
         let mut labels = vocabulary.to_vec();
         labels.push(UNMATCHED);
+        labels
+    }
+
+    /// Count ground-truth point `i` in its label's row and column `column(i)`.
+    fn count_points(labels: Vec<i64>, ground_truth: &[i64], column: impl Fn(usize) -> usize + Sync) -> Self {
         let n = labels.len();
-        let position: HashMap<i64, usize> = labels.iter().enumerate().map(|(i, &l)| (l, i)).collect();
-        let lookup = DenseLookup::new(&position);
+        // Points of classes outside the matrix are counted in an extra row, dropped at
+        // the end: no branch a point. The -1 row is kept (it only arises from mesh ground
+        // truth), as the reference does.
+        let rows = LabelPositions::new(&labels, n);
         let counts = ground_truth
             .par_chunks(COUNT_CHUNK)
             .enumerate()
-            .map(|(chunk, gt)| {
-                let mut counts = vec![0u64; n * n];
-                for (i, &g) in (chunk * COUNT_CHUNK..).zip(gt) {
-                    // The -1 row is kept (it only arises from mesh ground truth), as the reference does.
-                    let Some(row) = lookup.get(g) else { continue };
-                    let col = lookup.get(predicted(i)).unwrap_or(n - 1);
-                    counts[row * n + col] += 1;
-                }
-                counts
-            })
+            .fold(
+                || vec![0u64; (n + 1) * n],
+                |mut total, (chunk, gt)| {
+                    // A chunk's counts fit 32 bits (COUNT_CHUNK points).
+                    let mut counts = vec![0u32; (n + 1) * n];
+                    for (i, &g) in (chunk * COUNT_CHUNK..).zip(gt) {
+                        counts[rows.get(g) * n + column(i)] += 1;
+                    }
+                    total.iter_mut().zip(counts).for_each(|(t, c)| *t += u64::from(c));
+                    total
+                },
+            )
             .reduce(
-                || vec![0u64; n * n],
+                || vec![0u64; (n + 1) * n],
                 |mut a, b| {
                     a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
                     a
                 },
             );
+        let mut counts = counts;
+        counts.truncate(n * n);
         Self { labels, counts }
     }
 
@@ -128,39 +146,43 @@ impl ConfusionMatrix {
     }
 }
 
-/// Label → position, as a dense table when labels are small non-negative ids.
-struct DenseLookup {
+/// Label → position in a matrix's labels, or `missing` for a label not among them; a
+/// dense table when labels are small non-negative ids.
+struct LabelPositions {
     table: Vec<u32>,
-    unmatched: Option<usize>,
+    unmatched: usize,
     sparse: HashMap<i64, usize>,
+    missing: usize,
 }
 
-impl DenseLookup {
+impl LabelPositions {
     const DENSE_LIMIT: i64 = 1 << 20;
 
-    fn new(position: &HashMap<i64, usize>) -> Self {
-        let max = position.keys().copied().filter(|&l| (0..Self::DENSE_LIMIT).contains(&l)).max().unwrap_or(0);
-        let mut table = vec![u32::MAX; max as usize + 1];
+    fn new(labels: &[i64], missing: usize) -> Self {
+        let max = labels.iter().copied().filter(|&l| (0..Self::DENSE_LIMIT).contains(&l)).max().unwrap_or(0);
+        let mut table = vec![missing as u32; max as usize + 1];
         let mut sparse = HashMap::new();
-        for (&label, &pos) in position {
+        let mut unmatched = missing;
+        for (position, &label) in labels.iter().enumerate() {
             if (0..Self::DENSE_LIMIT).contains(&label) {
-                table[label as usize] = pos as u32;
-            } else if label != UNMATCHED {
-                sparse.insert(label, pos);
+                table[label as usize] = position as u32;
+            } else if label == UNMATCHED {
+                unmatched = position;
+            } else {
+                sparse.insert(label, position);
             }
         }
-        Self { table, unmatched: position.get(&UNMATCHED).copied(), sparse }
+        Self { table, unmatched, sparse, missing }
     }
 
     #[inline]
-    fn get(&self, label: i64) -> Option<usize> {
-        if label >= 0 && (label as usize) < self.table.len() {
-            let pos = self.table[label as usize];
-            (pos != u32::MAX).then_some(pos as usize)
+    fn get(&self, label: i64) -> usize {
+        if (label as u64) < self.table.len() as u64 {
+            self.table[label as usize] as usize
         } else if label == UNMATCHED {
             self.unmatched
         } else {
-            self.sparse.get(&label).copied()
+            self.sparse.get(&label).copied().unwrap_or(self.missing)
         }
     }
 }

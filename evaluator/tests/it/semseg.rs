@@ -220,3 +220,39 @@ fn counting_through_the_nearest_points_equals_counting_their_labels() {
     // Row 1 (class 1): one right, one predicted 2, one outside the vocabulary (-1 column).
     assert_eq!((by_nearest.count(0, 0), by_nearest.count(0, 1), by_nearest.count(0, 3)), (1, 1, 1));
 }
+
+#[test]
+fn counting_drops_unscored_classes_keeps_the_unmatched_row_and_takes_labels_of_any_size() {
+    use osmab_evaluator::semseg::ConfusionMatrix;
+    // A vocabulary with a label beyond any dense table (3,000,000) and ground truth with
+    // labels outside it: 0, 7, a negative one (-5) and one far beyond it (9,000,000) are
+    // dropped; -1 ground truth (mesh ground truth) is counted in the -1 row.
+    let vocabulary = [2, 3_000_000];
+    let ground_truth = [2, 3_000_000, 0, 7, -5, 9_000_000, -1, 2, 3_000_000];
+    let predicted = [2, 2, 2, 2, 2, 2, 3_000_000, -7, 9_000_000];
+    let matrix = ConfusionMatrix::from_labels(&ground_truth, &predicted, &vocabulary);
+    assert_eq!(matrix.labels(), &[2, 3_000_000, -1]);
+    assert_eq!(matrix.row(0), &[1, 0, 1], "class 2: one right, one predicted outside the vocabulary");
+    assert_eq!(matrix.row(1), &[1, 0, 1], "class 3,000,000: one predicted 2, one outside the vocabulary");
+    assert_eq!(matrix.row(2), &[0, 1, 0], "the -1 row");
+    assert_eq!(matrix.total(), 5, "the four points of classes outside the vocabulary are not counted");
+}
+
+#[test]
+fn counts_over_many_parallel_chunks_add_up_exactly() {
+    use osmab_evaluator::semseg::ConfusionMatrix;
+    // 3.5 million points, more than three counting chunks: class k of the ground truth
+    // (1..=4, and 0 every 5th point) predicted through map point k % 3.
+    let n = 3_500_000usize;
+    let ground_truth: Vec<i64> = (0..n).map(|i| (i % 5) as i64).collect();
+    let nearest: Vec<u32> = (0..n).map(|i| ((i % 5) % 3) as u32).collect();
+    let point_labels = [1, 2, 3];
+    let matrix = ConfusionMatrix::from_nearest(&ground_truth, &nearest, &point_labels, &[1, 2, 3, 4]);
+    let per_class = (n / 5) as u64;
+    // Class 1 → map point 1 (label 2), 2 → 2 (3), 3 → 0 (1), 4 → 1 (2).
+    assert_eq!(matrix.row(0), &[0, per_class, 0, 0, 0]);
+    assert_eq!(matrix.row(1), &[0, 0, per_class, 0, 0]);
+    assert_eq!(matrix.row(2), &[per_class, 0, 0, 0, 0]);
+    assert_eq!(matrix.row(3), &[0, per_class, 0, 0, 0]);
+    assert_eq!(matrix.total(), 4 * per_class);
+}

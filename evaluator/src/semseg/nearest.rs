@@ -581,10 +581,13 @@ impl NearestIndex {
         for (answers, block) in out.chunks_mut(LOCALITY_BLOCK).zip(queries.chunks(LOCALITY_BLOCK)) {
             keys.sort(&grid, block);
             let (sorted, found) = (&keys.sorted, &keys.spare);
-            found
-                .par_chunks(QUERY_CHUNK)
-                .zip(sorted.par_chunks(QUERY_CHUNK))
-                .for_each(|(found, keys)| self.answer_batches(keys.len(), |k| block[position_of(&keys[k])], |k, id| found[k].store(u64::from(id), Relaxed)));
+            found.par_chunks(QUERY_CHUNK).zip(sorted.par_chunks(QUERY_CHUNK)).for_each(|(found, keys)| {
+                // The chunk's queries gathered first, in a loop of independent loads
+                // (48 KiB): read as batches form, each one waited for, the same
+                // answers took 1.2-1.3x as long in random order.
+                let chunk: Vec<[f32; 3]> = keys.iter().map(|key| block[position_of(key)]).collect();
+                self.answer_batches(chunk.len(), |k| chunk[k], |k, id| found[k].store(u64::from(id), Relaxed))
+            });
             for (key, answer) in sorted.iter().zip(found) {
                 answers[position_of(key)] = answer.load(Relaxed) as u32;
             }

@@ -32,9 +32,9 @@ impl ConfusionMatrix {
         Ok(Self { labels, counts })
     }
 
-    /// Count every ground-truth point whose label is in `vocabulary` (points of other
-    /// classes, such as 0, are dropped) against its predicted label; a prediction
-    /// outside the vocabulary counts in the -1 column.
+    /// Count every ground-truth point whose label is in `vocabulary`, or is -1 (its own
+    /// row), against its predicted label (points of other classes, such as 0, are
+    /// dropped); a prediction outside the vocabulary counts in the -1 column.
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
         let labels = Self::matrix_labels(vocabulary);

@@ -503,6 +503,9 @@ impl NearestIndex {
                 }
                 hint = members.warm_slot;
             } else {
+                // The batch's centre was searched for before it gave up: its answer is
+                // the nearest start.
+                hint = members.warm_slot;
                 for k in start..end {
                     let best = self.nearest_from(query(k), hint);
                     hint = best.position;
@@ -522,13 +525,7 @@ impl NearestIndex {
     /// than [`FAR_BATCH_LEAVES`]: the members are then better searched one by one.
     fn answer_batch(&self, members: &mut Members, lo: [f32; 3], hi: [f32; 3], leaves: &mut Vec<u32>) -> bool {
         let center: [f32; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
-        let first_leaf = 1usize << self.depth;
-        let mut node = 1;
-        while node < first_leaf {
-            let Split { pivot, axis } = self.splits[node];
-            node = 2 * node + usize::from(center[axis as usize] > pivot);
-        }
-        let home = node - first_leaf;
+        let home = self.warm_start_leaf(center);
         members.warm_slot = home * LEAF_SIZE;
         self.scan_leaf_for_members(home, members);
         // Every leaf holds points, so every member's best is now a real point.
@@ -548,6 +545,17 @@ impl NearestIndex {
             self.scan_leaf_for_members(leaf as usize, members);
         }
         true
+    }
+
+    /// The leaf whose cell holds `q`: found by split planes alone, no box consulted.
+    fn warm_start_leaf(&self, q: [f32; 3]) -> usize {
+        let first_leaf = 1usize << self.depth;
+        let mut node = 1;
+        while node < first_leaf {
+            let Split { pivot, axis } = self.splits[node];
+            node = 2 * node + usize::from(q[axis as usize] > pivot);
+        }
+        node - first_leaf
     }
 
     /// Improve every member's best with the points of leaf `leaf`, skipping the groups
@@ -724,8 +732,8 @@ fn split(order: &mut [IndexedPoint], depth: u32) {
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
     for item in order.iter() {
         for a in 0..3 {
-            // Plain comparisons: the same result as `f32::min` and `f32::max` (a NaN never
-            // wins), with less work for the NaN check.
+            // Plain comparisons: the same box as `f32::min` and `f32::max` give, up to
+            // the sign of zero (a NaN never wins), with less work for the NaN check.
             let v = item.p[a];
             lo[a] = if v < lo[a] { v } else { lo[a] };
             hi[a] = if v > hi[a] { v } else { hi[a] };
@@ -758,6 +766,42 @@ pub fn nearest_brute_force(points: &[[f32; 3]], q: [f32; 3]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::synthetic::Rng;
+
+    #[test]
+    fn batches_half_a_metre_above_a_surface_are_bounded_by_their_centres_answer() {
+        // The geometry of `dense_queries_half_a_metre_from_every_point_are_answered_exactly`
+        // (tests/it/nearest.rs), which relies on this: for most batches the home leaf's
+        // bound reaches more than BATCH_LEAVES leaves, the bound of the centre's answer
+        // at most FAR_BATCH_LEAVES, and the answers are exact.
+        let mut rng = Rng::new(38);
+        let points: Vec<[f32; 3]> = (0..30_000).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect();
+        let index = NearestIndex::build(&points);
+        let (mut members, mut leaves) = (Members::new(), Vec::new());
+        let mut bounded_by_centre = 0;
+        for place in 0..100 {
+            // 64 queries 7 mm apart, 2 cm up and down, at a place on a 10 × 10 grid over
+            // the surface: a box about as large as a batch may be.
+            let corner = [0.1 + 0.18 * (place % 10) as f32, 0.1 + 0.18 * (place / 10) as f32];
+            let queries: Vec<[f32; 3]> =
+                (0..64).map(|i| [corner[0] + 0.007 * (i % 8) as f32, corner[1] + 0.007 * (i / 8) as f32, 0.48 + 0.04 * (i % 2) as f32]).collect();
+            let lo: [f32; 3] = std::array::from_fn(|a| queries.iter().map(|q| q[a]).fold(f32::INFINITY, f32::min));
+            let hi: [f32; 3] = std::array::from_fn(|a| queries.iter().map(|q| q[a]).fold(f32::NEG_INFINITY, f32::max));
+            assert!(span(lo, hi) <= index.batch_span, "one batch: {} > {}", span(lo, hi), index.batch_span);
+            members.gather(queries.iter().copied());
+            let home = index.warm_start_leaf(std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])));
+            index.scan_leaf_for_members(home, &mut members);
+            if index.leaves_within(lo, hi, members.reach(), BATCH_LEAVES, &mut leaves) {
+                continue;
+            }
+            members.gather(queries.iter().copied());
+            assert!(index.answer_batch(&mut members, lo, hi, &mut leaves), "place {place}: shared within the centre's answer's bound");
+            let exhaustive: Vec<u32> = queries.iter().map(|&q| nearest_brute_force(&points, q)).collect();
+            assert_eq!(members.answers().collect::<Vec<_>>(), exhaustive, "place {place}");
+            bounded_by_centre += 1;
+        }
+        assert!(bounded_by_centre >= 50, "{bounded_by_centre} of 100 batches bounded by their centre's answer");
+    }
 
     #[test]
     fn radix_sorted_keys_are_the_keys_in_order_with_one_cells_queries_in_input_order() {

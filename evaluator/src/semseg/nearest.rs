@@ -185,9 +185,8 @@ struct Members {
     groups: usize,
     /// Members in use.
     count: usize,
-    /// The first slot of the batch's home leaf, or its centre's answer if it was searched
-    /// for: where the next search starts if the batch after this one is answered query by
-    /// query.
+    /// The first slot of the batch's home leaf, or its centre's answer once that was
+    /// searched for: where the members' one-by-one search starts if the batch gives up.
     warm_slot: usize,
 }
 
@@ -481,7 +480,6 @@ impl NearestIndex {
     fn answer_batches(&self, count: usize, query: impl Fn(usize) -> [f32; 3], mut record: impl FnMut(usize, u32)) {
         let mut leaves = Vec::with_capacity(FAR_BATCH_LEAVES);
         let mut members = Members::new();
-        let mut hint = 0;
         let mut start = 0;
         while start < count {
             let first = query(start);
@@ -501,11 +499,10 @@ impl NearestIndex {
                 for (k, id) in (start..end).zip(members.answers()) {
                     record(k, id);
                 }
-                hint = members.warm_slot;
             } else {
                 // The batch's centre was searched for before it gave up: its answer is
                 // the nearest start.
-                hint = members.warm_slot;
+                let mut hint = members.warm_slot;
                 for k in start..end {
                     let best = self.nearest_from(query(k), hint);
                     hint = best.position;

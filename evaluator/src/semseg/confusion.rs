@@ -67,7 +67,7 @@ impl ConfusionMatrix {
         // the end: no branch a point. The -1 row is kept (it only arises from mesh ground
         // truth), as the reference does.
         let rows = LabelPositions::new(&labels, n);
-        let counts = ground_truth
+        let mut counts = ground_truth
             .par_chunks(COUNT_CHUNK)
             .enumerate()
             .fold(
@@ -89,7 +89,6 @@ impl ConfusionMatrix {
                     a
                 },
             );
-        let mut counts = counts;
         counts.truncate(n * n);
         Self { labels, counts }
     }

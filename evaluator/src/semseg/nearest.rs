@@ -21,8 +21,8 @@
 //! Where that leaf bounds too loosely (queries away from every point: a room's walls
 //! that a map leaves out), the batch's centre is searched for exactly and the leaf of its
 //! answer bounds the members instead. Queries so far from every point that even then
-//! their candidate leaves are too many to share are searched one by one, each
-//! warm-started from its predecessor's answer.
+//! their candidate leaves are too many to share are searched one by one, the first
+//! warm-started from the centre's answer, each next from its predecessor's.
 
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
@@ -522,7 +522,7 @@ impl NearestIndex {
     /// than [`FAR_BATCH_LEAVES`]: the members are then better searched one by one.
     fn answer_batch(&self, members: &mut Members, lo: [f32; 3], hi: [f32; 3], leaves: &mut Vec<u32>) -> bool {
         let center: [f32; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
-        let home = self.warm_start_leaf(center);
+        let home = self.home_leaf(center);
         members.warm_slot = home * LEAF_SIZE;
         self.scan_leaf_for_members(home, members);
         // Every leaf holds points, so every member's best is now a real point.
@@ -544,8 +544,9 @@ impl NearestIndex {
         true
     }
 
-    /// The leaf whose cell holds `q`: found by split planes alone, no box consulted.
-    fn warm_start_leaf(&self, q: [f32; 3]) -> usize {
+    /// The home leaf of `q`: the leaf whose cell holds it, found by split planes alone,
+    /// no box consulted.
+    fn home_leaf(&self, q: [f32; 3]) -> usize {
         let first_leaf = 1usize << self.depth;
         let mut node = 1;
         while node < first_leaf {
@@ -786,7 +787,7 @@ mod tests {
             let hi: [f32; 3] = std::array::from_fn(|a| queries.iter().map(|q| q[a]).fold(f32::NEG_INFINITY, f32::max));
             assert!(span(lo, hi) <= index.batch_span, "one batch: {} > {}", span(lo, hi), index.batch_span);
             members.gather(queries.iter().copied());
-            let home = index.warm_start_leaf(std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])));
+            let home = index.home_leaf(std::array::from_fn(|a| 0.5 * (lo[a] + hi[a])));
             index.scan_leaf_for_members(home, &mut members);
             if index.leaves_within(lo, hi, members.reach(), BATCH_LEAVES, &mut leaves) {
                 continue;

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 pub const UNMATCHED: i64 = -1;
 
 /// Points counted per parallel task (integer counts add up exactly in any order).
-const COUNT_CHUNK: usize = 1 << 20;
+pub const COUNT_CHUNK: usize = 1 << 20;
 
 /// A square matrix of point counts indexed by class label.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -37,9 +37,11 @@ impl ConfusionMatrix {
     /// dropped); a prediction outside the vocabulary counts in the -1 column.
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
-        let labels = Self::matrix_labels(vocabulary);
-        let columns = LabelPositions::new(&labels, labels.len() - 1);
-        Self::count_points(labels, ground_truth, |i| columns.get(predicted[i]))
+        let counter = Counter::new(vocabulary);
+        let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
+        let parts = ground_truth.par_chunks(COUNT_CHUNK).zip(predicted.par_chunks(COUNT_CHUNK));
+        let counts = counter.count(parts.map(|(gt, predicted)| gt.iter().zip(predicted).map(|(&g, &p)| (g, columns.get(p)))));
+        counter.into_matrix(counts)
     }
 
     /// As [`ConfusionMatrix::from_labels`], where ground-truth point `i` is predicted the
@@ -47,50 +49,10 @@ impl ConfusionMatrix {
     /// map point's column is looked up once).
     pub fn from_nearest(ground_truth: &[i64], nearest: &[u32], point_labels: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), nearest.len(), "one nearest map point per ground-truth point");
-        let labels = Self::matrix_labels(vocabulary);
-        let columns = LabelPositions::new(&labels, labels.len() - 1);
-        let point_columns: Vec<u32> = point_labels.par_iter().map(|&l| columns.get(l) as u32).collect();
-        Self::count_points(labels, ground_truth, |i| point_columns[nearest[i] as usize] as usize)
-    }
-
-    /// The vocabulary, then -1.
-    fn matrix_labels(vocabulary: &[i64]) -> Vec<i64> {
-        let mut labels = vocabulary.to_vec();
-        labels.push(UNMATCHED);
-        labels
-    }
-
-    /// Count ground-truth point `i` in its label's row and column `column(i)`.
-    fn count_points(labels: Vec<i64>, ground_truth: &[i64], column: impl Fn(usize) -> usize + Sync) -> Self {
-        let n = labels.len();
-        // Points of classes outside the matrix are counted in an extra row, dropped at
-        // the end: no branch a point. The -1 row is kept (it only arises from mesh ground
-        // truth), as the reference does.
-        let rows = LabelPositions::new(&labels, n);
-        let mut counts = ground_truth
-            .par_chunks(COUNT_CHUNK)
-            .enumerate()
-            .fold(
-                || vec![0u64; (n + 1) * n],
-                |mut total, (chunk, gt)| {
-                    // A chunk's counts fit 32 bits (COUNT_CHUNK points).
-                    let mut counts = vec![0u32; (n + 1) * n];
-                    for (i, &g) in (chunk * COUNT_CHUNK..).zip(gt) {
-                        counts[rows.get(g) * n + column(i)] += 1;
-                    }
-                    total.iter_mut().zip(counts).for_each(|(t, c)| *t += u64::from(c));
-                    total
-                },
-            )
-            .reduce(
-                || vec![0u64; (n + 1) * n],
-                |mut a, b| {
-                    a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-                    a
-                },
-            );
-        counts.truncate(n * n);
-        Self { labels, counts }
+        let mut count = NearestCount::new(vocabulary, point_labels);
+        let parts = ground_truth.par_chunks(COUNT_CHUNK).zip(nearest.par_chunks(COUNT_CHUNK));
+        count.add(parts.map(|(gt, nearest)| gt.iter().copied().zip(nearest.iter().copied())));
+        count.into_matrix()
     }
 
     /// The pooled matrix of several scenes: labels are the sorted union (so -1 comes
@@ -142,6 +104,111 @@ impl ConfusionMatrix {
     /// All counted points.
     pub fn total(&self) -> u64 {
         self.counts.iter().sum()
+    }
+}
+
+/// A confusion matrix counted from the nearest map point of each ground-truth point, in
+/// parts of any order and size as the association gives them ([`NearestIndex::nearest_by_block`]):
+/// [`ConfusionMatrix::from_nearest`] with no answer array for the whole cloud.
+///
+/// [`NearestIndex::nearest_by_block`]: super::nearest::NearestIndex::nearest_by_block
+pub struct NearestCount {
+    counter: Counter,
+    /// Each map point's column (its label's position in the matrix).
+    point_columns: Vec<u32>,
+    counts: Vec<u64>,
+}
+
+impl NearestCount {
+    /// An empty count over `[vocabulary..., -1]` of ground-truth points against the labels
+    /// `point_labels` of the map points nearest to them.
+    pub fn new(vocabulary: &[i64], point_labels: &[i64]) -> Self {
+        let counter = Counter::new(vocabulary);
+        let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
+        let point_columns = point_labels.par_iter().map(|&l| columns.get(l) as u32).collect();
+        let counts = counter.zeros();
+        Self { counter, point_columns, counts }
+    }
+
+    /// Count ground-truth points given as (label, index of the nearest map point) pairs, in
+    /// parts of at most [`COUNT_CHUNK`] taken in parallel.
+    pub fn add<P>(&mut self, parts: impl ParallelIterator<Item = P>)
+    where
+        P: Iterator<Item = (i64, u32)> + Send,
+    {
+        let columns = &self.point_columns;
+        let counts = self.counter.count(parts.map(|part| part.map(|(label, nearest)| (label, columns[nearest as usize] as usize))));
+        self.counts.iter_mut().zip(counts).for_each(|(total, c)| *total += c);
+    }
+
+    /// The matrix of every point counted.
+    pub fn into_matrix(self) -> ConfusionMatrix {
+        self.counter.into_matrix(self.counts)
+    }
+}
+
+/// Counting points into a matrix over `[vocabulary..., -1]` by their ground-truth label's
+/// row and a column. Points of classes outside the matrix are counted in an extra row,
+/// dropped at the end: no branch a point. The -1 row is kept (it only arises from mesh
+/// ground truth), as the reference does.
+struct Counter {
+    /// The matrix's labels: the vocabulary, then -1.
+    labels: Vec<i64>,
+    /// Each ground-truth label's row, the extra row for labels outside the matrix.
+    rows: LabelPositions,
+}
+
+impl Counter {
+    fn new(vocabulary: &[i64]) -> Self {
+        let mut labels = vocabulary.to_vec();
+        labels.push(UNMATCHED);
+        let rows = LabelPositions::new(&labels, labels.len());
+        Self { labels, rows }
+    }
+
+    /// Counts of the matrix with its extra row, all zero.
+    fn zeros(&self) -> Vec<u64> {
+        let n = self.labels.len();
+        vec![0u64; (n + 1) * n]
+    }
+
+    /// Count (ground-truth label, column) pairs given in parts of at most [`COUNT_CHUNK`]
+    /// (a part's counts fit 32 bits), taken in parallel; integer counts add up exactly in
+    /// any order.
+    fn count<P>(&self, parts: impl ParallelIterator<Item = P>) -> Vec<u64>
+    where
+        P: Iterator<Item = (i64, usize)> + Send,
+    {
+        let n = self.labels.len();
+        parts
+            .fold(
+                || self.zeros(),
+                |mut total, part| {
+                    let mut counts = vec![0u32; (n + 1) * n];
+                    let mut counted = 0usize;
+                    for (label, column) in part {
+                        counts[self.rows.get(label) * n + column] += 1;
+                        counted += 1;
+                    }
+                    assert!(counted <= COUNT_CHUNK, "a part of at most {COUNT_CHUNK} points");
+                    total.iter_mut().zip(counts).for_each(|(t, c)| *t += u64::from(c));
+                    total
+                },
+            )
+            .reduce(
+                || self.zeros(),
+                |mut a, b| {
+                    a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                    a
+                },
+            )
+    }
+
+    /// The matrix of `counts`, its extra row dropped.
+    fn into_matrix(self, mut counts: Vec<u64>) -> ConfusionMatrix {
+        let n = self.labels.len();
+        counts.truncate(n * n);
+        ConfusionMatrix { labels: self.labels, counts }
     }
 }
 

@@ -33,11 +33,26 @@ use rayon::prelude::*;
 const LEAF_SIZE: usize = 16;
 /// Queries handled in order by one thread.
 const QUERY_CHUNK: usize = 4096;
-/// Queries put in Z-order together: large enough that neighbours in space fall in one
-/// block even when the input has no order, small enough that the ordering costs a few
-/// megabytes (16 bytes a query: its key, and the sort's scratch space, which then holds
-/// its answer).
-const LOCALITY_BLOCK: usize = 1 << 20;
+/// Fewest queries put in Z-order together: enough that neighbours in space fall in one
+/// block even when the input has no order (the ordering costs 16 bytes a query of a
+/// block: its key, and the sort's scratch space, which then holds its answer).
+const SMALLEST_LOCALITY_BLOCK: usize = 1 << 20;
+/// Most queries put in Z-order together. A block of a large cloud that arrives frame by
+/// frame or in random order holds the scene at a fraction of its density, and its
+/// batches of neighbours are smaller: on 20 M frame-ordered queries blocks of 2²² took
+/// 0.91 of the time of blocks of 2²⁰.
+const LARGEST_LOCALITY_BLOCK: usize = 1 << 22;
+/// Blocks a cloud is split into at least, unless that makes them smaller than
+/// [`SMALLEST_LOCALITY_BLOCK`]: a block's 16 bytes a query then take no more memory than an answer
+/// array for every query would (4 bytes a query), which scoring does not hold (see
+/// [`NearestIndex::nearest_by_block`]).
+const FEWEST_BLOCKS: usize = 4;
+
+/// Queries put in Z-order together, out of `queries`.
+fn locality_block(queries: usize) -> usize {
+    (queries / FEWEST_BLOCKS).clamp(SMALLEST_LOCALITY_BLOCK, LARGEST_LOCALITY_BLOCK)
+}
+
 /// Bits per axis of a Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
 const KEY_BITS: u32 = 10;
 /// Most queries answered together as one batch.
@@ -576,15 +591,30 @@ impl NearestIndex {
     }
 
     /// The nearest indexed point of every query, in parallel, whatever the queries'
-    /// order: each block of [`LOCALITY_BLOCK`] queries is visited along a Z-order curve
-    /// over the index's box, so consecutive queries are neighbours, and answered in
-    /// batches of neighbours that share the search for their candidate leaves.
+    /// order (as [`NearestIndex::nearest_by_block`], gathered in the queries' order).
     pub fn nearest_all(&self, queries: &[[f32; 3]]) -> Vec<u32> {
         let mut out = vec![0u32; queries.len()];
+        self.nearest_by_block(queries, |answers| {
+            for (query, id) in answers.pairs() {
+                out[query] = id;
+            }
+        });
+        out
+    }
+
+    /// The nearest indexed point of every query, in parallel, whatever the queries' order,
+    /// given to `visit` block by block ([`BlockAnswers`], each query once): each block of
+    /// queries is visited along a Z-order curve over the index's box, so consecutive
+    /// queries are neighbours, and answered in batches of neighbours that share the search
+    /// for their candidate leaves. A block is a quarter of the queries, kept within 2²⁰ to
+    /// 2²², so the ordering takes no more memory than an answer array would for a large
+    /// cloud.
+    pub fn nearest_by_block(&self, queries: &[[f32; 3]], mut visit: impl FnMut(BlockAnswers<'_>)) {
         let grid = ZGrid::over(self.nodes[1].min, self.nodes[1].max);
+        let block_len = locality_block(queries.len());
         // The block's keys in Z-order, then its answers in that order in the sort's spare buffer.
         let mut keys = ZOrderKeys::default();
-        for (answers, block) in out.chunks_mut(LOCALITY_BLOCK).zip(queries.chunks(LOCALITY_BLOCK)) {
+        for (first, block) in (0..).step_by(block_len).zip(queries.chunks(block_len)) {
             keys.sort(&grid, block);
             let (sorted, found) = (&keys.sorted, &keys.spare);
             found.par_chunks(QUERY_CHUNK).zip(sorted.par_chunks(QUERY_CHUNK)).for_each(|(found, keys)| {
@@ -592,13 +622,38 @@ impl NearestIndex {
                 // (48 KiB): read as batches form, each one waited for, the same
                 // answers took 1.2-1.3x as long in random order.
                 let chunk: Vec<[f32; 3]> = keys.iter().map(|key| block[position_of(key)]).collect();
-                self.answer_batches(chunk.len(), |k| chunk[k], |k, id| found[k].store(u64::from(id), Relaxed))
+                self.answer_batches(chunk.len(), |k| chunk[k], |k, id| found[k].store(((position_of(&keys[k]) as u64) << 32) | u64::from(id), Relaxed))
             });
-            for (key, answer) in sorted.iter().zip(found) {
-                answers[position_of(key)] = answer.load(Relaxed) as u32;
-            }
+            visit(BlockAnswers { first, pairs: found });
         }
-        out
+    }
+}
+
+/// The answers of one block of queries, in the order they were answered (along the
+/// curve, not the queries' order): each query of the block with its nearest point.
+pub struct BlockAnswers<'a> {
+    /// The block's first query.
+    first: usize,
+    /// A query's position in the block in the high half, its answer in the low half.
+    pairs: &'a [AtomicU64],
+}
+
+impl BlockAnswers<'_> {
+    /// Every (query, index of its nearest point) pair of the block, queries numbered in
+    /// all the queries.
+    pub fn pairs(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        self.pairs.iter().map(|pair| self.pair(pair))
+    }
+
+    /// The pairs in parts of at most `part` pairs, to be taken in parallel.
+    pub fn par_parts(&self, part: usize) -> impl IndexedParallelIterator<Item = impl Iterator<Item = (usize, u32)> + '_> + '_ {
+        self.pairs.par_chunks(part).map(move |pairs| pairs.iter().map(move |pair| self.pair(pair)))
+    }
+
+    #[inline(always)]
+    fn pair(&self, pair: &AtomicU64) -> (usize, u32) {
+        let pair = pair.load(Relaxed);
+        (self.first + (pair >> 32) as usize, pair as u32)
     }
 }
 
@@ -799,6 +854,18 @@ mod tests {
             bounded_by_centre += 1;
         }
         assert!(bounded_by_centre >= 50, "{bounded_by_centre} of 100 batches bounded by their centre's answer");
+    }
+
+    #[test]
+    fn a_block_is_a_quarter_of_the_queries_within_its_bounds() {
+        assert_eq!(locality_block(1_000), 1 << 20, "small clouds: one block of the smallest size");
+        assert_eq!(locality_block(5_000_000), 1_250_000, "four blocks of 5 M");
+        assert_eq!(locality_block(20_000_000), 1 << 22, "a 20 M cloud: blocks of the largest size");
+        // The ordering's 16 bytes a query of a block never exceed 4 bytes a query of the
+        // cloud, once blocks are above the smallest size.
+        for queries in [4 << 20, 10_000_000, 16 << 20, 100_000_000] {
+            assert!(16 * locality_block(queries) <= 4 * queries, "{queries} queries");
+        }
     }
 
     #[test]

@@ -256,3 +256,30 @@ fn counts_over_many_parallel_chunks_add_up_exactly() {
     assert_eq!(matrix.row(3), &[0, per_class, 0, 0, 0]);
     assert_eq!(matrix.total(), 4 * per_class);
 }
+
+#[test]
+fn counting_nearest_points_part_by_part_in_any_order_equals_counting_them_at_once() {
+    use osmab_evaluator::semseg::{ConfusionMatrix, NearestCount};
+    use rayon::prelude::*;
+    // 2.5 million points of classes 0..=5 (0 unscored, 5 outside the vocabulary), their
+    // nearest map points labelled 1, 2, 3 and 9 (outside the vocabulary).
+    let n = 2_500_000usize;
+    let ground_truth: Vec<i64> = (0..n).map(|i| ((i * 7) % 6) as i64).collect();
+    let nearest: Vec<u32> = (0..n).map(|i| ((i * 13) % 4) as u32).collect();
+    let point_labels = [1, 2, 3, 9];
+    let vocabulary = [1, 2, 3, 4];
+    let at_once = ConfusionMatrix::from_nearest(&ground_truth, &nearest, &point_labels, &vocabulary);
+    // The same points in two blocks, each in a scrambled order and in parts of 1,000.
+    let mut count = NearestCount::new(&vocabulary, &point_labels);
+    for block in [0..1_000_000, 1_000_000..n] {
+        let order: Vec<usize> = block.clone().rev().step_by(2).chain(block.clone().step_by(2)).collect();
+        assert_eq!(order.len(), block.len());
+        count.add(order.par_chunks(1000).map(|part| part.iter().map(|&i| (ground_truth[i], nearest[i]))));
+    }
+    let part_by_part = count.into_matrix();
+    assert_eq!(part_by_part, at_once);
+    assert_eq!(at_once.labels(), &[1, 2, 3, 4, -1]);
+    // Classes 1..=4 are counted (0 and 5 are not); each point once.
+    let counted = (0..n).filter(|i| (1..=4).contains(&((i * 7) % 6))).count() as u64;
+    assert_eq!(part_by_part.total(), counted);
+}

@@ -5,6 +5,7 @@ mod blobs;
 mod cli;
 mod clock;
 mod config;
+mod cpu;
 mod http;
 mod intake;
 mod jobs;
@@ -30,6 +31,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    cpu::require_build_features();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
 //! End-to-end tests of the `osmab` binary: real files in, real processes, real output.
 
+mod cpu;
 mod service;
 mod vqa;
 

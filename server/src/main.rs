@@ -5,7 +5,6 @@ mod blobs;
 mod cli;
 mod clock;
 mod config;
-mod cpu;
 mod http;
 mod intake;
 mod jobs;
@@ -31,7 +30,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
-    cpu::require_build_features();
+    osmab_cpu::require_build_features();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,7 +8,9 @@ use rayon::prelude::*;
 /// The label of "no class from the vocabulary" (the last row and column).
 pub const UNMATCHED: i64 = -1;
 
-/// Points counted per parallel task (integer counts add up exactly in any order).
+/// Most points counted per parallel task, so that a task's counts fit 32 bits: callers of
+/// [`NearestCount::add`] give parts of at most this many points (integer counts add up
+/// exactly in any order).
 pub const COUNT_CHUNK: usize = 1 << 20;
 
 /// A square matrix of point counts indexed by class label.
@@ -37,7 +39,7 @@ impl ConfusionMatrix {
     /// dropped); a prediction outside the vocabulary counts in the -1 column.
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
-        let counter = Counter::new(vocabulary);
+        let counter = MatrixCounter::new(vocabulary);
         let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
         let parts = ground_truth.par_chunks(COUNT_CHUNK).zip(predicted.par_chunks(COUNT_CHUNK));
         let counts = counter.count(parts.map(|(gt, predicted)| gt.iter().zip(predicted).map(|(&g, &p)| (g, columns.get(p)))));
@@ -113,7 +115,7 @@ impl ConfusionMatrix {
 ///
 /// [`NearestIndex::nearest_by_block`]: super::nearest::NearestIndex::nearest_by_block
 pub struct NearestCount {
-    counter: Counter,
+    counter: MatrixCounter,
     /// Each map point's column (its label's position in the matrix).
     point_columns: Vec<u32>,
     counts: Vec<u64>,
@@ -123,7 +125,7 @@ impl NearestCount {
     /// An empty count over `[vocabulary..., -1]` of ground-truth points against the labels
     /// `point_labels` of the map points nearest to them.
     pub fn new(vocabulary: &[i64], point_labels: &[i64]) -> Self {
-        let counter = Counter::new(vocabulary);
+        let counter = MatrixCounter::new(vocabulary);
         let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
         let point_columns = point_labels.par_iter().map(|&l| columns.get(l) as u32).collect();
         let counts = counter.zeros();
@@ -151,14 +153,14 @@ impl NearestCount {
 /// row and a column. Points of classes outside the matrix are counted in an extra row,
 /// dropped at the end: no branch a point. The -1 row is kept (it only arises from mesh
 /// ground truth), as the reference does.
-struct Counter {
+struct MatrixCounter {
     /// The matrix's labels: the vocabulary, then -1.
     labels: Vec<i64>,
     /// Each ground-truth label's row, the extra row for labels outside the matrix.
     rows: LabelPositions,
 }
 
-impl Counter {
+impl MatrixCounter {
     fn new(vocabulary: &[i64]) -> Self {
         let mut labels = vocabulary.to_vec();
         labels.push(UNMATCHED);

@@ -194,6 +194,7 @@ fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList,
     if map.points.len() >= u32::MAX as usize {
         return Err(InputError::new(&map.source, "points", format!("{} points are more than the evaluator indexes (2^32 - 1)", map.points.len())));
     }
+    assert_eq!(ground_truth.points.len(), ground_truth.labels.len(), "one label per ground-truth point");
     let vocabulary = ground_truth.vocabulary;
     let mut timings = StageTimings::default();
     let clock = Instant::now();
@@ -204,29 +205,44 @@ fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList,
     let index = NearestIndex::build(&map.points);
     timings.index = clock.elapsed();
     let confusion = if ground_truth.in_z_order {
-        let clock = Instant::now();
-        let nearest = index.nearest_all_in_order(ground_truth.points);
-        timings.query = clock.elapsed();
-        let clock = Instant::now();
-        let confusion = ConfusionMatrix::from_nearest(ground_truth.labels, &nearest, &point_labels, vocabulary.ids());
-        timings.confusion = clock.elapsed();
-        confusion
+        count_in_order(&ground_truth, &index, &point_labels, &mut timings)
     } else {
-        // Each block's answers are counted as they come: no answer array for the whole
-        // cloud (4 bytes a point), which pays for the association's larger blocks.
-        let mut count = NearestCount::new(vocabulary.ids(), &point_labels);
-        let clock = Instant::now();
-        index.nearest_by_block(ground_truth.points, |answers| {
-            let counting = Instant::now();
-            count.add(answers.par_parts(confusion::COUNT_CHUNK).map(|part| part.map(|(point, nearest)| (ground_truth.labels[point], nearest))));
-            timings.confusion += counting.elapsed();
-        });
-        timings.query = clock.elapsed() - timings.confusion;
-        count.into_matrix()
+        count_by_block(&ground_truth, &index, &point_labels, &mut timings)
     };
     drop(index);
     let clock = Instant::now();
     let metrics = SegmentationMetrics::from_confusion(&confusion);
     timings.confusion += clock.elapsed();
     Ok(SceneScore { confusion, metrics, timings })
+}
+
+/// The confusion matrix of a cloud already in Z-order: every point's nearest map point,
+/// answered in the cloud's order, then counted.
+fn count_in_order(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], timings: &mut StageTimings) -> ConfusionMatrix {
+    let clock = Instant::now();
+    let nearest = index.nearest_all_in_order(ground_truth.points);
+    timings.query = clock.elapsed();
+    let clock = Instant::now();
+    let confusion = ConfusionMatrix::from_nearest(ground_truth.labels, &nearest, point_labels, ground_truth.vocabulary.ids());
+    timings.confusion = clock.elapsed();
+    confusion
+}
+
+/// The confusion matrix of a cloud in any order: each block's answers are counted as they
+/// come, so there is no answer array for the whole cloud (4 bytes a point), which pays for
+/// the association's larger blocks.
+fn count_by_block(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], timings: &mut StageTimings) -> ConfusionMatrix {
+    let clock = Instant::now();
+    let mut count = NearestCount::new(ground_truth.vocabulary.ids(), point_labels);
+    let mut counting = clock.elapsed();
+    let clock = Instant::now();
+    let labels = ground_truth.labels;
+    index.nearest_by_block(ground_truth.points, |answers| {
+        let block = Instant::now();
+        count.add(answers.par_parts(confusion::COUNT_CHUNK).map(|part| part.map(|(point, nearest)| (labels[point], nearest))));
+        counting += block.elapsed();
+    });
+    timings.query = clock.elapsed().saturating_sub(counting);
+    timings.confusion = counting;
+    count.into_matrix()
 }

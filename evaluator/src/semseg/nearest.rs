@@ -50,7 +50,7 @@ const FEWEST_BLOCKS: usize = 4;
 
 /// Queries put in Z-order together, out of `queries`.
 fn locality_block(queries: usize) -> usize {
-    (queries / FEWEST_BLOCKS).clamp(SMALLEST_LOCALITY_BLOCK, LARGEST_LOCALITY_BLOCK)
+    queries.div_ceil(FEWEST_BLOCKS).clamp(SMALLEST_LOCALITY_BLOCK, LARGEST_LOCALITY_BLOCK)
 }
 
 /// Bits per axis of a Z-order key (3 × 10 = 30 bits: 1,024 cells per axis).
@@ -861,10 +861,11 @@ mod tests {
         assert_eq!(locality_block(1_000), 1 << 20, "small clouds: one block of the smallest size");
         assert_eq!(locality_block(5_000_000), 1_250_000, "four blocks of 5 M");
         assert_eq!(locality_block(20_000_000), 1 << 22, "a 20 M cloud: blocks of the largest size");
+        assert_eq!(locality_block(5_000_003), 1_250_001, "no block of a few queries left over");
         // The ordering's 16 bytes a query of a block never exceed 4 bytes a query of the
-        // cloud, once blocks are above the smallest size.
-        for queries in [4 << 20, 10_000_000, 16 << 20, 100_000_000] {
-            assert!(16 * locality_block(queries) <= 4 * queries, "{queries} queries");
+        // cloud (but for rounding up), once blocks are above the smallest size.
+        for queries in [4 << 20, 10_000_000, 10_000_003, 16 << 20, 100_000_000] {
+            assert!(16 * locality_block(queries) <= 4 * queries + 16, "{queries} queries");
         }
     }
 

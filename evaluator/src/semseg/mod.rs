@@ -13,6 +13,7 @@ pub mod metrics;
 pub mod nearest;
 pub mod prepared_cache;
 pub mod report;
+pub mod z_order;
 
 use std::time::{Duration, Instant};
 
@@ -123,7 +124,7 @@ impl PreparedGroundTruth {
     pub fn new(ground_truth: GroundTruth, classes: &ClassList) -> Result<Self> {
         check_finite(&ground_truth)?;
         let vocabulary = scored_vocabulary(&ground_truth, classes)?;
-        let order = nearest::z_order(&ground_truth.points);
+        let order = z_order::z_order(&ground_truth.points);
         let points = order.par_iter().map(|&i| ground_truth.points[i as usize]).collect();
         let labels = order.par_iter().map(|&i| ground_truth.labels[i as usize]).collect();
         Ok(Self { points, labels, vocabulary })

@@ -178,7 +178,7 @@ fn dense_queries_far_from_every_point_are_answered_exactly() {
 
 #[test]
 fn z_order_is_a_permutation_that_keeps_neighbours_together() {
-    use osmab_evaluator::semseg::nearest::z_order;
+    use osmab_evaluator::semseg::z_order::z_order;
     let mut rng = Rng::new(36);
     let points = random_points(&mut rng, 50_000, 4.0, None);
     let order = z_order(&points);
@@ -198,7 +198,7 @@ fn z_order_is_a_permutation_that_keeps_neighbours_together() {
 
 #[test]
 fn queries_in_z_order_get_the_answers_of_any_order() {
-    use osmab_evaluator::semseg::nearest::z_order;
+    use osmab_evaluator::semseg::z_order::z_order;
     let mut rng = Rng::new(37);
     let points = surface_points(&mut rng, 30_000, 3.0, 0.01, Some(0.004));
     let index = NearestIndex::build(&points);

@@ -212,7 +212,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
                 // As a whole submission's scoring does: the cloud put in Z-order once (for
                 // all the maps of its scene), then answered in that order.
                 let clock = Instant::now();
-                let order = osmab_evaluator::semseg::nearest::z_order(&scene.ground_truth.points);
+                let order = osmab_evaluator::semseg::z_order::z_order(&scene.ground_truth.points);
                 let ordered: Vec<[f32; 3]> = order.par_iter().map(|&i| scene.ground_truth.points[i as usize]).collect();
                 let ordering = clock.elapsed();
                 let clock = Instant::now();

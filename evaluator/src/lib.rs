@@ -7,6 +7,7 @@
 //! databases or async runtimes.
 
 pub mod bootstrap;
+pub mod bounds;
 pub mod csv_writer;
 pub mod error;
 pub mod formats;

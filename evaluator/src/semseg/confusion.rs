@@ -40,7 +40,7 @@ impl ConfusionMatrix {
     pub fn from_labels(ground_truth: &[i64], predicted: &[i64], vocabulary: &[i64]) -> Self {
         assert_eq!(ground_truth.len(), predicted.len(), "one prediction per ground-truth point");
         let counter = MatrixCounter::new(vocabulary);
-        let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
+        let columns = counter.columns();
         let parts = ground_truth.par_chunks(COUNT_CHUNK).zip(predicted.par_chunks(COUNT_CHUNK));
         let counts = counter.count(parts.map(|(gt, predicted)| gt.iter().zip(predicted).map(|(&g, &p)| (g, columns.get(p)))));
         counter.into_matrix(counts)
@@ -126,7 +126,7 @@ impl NearestCount {
     /// `point_labels` of the map points nearest to them.
     pub fn new(vocabulary: &[i64], point_labels: &[i64]) -> Self {
         let counter = MatrixCounter::new(vocabulary);
-        let columns = LabelPositions::new(&counter.labels, counter.labels.len() - 1);
+        let columns = counter.columns();
         let point_columns = point_labels.par_iter().map(|&l| columns.get(l) as u32).collect();
         let counts = counter.zeros();
         Self { counter, point_columns, counts }
@@ -166,6 +166,12 @@ impl MatrixCounter {
         labels.push(UNMATCHED);
         let rows = LabelPositions::new(&labels, labels.len());
         Self { labels, rows }
+    }
+
+    /// Each predicted label's column: its position in the matrix, the -1 column for labels
+    /// outside it.
+    fn columns(&self) -> LabelPositions {
+        LabelPositions::new(&self.labels, self.labels.len() - 1)
     }
 
     /// Counts of the matrix with its extra row, all zero.

@@ -51,16 +51,7 @@ impl ZGrid {
 /// of one cell of the curve in their input order): `points[order[0]]`, `points[order[1]]`, ….
 pub fn z_order(points: &[[f32; 3]]) -> Vec<u32> {
     assert!(points.len() < u32::MAX as usize, "too many points for 32-bit indices");
-    let (min, max) = points
-        .par_iter()
-        .fold(
-            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-            |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))),
-        )
-        .reduce(
-            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-            |(lo, hi), (l, h)| (std::array::from_fn(|a| lo[a].min(l[a])), std::array::from_fn(|a| hi[a].max(h[a]))),
-        );
+    let (min, max) = crate::bounds::bounding_box(points);
     let mut keys = ZOrderKeys::default();
     keys.sort(&ZGrid::over(min, max), points);
     keys.sorted.into_par_iter().map(|key| position_of(&key) as u32).collect()

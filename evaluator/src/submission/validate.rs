@@ -18,7 +18,6 @@ use crate::error::InputError;
 use crate::formats::map::{MapSemantics, PredictedMap, TextFeatures};
 use crate::formats::npy::ReadLimits;
 use crate::formats::pcd::read_pcd;
-use rayon::prelude::*;
 
 /// At most this many problems are reported (the rest are counted).
 pub const MAX_REPORTED_PROBLEMS: usize = 50;
@@ -281,17 +280,7 @@ fn ground_truth_extent(release: &ReleaseIndex, scene: &str) -> Option<Extent> {
         return Some(*extent);
     }
     let cloud = read_pcd(&path).ok()?;
-    let (lo, hi) = cloud
-        .points
-        .par_iter()
-        .fold(
-            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-            |(lo, hi), p| (std::array::from_fn(|a| lo[a].min(p[a])), std::array::from_fn(|a| hi[a].max(p[a]))),
-        )
-        .reduce(
-            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-            |(lo, hi), (l, h)| (std::array::from_fn(|a| lo[a].min(l[a])), std::array::from_fn(|a| hi[a].max(h[a]))),
-        );
+    let (lo, hi) = crate::bounds::bounding_box(&cloud.points);
     if cloud.points.is_empty() {
         return None;
     }

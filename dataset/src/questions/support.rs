@@ -48,7 +48,7 @@ pub fn resting_on(world: &World, report: &ConversionReport) -> BTreeMap<i64, Sup
     let class_of: BTreeMap<i64, &str> = report.objects.iter().map(|o| (o.instance_id, o.class.as_str())).collect();
     // Upward-facing triangles (either winding), by instance.
     let surfaces: Vec<(i64, [[f32; 3]; 3])> = world
-        .triangles
+        .triangles()
         .iter()
         .filter(|t| {
             let [a, b, c] = t.positions;
@@ -113,7 +113,7 @@ mod tests {
         triangles.extend(rectangle(2, [0.0, 0.7], [2.0, 0.9], 0.9)); // sofa back top
         triangles.extend(rectangle(4, [3.0, 0.0], [4.2, 0.8], 0.75)); // table top
         triangles.extend(rectangle(5, [3.2, 0.2], [3.6, 0.5], 0.77)); // tray top
-        let world = World { triangles, surfaces: vec![Surface { color: [1.0; 3], texture: None }] };
+        let world = World::new(triangles, vec![Surface { color: [1.0; 3], texture: None }]);
         let report = ConversionReport {
             objects: vec![
                 object(1, "floor", [-5.0, -0.1, -5.0], [5.0, 0.0, 5.0]),

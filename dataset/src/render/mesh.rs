@@ -32,11 +32,46 @@ pub struct Triangle {
     pub instance_id: u16,
 }
 
-/// Everything a camera can see.
+/// Everything a camera can see: triangles, their surfaces, and runs of one object's
+/// consecutive triangles with their bounding boxes, which the renderer tests against the
+/// view before transforming any triangle of a run.
 #[derive(Debug, Clone, Default)]
 pub struct World {
-    pub triangles: Vec<Triangle>,
-    pub surfaces: Vec<Surface>,
+    triangles: Vec<Triangle>,
+    surfaces: Vec<Surface>,
+    clusters: Vec<Cluster>,
+}
+
+/// Triangles a cluster holds at most: a piece of an object small enough for its box to
+/// leave the view when the object is half out of it.
+const CLUSTER_TRIANGLES: usize = 64;
+
+/// Consecutive triangles of one object instance, and the box that holds them.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Cluster {
+    pub(crate) triangles: std::ops::Range<usize>,
+    pub(crate) min: [f32; 3],
+    pub(crate) max: [f32; 3],
+}
+
+/// Runs of at most `size` consecutive triangles of one instance, with their boxes.
+fn clusters(triangles: &[Triangle], size: usize) -> Vec<Cluster> {
+    let mut clusters = Vec::with_capacity(triangles.len() / size + 1);
+    let mut start = 0;
+    while start < triangles.len() {
+        let instance = triangles[start].instance_id;
+        let run = triangles[start..].iter().take(size).take_while(|t| t.instance_id == instance).count();
+        let (mut min, mut max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in triangles[start..start + run].iter().flat_map(|t| &t.positions) {
+            for k in 0..3 {
+                min[k] = min[k].min(p[k]);
+                max[k] = max[k].max(p[k]);
+            }
+        }
+        clusters.push(Cluster { triangles: start..start + run, min, max });
+        start += run;
+    }
+    clusters
 }
 
 fn floats(v: &Value, n: usize) -> Option<Vec<f64>> {
@@ -44,13 +79,35 @@ fn floats(v: &Value, n: usize) -> Option<Vec<f64>> {
 }
 
 impl World {
+    pub fn new(triangles: Vec<Triangle>, surfaces: Vec<Surface>) -> World {
+        World::with_cluster_size(triangles, surfaces, CLUSTER_TRIANGLES)
+    }
+
+    /// A world whose clusters hold at most `size` triangles (`new` chooses the size).
+    pub(crate) fn with_cluster_size(triangles: Vec<Triangle>, surfaces: Vec<Surface>, size: usize) -> World {
+        let clusters = clusters(&triangles, size.max(1));
+        World { triangles, surfaces, clusters }
+    }
+
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    pub fn surfaces(&self) -> &[Surface] {
+        &self.surfaces
+    }
+
+    pub(crate) fn clusters(&self) -> &[Cluster] {
+        &self.clusters
+    }
+
     /// Load the converted scene in `dir` (written by `convert::habitat`), with the class
     /// of every object from its template's `user_defined.class_id`.
     pub fn load_habitat_scene(dir: &Path, scene: &str) -> Result<World> {
         let instance_path = dir.join("scenes").join(format!("{scene}.scene_instance.json"));
         let text = std::fs::read(&instance_path).map_err(|e| InputError::io(&instance_path, &e))?;
         let instance: Value = serde_json::from_slice(&text).map_err(|e| InputError::new(&instance_path, "(json)", e.to_string()))?;
-        let mut world = World::default();
+        let (mut triangles, mut surfaces) = (Vec::new(), Vec::new());
         let mut texture_cache: Vec<(String, Option<std::sync::Arc<Texture>>)> = Vec::new();
         for (i, object) in instance["object_instances"].as_array().into_iter().flatten().enumerate() {
             let field = format!("object_instances[{i}]");
@@ -82,9 +139,9 @@ impl World {
             let ext = asset.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
             if ext == "obj" {
                 let obj = super::obj::read_obj(&asset)?;
-                let base = world.surfaces.len() as u32;
+                let base = surfaces.len() as u32;
                 for m in &obj.materials {
-                    world.surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
+                    surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
                 }
                 for (corners, material) in &obj.triangles {
                     // Flat faces: the face normal, so boxes keep sharp edges.
@@ -94,18 +151,11 @@ impl World {
                     let n = e1.cross(&e2);
                     let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
                     let uvs = corners.map(|(_, t)| t.map_or([0.0; 2], |t| obj.uvs[t as usize]));
-                    world.triangles.push(Triangle {
-                        positions: p,
-                        normals: [[n.x, n.y, n.z]; 3],
-                        uvs,
-                        surface: base + *material as u32,
-                        class_id,
-                        instance_id,
-                    });
+                    triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs, surface: base + *material as u32, class_id, instance_id });
                 }
             } else {
                 let gltf = read_gltf(&asset)?;
-                let base = world.surfaces.len() as u32;
+                let base = surfaces.len() as u32;
                 for (m, material) in gltf.materials.iter().enumerate() {
                     let key = format!("{}#{m}", asset.display());
                     let texture = match texture_cache.iter().find(|(k, _)| *k == key) {
@@ -117,15 +167,15 @@ impl World {
                         }
                     };
                     let c = material.base_color;
-                    world.surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
+                    surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
                 }
-                let fallback = world.surfaces.len() as u32;
-                world.surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
+                let fallback = surfaces.len() as u32;
+                surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
                 for mesh in &gltf.meshes {
                     let surface = mesh.material.filter(|&m| m < gltf.materials.len()).map_or(fallback, |m| base + m as u32);
                     for tri in mesh.indices.chunks_exact(3) {
                         let k = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                        world.triangles.push(Triangle {
+                        triangles.push(Triangle {
                             positions: k.map(|k| place(mesh.positions[k])),
                             normals: k.map(|k| turn(mesh.normals[k])),
                             uvs: k.map(|k| mesh.uvs.as_ref().map_or([0.0; 2], |uv| uv[k])),
@@ -137,6 +187,6 @@ impl World {
                 }
             }
         }
-        Ok(world)
+        Ok(World::new(triangles, surfaces))
     }
 }

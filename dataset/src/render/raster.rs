@@ -3,13 +3,13 @@
 //! deferred shading pass; rows are split into bands rendered on all cores, into
 //! buffers allocated once per frame size.
 //!
-//! One file, over 600 lines, on purpose: the passes share the frame buffers and the band
+//! One file, over 400 lines, on purpose: the passes share the frame buffers and the band
 //! split, and the hot loops stay together for the optimiser and the reader.
 
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
-use super::mesh::{Triangle, World};
+use super::mesh::{Cluster, Triangle, World};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
 /// `c = (size − 1)/2` implies) and a camera-to-world pose in OpenCV axes
@@ -76,11 +76,9 @@ pub struct Frame {
     pub semantic: Vec<u16>,
     /// Object instance ids (the scene's semantic ids); 0 where nothing is hit.
     pub instance: Vec<u16>,
-    /// Per pixel: index of the visible (clipped) triangle and the weights of its
-    /// vertices 1 and 2 (planar, so the visibility pass writes them eight at a time).
+    /// Per pixel: index of the visible (clipped) triangle and its weights.
     pub(super) hit: Vec<u32>,
-    pub(super) weight1: Vec<f32>,
-    pub(super) weight2: Vec<f32>,
+    pub(super) weights: Vec<[f32; 2]>,
 }
 
 impl Frame {
@@ -93,8 +91,7 @@ impl Frame {
         self.semantic.resize(n, 0);
         self.instance.resize(n, 0);
         self.hit.resize(n, u32::MAX);
-        self.weight1.resize(n, 0.0);
-        self.weight2.resize(n, 0.0);
+        self.weights.resize(n, [0.0; 2]);
     }
 }
 
@@ -130,6 +127,37 @@ fn outside_the_image(cam: &[[f32; 3]; 3], camera: &Camera) -> bool {
     let above = cam.iter().all(|p| fy * p[1] + (cy + 1.0) * p[2] < 0.0);
     let below = cam.iter().all(|p| fy * p[1] + (cy - h) * p[2] > 0.0);
     left || right || above || below
+}
+
+/// Clusters a task of the transform takes (~8,000 triangles).
+const CLUSTERS_PER_TASK: usize = 128;
+
+/// Whether any triangle of `cluster` may draw a pixel: false when its box lies wholly
+/// behind the near plane, or wholly in front of it and two pixels beyond one edge of the
+/// image, in which case `clip_and_project` would drop each of its triangles (their
+/// vertices are convex combinations of the box's corners, so the same linear tests hold
+/// for them, with room to spare for their single-precision rounding).
+fn may_be_seen(cluster: &Cluster, world_to_camera: &Matrix4<f64>, camera: &Camera) -> bool {
+    let corners: [[f64; 3]; 8] = std::array::from_fn(|k| {
+        let pick = |axis: usize| if k >> axis & 1 == 0 { cluster.min[axis] } else { cluster.max[axis] } as f64;
+        let v = world_to_camera * nalgebra::Vector4::new(pick(0), pick(1), pick(2), 1.0);
+        [v.x, v.y, v.z]
+    });
+    let near = NEAR as f64;
+    if corners.iter().all(|p| p[2] < near - 1e-6) {
+        return false;
+    }
+    if !corners.iter().all(|p| p[2] > near + 1e-6) {
+        return true;
+    }
+    let (w, h) = (camera.width as f64, camera.height as f64);
+    let (fx, fy, cx, cy) = (camera.fx, camera.fy, camera.cx, camera.cy);
+    // As in `outside_the_image`, a pixel further out.
+    let left = corners.iter().all(|p| fx * p[0] + (cx + 2.0) * p[2] < 0.0);
+    let right = corners.iter().all(|p| fx * p[0] + (cx - w - 1.0) * p[2] > 0.0);
+    let above = corners.iter().all(|p| fy * p[1] + (cy + 2.0) * p[2] < 0.0);
+    let below = corners.iter().all(|p| fy * p[1] + (cy - h - 1.0) * p[2] > 0.0);
+    !(left || right || above || below)
 }
 
 /// Clip a camera-space triangle against the near plane and project it.
@@ -191,21 +219,22 @@ pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
     resolve(world, camera, &screen, None, frame);
 }
 
-/// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weight1`, `frame.weight2`,
+/// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weights`,
 /// `frame.depth`); returns the clipped, projected triangles the hits index.
 fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTriangle> {
     frame.resize(camera.width, camera.height);
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
-    let mut screen = Vec::with_capacity(world.triangles.len());
+    let mut screen = Vec::with_capacity(world.triangles().len());
     let clipped: Vec<Vec<ScreenTriangle>> = world
-        .triangles
-        .par_chunks(8192)
-        .enumerate()
-        .map(|(c, chunk)| {
-            let mut out = Vec::with_capacity(chunk.len());
-            for (i, t) in chunk.iter().enumerate() {
-                let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
-                clip_and_project(&cam, camera, (c * 8192 + i) as u32, &mut out);
+        .clusters()
+        .par_chunks(CLUSTERS_PER_TASK)
+        .map(|clusters| {
+            let mut out = Vec::new();
+            for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera)) {
+                for (i, t) in world.triangles()[cluster.triangles.clone()].iter().enumerate() {
+                    let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
+                    clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut out);
+                }
             }
             out
         })
@@ -237,10 +266,10 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
         .depth
         .par_chunks_mut(w * BAND)
         .zip(frame.hit.par_chunks_mut(w * BAND))
-        .zip(frame.weight1.par_chunks_mut(w * BAND).zip(frame.weight2.par_chunks_mut(w * BAND)))
+        .zip(frame.weights.par_chunks_mut(w * BAND))
         .zip(binned.par_iter())
         .enumerate()
-        .for_each(|(band, (((depth, hit), (weight1, weight2)), triangles))| {
+        .for_each(|(band, (((depth, hit), weights), triangles))| {
             depth.fill(f32::INFINITY);
             hit.fill(u32::MAX);
             let y0 = band * BAND;
@@ -263,152 +292,49 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
                 if px1 < px0 as isize || py1 < py0 as isize {
                     continue;
                 }
-                let cover = Cover::new(t, area, px0 as f64, py0 as f64, index);
-                let columns = px1 as usize + 1 - px0;
+                // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
+                // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32. Coverage
+                // uses each barycentric as a signed distance in pixels to its edge, so its
+                // rounding is a fraction of a pixel however large the triangle.
+                let inv_area = 1.0 / area;
+                let (x0, y0f) = (px0 as f64, py0 as f64);
+                let l0 = [((b[0] - x0) * (c[1] - y0f) - (b[1] - y0f) * (c[0] - x0)) * inv_area, (b[1] - c[1]) * inv_area, (c[0] - b[0]) * inv_area];
+                let l1 = [((c[0] - x0) * (a[1] - y0f) - (c[1] - y0f) * (a[0] - x0)) * inv_area, (c[1] - a[1]) * inv_area, (a[0] - c[0]) * inv_area];
+                let l2 = [1.0 - l0[0] - l1[0], -l0[1] - l1[1], -l0[2] - l1[2]];
+                let per_pixel = |l: [f64; 3]| {
+                    let g = (l[1] * l[1] + l[2] * l[2]).sqrt();
+                    (g as f32, [(l[0] / g) as f32, (l[1] / g) as f32, (l[2] / g) as f32])
+                };
+                let ((_, e0), (g1, e1), (g2, e2)) = (per_pixel(l0), per_pixel(l1), per_pixel(l2));
+                let [za, zb, zc] = t.inv_z_plane;
+                let inv_z = [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32];
+                // A pixel centre within 10⁻³ pixel of an edge counts as inside: on an edge
+                // shared by two triangles, at least one draws it.
+                const EDGE_TOLERANCE_PIXELS: f32 = -1e-3;
                 for py in py0..=py1 as usize {
                     let dy = (py - py0) as f32;
-                    if let Some(span) = cover.row_span(dy, columns) {
-                        cover.draw_row(dy, span, (py - y0) * w + px0, depth, hit, weight1, weight2);
+                    for px in px0..=px1 as usize {
+                        let dx = (px - px0) as f32;
+                        let at = |e: [f32; 3]| e[0] + e[1] * dx + e[2] * dy;
+                        // Either winding: both faces are drawn.
+                        let (d0, d1, d2) = (at(e0), at(e1), at(e2));
+                        if d0 < EDGE_TOLERANCE_PIXELS || d1 < EDGE_TOLERANCE_PIXELS || d2 < EDGE_TOLERANCE_PIXELS {
+                            continue;
+                        }
+                        let z = 1.0 / at(inv_z);
+                        let (l1, l2) = (d1 * g1, d2 * g2);
+                        let i = (py - y0) * w + px;
+                        if z < depth[i] {
+                            depth[i] = z;
+                            hit[i] = index;
+                            // Perspective-correct weights of vertices 1 and 2.
+                            weights[i] = [l1 * t.inv_z[1] * z, l2 * t.inv_z[2] * z];
+                        }
                     }
                 }
             }
         });
     screen
-}
-
-/// Pixels a row's visibility pass takes at once: one AVX register of f32.
-const LANES: usize = 8;
-
-/// A pixel centre within 10⁻³ pixel of an edge counts as inside: on an edge shared by two
-/// triangles, at least one draws it.
-const EDGE_TOLERANCE_PIXELS: f32 = -1e-3;
-
-/// One triangle's coverage of the pixels of a band, set up at the band's first pixel
-/// (`dx = dy = 0`): its edges as signed distances in pixels, two of them with their
-/// gradients (barycentrics), and 1/z, all affine in the offsets.
-struct Cover {
-    e0: [f32; 3],
-    e1: [f32; 3],
-    e2: [f32; 3],
-    g1: f32,
-    g2: f32,
-    inv_z: [f32; 3],
-    /// 1/z at the triangle's vertices 1 and 2.
-    inv_z1: f32,
-    inv_z2: f32,
-    index: u32,
-}
-
-impl Cover {
-    /// The coverage of screen triangle `t` (of signed double area `area`, not near zero)
-    /// from pixel (`x0`, `y0`). Barycentrics and 1/z are affine in (x, y), set up in f64
-    /// at that pixel (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32.
-    /// Coverage uses each barycentric as a signed distance in pixels to its edge, so its
-    /// rounding is a fraction of a pixel however large the triangle.
-    fn new(t: &ScreenTriangle, area: f64, x0: f64, y0: f64, index: u32) -> Cover {
-        let [a, b, c] = t.xy;
-        let inv_area = 1.0 / area;
-        let l0 = [((b[0] - x0) * (c[1] - y0) - (b[1] - y0) * (c[0] - x0)) * inv_area, (b[1] - c[1]) * inv_area, (c[0] - b[0]) * inv_area];
-        let l1 = [((c[0] - x0) * (a[1] - y0) - (c[1] - y0) * (a[0] - x0)) * inv_area, (c[1] - a[1]) * inv_area, (a[0] - c[0]) * inv_area];
-        let l2 = [1.0 - l0[0] - l1[0], -l0[1] - l1[1], -l0[2] - l1[2]];
-        let per_pixel = |l: [f64; 3]| {
-            let g = (l[1] * l[1] + l[2] * l[2]).sqrt();
-            (g as f32, [(l[0] / g) as f32, (l[1] / g) as f32, (l[2] / g) as f32])
-        };
-        let ((_, e0), (g1, e1), (g2, e2)) = (per_pixel(l0), per_pixel(l1), per_pixel(l2));
-        let [za, zb, zc] = t.inv_z_plane;
-        let inv_z = [(za * x0 + zb * y0 + zc) as f32, za as f32, zb as f32];
-        Cover { e0, e1, e2, g1, g2, inv_z, inv_z1: t.inv_z[1], inv_z2: t.inv_z[2], index }
-    }
-
-    /// Depth-test the columns `span` of row `dy`, which starts at `row` in the band's
-    /// buffers, eight at a time.
-    #[allow(clippy::too_many_arguments)]
-    fn draw_row(&self, dy: f32, span: std::ops::Range<usize>, row: usize, depth: &mut [f32], hit: &mut [u32], weight1: &mut [f32], weight2: &mut [f32]) {
-        for dx in span.clone().step_by(LANES) {
-            let valid = (span.end - dx).min(LANES);
-            let at = row + dx;
-            let lanes = (depth[at..].first_chunk_mut(), hit[at..].first_chunk_mut(), weight1[at..].first_chunk_mut(), weight2[at..].first_chunk_mut());
-            match lanes {
-                // Lanes past the span are the next pixels of the band: read, left as they are.
-                (Some(d), Some(h), Some(v1), Some(v2)) => self.lanes(dx as i32 as f32, dy, valid, d, h, v1, v2),
-                // The band's last pixels: through a copy.
-                _ => {
-                    let (mut d, mut h, mut v1, mut v2) = ([f32::INFINITY; LANES], [u32::MAX; LANES], [0.0; LANES], [0.0; LANES]);
-                    d[..valid].copy_from_slice(&depth[at..at + valid]);
-                    h[..valid].copy_from_slice(&hit[at..at + valid]);
-                    v1[..valid].copy_from_slice(&weight1[at..at + valid]);
-                    v2[..valid].copy_from_slice(&weight2[at..at + valid]);
-                    self.lanes(dx as i32 as f32, dy, valid, &mut d, &mut h, &mut v1, &mut v2);
-                    depth[at..at + valid].copy_from_slice(&d[..valid]);
-                    hit[at..at + valid].copy_from_slice(&h[..valid]);
-                    weight1[at..at + valid].copy_from_slice(&v1[..valid]);
-                    weight2[at..at + valid].copy_from_slice(&v2[..valid]);
-                }
-            }
-        }
-    }
-
-    /// The columns `0..columns` of row `dy` that the triangle may cover: a superset of
-    /// those whose pixel test passes, found from each edge's line in exact arithmetic,
-    /// widened by a bound on the single-precision test's rounding and a pixel on each
-    /// side; `None` when no column can pass. (Most of a large triangle's bounding box
-    /// lies outside it.)
-    fn row_span(&self, dy: f32, columns: usize) -> Option<std::ops::Range<usize>> {
-        let (mut first, mut last) = (0.0f64, columns as f64 - 1.0);
-        for e in [self.e0, self.e1, self.e2] {
-            let [e0, ex, ey] = e.map(f64::from);
-            let dy = dy as f64;
-            // The test evaluates e0 + ex·dx + ey·dy in f32: within 4 units of rounding
-            // (2⁻²⁴ each) of the exact value; 10⁻⁶ is four times that.
-            let slack = 1e-6 * (e0.abs() + ex.abs() * last.max(0.0) + ey.abs() * dy.abs());
-            // Passing needs ex·dx ≥ need (exactly, within the slack).
-            let need = EDGE_TOLERANCE_PIXELS as f64 - slack - e0 - ey * dy;
-            if !(need.is_finite() && slack.is_finite()) {
-                continue; // No bound from this edge: the pixel test decides.
-            }
-            if ex > 0.0 {
-                first = first.max((need / ex - 1.0).floor());
-            } else if ex < 0.0 {
-                last = last.min((need / ex + 1.0).ceil());
-            } else if need > 0.0 {
-                return None;
-            }
-        }
-        (first <= last).then(|| first as usize..last as usize + 1)
-    }
-
-    /// Depth-test the first `valid` of `LANES` pixels of a row, at offsets `dx0 + lane`,
-    /// `dy`, against the nearest so far: where the triangle covers a pixel and is nearer,
-    /// it becomes the pixel's hit. Lane by lane over fixed arrays with selects, so the
-    /// compiler makes one instruction of each step for all lanes (over slices, it
-    /// branched pixel by pixel); the arithmetic is the same as pixel by pixel.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn lanes(&self, dx0: f32, dy: f32, valid: usize, depth: &mut [f32; LANES], hit: &mut [u32; LANES], weight1: &mut [f32; LANES], weight2: &mut [f32; LANES]) {
-        // First every lane's candidate, then the selects: with the division and the
-        // selects in one loop, the compiler branched lane by lane to skip the division.
-        let (mut nearer, mut z, mut w1, mut w2) = ([0u32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-        for l in 0..LANES {
-            let dx = dx0 + l as f32;
-            let at = |e: [f32; 3]| e[0] + e[1] * dx + e[2] * dy;
-            // Either winding: both faces are drawn.
-            let (d0, d1, d2) = (at(self.e0), at(self.e1), at(self.e2));
-            let outside = (d0 < EDGE_TOLERANCE_PIXELS) | (d1 < EDGE_TOLERANCE_PIXELS) | (d2 < EDGE_TOLERANCE_PIXELS);
-            z[l] = 1.0 / at(self.inv_z);
-            nearer[l] = (((l < valid) & !outside & (z[l] < depth[l])) as u32).wrapping_neg();
-            // Perspective-correct weights of vertices 1 and 2.
-            w1[l] = d1 * self.g1 * self.inv_z1 * z[l];
-            w2[l] = d2 * self.g2 * self.inv_z2 * z[l];
-        }
-        let blend = |m: u32, new: u32, old: u32| (new & m) | (old & !m);
-        for l in 0..LANES {
-            depth[l] = f32::from_bits(blend(nearer[l], z[l].to_bits(), depth[l].to_bits()));
-            hit[l] = blend(nearer[l], self.index, hit[l]);
-            weight1[l] = f32::from_bits(blend(nearer[l], w1[l].to_bits(), weight1[l].to_bits()));
-            weight2[l] = f32::from_bits(blend(nearer[l], w2[l].to_bits(), weight2[l].to_bits()));
-        }
-    }
 }
 
 /// One row's surface attributes, for shading it all at once: albedo, world position and
@@ -461,9 +387,9 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
         .par_chunks_mut(w * 3)
         .zip(frame.semantic.par_chunks_mut(w).zip(frame.instance.par_chunks_mut(w)))
         .zip(frame.depth.par_chunks_mut(w))
-        .zip(frame.hit.par_chunks(w).zip(frame.weight1.par_chunks(w).zip(frame.weight2.par_chunks(w))))
+        .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
         .enumerate()
-        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, (weight1, weight2))))| {
+        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
             row.resize(w);
             let RowScratch { albedo: row_albedo, position, normal, light } = row;
             // 1. What each pixel shows: class, instance, depth and (when coloured) its
@@ -471,8 +397,7 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
             {
                 let [ar, ag, ab] = row_albedo.each_mut().map(|v| &mut v[..w]);
                 let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
-                let (semantic, instance, depth, hit, weight1, weight2) =
-                    (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weight1[..w], &weight2[..w]);
+                let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
                 for px in 0..w {
                     if hit[px] == u32::MAX {
                         semantic[px] = 0;
@@ -483,8 +408,8 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
                         continue;
                     }
                     let st = &screen[hit[px] as usize];
-                    let tri: &Triangle = &world.triangles[st.source as usize];
-                    let (w1, w2) = (weight1[px], weight2[px]);
+                    let tri: &Triangle = &world.triangles()[st.source as usize];
+                    let [w1, w2] = weights[px];
                     let w0 = 1.0 - w1 - w2;
                     // Barycentrics in the source triangle.
                     let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
@@ -493,7 +418,7 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
                     if !coloured {
                         continue;
                     }
-                    let surface = &world.surfaces[tri.surface as usize];
+                    let surface = &world.surfaces()[tri.surface as usize];
                     let mut albedo = surface.color;
                     if let Some(tex) = &surface.texture {
                         let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
@@ -570,62 +495,57 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
 mod tests {
     use super::*;
 
-    /// Triangles of every size and slant over a 120 × 120 window, from a fixed generator.
-    fn triangles() -> impl Iterator<Item = ScreenTriangle> {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    #[test]
+    fn culling_clusters_by_their_boxes_changes_no_pixel_and_drops_most_of_a_room_out_of_view() {
+        use crate::render::mesh::Surface;
+        // Small triangles of 400 objects all around the camera (some behind it, some
+        // through its near plane, some just beyond the image's edges), 30 each.
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
         let mut uniform = move || {
             state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
+            ((state >> 11) as f64 / (1u64 << 53) as f64) as f32
         };
-        (0..4000).map(move |case| {
-            // From a few pixels to far beyond the window, as clipped floors reach.
-            let size = [3.0, 40.0, 400.0, 1e5][case % 4];
-            let centre = [uniform() * 120.0, uniform() * 120.0];
-            let mut xy: [[f64; 2]; 3] = std::array::from_fn(|_| [centre[0] + (uniform() - 0.5) * size, centre[1] + (uniform() - 0.5) * size]);
-            match case % 7 {
-                0 => xy[1][1] = xy[0][1] + (uniform() - 0.5) * 1e-3, // a nearly level edge
-                1 => xy[1][1] = xy[0][1],                            // a level edge
-                2 => xy = xy.map(|p| p.map(f64::round)),             // edges through pixel centres
-                _ => {}
-            }
-            ScreenTriangle { xy, inv_z: [1.0; 3], inv_z_plane: [0.0, 0.0, 1.0], bary: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], source: 0 }
-        })
-    }
-
-    #[test]
-    fn a_rows_span_holds_every_pixel_the_pixel_test_draws_and_skips_the_rest_of_the_box() {
-        let (mut drawn, mut boxed, mut spanned) = (0usize, 0usize, 0usize);
-        for t in triangles() {
-            let [a, b, c] = t.xy;
-            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-            let (xs, ys) = (t.xy.map(|p| p[0]), t.xy.map(|p| p[1]));
-            let px0 = xs.iter().copied().fold(f64::INFINITY, f64::min).ceil().max(0.0);
-            let px1 = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max).floor().min(119.0);
-            let py0 = ys.iter().copied().fold(f64::INFINITY, f64::min).ceil().max(0.0);
-            let py1 = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max).floor().min(119.0);
-            if area.abs() < 1e-9 || px1 < px0 || py1 < py0 {
-                continue;
-            }
-            let cover = Cover::new(&t, area, px0, py0, 1);
-            let columns = (px1 - px0) as usize + 1;
-            for dy in 0..=(py1 - py0) as usize {
-                let dy = dy as f32;
-                // The pixel test on every column of the box, with room for the last lanes.
-                let (mut depth, mut hit) = (vec![f32::INFINITY; columns + LANES], vec![0u32; columns + LANES]);
-                let (mut weight1, mut weight2) = (vec![0.0; columns + LANES], vec![0.0; columns + LANES]);
-                cover.draw_row(dy, 0..columns, 0, &mut depth, &mut hit, &mut weight1, &mut weight2);
-                let span = cover.row_span(dy, columns).unwrap_or(0..0);
-                for (dx, &h) in hit[..columns].iter().enumerate() {
-                    assert!(h == 0 || span.contains(&dx), "{:?}: row {dy} column {dx} is drawn but outside {span:?}", t.xy);
-                    drawn += (h == 1) as usize;
-                }
-                assert!(hit[columns..].iter().all(|&h| h == 0), "lanes past the span are left as they were");
-                boxed += columns;
-                spanned += span.len();
+        let mut triangles = Vec::new();
+        for object in 0..400u16 {
+            let spread = if object % 8 == 0 { 0.8 } else { 8.0 }; // an eighth within 0.4 m
+            let centre = [0.1 + (uniform() - 0.5) * spread, 0.2 + (uniform() - 0.5) * spread, (uniform() - 0.5) * spread];
+            let size = if object % 10 == 0 { 0.02 } else { 0.3 };
+            for _ in 0..30 {
+                let p: [[f32; 3]; 3] = std::array::from_fn(|_| std::array::from_fn(|k| centre[k] + (uniform() - 0.5) * size));
+                triangles.push(Triangle {
+                    positions: p,
+                    normals: [[0.0, 0.0, -1.0]; 3],
+                    uvs: [[0.0; 2]; 3],
+                    surface: 0,
+                    class_id: object + 1,
+                    instance_id: object + 1,
+                });
             }
         }
-        assert!(drawn > 100_000, "the triangles cover pixels: {drawn}");
-        // Each row's span is at most a few pixels wider than what is drawn in it.
-        assert!(spanned < drawn + drawn / 5 + 20_000 && spanned < boxed / 2, "{spanned} columns spanned for {drawn} drawn, of {boxed} in the boxes");
+        let surfaces = vec![Surface { color: [0.5, 0.25, 1.0], texture: None }];
+        let clustered = World::with_cluster_size(triangles.clone(), surfaces.clone(), 8);
+        assert_eq!(clustered.clusters().len(), 400 * 4, "a cluster never holds two objects");
+        // The reference: one instance, one cluster, whose box holds the camera (never culled).
+        let one = triangles.iter().map(|t| Triangle { instance_id: 1, ..*t }).collect::<Vec<_>>();
+        let whole = World::with_cluster_size(one, surfaces, triangles.len());
+        assert_eq!(whole.clusters().len(), 1);
+        let (mut culled, mut drawn) = (0, 0);
+        for view in 0..24 {
+            let a = std::f64::consts::TAU * view as f64 / 24.0;
+            let (c, s) = (a.cos(), a.sin());
+            let pose = Matrix4::new(c, 0.0, -s, 0.1, 0.0, -1.0, 0.0, 0.2, -s, 0.0, -c, 0.0, 0.0, 0.0, 0.0, 1.0);
+            let camera = Camera { width: 160, height: 120, fx: 80.0, fy: 80.0, cx: 79.5, cy: 59.5, pose };
+            let world_to_camera = pose.try_inverse().unwrap();
+            culled += clustered.clusters().iter().filter(|c| !may_be_seen(c, &world_to_camera, &camera)).count();
+            let (mut a, mut b) = (Frame::default(), Frame::default());
+            render(&clustered, &camera, &Shading::Flat, &mut a);
+            render(&whole, &camera, &Shading::Flat, &mut b);
+            drawn += b.semantic.iter().filter(|&&s| s != 0).count();
+            assert!(whole.clusters().iter().all(|c| may_be_seen(c, &world_to_camera, &camera)));
+            assert_eq!((a.depth, a.semantic, a.rgb), (b.depth, b.semantic, b.rgb), "view {view}");
+        }
+        let clusters = 24 * clustered.clusters().len();
+        assert!(drawn > 24 * 160 * 120 / 10, "the objects are in view: {drawn} pixels");
+        assert!(culled > clusters / 2, "{culled} of {clusters} clusters culled");
     }
 }

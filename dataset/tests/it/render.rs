@@ -20,7 +20,7 @@ fn quad(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, surface: u32, class_id: u16)
 }
 
 fn world(triangles: Vec<Triangle>) -> World {
-    World { triangles, surfaces: vec![Surface { color: [0.5, 0.25, 1.0], texture: None }, Surface { color: [0.2, 0.8, 0.4], texture: None }] }
+    World::new(triangles, vec![Surface { color: [0.5, 0.25, 1.0], texture: None }, Surface { color: [0.2, 0.8, 0.4], texture: None }])
 }
 
 #[test]
@@ -115,7 +115,7 @@ fn a_converted_scene_renders_from_inside_the_room() {
     let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/fixtures/scenesmith/scene_000");
     let report = write_habitat_scene(&load_scene(&fixture).unwrap(), out.path(), &ConvertOptions::default()).unwrap();
     let w = World::load_habitat_scene(out.path(), "scene_000").unwrap();
-    assert!(w.triangles.len() > 100_000, "real assets: {} triangles", w.triangles.len());
+    assert!(w.triangles().len() > 100_000, "real assets: {} triangles", w.triangles().len());
     // Stand at the room centre, 1 m up, looking at the bed (Habitat −z, OpenCV axes).
     let pose = Matrix4::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.5, 0.0, 0.0, 0.0, 1.0);
     let mut frame = Frame::default();

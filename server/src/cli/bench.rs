@@ -344,7 +344,7 @@ fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: O
     let seconds = clock.elapsed().as_secs_f64();
     println!(
         "{} triangles (loaded in {load:.2} s); {frames} frames of 1200x680 in {seconds:.2} s: {:.1} frames/s ({})",
-        world.triangles.len(),
+        world.triangles().len(),
         frames as f64 / seconds,
         if lit { "lit" } else { "flat" }
     );

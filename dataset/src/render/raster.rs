@@ -136,7 +136,8 @@ const CLUSTERS_PER_TASK: usize = 128;
 /// behind the near plane, or wholly in front of it and two pixels beyond one edge of the
 /// image, in which case `clip_and_project` would drop each of its triangles (their
 /// vertices are convex combinations of the box's corners, so the same linear tests hold
-/// for them, with room to spare for their single-precision rounding).
+/// for them, with room to spare for their single-precision rounding). That argument
+/// needs finite coordinates, which the scene loaders (`read_gltf`, `read_obj`) enforce.
 fn may_be_seen(cluster: &Cluster, world_to_camera: &Matrix4<f64>, camera: &Camera) -> bool {
     let corners: [[f64; 3]; 8] = std::array::from_fn(|k| {
         let pick = |axis: usize| if k >> axis & 1 == 0 { cluster.min[axis] } else { cluster.max[axis] } as f64;

@@ -3,6 +3,7 @@
 //! lighting model.
 
 pub mod coverage;
+mod edges;
 pub mod loaders;
 pub mod mesh;
 pub mod navigation;

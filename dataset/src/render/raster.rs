@@ -9,6 +9,7 @@
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
+use super::edges::Edges;
 use super::mesh::{Cluster, Triangle, World};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
@@ -294,35 +295,17 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
                     continue;
                 }
                 // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
-                // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32. Coverage
-                // uses each barycentric as a signed distance in pixels to its edge, so its
-                // rounding is a fraction of a pixel however large the triangle.
-                let inv_area = 1.0 / area;
-                let (x0, y0f) = (px0 as f64, py0 as f64);
-                let l0 = [((b[0] - x0) * (c[1] - y0f) - (b[1] - y0f) * (c[0] - x0)) * inv_area, (b[1] - c[1]) * inv_area, (c[0] - b[0]) * inv_area];
-                let l1 = [((c[0] - x0) * (a[1] - y0f) - (c[1] - y0f) * (a[0] - x0)) * inv_area, (c[1] - a[1]) * inv_area, (a[0] - c[0]) * inv_area];
-                let l2 = [1.0 - l0[0] - l1[0], -l0[1] - l1[1], -l0[2] - l1[2]];
-                let per_pixel = |l: [f64; 3]| {
-                    let g = (l[1] * l[1] + l[2] * l[2]).sqrt();
-                    (g as f32, [(l[0] / g) as f32, (l[1] / g) as f32, (l[2] / g) as f32])
-                };
-                let ((_, e0), (g1, e1), (g2, e2)) = (per_pixel(l0), per_pixel(l1), per_pixel(l2));
+                // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32.
+                let mut edges = Edges::new(t.xy, area, px0, py0, px1 as usize);
+                let [g1, g2] = edges.gradient_lengths;
                 let [za, zb, zc] = t.inv_z_plane;
+                let (x0, y0f) = (px0 as f64, py0 as f64);
                 let inv_z = [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32];
-                // A pixel centre within 10⁻³ pixel of an edge counts as inside: on an edge
-                // shared by two triangles, at least one draws it.
-                const EDGE_TOLERANCE_PIXELS: f32 = -1e-3;
                 for py in py0..=py1 as usize {
                     let dy = (py - py0) as f32;
-                    for px in px0..=px1 as usize {
+                    edges.for_each_covered_in_row(dy, |px, [_, d1, d2]| {
                         let dx = (px - px0) as f32;
-                        let at = |e: [f32; 3]| e[0] + e[1] * dx + e[2] * dy;
-                        // Either winding: both faces are drawn.
-                        let (d0, d1, d2) = (at(e0), at(e1), at(e2));
-                        if d0 < EDGE_TOLERANCE_PIXELS || d1 < EDGE_TOLERANCE_PIXELS || d2 < EDGE_TOLERANCE_PIXELS {
-                            continue;
-                        }
-                        let z = 1.0 / at(inv_z);
+                        let z = 1.0 / (inv_z[0] + inv_z[1] * dx + inv_z[2] * dy);
                         let (l1, l2) = (d1 * g1, d2 * g2);
                         let i = (py - y0) * w + px;
                         if z < depth[i] {
@@ -331,7 +314,7 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
                             // Perspective-correct weights of vertices 1 and 2.
                             weights[i] = [l1 * t.inv_z[1] * z, l2 * t.inv_z[2] * z];
                         }
-                    }
+                    });
                 }
             }
         });

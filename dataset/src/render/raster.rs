@@ -9,7 +9,7 @@
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
-use super::edges::Edges;
+use super::edges::{Edges, column};
 use super::mesh::{Cluster, Triangle, World};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
@@ -301,18 +301,19 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
                 let [za, zb, zc] = t.inv_z_plane;
                 let (x0, y0f) = (px0 as f64, py0 as f64);
                 let inv_z = [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32];
+                let [w1, w2] = [t.inv_z[1], t.inv_z[2]];
                 for py in py0..=py1 as usize {
-                    let dy = (py - py0) as f32;
-                    edges.for_each_covered_in_row(dy, |px, [_, d1, d2]| {
-                        let dx = (px - px0) as f32;
+                    let dy = column(py - py0);
+                    let row = (py - y0) * w..(py - y0 + 1) * w;
+                    let (depth, hit, weights) = (&mut depth[row.clone()], &mut hit[row.clone()], &mut weights[row]);
+                    edges.for_each_covered_in_row(dy, |px, dx, [_, d1, d2]| {
                         let z = 1.0 / (inv_z[0] + inv_z[1] * dx + inv_z[2] * dy);
                         let (l1, l2) = (d1 * g1, d2 * g2);
-                        let i = (py - y0) * w + px;
-                        if z < depth[i] {
-                            depth[i] = z;
-                            hit[i] = index;
+                        if z < depth[px] {
+                            depth[px] = z;
+                            hit[px] = index;
                             // Perspective-correct weights of vertices 1 and 2.
-                            weights[i] = [l1 * t.inv_z[1] * z, l2 * t.inv_z[2] * z];
+                            weights[px] = [l1 * w1 * z, l2 * w2 * z];
                         }
                     });
                 }

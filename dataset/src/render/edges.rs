@@ -32,7 +32,7 @@ pub(super) struct Edges {
     pub(super) gradient_lengths: [f32; 2],
     first: usize,
     last: usize,
-    /// Every distance is finite, hence monotone along a row (see `row`).
+    /// Every distance is finite, hence monotone along a row (see `for_each_covered_in_row`).
     finite: bool,
     /// Where the last covered run began: the next row's walk starts there.
     start: usize,

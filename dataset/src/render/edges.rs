@@ -19,6 +19,13 @@ pub(super) fn column(offset: usize) -> f32 {
     offset as u32 as f32
 }
 
+/// Each edge's distance at (`dx`, `dy`) from its value at the box's first pixel and its
+/// steps: e₀ + e₁·dx + e₂·dy, in this order (the rounding is part of what the pixels are).
+#[inline]
+fn distances_at(distance: &[[f32; 3]; 3], dx: f32, dy: f32) -> [f32; 3] {
+    distance.map(|e| e[0] + e[1] * dx + e[2] * dy)
+}
+
 /// A triangle's edges over the columns `first..=last` of its box, as signed distances in
 /// pixels: each barycentric coordinate divided by the length of its gradient, so their
 /// rounding is a fraction of a pixel however large the triangle.
@@ -61,7 +68,7 @@ impl Edges {
 
     /// The distances of the pixel `dx` columns right of and `dy` rows below the box's first.
     pub(super) fn at(&self, dx: f32, dy: f32) -> [f32; 3] {
-        self.distance.map(|e| e[0] + e[1] * dx + e[2] * dy)
+        distances_at(&self.distance, dx, dy)
     }
 
     /// Visits the covered pixels of the row `dy` below the box's first, left to right, with
@@ -81,7 +88,7 @@ impl Edges {
         let (distance, first, last) = (self.distance, self.first, self.last);
         let at = move |px: usize| {
             let dx = column(px - first);
-            (dx, distance.map(|e| e[0] + e[1] * dx + e[2] * dy))
+            (dx, distances_at(&distance, dx, dy))
         };
         if !self.finite {
             for px in first..=last {

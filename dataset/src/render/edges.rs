@@ -10,7 +10,12 @@ const EDGE_TOLERANCE_PIXELS: f32 = -1e-3;
 /// edges, is covered. Either winding is: both faces are drawn. A NaN distance does not
 /// rule a pixel out.
 fn covers(distances: [f32; 3]) -> bool {
-    !distances.iter().any(|&d| d < EDGE_TOLERANCE_PIXELS)
+    !distances.into_iter().any(beyond_the_edge)
+}
+
+/// Whether a pixel centre at this signed distance from an edge lies beyond it (not a NaN).
+fn beyond_the_edge(distance: f32) -> bool {
+    distance < EDGE_TOLERANCE_PIXELS
 }
 
 /// A column (or row) offset inside a box, as a float: exact, since boxes are clamped to the
@@ -23,7 +28,13 @@ pub(super) fn column(offset: usize) -> f32 {
 /// steps: e₀ + e₁·dx + e₂·dy, in this order (the rounding is part of what the pixels are).
 #[inline]
 fn distances_at(distance: &[[f32; 3]; 3], dx: f32, dy: f32) -> [f32; 3] {
-    distance.map(|e| e[0] + e[1] * dx + e[2] * dy)
+    distance.map(|e| distance_at(e, dx, dy))
+}
+
+/// One edge's distance at (`dx`, `dy`): e₀ + e₁·dx + e₂·dy, in this order.
+#[inline]
+pub(super) fn distance_at(e: [f32; 3], dx: f32, dy: f32) -> f32 {
+    e[0] + e[1] * dx + e[2] * dy
 }
 
 /// A triangle's edges over the columns `first..=last` of its box, as signed distances in
@@ -33,16 +44,26 @@ fn distances_at(distance: &[[f32; 3]; 3], dx: f32, dy: f32) -> [f32; 3] {
 pub(super) struct Edges {
     /// Per edge (opposite vertex k): the distance at the box's first pixel, its change per
     /// pixel to the right and per pixel down.
-    distance: [[f32; 3]; 3],
+    pub(super) distance: [[f32; 3]; 3],
     /// Lengths of the gradients of barycentrics 1 and 2: a distance times its length is
     /// the barycentric coordinate again.
     pub(super) gradient_lengths: [f32; 2],
+    /// 1/e₁ per edge, for estimating where an edge crosses a row.
+    inverse_steps: [f32; 3],
     first: usize,
     last: usize,
-    /// Every distance is finite, hence monotone along a row (see `for_each_covered_in_row`).
+    /// Every distance is finite, hence monotone along a row (see `row`).
     finite: bool,
-    /// Where the last covered run began: the next row's walk starts there.
-    start: usize,
+}
+
+/// The covered pixels of one row of a triangle's box.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Row {
+    /// Exactly these columns (the range may be empty).
+    Run(std::ops::Range<usize>),
+    /// A distance is not finite, so the covered pixels need not form one run: test each
+    /// pixel of the box's row with `Edges::covered`.
+    TestEachPixel,
 }
 
 impl Edges {
@@ -63,7 +84,8 @@ impl Edges {
         let ((_, e0), (g1, e1), (g2, e2)) = (per_pixel(l0), per_pixel(l1), per_pixel(l2));
         let distance = [e0, e1, e2];
         let finite = distance.iter().flatten().all(|v| v.is_finite());
-        Edges { distance, gradient_lengths: [g1, g2], first, last, finite, start: first }
+        let inverse_steps = distance.map(|e| 1.0 / e[1]);
+        Edges { distance, gradient_lengths: [g1, g2], inverse_steps, first, last, finite }
     }
 
     /// The distances of the pixel `dx` columns right of and `dy` rows below the box's first.
@@ -71,84 +93,79 @@ impl Edges {
         distances_at(&self.distance, dx, dy)
     }
 
-    /// Visits the covered pixels of the row `dy` below the box's first, left to right, with
-    /// their columns right of the box's first (as `dx`) and their distances: exactly the
-    /// pixels of the box's row for which `covers` holds.
-    ///
-    /// Along a row each distance e₀ + e₁·dx + e₂·dy is monotone in dx, rounding included
-    /// (each rounding step is monotone), so the covered pixels form one run, and a pixel
-    /// outside tells by its failing edges on which side the run lies. The row is walked from
-    /// where the last row's run began to a covered pixel, back to the run's start, and on
-    /// until the first pixel outside: about two tests more than the run's length, where
-    /// testing the box's row costs its whole width. With a distance that is not finite the
-    /// argument fails, and every pixel of the row is tested.
-    #[inline]
-    pub(super) fn for_each_covered_in_row(&mut self, dy: f32, mut visit: impl FnMut(usize, f32, [f32; 3])) {
-        // Copies, kept in registers while `visit` writes the caller's buffers.
-        let (distance, first, last) = (self.distance, self.first, self.last);
-        let at = move |px: usize| {
-            let dx = column(px - first);
-            (dx, distances_at(&distance, dx, dy))
-        };
-        if !self.finite {
-            for px in first..=last {
-                let (dx, d) = at(px);
-                if covers(d) {
-                    visit(px, dx, d);
-                }
-            }
-            return;
-        }
-        let Some(mut px) = self.walk_to_run(dy) else {
-            return;
-        };
-        while px > first && covers(at(px - 1).1) {
-            px -= 1;
-        }
-        self.start = px;
-        while px <= last {
-            let (dx, d) = at(px);
-            if !covers(d) {
-                break;
-            }
-            visit(px, dx, d);
-            px += 1;
-        }
+    /// The distances of the pixel in column `px` of the row `dy` below the box's first, if
+    /// it is covered.
+    pub(super) fn covered(&self, px: usize, dy: f32) -> Option<[f32; 3]> {
+        let d = self.at(column(px - self.first), dy);
+        covers(d).then_some(d)
     }
 
-    /// A covered pixel of the row `dy`, found by walking from `start` the way the failing
-    /// edges point, or `None` when the row has none: the failing edges point both ways, the
-    /// walk would turn back (the run would lie between two neighbouring pixels), or it would
-    /// leave the box.
+    /// The covered pixels of the row `dy` below the box's first: exactly the pixels of the
+    /// box's row for which `covers` holds.
+    ///
+    /// Along a row each distance e₀ + e₁·dx + e₂·dy is monotone in dx, rounding included
+    /// (each rounding step is monotone), so each edge passes the pixels on one side of a
+    /// column and the covered pixels form one run. Each edge's column is estimated from
+    /// where its line crosses the row, then settled by testing the pixels beside it: the
+    /// estimate only saves steps, the tests decide. With a distance that is not finite the
+    /// argument fails, and every pixel must be tested.
     #[inline]
-    fn walk_to_run(&self, dy: f32) -> Option<usize> {
-        let mut px = self.start;
-        let mut heading = None;
-        loop {
-            let d = self.at(column(px - self.first), dy);
-            let (mut left, mut right) = (false, false);
-            for (e, d) in self.distance.iter().zip(d) {
-                if d < EDGE_TOLERANCE_PIXELS {
-                    right |= e[1] >= 0.0;
-                    left |= e[1] <= 0.0;
-                }
+    pub(super) fn row(&self, dy: f32) -> Row {
+        if !self.finite {
+            return Row::TestEachPixel;
+        }
+        let first = self.first;
+        // Columns lo..hi, counted from the box's first, are still covered.
+        let (mut lo, mut hi) = (0usize, self.last - first + 1);
+        for (e, inverse_step) in self.distance.iter().zip(self.inverse_steps) {
+            let passes = |x: usize| !beyond_the_edge(distance_at(*e, column(x), dy));
+            // Where the edge's distance reaches the tolerance, as a column near which the
+            // tests start (any value would do: a NaN or a huge one is clamped).
+            let crossing = (EDGE_TOLERANCE_PIXELS - e[2] * dy - e[0]) * inverse_step;
+            let near = |lo: usize, hi: usize| (crossing as i32).clamp(lo as i32, hi as i32) as usize;
+            if e[1] > 0.0 {
+                lo = first_passing(lo..hi, near(lo, hi), passes);
+            } else if e[1] < 0.0 {
+                hi = end_of_passing(lo..hi, near(lo, hi), passes);
+            } else if !passes(lo) {
+                // Constant along the row, and failing.
+                hi = lo;
             }
-            let step_right = match (left, right) {
-                (false, false) => return Some(px),
-                (true, true) => return None,
-                (_, right) => right,
-            };
-            if heading.is_some_and(|h| h != step_right) {
-                return None;
-            }
-            heading = Some(step_right);
-            match step_right {
-                true if px < self.last => px += 1,
-                false if px > self.first => px -= 1,
-                _ => return None,
+            if hi <= lo {
+                return Row::Run(first..first);
             }
         }
+        Row::Run(first + lo..first + hi)
     }
+}
+
+/// The first column of `columns` from which on `passes` holds (given that it holds from
+/// some column on), or the end of `columns`; searched from `start`, in `columns` or at its
+/// end, one column at a time.
+#[inline]
+fn first_passing(columns: std::ops::Range<usize>, start: usize, passes: impl Fn(usize) -> bool) -> usize {
+    let mut x = start;
+    while x > columns.start && passes(x - 1) {
+        x -= 1;
+    }
+    while x < columns.end && !passes(x) {
+        x += 1;
+    }
+    x
+}
+
+/// The end of the columns of `columns` up to which `passes` holds (given that it holds up
+/// to some column), or the start of `columns`; searched from `start` as `first_passing`.
+#[inline]
+fn end_of_passing(columns: std::ops::Range<usize>, start: usize, passes: impl Fn(usize) -> bool) -> usize {
+    let mut x = start;
+    while x < columns.end && passes(x) {
+        x += 1;
+    }
+    while x > columns.start && !passes(x - 1) {
+        x -= 1;
+    }
+    x
 }
 
 #[cfg(test)]
@@ -169,10 +186,12 @@ mod tests {
         covered
     }
 
-    fn covered_by_walking(edges: &mut Edges, rows: usize) -> Vec<(usize, usize, [f32; 3])> {
+    /// The pixels of each row's run.
+    fn covered_by_runs(edges: &Edges, rows: usize) -> Vec<(usize, usize, [f32; 3])> {
         let mut covered = Vec::new();
         for row in 0..rows {
-            edges.for_each_covered_in_row(row as f32, |px, _, d| covered.push((row, px, d)));
+            let Row::Run(run) = edges.row(row as f32) else { panic!("finite distances give runs") };
+            covered.extend(run.map(|px| (row, px, edges.at((px - edges.first) as f32, row as f32))));
         }
         covered
     }
@@ -220,12 +239,12 @@ mod tests {
             if case % 11 == 0 {
                 xy[2][0] = xy[1][0];
             }
-            let Some((mut edges, rows)) = edges_in_band(xy) else { continue };
+            let Some((edges, rows)) = edges_in_band(xy) else { continue };
             triangles += 1;
             let expected = covered_by_testing_every_pixel(&edges, rows);
-            let walked = covered_by_walking(&mut edges, rows);
-            assert_eq!(walked.len(), expected.len(), "triangle {xy:?}");
-            for (w, e) in walked.iter().zip(&expected) {
+            let runs = covered_by_runs(&edges, rows);
+            assert_eq!(runs.len(), expected.len(), "triangle {xy:?}");
+            for (w, e) in runs.iter().zip(&expected) {
                 assert!(w.0 == e.0 && w.1 == e.1 && w.2.map(f32::to_bits) == e.2.map(f32::to_bits), "triangle {xy:?}: {w:?} against {e:?}");
             }
             covered += expected.len();
@@ -235,7 +254,7 @@ mod tests {
             }
         }
         // The cases are not vacuous: many triangles, pixels, and slivers whose box holds
-        // rows they miss (where a walk must stop rather than turn back).
+        // rows they miss (whose runs must come out empty).
         assert!(
             triangles > 12_000 && covered > 500_000 && slivers_with_empty_rows > 100,
             "{triangles} triangles, {covered} pixels, {slivers_with_empty_rows} slivers"
@@ -243,22 +262,39 @@ mod tests {
     }
 
     #[test]
+    fn an_edges_first_and_last_passing_columns_are_found_from_any_start() {
+        for columns in [0..0, 3..4, 2..9] {
+            for boundary in 0..=10 {
+                for start in columns.start..=columns.end {
+                    let from = first_passing(columns.clone(), start, |x| x >= boundary);
+                    assert_eq!(from, boundary.clamp(columns.start, columns.end), "{columns:?} passing from {boundary}, start {start}");
+                    let end = end_of_passing(columns.clone(), start, |x| x < boundary);
+                    assert_eq!(end, boundary.clamp(columns.start, columns.end), "{columns:?} passing before {boundary}, start {start}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn an_edge_parallel_to_the_rows_keeps_or_empties_a_row_whole() {
+        let mut edges = Edges::new([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]], 100.0, 0, 0, 10);
+        edges.distance[2] = [0.5, 0.0, 0.0];
+        assert_eq!(edges.row(0.0), Row::Run(0..11));
+        edges.distance[2] = [-0.5, 0.0, 0.0];
+        assert_eq!(edges.row(0.0), Row::Run(0..0));
+    }
+
+    #[test]
     fn a_distance_that_is_not_finite_makes_every_pixel_of_the_row_tested() {
         let mut edges = Edges::new([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]], 100.0, 0, 0, 10);
-        let row = |edges: &mut Edges| {
-            let mut covered = Vec::new();
-            edges.for_each_covered_in_row(0.0, |px, _, _| covered.push(px));
-            covered
-        };
-        let monotone = row(&mut edges);
-        assert_eq!(monotone, (0..=10).collect::<Vec<_>>());
+        assert_eq!(edges.row(0.0), Row::Run(0..11));
+        let covered = |edges: &Edges| (0..=10).filter(|&px| edges.covered(px, 0.0).is_some()).collect::<Vec<_>>();
         // A NaN distance does not rule a pixel out, in a run or not.
         edges.distance[0] = [f32::NAN, 0.0, 0.0];
         edges.finite = false;
-        let all = row(&mut edges);
-        assert_eq!(all, (0..=10).collect::<Vec<_>>());
+        assert_eq!(edges.row(0.0), Row::TestEachPixel);
+        assert_eq!(covered(&edges), (0..=10).collect::<Vec<_>>());
         edges.distance[1] = [-5.0, 1.0, 0.0];
-        let right_of_five = row(&mut edges);
-        assert_eq!(right_of_five, (5..=10).collect::<Vec<_>>());
+        assert_eq!(covered(&edges), (5..=10).collect::<Vec<_>>());
     }
 }

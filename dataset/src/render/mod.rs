@@ -9,6 +9,7 @@ pub mod mesh;
 pub mod navigation;
 pub mod obj;
 pub mod raster;
+mod screen;
 pub mod sequence;
 pub mod trajectory;
 pub mod view;

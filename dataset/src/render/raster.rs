@@ -4,13 +4,15 @@
 //! buffers allocated once per frame size.
 //!
 //! One file, over 400 lines, on purpose: the passes share the frame buffers and the band
-//! split, and the hot loops stay together for the optimiser and the reader.
+//! split, and the hot loops stay together for the optimiser and the reader. Which pixels
+//! a triangle covers is `edges.rs`; where the clipped triangles are kept, `screen.rs`.
 
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
-use super::edges::{Edges, column};
+use super::edges::{Edges, Row, column, distance_at};
 use super::mesh::{Cluster, Triangle, World};
+use super::screen::{Part, Screen, ScreenTriangle};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
 /// `c = (size − 1)/2` implies) and a camera-to-world pose in OpenCV axes
@@ -62,7 +64,7 @@ fn fract(x: f32) -> f32 {
 /// Nothing nearer than this is drawn.
 const NEAR: f32 = 0.01;
 /// Rows per parallel band.
-const BAND: usize = 16;
+pub(super) const BAND: usize = 16;
 
 /// The images of one frame, reused from frame to frame.
 #[derive(Debug, Clone, Default)]
@@ -77,9 +79,11 @@ pub struct Frame {
     pub semantic: Vec<u16>,
     /// Object instance ids (the scene's semantic ids); 0 where nothing is hit.
     pub instance: Vec<u16>,
-    /// Per pixel: index of the visible (clipped) triangle and its weights.
+    /// Per pixel: index of the visible (clipped) triangle (`screen_index`) and its weights.
     pub(super) hit: Vec<u32>,
     pub(super) weights: Vec<[f32; 2]>,
+    /// The clipped, projected triangles `hit` indexes.
+    pub(super) screen: Screen,
 }
 
 impl Frame {
@@ -94,20 +98,6 @@ impl Frame {
         self.hit.resize(n, u32::MAX);
         self.weights.resize(n, [0.0; 2]);
     }
-}
-
-/// A triangle after clipping and projection: screen x, y and 1/z per vertex, plus the
-/// source triangle and each vertex's barycentric coordinates in it.
-#[derive(Debug, Clone, Copy)]
-struct ScreenTriangle {
-    /// Screen positions in f64: clipped floor and wall triangles reach ~10⁵ pixels.
-    xy: [[f64; 2]; 3],
-    inv_z: [f32; 3],
-    /// 1/z over the screen, from the source triangle's plane: a·x + b·y + c.
-    inv_z_plane: [f64; 3],
-    /// Barycentric coordinates (in the source triangle) of each vertex.
-    bary: [[f32; 3]; 3],
-    source: u32,
 }
 
 fn to_camera(m: &Matrix4<f64>, p: [f32; 3]) -> [f32; 3] {
@@ -210,74 +200,54 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
 
 /// Render `world` seen by `camera` into `frame`: colour, depth, classes and instances.
 pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
-    let screen = rasterize(world, camera, frame);
-    resolve(world, camera, &screen, Some(shading), frame);
+    rasterize(world, camera, frame);
+    resolve(world, camera, Some(shading), frame);
 }
 
 /// Depth, classes and instances of what `camera` sees, without colour: what a planner
 /// needs to know before choosing a view (the colour image is left as it was).
 pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
-    let screen = rasterize(world, camera, frame);
-    resolve(world, camera, &screen, None, frame);
+    rasterize(world, camera, frame);
+    resolve(world, camera, None, frame);
 }
 
 /// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weights`,
-/// `frame.depth`); returns the clipped, projected triangles the hits index.
-fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTriangle> {
+/// `frame.depth`), and in `frame.screen` the clipped, projected triangles the hits index.
+fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
     frame.resize(camera.width, camera.height);
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
-    let mut screen = Vec::with_capacity(world.triangles().len());
-    let clipped: Vec<Vec<ScreenTriangle>> = world
-        .clusters()
-        .par_chunks(CLUSTERS_PER_TASK)
-        .map(|clusters| {
-            let mut out = Vec::new();
-            for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera)) {
-                for (i, t) in world.triangles()[cluster.triangles.clone()].iter().enumerate() {
-                    let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
-                    clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut out);
-                }
-            }
-            out
-        })
-        .collect();
-    for part in clipped {
-        screen.extend(part);
-    }
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let (wf, hf) = (w as f64, h as f64);
-    // Bin triangles by the bands of rows they touch, so each band visits only its own.
+    let wf = w as f64;
     let bands = h.div_ceil(BAND);
-    let mut binned: Vec<Vec<u32>> = vec![Vec::new(); bands];
-    for (index, t) in screen.iter().enumerate() {
-        let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
-        let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
-        let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
-        let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
-        if ymax < 0.0 || ymin > hf - 1.0 || xmax < 0.0 || xmin > wf - 1.0 || !(ymin.is_finite() && ymax.is_finite()) {
-            continue;
+    let screen = &mut frame.screen;
+    screen.parts.resize_with(world.clusters().len().div_ceil(CLUSTERS_PER_TASK), Part::default);
+    world.clusters().par_chunks(CLUSTERS_PER_TASK).zip(screen.parts.par_iter_mut()).for_each(|(clusters, part)| {
+        part.triangles.clear();
+        for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera)) {
+            for (i, t) in world.triangles()[cluster.triangles.clone()].iter().enumerate() {
+                let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
+                clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut part.triangles);
+            }
         }
-        let first = (ymin.ceil().max(0.0) as usize) / BAND;
-        let last = ((ymax.floor().min(hf - 1.0)) as usize) / BAND;
-        for band in binned.iter_mut().take(last + 1).skip(first) {
-            band.push(index as u32);
-        }
-    }
+        part.bin(bands, camera);
+    });
+    screen.index_parts();
+    let screen = &frame.screen;
     // Visibility: a depth buffer per band of rows.
-    frame
-        .depth
-        .par_chunks_mut(w * BAND)
-        .zip(frame.hit.par_chunks_mut(w * BAND))
-        .zip(frame.weights.par_chunks_mut(w * BAND))
-        .zip(binned.par_iter())
-        .enumerate()
-        .for_each(|(band, (((depth, hit), weights), triangles))| {
+    frame.depth.par_chunks_mut(w * BAND).zip(frame.hit.par_chunks_mut(w * BAND)).zip(frame.weights.par_chunks_mut(w * BAND)).enumerate().for_each(
+        |(band, ((depth, hit), weights))| {
             depth.fill(f32::INFINITY);
             hit.fill(u32::MAX);
             let y0 = band * BAND;
             let y1 = (y0 + BAND).min(h);
-            for &index in triangles {
-                let t = &screen[index as usize];
+            // Part by part, each in its order: the triangles in the world's order, so that
+            // of two at the same depth the first drawn keeps the pixel.
+            let triangles = screen
+                .parts
+                .iter()
+                .enumerate()
+                .flat_map(|(p, part)| part.in_band(band).iter().map(move |&place| (screen.index(p, place), &part.triangles[place as usize])));
+            for (index, t) in triangles {
                 let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
                 let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
                 let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
@@ -296,30 +266,94 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) -> Vec<ScreenTri
                 }
                 // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
                 // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32.
-                let mut edges = Edges::new(t.xy, area, px0, py0, px1 as usize);
-                let [g1, g2] = edges.gradient_lengths;
+                let edges = Edges::new(t.xy, area, px0, py0, px1 as usize);
                 let [za, zb, zc] = t.inv_z_plane;
                 let (x0, y0f) = (px0 as f64, py0 as f64);
-                let inv_z = [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32];
-                let [w1, w2] = [t.inv_z[1], t.inv_z[2]];
+                let mut draw = RowDraw {
+                    index,
+                    first: px0,
+                    dy: 0.0,
+                    inv_z: [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32],
+                    edges: [edges.distance[1], edges.distance[2]],
+                    gradient_lengths: edges.gradient_lengths,
+                    vertex_inv_z: [t.inv_z[1], t.inv_z[2]],
+                };
                 for py in py0..=py1 as usize {
-                    let dy = column(py - py0);
+                    draw.dy = column(py - py0);
                     let row = (py - y0) * w..(py - y0 + 1) * w;
-                    let (depth, hit, weights) = (&mut depth[row.clone()], &mut hit[row.clone()], &mut weights[row]);
-                    edges.for_each_covered_in_row(dy, |px, dx, [_, d1, d2]| {
-                        let z = 1.0 / (inv_z[0] + inv_z[1] * dx + inv_z[2] * dy);
-                        let (l1, l2) = (d1 * g1, d2 * g2);
-                        if z < depth[px] {
-                            depth[px] = z;
-                            hit[px] = index;
-                            // Perspective-correct weights of vertices 1 and 2.
-                            weights[px] = [l1 * w1 * z, l2 * w2 * z];
+                    let nearest = Nearest { depth: &mut depth[row.clone()], hit: &mut hit[row.clone()], weights: &mut weights[row] };
+                    match edges.row(draw.dy) {
+                        Row::Run(run) => draw.run(run, nearest),
+                        Row::TestEachPixel => {
+                            for px in px0..=px1 as usize {
+                                if let Some([_, d1, d2]) = edges.covered(px, draw.dy) {
+                                    draw.pixel(column(px - px0), [d1, d2], &mut nearest.depth[px], &mut nearest.hit[px], &mut nearest.weights[px]);
+                                }
+                            }
                         }
-                    });
+                    }
                 }
             }
-        });
-    screen
+        },
+    );
+}
+
+/// One row of a band's visibility buffers.
+struct Nearest<'a> {
+    depth: &'a mut [f32],
+    hit: &'a mut [u32],
+    weights: &'a mut [[f32; 2]],
+}
+
+/// What one triangle writes at the covered pixels of a row of its box: 1/z and the
+/// distances to the edges opposite vertices 1 and 2, each affine in (dx, dy) from the box's
+/// first pixel, and from them depth and the perspective-correct weights of vertices 1
+/// and 2. Where the triangle is nearer than what the pixel holds, it takes the pixel.
+struct RowDraw {
+    index: u32,
+    /// The box's first column.
+    first: usize,
+    /// The row, counted from the box's first.
+    dy: f32,
+    /// 1/z at the box's first pixel, per pixel right and per pixel down.
+    inv_z: [f32; 3],
+    /// `Edges::distance` of edges 1 and 2.
+    edges: [[f32; 3]; 2],
+    gradient_lengths: [f32; 2],
+    /// 1/z at vertices 1 and 2.
+    vertex_inv_z: [f32; 2],
+}
+
+impl RowDraw {
+    /// One pixel, `dx` columns right of the box's first, at distances `d` from edges 1 and 2.
+    #[inline(always)]
+    fn pixel(&self, dx: f32, d: [f32; 2], depth: &mut f32, hit: &mut u32, weights: &mut [f32; 2]) {
+        let z = 1.0 / (self.inv_z[0] + self.inv_z[1] * dx + self.inv_z[2] * self.dy);
+        if z < *depth {
+            *depth = z;
+            *hit = self.index;
+            *weights = self.weights(d, z);
+        }
+    }
+
+    /// Perspective-correct weights of vertices 1 and 2 at distances `d` and depth `z`.
+    #[inline(always)]
+    fn weights(&self, d: [f32; 2], z: f32) -> [f32; 2] {
+        let [g1, g2] = self.gradient_lengths;
+        let [w1, w2] = self.vertex_inv_z;
+        [d[0] * g1 * w1 * z, d[1] * g2 * w2 * z]
+    }
+
+    /// The columns `run` of a row, all covered.
+    #[inline(always)]
+    fn run(&self, run: std::ops::Range<usize>, nearest: Nearest) {
+        let Nearest { depth, hit, weights } = nearest;
+        for px in run {
+            let dx = column(px - self.first);
+            let d = self.edges.map(|e| distance_at(e, dx, self.dy));
+            self.pixel(dx, d, &mut depth[px], &mut hit[px], &mut weights[px]);
+        }
+    }
 }
 
 /// One row's surface attributes, for shading it all at once: albedo, world position and
@@ -344,7 +378,8 @@ impl RowScratch {
 
 /// Per pixel, from what is visible: depth (0 for no hit), class, instance and, with a
 /// shading, colour.
-fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: Option<&Shading>, frame: &mut Frame) {
+fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mut Frame) {
+    let screen = &frame.screen;
     let w = camera.width as usize;
     let pose = camera.pose;
     let camera_origin = [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32];
@@ -392,7 +427,7 @@ fn resolve(world: &World, camera: &Camera, screen: &[ScreenTriangle], shading: O
                         (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
                         continue;
                     }
-                    let st = &screen[hit[px] as usize];
+                    let st = screen.triangle(hit[px]);
                     let tri: &Triangle = &world.triangles()[st.source as usize];
                     let [w1, w2] = weights[px];
                     let w0 = 1.0 - w1 - w2;

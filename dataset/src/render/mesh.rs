@@ -40,6 +40,9 @@ pub struct World {
     triangles: Vec<Triangle>,
     surfaces: Vec<Surface>,
     clusters: Vec<Cluster>,
+    /// Each triangle's vertex positions again, packed: all that transforming a triangle
+    /// reads, in a third of the memory `triangles` takes.
+    positions: Vec<[[f32; 3]; 3]>,
 }
 
 /// Triangles a cluster holds at most: a piece of an object small enough for its box to
@@ -86,7 +89,8 @@ impl World {
     /// A world whose clusters hold at most `size` triangles (`new` chooses the size).
     pub(crate) fn with_cluster_size(triangles: Vec<Triangle>, surfaces: Vec<Surface>, size: usize) -> World {
         let clusters = clusters(&triangles, size.max(1));
-        World { triangles, surfaces, clusters }
+        let positions = triangles.iter().map(|t| t.positions).collect();
+        World { triangles, surfaces, clusters, positions }
     }
 
     pub fn triangles(&self) -> &[Triangle] {
@@ -99,6 +103,11 @@ impl World {
 
     pub(crate) fn clusters(&self) -> &[Cluster] {
         &self.clusters
+    }
+
+    /// `triangles()[i].positions` at `i`.
+    pub(crate) fn positions(&self) -> &[[[f32; 3]; 3]] {
+        &self.positions
     }
 
     /// Load the converted scene in `dir` (written by `convert::habitat`), with the class

@@ -224,8 +224,8 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
     world.clusters().par_chunks(CLUSTERS_PER_TASK).zip(screen.parts.par_iter_mut()).for_each(|(clusters, part)| {
         part.triangles.clear();
         for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera)) {
-            for (i, t) in world.triangles()[cluster.triangles.clone()].iter().enumerate() {
-                let cam = t.positions.map(|p| to_camera(&world_to_camera, p));
+            for (i, positions) in world.positions()[cluster.triangles.clone()].iter().enumerate() {
+                let cam = positions.map(|p| to_camera(&world_to_camera, p));
                 clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut part.triangles);
             }
         }

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::edges::{Edges, Row, column, distance_at};
 use super::mesh::{Cluster, Triangle, World};
-use super::screen::{Part, Screen, ScreenTriangle};
+use super::screen::{BAND, Part, Screen, ScreenTriangle};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
 /// `c = (size − 1)/2` implies) and a camera-to-world pose in OpenCV axes
@@ -63,8 +63,6 @@ fn fract(x: f32) -> f32 {
 }
 /// Nothing nearer than this is drawn.
 const NEAR: f32 = 0.01;
-/// Rows per parallel band.
-pub(super) const BAND: usize = 16;
 
 /// The images of one frame, reused from frame to frame.
 #[derive(Debug, Clone, Default)]
@@ -79,7 +77,8 @@ pub struct Frame {
     pub semantic: Vec<u16>,
     /// Object instance ids (the scene's semantic ids); 0 where nothing is hit.
     pub instance: Vec<u16>,
-    /// Per pixel: index of the visible (clipped) triangle (`screen_index`) and its weights.
+    /// Per pixel: the number of the visible (clipped) triangle (`Screen::index`) and its
+    /// weights.
     pub(super) hit: Vec<u32>,
     pub(super) weights: Vec<[f32; 2]>,
     /// The clipped, projected triangles `hit` indexes.
@@ -218,7 +217,6 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
     let (w, h) = (camera.width as usize, camera.height as usize);
     let wf = w as f64;
-    let bands = h.div_ceil(BAND);
     let screen = &mut frame.screen;
     screen.parts.resize_with(world.clusters().len().div_ceil(CLUSTERS_PER_TASK), Part::default);
     world.clusters().par_chunks(CLUSTERS_PER_TASK).zip(screen.parts.par_iter_mut()).for_each(|(clusters, part)| {
@@ -229,7 +227,7 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
                 clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut part.triangles);
             }
         }
-        part.bin(bands, camera);
+        part.bin(camera.width, camera.height);
     });
     screen.index_parts();
     let screen = &frame.screen;
@@ -415,6 +413,7 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
             // 1. What each pixel shows: class, instance, depth and (when coloured) its
             //    albedo and interpolated normal (gathered from its triangle).
             {
+                let mut finder = screen.finder();
                 let [ar, ag, ab] = row_albedo.each_mut().map(|v| &mut v[..w]);
                 let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
                 let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
@@ -427,7 +426,7 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
                         (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
                         continue;
                     }
-                    let st = screen.triangle(hit[px]);
+                    let st = finder.triangle(hit[px]);
                     let tri: &Triangle = &world.triangles()[st.source as usize];
                     let [w1, w2] = weights[px];
                     let w0 = 1.0 - w1 - w2;
@@ -516,6 +515,37 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn of_two_triangles_at_the_same_depth_the_first_in_the_worlds_order_keeps_the_pixel() {
+        use crate::render::mesh::Surface;
+        let triangle = |class_id: u16, positions: [[f32; 3]; 3]| Triangle {
+            positions,
+            normals: [[0.0, 0.0, -1.0]; 3],
+            uvs: [[0.0; 2]; 3],
+            surface: 0,
+            class_id,
+            instance_id: class_id,
+        };
+        // Facing the camera 2 m ahead (OpenCV axes: z forward), over the image's centre.
+        let ahead = [[-1.0, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]];
+        let behind_the_camera = [[0.0, 0.0, -5.0], [1.0, 0.0, -5.0], [0.0, 1.0, -5.0]];
+        let camera = Camera { width: 64, height: 48, fx: 40.0, fy: 40.0, cx: 31.5, cy: 23.5, pose: Matrix4::identity() };
+        let surfaces = vec![Surface { color: [1.0; 3], texture: None }];
+        // The same triangle twice, next to each other or 300 one-triangle clusters apart
+        // (in another task of the transform), in either order of their classes.
+        for (between, first, second) in [(0, 1, 2), (0, 2, 1), (300, 1, 2), (300, 2, 1)] {
+            let mut triangles = vec![triangle(first, ahead)];
+            triangles.extend((0..between).map(|i| triangle(10 + (i % 2) as u16, behind_the_camera)));
+            triangles.push(triangle(second, ahead));
+            let world = World::with_cluster_size(triangles, surfaces.clone(), 1);
+            let mut frame = Frame::default();
+            render(&world, &camera, &Shading::Flat, &mut frame);
+            let count = |class: u16| frame.semantic.iter().filter(|&&c| c == class).count();
+            assert!(count(first) > 500, "{between} apart: the first covers {} pixels", count(first));
+            assert_eq!(count(second), 0, "{between} apart: the second drawn took pixels at the same depth");
+        }
+    }
 
     #[test]
     fn culling_clusters_by_their_boxes_changes_no_pixel_and_drops_most_of_a_room_out_of_view() {

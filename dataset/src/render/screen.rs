@@ -3,7 +3,8 @@
 //! (so each band of the visibility pass visits only its own, and no step gathers them all
 //! in one place), and one `u32` that names any of them for the per-pixel hit buffer.
 
-use super::raster::{BAND, Camera};
+/// Rows per band: the visibility pass gives each band of rows to one thread.
+pub(super) const BAND: usize = 16;
 
 /// A triangle after clipping and projection: screen x, y and 1/z per vertex, plus the
 /// source triangle and each vertex's barycentric coordinates in it.
@@ -33,13 +34,15 @@ pub(super) struct Part {
 }
 
 impl Part {
-    /// Sorts the triangles' places by the bands of `bands` of rows of the image they touch.
-    pub(super) fn bin(&mut self, bands: usize, camera: &Camera) {
+    /// Sorts the triangles' places by the bands of rows they touch in an image of `width` ×
+    /// `height` pixels.
+    pub(super) fn bin(&mut self, width: u32, height: u32) {
+        let bands = (height as usize).div_ceil(BAND);
         let Part { triangles, binned, band_starts, cursors } = self;
         band_starts.clear();
         band_starts.resize(bands + 1, 0);
         for t in triangles.iter() {
-            for band in bands_touched(t, camera) {
+            for band in bands_touched(t, width, height) {
                 band_starts[band + 1] += 1;
             }
         }
@@ -51,7 +54,7 @@ impl Part {
         binned.clear();
         binned.resize(band_starts[bands] as usize, 0);
         for (place, t) in triangles.iter().enumerate() {
-            for band in bands_touched(t, camera) {
+            for band in bands_touched(t, width, height) {
                 binned[cursors[band] as usize] = place as u32;
                 cursors[band] += 1;
             }
@@ -64,14 +67,16 @@ impl Part {
     }
 }
 
-/// The bands of rows a screen triangle's box touches (none when it misses the image).
-fn bands_touched(t: &ScreenTriangle, camera: &Camera) -> std::ops::RangeInclusive<usize> {
-    let (wf, hf) = (camera.width as f64, camera.height as f64);
+/// The bands of rows a screen triangle's box touches in an image of `width` × `height`
+/// pixels (none when it misses the image).
+fn bands_touched(t: &ScreenTriangle, width: u32, height: u32) -> std::ops::RangeInclusive<usize> {
+    let (wf, hf) = (width as f64, height as f64);
     let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
     let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
     let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
     let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
-    if ymax < 0.0 || ymin > hf - 1.0 || xmax < 0.0 || xmin > wf - 1.0 || !(ymin.is_finite() && ymax.is_finite()) {
+    let off_the_image = ymax < 0.0 || ymin > hf - 1.0 || xmax < 0.0 || xmin > wf - 1.0;
+    if width == 0 || height == 0 || off_the_image || !(ymin.is_finite() && ymax.is_finite()) {
         #[allow(clippy::reversed_empty_ranges)]
         return 1..=0;
     }
@@ -81,44 +86,67 @@ fn bands_touched(t: &ScreenTriangle, camera: &Camera) -> std::ops::RangeInclusiv
 }
 
 /// A frame's clipped, projected triangles, by task of the transform, and how one `u32`
-/// (what `Frame::hit` holds) names one of them: its part in the high bits, its place in
-/// the part in the low `place_bits`.
+/// (what `Frame::hit` holds) names one of them: the triangles numbered across the parts in
+/// order, each part's first number kept.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Screen {
     pub(super) parts: Vec<Part>,
-    place_bits: u32,
+    /// The number of each part's first triangle, and after them the count of all.
+    starts: Vec<u32>,
 }
 
 impl Screen {
-    /// Fits the index to the parts as the transform left them.
+    /// Numbers the triangles as the transform left them in the parts.
     pub(super) fn index_parts(&mut self) {
-        let most = self.parts.iter().map(|p| p.triangles.len()).max().unwrap_or(0);
-        self.place_bits = usize::BITS - most.leading_zeros();
-        // Every index stays below u32::MAX, which stands for no hit.
-        assert!(
-            (self.parts.len() as u64) << self.place_bits <= u64::from(u32::MAX),
-            "{} parts of up to {most} screen triangles are more than a frame's hits can index",
-            self.parts.len()
-        );
+        self.starts = numbering(self.parts.iter().map(|p| p.triangles.len()));
     }
 
+    /// The number of the triangle at `place` in `part`.
     pub(super) fn index(&self, part: usize, place: u32) -> u32 {
-        (part as u32) << self.place_bits | place
+        self.starts[part] + place
     }
 
-    pub(super) fn triangle(&self, index: u32) -> &ScreenTriangle {
-        let place = index & ((1u64 << self.place_bits) - 1) as u32;
-        &self.parts[(index >> self.place_bits) as usize].triangles[place as usize]
+    /// Looks up triangles by number.
+    pub(super) fn finder(&self) -> Finder<'_> {
+        Finder { screen: self, part: 0 }
+    }
+}
+
+/// The number of each part's first triangle, given the parts' lengths, and the count of
+/// all. Every number stays below `u32::MAX`, which stands for no hit: a frame of more
+/// triangles is refused.
+fn numbering(lengths: impl IntoIterator<Item = usize>) -> Vec<u32> {
+    let mut starts = vec![0u32];
+    let mut next = 0u64;
+    for length in lengths {
+        next += length as u64;
+        assert!(next <= u64::from(u32::MAX), "more than {} clipped triangles in one frame are more than its hits can index", u32::MAX);
+        starts.push(next as u32);
+    }
+    starts
+}
+
+/// Finds screen triangles by number, remembering the part of the last one found:
+/// neighbouring pixels mostly hit the same part.
+pub(super) struct Finder<'a> {
+    screen: &'a Screen,
+    part: usize,
+}
+
+impl<'a> Finder<'a> {
+    /// The triangle numbered `index` (a number `Screen::index` gave).
+    pub(super) fn triangle(&mut self, index: u32) -> &'a ScreenTriangle {
+        let starts = &self.screen.starts;
+        if !(starts[self.part] <= index && index < starts[self.part + 1]) {
+            self.part = starts.partition_point(|&start| start <= index) - 1;
+        }
+        &self.screen.parts[self.part].triangles[(index - starts[self.part]) as usize]
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn camera(width: u32, height: u32) -> Camera {
-        Camera { width, height, fx: 100.0, fy: 100.0, cx: 0.0, cy: 0.0, pose: nalgebra::Matrix4::identity() }
-    }
 
     /// A triangle whose box spans the rows `top..=bottom` (as floats) and columns 5 to 20.
     fn spanning_rows(top: f64, bottom: f64, source: u32) -> ScreenTriangle {
@@ -146,20 +174,23 @@ mod tests {
             ],
             ..Part::default()
         };
-        part.bin(4, &camera(40, 64));
+        part.bin(40, 64);
         assert_eq!(part.in_band(0), [0, 1, 6]);
         assert_eq!(part.in_band(1), [1, 6]);
         assert_eq!(part.in_band(2), [1]);
         assert_eq!(part.in_band(3), [3]);
         // Binning again (the next frame) starts afresh.
         part.triangles.truncate(1);
-        part.bin(4, &camera(40, 64));
+        part.bin(40, 64);
         assert_eq!([0, 1, 2, 3].map(|band| part.in_band(band).len()), [1, 0, 0, 0]);
+        // An image without rows has no bands to bin into.
+        part.bin(40, 0);
+        assert_eq!(part.band_starts, [0]);
     }
 
     #[test]
-    fn a_screen_index_names_every_triangle_of_every_part_and_never_means_no_hit() {
-        let sizes = [3, 0, 1000, 1, 1024];
+    fn a_screen_index_names_every_triangle_of_every_part_in_any_order_of_lookups() {
+        let sizes = [3, 0, 1000, 1, 0, 1024];
         let mut source = 0;
         let parts = sizes
             .iter()
@@ -173,28 +204,31 @@ mod tests {
                 ..Part::default()
             })
             .collect();
-        let mut screen = Screen { parts, place_bits: 0 };
+        let mut screen = Screen { parts, starts: Vec::new() };
         screen.index_parts();
-        let mut names = std::collections::BTreeSet::new();
-        let mut expected_source = 0;
+        let mut named = Vec::new();
         for (p, &n) in sizes.iter().enumerate() {
-            for place in 0..n {
-                expected_source += 1;
-                let index = screen.index(p, place);
-                assert_ne!(index, u32::MAX);
-                assert_eq!(screen.triangle(index).source, expected_source, "part {p}, place {place}");
-                names.insert(index);
+            named.extend((0..n).map(|place| screen.index(p, place)));
+        }
+        // Numbered in order, each triangle once: the numbers are 0, 1, 2, …
+        assert_eq!(named, (0..sizes.iter().sum::<u32>()).collect::<Vec<_>>());
+        // Looked up in order, backwards and jumping between parts.
+        let mut finder = screen.finder();
+        let mut jumping = named.clone();
+        jumping.sort_by_key(|&i| (i * 7919) % 2029);
+        for order in [named.clone(), named.iter().rev().copied().collect(), jumping] {
+            for index in order {
+                assert_eq!(finder.triangle(index).source, index + 1, "triangle {index}");
             }
         }
-        assert_eq!(names.len(), sizes.iter().sum::<u32>() as usize);
     }
 
     #[test]
-    #[should_panic(expected = "more than a frame's hits can index")]
-    fn more_triangles_than_a_hit_can_name_are_refused() {
-        // 2¹⁷ parts, one of 2¹⁵ triangles: names would need 17 + 16 bits.
-        let mut parts = vec![Part::default(); 1 << 17];
-        parts[0].triangles = vec![spanning_rows(0.0, 1.0, 0); 1 << 15];
-        Screen { parts, place_bits: 0 }.index_parts();
+    fn a_frame_numbers_up_to_one_triangle_less_than_a_u32_can_hold() {
+        let most = u32::MAX as usize;
+        assert_eq!(numbering([most - 1, 0, 1]), [0, u32::MAX - 1, u32::MAX - 1, u32::MAX]);
+        let refused = std::panic::catch_unwind(|| numbering([most, 1]));
+        let message = *refused.expect_err("one more is refused").downcast::<String>().expect("a message");
+        assert!(message.contains("more than its hits can index"), "{message}");
     }
 }

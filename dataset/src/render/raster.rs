@@ -7,6 +7,8 @@
 //! split, and the hot loops stay together for the optimiser and the reader. Which pixels
 //! a triangle covers is `edges.rs`; where the clipped triangles are kept, `screen.rs`.
 
+use std::time::Instant;
+
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
@@ -83,6 +85,21 @@ pub struct Frame {
     pub(super) weights: Vec<[f32; 2]>,
     /// The clipped, projected triangles `hit` indexes.
     pub(super) screen: Screen,
+    /// Time spent in each pass, summed over the frames rendered into this one.
+    pub pass_times: PassTimes,
+}
+
+/// Wall-clock time of each pass of the renderer (each pass runs on all cores), summed over
+/// frames: what `osmab bench render` reports.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PassTimes {
+    pub frames: u32,
+    /// Culling, transforming, clipping, projecting and binning the triangles.
+    pub transform: std::time::Duration,
+    /// The nearest triangle of every pixel.
+    pub visibility: std::time::Duration,
+    /// Classes, depth and colour from what is visible.
+    pub resolve: std::time::Duration,
 }
 
 impl Frame {
@@ -201,6 +218,7 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
 pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
     rasterize(world, camera, frame);
     resolve(world, camera, Some(shading), frame);
+    frame.pass_times.frames += 1;
 }
 
 /// Depth, classes and instances of what `camera` sees, without colour: what a planner
@@ -208,11 +226,13 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
 pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
     rasterize(world, camera, frame);
     resolve(world, camera, None, frame);
+    frame.pass_times.frames += 1;
 }
 
 /// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weights`,
 /// `frame.depth`), and in `frame.screen` the clipped, projected triangles the hits index.
 fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
+    let start = Instant::now();
     frame.resize(camera.width, camera.height);
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
     let (w, h) = (camera.width as usize, camera.height as usize);
@@ -230,6 +250,8 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
         part.bin(camera.width, camera.height);
     });
     screen.index_parts();
+    let transformed = Instant::now();
+    frame.pass_times.transform += transformed - start;
     let screen = &frame.screen;
     // Visibility: a depth buffer per band of rows.
     frame.depth.par_chunks_mut(w * BAND).zip(frame.hit.par_chunks_mut(w * BAND)).zip(frame.weights.par_chunks_mut(w * BAND)).enumerate().for_each(
@@ -294,6 +316,7 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
             }
         },
     );
+    frame.pass_times.visibility += transformed.elapsed();
 }
 
 /// One row of a band's visibility buffers.
@@ -377,6 +400,7 @@ impl RowScratch {
 /// Per pixel, from what is visible: depth (0 for no hit), class, instance and, with a
 /// shading, colour.
 fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mut Frame) {
+    let start = Instant::now();
     let screen = &frame.screen;
     let w = camera.width as usize;
     let pose = camera.pose;
@@ -510,6 +534,7 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
                 out[2] = channel(ab[px], lb[px]);
             }
         });
+    frame.pass_times.resolve += start.elapsed();
 }
 
 #[cfg(test)]
@@ -545,6 +570,23 @@ mod tests {
             assert!(count(first) > 500, "{between} apart: the first covers {} pixels", count(first));
             assert_eq!(count(second), 0, "{between} apart: the second drawn took pixels at the same depth");
         }
+    }
+
+    #[test]
+    fn each_pass_time_is_summed_over_the_frames_rendered_into_a_frame() {
+        let positions = [[-1.0, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]];
+        let triangle = Triangle { positions, normals: [[0.0, 0.0, -1.0]; 3], uvs: [[0.0; 2]; 3], surface: 0, class_id: 1, instance_id: 1 };
+        let world = World::new(vec![triangle], vec![crate::render::mesh::Surface { color: [1.0; 3], texture: None }]);
+        let camera = Camera { width: 64, height: 48, fx: 40.0, fy: 40.0, cx: 31.5, cy: 23.5, pose: Matrix4::identity() };
+        let mut frame = Frame::default();
+        let clock = Instant::now();
+        render(&world, &camera, &Shading::Flat, &mut frame);
+        render_visibility(&world, &camera, &mut frame);
+        let elapsed = clock.elapsed();
+        let times = frame.pass_times;
+        assert_eq!(times.frames, 2);
+        // The passes run one after another, inside the two calls.
+        assert!(times.transform + times.visibility + times.resolve <= elapsed, "{times:?} within {elapsed:?}");
     }
 
     #[test]

@@ -348,6 +348,14 @@ fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: O
         frames as f64 / seconds,
         if lit { "lit" } else { "flat" }
     );
+    let passes = frame.pass_times;
+    let per_frame = |d: std::time::Duration| 1e3 * d.as_secs_f64() / passes.frames.max(1) as f64;
+    println!(
+        "per frame: transform {:.2} ms, visibility {:.2} ms, resolve {:.2} ms (each pass on all cores)",
+        per_frame(passes.transform),
+        per_frame(passes.visibility),
+        per_frame(passes.resolve)
+    );
     if let Some(path) = save {
         let file = std::fs::File::create(path)?;
         let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 1200, 680);

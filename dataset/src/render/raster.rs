@@ -268,10 +268,7 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
                 .enumerate()
                 .flat_map(|(p, part)| part.in_band(band).iter().map(move |&place| (screen.index(p, place), &part.triangles[place as usize])));
             for (index, t) in triangles {
-                let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
-                let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
-                let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
-                let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
+                let ([xmin, ymin], [xmax, ymax]) = t.bounds();
                 let [a, b, c] = t.xy;
                 let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
                 if area.abs() < 1e-9 {

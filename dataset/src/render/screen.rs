@@ -20,6 +20,17 @@ pub(super) struct ScreenTriangle {
     pub(super) source: u32,
 }
 
+impl ScreenTriangle {
+    /// The corners of its screen box: smallest x and y, largest x and y (`f64::min` and
+    /// `max` pass over a NaN coordinate).
+    pub(super) fn bounds(&self) -> ([f64; 2], [f64; 2]) {
+        let [a, b, c] = self.xy;
+        let axis = |k: usize| (a[k].min(b[k]).min(c[k]), a[k].max(b[k]).max(c[k]));
+        let ((xmin, xmax), (ymin, ymax)) = (axis(0), axis(1));
+        ([xmin, ymin], [xmax, ymax])
+    }
+}
+
 /// The clipped, projected triangles of one task of the transform, and their places in it
 /// sorted by the bands of rows they touch.
 #[derive(Debug, Clone, Default)]
@@ -71,10 +82,7 @@ impl Part {
 /// pixels (none when it misses the image).
 fn bands_touched(t: &ScreenTriangle, width: u32, height: u32) -> std::ops::RangeInclusive<usize> {
     let (wf, hf) = (width as f64, height as f64);
-    let ys = [t.xy[0][1], t.xy[1][1], t.xy[2][1]];
-    let xs = [t.xy[0][0], t.xy[1][0], t.xy[2][0]];
-    let (ymin, ymax) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
-    let (xmin, xmax) = (xs[0].min(xs[1]).min(xs[2]), xs[0].max(xs[1]).max(xs[2]));
+    let ([xmin, ymin], [xmax, ymax]) = t.bounds();
     let off_the_image = ymax < 0.0 || ymin > hf - 1.0 || xmax < 0.0 || xmin > wf - 1.0;
     if width == 0 || height == 0 || off_the_image || !(ymin.is_finite() && ymax.is_finite()) {
         #[allow(clippy::reversed_empty_ranges)]

@@ -26,6 +26,8 @@ pub struct AppState {
     pub receipts: Arc<ReceiptKeys>,
     /// The operator's secret that shapes the test scenes of the releases it builds.
     pub split_secret: SplitSecret,
+    /// How far idle workers are in making this node ready to score the current release.
+    pub warmup: Arc<tokio::sync::Mutex<crate::jobs::warmup::Warmup>>,
 }
 
 impl AppState {
@@ -45,6 +47,7 @@ impl AppState {
             validation: Arc::new(tokio::sync::Semaphore::new(2)),
             receipts,
             split_secret,
+            warmup: Arc::default(),
         })
     }
 }

@@ -3,6 +3,7 @@
 mod cpu;
 mod service;
 mod vqa;
+mod warm;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -244,4 +245,12 @@ fn bench_submission_scores_a_generated_submission_stage_by_stage() {
     assert!(!second.contains("generated "), "the data is reused:\n{second}");
     assert_eq!(scores(&second), scores(&first), "the same submission scores the same");
     assert!(dir.path().join("submission.tar").is_file() && dir.path().join("release/ground_truth/scene_001/semantic.npy").is_file());
+    assert!(scores(&first).ends_with("0 of 2 scenes' ground truth from the cache"), "{first}");
+    // On a node made ready first, as an idle worker makes it, the first run reads every
+    // scene's ground truth prepared, and scores the same.
+    let warmed = stdout(&osmab(&[&args[..], &["--warm-node"]].concat()));
+    assert!(warmed.contains("node made ready before any submission, as an idle worker does: 2 of 2 scenes' ground truth prepared in "), "{warmed}");
+    assert!(scores(&warmed).ends_with("2 of 2 scenes' ground truth from the cache"), "{warmed}");
+    let without_cache_note = |line: String| line.rsplit_once("; ").unwrap().0.to_string();
+    assert_eq!(without_cache_note(scores(&warmed)), without_cache_note(scores(&first)));
 }

@@ -6,6 +6,7 @@
 //! predicted point ([`nearest`]); the [`ConfusionMatrix`] over `[vocabulary..., -1]`
 //! gives the [`SegmentationMetrics`].
 
+pub mod background_store;
 pub mod bootstrap;
 pub mod confusion;
 pub mod labels;
@@ -114,6 +115,8 @@ pub fn score_scene(ground_truth: &GroundTruth, map: &PredictedMap, classes: &Cla
 /// that order without sorting them again. A confusion matrix does not depend on the
 /// order of the points, so the scores are those of [`score_scene`].
 pub struct PreparedGroundTruth {
+    /// Where it came from, for messages.
+    source: std::path::PathBuf,
     points: Vec<[f32; 3]>,
     labels: Vec<i64>,
     vocabulary: Vocabulary,
@@ -127,7 +130,7 @@ impl PreparedGroundTruth {
         let order = z_order::z_order(&ground_truth.points);
         let points = order.par_iter().map(|&i| ground_truth.points[i as usize]).collect();
         let labels = order.par_iter().map(|&i| ground_truth.labels[i as usize]).collect();
-        Ok(Self { points, labels, vocabulary })
+        Ok(Self { source: ground_truth.source, points, labels, vocabulary })
     }
 
     /// Points already in Z-order (an entry of a [`prepared_cache::PreparedCache`]) from
@@ -137,7 +140,12 @@ impl PreparedGroundTruth {
         crate::ground_truth::check_labels(&ground_truth.labels, classes, &source.join("semantic.npy"))?;
         check_finite(&ground_truth)?;
         let vocabulary = scored_vocabulary(&ground_truth, classes)?;
-        Ok(Self { points: ground_truth.points, labels: ground_truth.labels, vocabulary })
+        Ok(Self { source: ground_truth.source, points: ground_truth.points, labels: ground_truth.labels, vocabulary })
+    }
+
+    /// The directory of the release's ground-truth files it was prepared from.
+    pub fn source(&self) -> &std::path::Path {
+        &self.source
     }
 
     /// The points, in Z-order.

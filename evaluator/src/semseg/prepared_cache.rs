@@ -88,25 +88,31 @@ impl PreparedCache {
         PreparedGroundTruth::from_z_ordered(gt_dir, points, labels, classes).map_err(|e| CacheMiss(e.to_string()))
     }
 
+    /// Whether an entry stored under `key` is there, whole in length (its payload's CRC is
+    /// checked when it is loaded).
+    pub fn holds(&self, key: &CacheKey) -> bool {
+        read_header(&self.dir.join(key.file_name()), key).is_ok()
+    }
+
     /// Store `prepared` under `key`, then drop the entries used longest ago while the
     /// cache holds more than its capacity.
     pub fn store(&self, key: &CacheKey, prepared: &PreparedGroundTruth) -> Result<(), CacheMiss> {
         let fail = |what: &str, e: std::io::Error| CacheMiss(format!("{what} {}: {e}", self.dir.display()));
         std::fs::create_dir_all(&self.dir).map_err(|e| fail("creating", e))?;
-        let (header, payload) = encode(key, prepared);
-        let size = (header.len() + payload.len()) as u64;
-        if size > self.capacity {
-            return Err(CacheMiss(format!("an entry of {size} bytes is larger than the cache's capacity of {} bytes", self.capacity)));
+        let layout = Layout::of(key, prepared);
+        if layout.file_len > self.capacity {
+            return Err(CacheMiss(format!("an entry of {} bytes is larger than the cache's capacity of {} bytes", layout.file_len, self.capacity)));
         }
         let name = key.file_name();
         static STORES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let serial = STORES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let temporary = self.dir.join(format!(".{name}.{}-{serial}.tmp", std::process::id()));
-        // Not synced: an entry a crash leaves half on disk fails its CRC and is made again.
-        let written = std::fs::File::create(&temporary).and_then(|mut file| {
-            file.write_all(&header)?;
-            file.write_all(&payload)
-        });
+        // Synced for the time it takes, not for safety (an entry a crash leaves half on disk
+        // fails its CRC and is made again): the disk's time is spent here, by whoever keeps
+        // the entry (a thread beside the scoring, an idle worker), and not later by whatever
+        // writes next. Left to the kernel's write-back, a full release's 4 GB of entries
+        // stalled the next submission's unpacking by 25 s.
+        let written = write_entry(&temporary, key, prepared, &layout);
         if let Err(e) = written.and_then(|()| std::fs::rename(&temporary, self.dir.join(&name))) {
             let _ = std::fs::remove_file(&temporary);
             return Err(fail("writing to", e));
@@ -142,45 +148,82 @@ impl PreparedCache {
     }
 }
 
-/// Header (magic, identity, point count, label width, CRC-32 of the payload), then the
-/// payload: every point's x, y, z as little-endian f32, then every label as
-/// little-endian i32 (width 4) or i64 (width 8, when a label does not fit in 32 bits).
-fn encode(key: &CacheKey, prepared: &PreparedGroundTruth) -> (Vec<u8>, Vec<u8>) {
-    let (points, labels) = (prepared.points(), prepared.labels());
-    let narrow = labels.iter().all(|&l| i32::try_from(l).is_ok());
-    let width = if narrow { 4 } else { 8 };
-    let mut payload = Vec::with_capacity(points.len() * (12 + width));
-    for p in points {
-        for c in p {
-            payload.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    for &l in labels {
-        if narrow {
-            payload.extend_from_slice(&(l as i32).to_le_bytes());
-        } else {
-            payload.extend_from_slice(&l.to_le_bytes());
-        }
-    }
-    let mut crc = flate2::Crc::new();
-    crc.update(&payload);
-    let identity = key.identity.as_bytes();
-    let mut header = Vec::with_capacity(MAGIC.len() + 4 + identity.len() + COUNTS);
-    header.extend_from_slice(MAGIC);
-    header.extend_from_slice(&(identity.len() as u32).to_le_bytes());
-    header.extend_from_slice(identity);
-    header.extend_from_slice(&(points.len() as u64).to_le_bytes());
-    header.push(width as u8);
-    header.extend_from_slice(&crc.sum().to_le_bytes());
-    (header, payload)
+/// Where the parts of an entry go. The header (magic, identity, point count, label width,
+/// CRC-32 of the payload) comes first, then the payload: every point's x, y, z as
+/// little-endian f32, then every label as little-endian i32 (width 4) or i64 (width 8,
+/// when a label does not fit in 32 bits).
+struct Layout {
+    /// Bytes of the header.
+    header_len: u64,
+    /// Bytes of each label.
+    width: usize,
+    /// Bytes of the whole entry.
+    file_len: u64,
 }
 
-/// Points read and decoded by one task.
+impl Layout {
+    fn of(key: &CacheKey, prepared: &PreparedGroundTruth) -> Self {
+        let narrow = prepared.labels().iter().all(|&l| i32::try_from(l).is_ok());
+        let width = if narrow { 4 } else { 8 };
+        let header_len = (MAGIC.len() + 4 + key.identity.len() + COUNTS) as u64;
+        Self { header_len, width, file_len: header_len + prepared.len() as u64 * (12 + width as u64) }
+    }
+}
+
+/// Write the entry of `prepared` for `key` to a new file at `path`, the payload encoded
+/// a chunk at a time (this runs beside the scoring, on a thread of its own: one core's
+/// worth of encoding keeps up with the disk), the header last.
+fn write_entry(path: &Path, key: &CacheKey, prepared: &PreparedGroundTruth, layout: &Layout) -> std::io::Result<()> {
+    let (points, labels) = (prepared.points(), prepared.labels());
+    let mut file = std::fs::File::create(path)?;
+    file.seek(SeekFrom::Start(layout.header_len))?;
+    let mut crc = flate2::Crc::new();
+    let mut bytes = Vec::with_capacity(READ_CHUNK * 12);
+    for chunk in points.chunks(READ_CHUNK) {
+        bytes.clear();
+        chunk.iter().flatten().for_each(|c| bytes.extend_from_slice(&c.to_le_bytes()));
+        crc.update(&bytes);
+        file.write_all(&bytes)?;
+    }
+    for chunk in labels.chunks(READ_CHUNK) {
+        bytes.clear();
+        if layout.width == 4 {
+            chunk.iter().for_each(|&l| bytes.extend_from_slice(&(l as i32).to_le_bytes()));
+        } else {
+            chunk.iter().for_each(|&l| bytes.extend_from_slice(&l.to_le_bytes()));
+        }
+        crc.update(&bytes);
+        file.write_all(&bytes)?;
+    }
+    let mut header = Vec::with_capacity(layout.header_len as usize);
+    header.extend_from_slice(MAGIC);
+    header.extend_from_slice(&(key.identity.len() as u32).to_le_bytes());
+    header.extend_from_slice(key.identity.as_bytes());
+    header.extend_from_slice(&(points.len() as u64).to_le_bytes());
+    header.push(layout.width as u8);
+    header.extend_from_slice(&crc.sum().to_le_bytes());
+    file.seek(SeekFrom::Start(0))?;
+    file.write_all(&header)?;
+    file.sync_data()
+}
+
+/// Points encoded at once when writing, read and decoded by one task when reading.
 const READ_CHUNK: usize = 1 << 16;
 
-/// The points and labels of the entry at `path` made for `key`, or why it cannot be used:
-/// read in chunks by all cores, each decoded while it is in cache.
-fn read_entry(path: &Path, key: &CacheKey) -> Result<(Vec<[f32; 3]>, Vec<i64>), String> {
+/// What an entry's header says, checked against `key` and the file's length.
+struct Header {
+    /// Bytes of the header.
+    len: usize,
+    /// Points in the entry.
+    count: usize,
+    /// Bytes of each label.
+    width: usize,
+    /// CRC-32 of the payload.
+    crc: u32,
+}
+
+/// The header of the entry at `path`, or why the entry cannot be the one made for `key`.
+fn read_header(path: &Path, key: &CacheKey) -> Result<Header, String> {
     let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let file_len = file.metadata().map_err(|e| e.to_string())?.len();
     let identity = key.identity.as_bytes();
@@ -208,7 +251,13 @@ fn read_entry(path: &Path, key: &CacheKey) -> Result<(Vec<[f32; 3]>, Vec<i64>), 
     if payload != expected || count == 0 || usize::try_from(count).is_err() {
         return Err(format!("{payload} payload bytes for {count} points, expected {expected}"));
     }
-    let count = count as usize;
+    Ok(Header { len: header_len, count: count as usize, width, crc })
+}
+
+/// The points and labels of the entry at `path` made for `key`, or why it cannot be used:
+/// read in chunks by all cores, each decoded while it is in cache.
+fn read_entry(path: &Path, key: &CacheKey) -> Result<(Vec<[f32; 3]>, Vec<i64>), String> {
+    let Header { len: header_len, count, width, crc } = read_header(path, key)?;
     let (points_at, labels_at) = (header_len as u64, (header_len + 12 * count) as u64);
     let mut points = vec![[0f32; 3]; count];
     let mut labels = vec![0i64; count];

@@ -7,9 +7,11 @@
 //! server and `osmab client validate` run this very code.
 
 pub mod archive;
+pub mod extents;
 pub mod release;
 pub mod score;
 pub mod validate;
+pub mod warm;
 
 pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, pack_directory_into, unpack};
 pub use release::ReleaseIndex;

@@ -5,6 +5,7 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::release::ReleaseIndex;
@@ -15,6 +16,7 @@ use crate::formats::classes::ClassList;
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
 use crate::scores::{Lighting, LightingScores, Regime, RelativeChange, Scores, SubsetScores};
+use crate::semseg::background_store::BackgroundStore;
 use crate::semseg::bootstrap::Replicates;
 use crate::semseg::confusion::ConfusionMatrix;
 use crate::semseg::metrics::ClassCount;
@@ -39,6 +41,12 @@ pub struct ScoringTimings {
     pub cache_misses: Vec<String>,
     /// Checking each scene's ground truth and putting it in Z-order (once a scene).
     pub prepare_ground_truth: Duration,
+    /// Keeping each scene's prepared ground truth in the cache (when it was not there), on a
+    /// thread of its own beside the scoring: not part of the scoring's time.
+    pub keep_ground_truth: Duration,
+    /// What the scoring waited for that thread: to hand it a scene while it was still
+    /// writing the one before, and at the end, for the last one.
+    pub wait_for_cache: Duration,
     /// Reading the maps.
     pub read_maps: Duration,
     /// The stages of [`score_scene`], summed.
@@ -63,17 +71,22 @@ pub fn score_submission(
     score_submission_timed(submission, release, limits, open, None, progress).map(|(scores, _)| scores)
 }
 
-/// The ground truth in `dir` prepared for scoring: from `cache` when it holds it, else read
-/// and put in Z-order (and then kept in `cache`).
-fn prepared_ground_truth(dir: &Path, classes: &ClassList, cache: Option<&PreparedCache>, timings: &mut ScoringTimings) -> Result<PreparedGroundTruth> {
+/// The ground truth in `dir` prepared for scoring: from `cache`'s cache when it holds it,
+/// else read and put in Z-order, and handed to its background store to keep.
+fn prepared_ground_truth(
+    dir: &Path,
+    classes: &ClassList,
+    cache: Option<(&PreparedCache, &BackgroundStore)>,
+    timings: &mut ScoringTimings,
+) -> Result<Arc<PreparedGroundTruth>> {
     let clock = Instant::now();
-    let cached = cache.and_then(|cache| CacheKey::of(dir).map(|key| (cache, key)));
-    if let Some((cache, key)) = &cached {
+    let cached = cache.and_then(|(cache, keeper)| CacheKey::of(dir).map(|key| (cache, keeper, key)));
+    if let Some((cache, _, key)) = &cached {
         match cache.load(key, dir, classes) {
             Ok(gt) => {
                 timings.read_ground_truth += clock.elapsed();
                 timings.ground_truth_cached += 1;
-                return Ok(gt);
+                return Ok(Arc::new(gt));
             }
             Err(CacheMiss(why)) => timings.cache_misses.push(format!("{}: {why}", dir.display())),
         }
@@ -82,12 +95,12 @@ fn prepared_ground_truth(dir: &Path, classes: &ClassList, cache: Option<&Prepare
     let gt = GroundTruth::read(dir, classes)?;
     timings.read_ground_truth += clock.elapsed();
     let clock = Instant::now();
-    let gt = PreparedGroundTruth::new(gt, classes)?;
+    let gt = Arc::new(PreparedGroundTruth::new(gt, classes)?);
     timings.prepare_ground_truth += clock.elapsed();
-    if let Some((cache, key)) = &cached
-        && let Err(CacheMiss(why)) = cache.store(key, &gt)
-    {
-        timings.cache_misses.push(format!("{}: not kept: {why}", dir.display()));
+    if let Some((_, keeper, key)) = cached {
+        let clock = Instant::now();
+        keeper.keep(key, Arc::clone(&gt));
+        timings.wait_for_cache += clock.elapsed();
     }
     Ok(gt)
 }
@@ -111,7 +124,9 @@ pub fn score_submission_timed(
     let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
     let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
-    let mut ground_truth: Option<(&str, PreparedGroundTruth, ClassList)> = None;
+    let keeper = cache.map(|cache| BackgroundStore::start(cache.clone()));
+    let cache = cache.zip(keeper.as_ref());
+    let mut ground_truth: Option<(&str, Arc<PreparedGroundTruth>, ClassList)> = None;
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
         if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
@@ -133,6 +148,13 @@ pub fn score_submission_timed(
         progress(done + 1, maps.len());
     }
     drop(ground_truth);
+    if let Some(keeper) = keeper {
+        let clock = Instant::now();
+        let kept = keeper.finish();
+        timings.wait_for_cache += clock.elapsed();
+        timings.keep_ground_truth = kept.writing;
+        timings.cache_misses.extend(kept.misses);
+    }
     let clock = Instant::now();
 
     let mut semseg = BTreeMap::new();

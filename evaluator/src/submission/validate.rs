@@ -13,11 +13,11 @@ use serde_json::Value;
 
 use super::SUBMISSION_FORMAT;
 use super::archive::list_tree;
+use super::extents::{Extent, ground_truth_extent};
 use super::release::ReleaseIndex;
 use crate::error::InputError;
 use crate::formats::map::{MapSemantics, PredictedMap, TextFeatures};
 use crate::formats::npy::ReadLimits;
-use crate::formats::pcd::read_pcd;
 
 /// At most this many problems are reported (the rest are counted).
 pub const MAX_REPORTED_PROBLEMS: usize = 50;
@@ -259,33 +259,6 @@ fn check_answers(value: &Value, name: &str, scene: &str, known: Option<&BTreeSet
         }
     }
     Ok(())
-}
-
-/// The lowest and highest coordinates of a cloud.
-type Extent = ([f32; 3], [f32; 3]);
-
-/// The box of a scene's ground-truth points, from its `pointcloud.pcd` (labels are not
-/// needed to place a map). Only the box is kept, and kept for the life of the process
-/// (per file, its length and modification time): a release's clouds are hundreds of
-/// megabytes, and the same scenes are checked for every upload and again when scored.
-fn ground_truth_extent(release: &ReleaseIndex, scene: &str) -> Option<Extent> {
-    use std::sync::{Mutex, OnceLock};
-    type Identity = (PathBuf, u64, Option<std::time::SystemTime>);
-    static KNOWN: OnceLock<Mutex<BTreeMap<Identity, Extent>>> = OnceLock::new();
-    let path = release.ground_truth_dir(scene).join("pointcloud.pcd");
-    let meta = std::fs::metadata(&path).ok()?;
-    let identity = (path.clone(), meta.len(), meta.modified().ok());
-    let known = KNOWN.get_or_init(Default::default);
-    if let Some(extent) = known.lock().unwrap_or_else(|e| e.into_inner()).get(&identity) {
-        return Some(*extent);
-    }
-    let cloud = read_pcd(&path).ok()?;
-    let (lo, hi) = crate::bounds::bounding_box(&cloud.points);
-    if cloud.points.is_empty() {
-        return None;
-    }
-    known.lock().unwrap_or_else(|e| e.into_inner()).insert(identity, (lo, hi));
-    Some((lo, hi))
 }
 
 /// A map in another frame than the release (say, relative to the first camera) overlaps

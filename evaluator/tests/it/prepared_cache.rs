@@ -3,9 +3,11 @@
 //! evicted entry is a miss, never a different score.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::semseg::background_store::BackgroundStore;
 use osmab_evaluator::semseg::prepared_cache::{CacheKey, PreparedCache};
 use osmab_evaluator::semseg::{PreparedGroundTruth, score_prepared};
 use osmab_evaluator::synthetic::{SceneSpec, SyntheticScene, generate};
@@ -162,4 +164,82 @@ fn the_cache_drops_the_entries_used_longest_ago_beyond_its_capacity() {
     let tiny = PreparedCache::new(tmp.path().join("tiny"), 1000);
     let why = tiny.store(&keys[0], &prepared[0]).err().unwrap().0;
     assert!(why.contains("larger than the cache's capacity of 1000 bytes"), "{why}");
+}
+
+#[test]
+fn an_entry_of_several_chunks_has_the_documented_layout() {
+    // 200,000 points: four chunks of 65,536 points encoded one after another, the last one
+    // partial; read back by four tasks.
+    let spec = SceneSpec { gt_points: 200_000, ..SPEC };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = generate(spec);
+    let gt_dir = tmp.path().join("gt");
+    scene.ground_truth.write(&gt_dir).unwrap();
+    let cache_dir = tmp.path().join("cache");
+    let cache = PreparedCache::new(&cache_dir, 1 << 30);
+    let key = CacheKey::of(&gt_dir).unwrap();
+    let prepared = prepare(&gt_dir, &scene.classes);
+    cache.store(&key, &prepared).unwrap();
+
+    let bytes = std::fs::read(entries(&cache_dir).remove(0)).unwrap();
+    assert_eq!(&bytes[..8], b"OSMABZG1");
+    let identity_len = u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
+    let at = 12 + identity_len;
+    let count = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap());
+    assert_eq!(count, 200_000);
+    assert_eq!(bytes[at + 8], 4, "every label fits in 32 bits");
+    let crc = u32::from_le_bytes(bytes[at + 9..at + 13].try_into().unwrap());
+    let payload = &bytes[at + 13..];
+    assert_eq!(payload.len(), 200_000 * 16);
+    let points: Vec<u8> = prepared.points().iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+    let labels: Vec<u8> = prepared.labels().iter().flat_map(|&l| i32::try_from(l).unwrap().to_le_bytes()).collect();
+    assert!(payload[..points.len()] == points[..], "the points, in Z-order, as little-endian f32");
+    assert!(payload[points.len()..] == labels[..], "then the labels, as little-endian i32");
+    let mut whole = flate2::Crc::new();
+    whole.update(payload);
+    assert_eq!(crc, whole.sum());
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+    let loaded = pool.install(|| cache.load(&key, &gt_dir, &scene.classes)).unwrap();
+    assert_eq!(loaded.points(), prepared.points());
+    assert_eq!(loaded.labels(), prepared.labels());
+}
+
+#[test]
+fn a_background_store_keeps_every_entry_handed_to_it_before_it_finishes_and_names_what_it_could_not_keep() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scenes: Vec<(SyntheticScene, PathBuf)> = (0..3).map(|i| scene_on_disk(&tmp.path().join(format!("scene{i}")))).collect();
+    let cache = PreparedCache::new(tmp.path().join("cache"), 1 << 30);
+    let store = BackgroundStore::start(cache.clone());
+    for (scene, gt_dir) in &scenes {
+        store.keep(CacheKey::of(gt_dir).unwrap(), Arc::new(prepare(gt_dir, &scene.classes)));
+    }
+    let report = store.finish();
+    assert_eq!((report.stored, report.misses.len()), (3, 0), "{report:?}");
+    assert!(report.writing > std::time::Duration::ZERO);
+    for (scene, gt_dir) in &scenes {
+        let loaded = cache.load(&CacheKey::of(gt_dir).unwrap(), gt_dir, &scene.classes).unwrap();
+        assert_eq!(loaded.points(), prepare(gt_dir, &scene.classes).points());
+    }
+
+    // A cache whose directory cannot be made (a file is in its place) keeps nothing, and says
+    // which ground truth it did not keep.
+    let blocked = tmp.path().join("blocked");
+    std::fs::write(&blocked, b"a file").unwrap();
+    let store = BackgroundStore::start(PreparedCache::new(&blocked, 1 << 30));
+    let (scene, gt_dir) = &scenes[0];
+    store.keep(CacheKey::of(gt_dir).unwrap(), Arc::new(prepare(gt_dir, &scene.classes)));
+    let report = store.finish();
+    assert_eq!(report.stored, 0);
+    assert_eq!(report.misses.len(), 1);
+    assert!(report.misses[0].starts_with(&format!("{}: not kept: creating {}", gt_dir.display(), blocked.display())), "{:?}", report.misses);
+
+    // Dropped without finishing (a scoring that stopped early), it still writes what it was handed.
+    let late = PreparedCache::new(tmp.path().join("late"), 1 << 30);
+    let (scene, gt_dir) = &scenes[1];
+    drop({
+        let store = BackgroundStore::start(late.clone());
+        store.keep(CacheKey::of(gt_dir).unwrap(), Arc::new(prepare(gt_dir, &scene.classes)));
+        store
+    });
+    assert!(late.holds(&CacheKey::of(gt_dir).unwrap()));
 }

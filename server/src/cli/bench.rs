@@ -135,6 +135,11 @@ pub enum BenchCommand {
         /// emptied at the start, and later runs read it, as the worker does).
         #[arg(long)]
         no_ground_truth_cache: bool,
+        /// Before the first run, make the node ready as an idle worker does (every scene's
+        /// ground truth prepared into the emptied cache, its box learnt), timed on its own:
+        /// run 0 is then the first submission on a node that was idle before it came.
+        #[arg(long, conflicts_with = "no_ground_truth_cache")]
+        warm_node: bool,
         #[arg(long, default_value_t = 1)]
         repeat: usize,
     },
@@ -184,9 +189,14 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
         BenchCommand::Ranking { entries, repeat } => ranking(entries, repeat),
-        BenchCommand::Submission { data, scenes, gt_points, map_points, objects, map_covers_room, no_ground_truth_cache, repeat } => {
+        BenchCommand::Submission { data, scenes, gt_points, map_points, objects, map_covers_room, no_ground_truth_cache, warm_node, repeat } => {
             let size = super::bench_submission::SubmissionBenchSize { scenes, gt_points, map_points, objects, map_covers_room };
-            super::bench_submission::run(&size, &data, !no_ground_truth_cache, repeat)
+            let node = match (no_ground_truth_cache, warm_node) {
+                (true, _) => super::bench_submission::Node::WithoutCache,
+                (false, false) => super::bench_submission::Node::Cold,
+                (false, true) => super::bench_submission::Node::Warmed,
+            };
+            super::bench_submission::run(&size, &data, node, repeat)
         }
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room, shuffle: random_order } => {
             let mut scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });

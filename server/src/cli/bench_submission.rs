@@ -15,6 +15,7 @@ use osmab_dataset::questions::standard::standard_questions;
 use osmab_evaluator::formats::map::TextFeatures;
 use osmab_evaluator::scores::{Lighting, Regime};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
+use osmab_evaluator::submission::warm::{Warmed, warm_release};
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, pack_directory, score_submission_timed, unpack, validate};
 use osmab_evaluator::synthetic::{SceneSpec, SyntheticScene, generate};
 use osmab_evaluator::vqa::SceneQuestions;
@@ -49,17 +50,28 @@ fn scene_id(i: usize) -> String {
     format!("scene_{i:03}")
 }
 
+/// The node the submissions are scored on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Node {
+    /// No cache of prepared ground truth: every run prepares every scene.
+    WithoutCache,
+    /// The cache emptied at the start: the first run fills it, later runs read it.
+    Cold,
+    /// The cache emptied, then filled before the first run as an idle worker fills it.
+    Warmed,
+}
+
 /// Generate the data (unless `data` already holds it at these sizes) and time `repeat`
-/// scorings, printing a table of stages for each; with `cache`, the prepared ground truth
-/// is kept in `data`'s cache, emptied first, as a worker keeps it.
-pub fn run(size: &SubmissionBenchSize, data: &Path, cache: bool, repeat: usize) -> anyhow::Result<()> {
+/// scorings on `node`, printing a table of stages for each; the prepared ground truth is
+/// kept in `data`'s cache, emptied first, as a worker keeps it.
+pub fn run(size: &SubmissionBenchSize, data: &Path, node: Node, repeat: usize) -> anyhow::Result<()> {
     let archive = ensure_data(size, data)?;
     let release = data.join("release");
     let cache_dir = data.join("prepared-ground-truth");
     if cache_dir.exists() {
         std::fs::remove_dir_all(&cache_dir).with_context(|| format!("emptying {}", cache_dir.display()))?;
     }
-    let cache = cache.then(|| PreparedCache::new(&cache_dir, 1 << 40));
+    let cache = (node != Node::WithoutCache).then(|| PreparedCache::new(&cache_dir, 1 << 40));
     let lightings = Lighting::RELEASE.len();
     println!(
         "{} scenes × {lightings} lightings, {} ground-truth points a scene, {} points a map ({}), threads {}",
@@ -69,6 +81,17 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, cache: bool, repeat: usize) 
         if size.map_covers_room { "map covers the room" } else { "room shell unmapped" },
         rayon::current_num_threads()
     );
+    if let (Node::Warmed, Some(cache)) = (node, &cache) {
+        let clock = Instant::now();
+        let index = ReleaseIndex::read(&release).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut prepared = 0;
+        warm_release(&index, cache, |_, warmed| prepared += usize::from(*warmed == Warmed::Prepared)).map_err(|e| anyhow::anyhow!("{e}"))?;
+        println!(
+            "node made ready before any submission, as an idle worker does: {prepared} of {} scenes' ground truth prepared in {:.2} s",
+            size.scenes,
+            clock.elapsed().as_secs_f64()
+        );
+    }
     for run in 0..repeat {
         let unpacked = data.join("unpacked");
         if unpacked.exists() {
@@ -99,11 +122,13 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, cache: bool, repeat: usize) 
         if let Some(why) = t.cache_misses.iter().find(|why| !why.ends_with("not cached yet")) {
             println!("  (cache: {why})");
         }
-        let rows: [(&str, Duration); 12] = [
+        let rows: [(&str, Duration); 14] = [
             ("unpack the archive", unpack_time),
             ("read the release, validate every file", validate_time),
             ("read ground truth (once a scene; cached: prepared)", t.read_ground_truth),
             ("put ground truth in Z-order (once a scene, uncached)", t.prepare_ground_truth),
+            ("  keep it in the node's cache (beside the rest, not in the sum)", t.keep_ground_truth),
+            ("  wait for the cache's writer", t.wait_for_cache),
             ("read maps", t.read_maps),
             ("label map points", t.scenes.labels),
             ("build nearest-neighbour indexes", t.scenes.index),

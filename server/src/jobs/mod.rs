@@ -4,6 +4,7 @@
 
 pub mod release_build;
 pub mod scoring;
+pub mod warmup;
 pub mod worker;
 
 use std::future::Future;

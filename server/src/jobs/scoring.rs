@@ -107,6 +107,8 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
             ground_truth_cached = timings.ground_truth_cached,
             read_ground_truth_s = timings.read_ground_truth.as_secs_f64(),
             prepare_ground_truth_s = timings.prepare_ground_truth.as_secs_f64(),
+            keep_ground_truth_s = timings.keep_ground_truth.as_secs_f64(),
+            wait_for_cache_s = timings.wait_for_cache.as_secs_f64(),
             associate_s = timings.scenes.query.as_secs_f64(),
             "scored"
         );
@@ -124,7 +126,7 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
 }
 
 /// This node's cache of ground truth prepared for scoring, unless it is turned off.
-fn ground_truth_cache(settings: &crate::config::Settings) -> Option<PreparedCache> {
+pub(super) fn ground_truth_cache(settings: &crate::config::Settings) -> Option<PreparedCache> {
     (settings.ground_truth_cache_bytes > 0)
         .then(|| PreparedCache::new(settings.data_dir.join("cache").join("prepared-ground-truth"), settings.ground_truth_cache_bytes))
 }

@@ -139,6 +139,9 @@ pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Rec
                 process(&state, &owner, job, shutdown.clone()).instrument(span).await
             }
             Ok(None) => {
+                if super::warmup::warm_next_scene(&state).await {
+                    continue;
+                }
                 tokio::select! {
                     _ = tokio::time::sleep(poll) => {}
                     _ = shutdown.changed() => {}

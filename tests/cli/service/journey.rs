@@ -14,6 +14,22 @@ fn journey(backend: Backend) {
     let version = server.import_test_release();
     let token = server.team("Team Journey");
 
+    // Before any submission, the idle worker makes this node ready to score the release:
+    // each scene's ground truth prepared (in Z-order) and kept in the node's cache.
+    let cache = deployment.data.path().join("cache/prepared-ground-truth");
+    let entries = || match std::fs::read_dir(&cache) {
+        Ok(dir) => dir.filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "zgt")).count(),
+        Err(_) => 0,
+    };
+    let waited = std::time::Instant::now();
+    while !deployment.log("serve").contains("this node is ready to score the current release") && waited.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let log = deployment.log("serve");
+    let ready = log.lines().find(|l| l.contains("this node is ready to score the current release")).unwrap_or_else(|| panic!("{log}"));
+    assert!(ready.contains(&format!("release={version}")) && ready.contains("prepared=2") && ready.contains("failed=0"), "{ready}");
+    assert_eq!(entries(), 2, "one prepared ground truth a scene");
+
     // The manifest lists every file and one archive per sequence with their checksums.
     let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
     let archives = manifest["archives"].as_array().unwrap();
@@ -92,11 +108,10 @@ fn journey(backend: Backend) {
     let twin_id = twin.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
     let twin_view = server.wait_done(&twin_id, &token);
     assert_eq!(twin_view["state"], "scored");
-    // The twin was scored from the ground truth the first scorings left prepared (in
-    // Z-order) in this node's cache, one entry a scene, and scores as the merge did.
-    let cache = deployment.data.path().join("cache/prepared-ground-truth");
-    let entries = std::fs::read_dir(&cache).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "zgt")).count();
-    assert_eq!(entries, 2, "one prepared ground truth a scene");
+    // Every scoring took the ground truth the worker had prepared; the cache still holds
+    // one entry a scene, and the twin scores as the merge did.
+    assert_eq!(entries(), 2, "one prepared ground truth a scene");
+    assert!(!deployment.log("serve").contains("ground truth prepared again"), "{}", deployment.log("serve"));
     assert_eq!(twin_view["scores"]["semseg"], merge_view["scores"]["semseg"]);
 
     // Pooled values carry 95 % bootstrap intervals over scenes; the full document keeps

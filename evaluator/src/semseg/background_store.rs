@@ -72,7 +72,10 @@ impl BackgroundStore {
         drop(self.sender.take());
         let failed = |why: String| StoreReport { misses: vec![why], ..StoreReport::default() };
         match self.writer.as_mut().map(Option::take) {
-            Ok(Some(writer)) => writer.join().unwrap_or_else(|_| failed("the thread keeping prepared ground truth stopped".into())),
+            Ok(Some(writer)) => writer.join().unwrap_or_else(|panic| {
+                let what = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_default();
+                failed(format!("the thread keeping prepared ground truth stopped: {what}"))
+            }),
             Ok(None) => StoreReport::default(),
             Err(why) => failed(std::mem::take(why)),
         }

@@ -23,6 +23,8 @@ use crate::formats::classes::ClassList;
 const MAGIC: &[u8; 8] = b"OSMABZG1";
 /// File name extension of entries.
 const EXTENSION: &str = "zgt";
+/// Age after which a temporary file is taken to be abandoned (an entry is written in seconds).
+const ABANDONED_AFTER: std::time::Duration = std::time::Duration::from_secs(3600);
 /// Bytes of the fixed part of the header after the identity: point count, label width, CRC-32.
 const COUNTS: usize = 8 + 1 + 4;
 
@@ -121,11 +123,22 @@ impl PreparedCache {
         Ok(())
     }
 
-    /// Drop the least recently used entries (never `keep`) while the cache is over capacity.
+    /// Drop the least recently used entries (never `keep`) while the cache is over capacity,
+    /// and temporary files an hour old (left by a process killed while it wrote them).
     fn evict(&self, keep: &str) {
         let Ok(entries) = std::fs::read_dir(&self.dir) else { return };
+        let entries: Vec<std::fs::DirEntry> = entries.flatten().collect();
+        let abandoned = |e: &std::fs::DirEntry| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            let age = e.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok());
+            name.starts_with('.') && name.ends_with(".tmp") && age.is_some_and(|age| age > ABANDONED_AFTER)
+        };
+        for temporary in entries.iter().filter(|e| abandoned(e)) {
+            let _ = std::fs::remove_file(temporary.path());
+        }
         let mut entries: Vec<(SystemTime, u64, PathBuf)> = entries
-            .flatten()
+            .iter()
             .filter(|e| e.path().extension().is_some_and(|x| x == EXTENSION))
             .filter_map(|e| {
                 let meta = e.metadata().ok()?;

@@ -36,9 +36,11 @@ pub struct ScoringTimings {
     pub read_ground_truth: Duration,
     /// Scenes whose prepared ground truth came from the cache.
     pub ground_truth_cached: usize,
-    /// Why a scene's ground truth was not taken from, or not kept in, the cache (at most
-    /// one line a scene).
+    /// Why a scene's ground truth was not taken from the cache (at most one line a scene).
     pub cache_misses: Vec<String>,
+    /// Why a scene's prepared ground truth could not be kept in the cache (at most one line
+    /// a scene; the next scoring prepares it again).
+    pub not_kept: Vec<String>,
     /// Checking each scene's ground truth and putting it in Z-order (once a scene).
     pub prepare_ground_truth: Duration,
     /// Keeping each scene's prepared ground truth in the cache (when it was not there), on a
@@ -130,7 +132,8 @@ pub fn score_submission_timed(
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
         if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
-            // The previous scene's cloud goes before the next one is read.
+            // The scorer lets go of the previous scene's cloud before the next one is read
+            // (the background store may still hold it while it writes it).
             drop(ground_truth.take());
             let classes = release.scene_classes(&entry.scene)?;
             let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, cache, &mut timings)?;
@@ -153,7 +156,7 @@ pub fn score_submission_timed(
         let kept = keeper.finish();
         timings.wait_for_cache += clock.elapsed();
         timings.keep_ground_truth = kept.writing;
-        timings.cache_misses.extend(kept.misses);
+        timings.not_kept.extend(kept.misses);
     }
     let clock = Instant::now();
 

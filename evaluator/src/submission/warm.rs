@@ -14,7 +14,9 @@ use crate::semseg::prepared_cache::{CacheKey, CacheMiss, PreparedCache};
 /// What making a scene ready took.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Warmed {
-    /// Nothing: the cache held the scene's entry and its box was known.
+    /// Nothing: the cache held the scene's entry (whole in length; a damaged payload is
+    /// found by the CRC when a scoring loads it, and prepared again then) and its box was
+    /// known.
     AlreadyReady,
     /// The cache held the entry; it was read back for the box.
     FromCache,

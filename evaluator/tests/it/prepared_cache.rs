@@ -243,3 +243,22 @@ fn a_background_store_keeps_every_entry_handed_to_it_before_it_finishes_and_name
     });
     assert!(late.holds(&CacheKey::of(gt_dir).unwrap()));
 }
+
+#[test]
+fn temporary_files_abandoned_an_hour_ago_are_removed_when_an_entry_is_stored() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (scene, gt_dir) = scene_on_disk(tmp.path());
+    let cache_dir = tmp.path().join("cache");
+    std::fs::create_dir_all(&cache_dir).unwrap();
+    let abandoned = cache_dir.join(".0123456789abcdef.zgt.999-0.tmp");
+    let being_written = cache_dir.join(".0123456789abcdef.zgt.998-0.tmp");
+    for path in [&abandoned, &being_written] {
+        std::fs::write(path, b"half an entry").unwrap();
+    }
+    let two_hours_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(7200);
+    std::fs::File::options().append(true).open(&abandoned).unwrap().set_modified(two_hours_ago).unwrap();
+    let cache = PreparedCache::new(&cache_dir, 1 << 30);
+    cache.store(&CacheKey::of(&gt_dir).unwrap(), &prepare(&gt_dir, &scene.classes)).unwrap();
+    assert!(!abandoned.exists(), "an hour old: abandoned");
+    assert!(being_written.exists(), "fresh: another process may be writing it");
+}

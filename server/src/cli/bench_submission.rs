@@ -119,7 +119,7 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, node: Node, repeat: usize) -
             t.ground_truth_cached,
             size.scenes
         );
-        if let Some(why) = t.cache_misses.iter().find(|why| !why.ends_with("not cached yet")) {
+        if let Some(why) = t.cache_misses.iter().find(|why| !why.ends_with("not cached yet")).or(t.not_kept.first()) {
             println!("  (cache: {why})");
         }
         let rows: [(&str, Duration); 14] = [

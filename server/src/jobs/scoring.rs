@@ -102,6 +102,9 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
         for why in &timings.cache_misses {
             tracing::info!(%why, "ground truth prepared again");
         }
+        for why in &timings.not_kept {
+            tracing::warn!(%why, "prepared ground truth not kept in this node's cache");
+        }
         tracing::info!(
             maps = timings.maps,
             ground_truth_cached = timings.ground_truth_cached,

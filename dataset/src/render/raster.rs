@@ -435,6 +435,8 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
             //    albedo and interpolated normal (gathered from its triangle).
             {
                 let mut finder = screen.finder();
+                // Neighbouring pixels mostly show the same triangle: it is looked up once a run.
+                let mut showing: Option<(u32, &ScreenTriangle, &Triangle)> = None;
                 let [ar, ag, ab] = row_albedo.each_mut().map(|v| &mut v[..w]);
                 let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
                 let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
@@ -447,8 +449,15 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
                         (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
                         continue;
                     }
-                    let st = finder.triangle(hit[px]);
-                    let tri: &Triangle = &world.triangles()[st.source as usize];
+                    let (st, tri) = match showing {
+                        Some((shown, st, tri)) if shown == hit[px] => (st, tri),
+                        _ => {
+                            let st = finder.triangle(hit[px]);
+                            let tri: &Triangle = &world.triangles()[st.source as usize];
+                            showing = Some((hit[px], st, tri));
+                            (st, tri)
+                        }
+                    };
                     let [w1, w2] = weights[px];
                     let w0 = 1.0 - w1 - w2;
                     // Barycentrics in the source triangle.

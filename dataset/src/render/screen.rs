@@ -143,6 +143,7 @@ pub(super) struct Finder<'a> {
 
 impl<'a> Finder<'a> {
     /// The triangle numbered `index` (a number `Screen::index` gave).
+    #[inline]
     pub(super) fn triangle(&mut self, index: u32) -> &'a ScreenTriangle {
         let starts = &self.screen.starts;
         if !(starts[self.part] <= index && index < starts[self.part + 1]) {

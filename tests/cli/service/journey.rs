@@ -21,12 +21,7 @@ fn journey(backend: Backend) {
         Ok(dir) => dir.filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "zgt")).count(),
         Err(_) => 0,
     };
-    let waited = std::time::Instant::now();
-    while !deployment.log("serve").contains("this node is ready to score the current release") && waited.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
-    let log = deployment.log("serve");
-    let ready = log.lines().find(|l| l.contains("this node is ready to score the current release")).unwrap_or_else(|| panic!("{log}"));
+    let ready = ready_line(&deployment);
     assert!(ready.contains(&format!("release={version}")) && ready.contains("prepared=2"), "{ready}");
     assert_eq!(entries(), 2, "one prepared ground truth a scene");
 
@@ -263,6 +258,27 @@ fn journey(backend: Backend) {
     assert_eq!(board["entries"].as_array().unwrap().len(), 2, "the private submission left the leaderboard");
     assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}")).send().unwrap().status(), 404, "private to others");
     assert_eq!(server.get(&format!("/api/v1/submissions/{merge_id}/receipt")).send().unwrap().status(), 404, "and so is its receipt");
+
+    // Restarted, the node finds every scene prepared in its cache: it reads each entry back
+    // only for the box validation needs, and prepares nothing again.
+    drop(server);
+    let _restarted = deployment.serve();
+    let ready = ready_line(&deployment);
+    assert!(ready.contains("prepared=0") && ready.contains("from_cache=2"), "{ready}");
+}
+
+/// The line of the server's log saying the node is ready to score the current release
+/// (waiting up to a minute for it).
+fn ready_line(deployment: &Deployment) -> String {
+    let waited = std::time::Instant::now();
+    loop {
+        let log = deployment.log("serve");
+        if let Some(line) = log.lines().find(|l| l.contains("this node is ready to score the current release")) {
+            return line.to_string();
+        }
+        assert!(waited.elapsed().as_secs() < 60, "the node never said it was ready:\n{log}");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }
 
 on_both_backends!(a_team_goes_from_download_to_leaderboard, super::journey);

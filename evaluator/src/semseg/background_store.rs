@@ -26,6 +26,8 @@ pub struct StoreReport {
 /// an entry and waits only while it is still writing the one before, so at most one entry
 /// beyond the scorer's own is held; [`BackgroundStore::finish`] waits for the last.
 pub struct BackgroundStore {
+    /// The cache the entries go to.
+    cache: PreparedCache,
     sender: Option<SyncSender<(CacheKey, Arc<PreparedGroundTruth>)>>,
     writer: Result<Option<JoinHandle<StoreReport>>, String>,
 }
@@ -37,21 +39,29 @@ impl BackgroundStore {
         let (sender, entries) = sync_channel::<(CacheKey, Arc<PreparedGroundTruth>)>(0);
         let writer = std::thread::Builder::new()
             .name("osmab-cache-store".into())
-            .spawn(move || {
-                let mut report = StoreReport::default();
-                for (key, prepared) in entries {
-                    let clock = Instant::now();
-                    match cache.store(&key, &prepared) {
-                        Ok(()) => report.stored += 1,
-                        Err(CacheMiss(why)) => report.misses.push(format!("{}: not kept: {why}", prepared.source().display())),
+            .spawn({
+                let cache = cache.clone();
+                move || {
+                    let mut report = StoreReport::default();
+                    for (key, prepared) in entries {
+                        let clock = Instant::now();
+                        match cache.store(&key, &prepared) {
+                            Ok(()) => report.stored += 1,
+                            Err(CacheMiss(why)) => report.misses.push(format!("{}: not kept: {why}", prepared.source().display())),
+                        }
+                        report.writing += clock.elapsed();
                     }
-                    report.writing += clock.elapsed();
+                    report
                 }
-                report
             })
             .map(Some)
             .map_err(|e| format!("could not start the thread keeping prepared ground truth: {e}"));
-        Self { sender: writer.is_ok().then_some(sender), writer }
+        Self { cache, sender: writer.is_ok().then_some(sender), writer }
+    }
+
+    /// The cache the entries go to (to load from it, too).
+    pub fn cache(&self) -> &PreparedCache {
+        &self.cache
     }
 
     /// Store `prepared` under `key` once the entry before it is written. A store that

@@ -73,18 +73,13 @@ pub fn score_submission(
     score_submission_timed(submission, release, limits, open, None, progress).map(|(scores, _)| scores)
 }
 
-/// The ground truth in `dir` prepared for scoring: from `cache`'s cache when it holds it,
-/// else read and put in Z-order, and handed to its background store to keep.
-fn prepared_ground_truth(
-    dir: &Path,
-    classes: &ClassList,
-    cache: Option<(&PreparedCache, &BackgroundStore)>,
-    timings: &mut ScoringTimings,
-) -> Result<Arc<PreparedGroundTruth>> {
+/// The ground truth in `dir` prepared for scoring: from `keeper`'s cache when it holds it,
+/// else read and put in Z-order, and handed to `keeper` to keep.
+fn prepared_ground_truth(dir: &Path, classes: &ClassList, keeper: Option<&BackgroundStore>, timings: &mut ScoringTimings) -> Result<Arc<PreparedGroundTruth>> {
     let clock = Instant::now();
-    let cached = cache.and_then(|(cache, keeper)| CacheKey::of(dir).map(|key| (cache, keeper, key)));
-    if let Some((cache, _, key)) = &cached {
-        match cache.load(key, dir, classes) {
+    let cached = keeper.and_then(|keeper| CacheKey::of(dir).map(|key| (keeper, key)));
+    if let Some((keeper, key)) = &cached {
+        match keeper.cache().load(key, dir, classes) {
             Ok(gt) => {
                 timings.read_ground_truth += clock.elapsed();
                 timings.ground_truth_cached += 1;
@@ -99,7 +94,7 @@ fn prepared_ground_truth(
     let clock = Instant::now();
     let gt = Arc::new(PreparedGroundTruth::new(gt, classes)?);
     timings.prepare_ground_truth += clock.elapsed();
-    if let Some((_, keeper, key)) = cached {
+    if let Some((keeper, key)) = cached {
         let clock = Instant::now();
         keeper.keep(key, Arc::clone(&gt));
         timings.wait_for_cache += clock.elapsed();
@@ -127,7 +122,6 @@ pub fn score_submission_timed(
     let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
     let keeper = cache.map(|cache| BackgroundStore::start(cache.clone()));
-    let cache = cache.zip(keeper.as_ref());
     let mut ground_truth: Option<(&str, Arc<PreparedGroundTruth>, ClassList)> = None;
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
     for (done, (entry, map_path)) in maps.iter().enumerate() {
@@ -136,7 +130,7 @@ pub fn score_submission_timed(
             // (the background store may still hold it while it writes it).
             drop(ground_truth.take());
             let classes = release.scene_classes(&entry.scene)?;
-            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, cache, &mut timings)?;
+            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), &mut timings)?;
             ground_truth = Some((entry.scene.as_str(), gt, classes));
         }
         let (_, gt, classes) = ground_truth.as_ref().expect("read above");

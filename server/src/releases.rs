@@ -9,12 +9,12 @@ use std::path::Path;
 use osmab_dataset::release::manifest::FileEntry;
 use osmab_dataset::release::{packed_sequence_archive, verify_release};
 use osmab_evaluator::scores::Split;
-use osmab_evaluator::submission::pack_directory_into;
 use osmab_evaluator::submission::release::GROUND_TRUTH_DIR;
 use serde_json::{Value, json};
 
 use crate::blobs::Blobs;
 use crate::clock::now_ms;
+use crate::release_archives;
 use crate::store::{ReleaseFile, ReleaseRecord, Store, StoreError};
 
 /// Blob folder of release `version`.
@@ -28,6 +28,16 @@ pub fn manifest_splits(manifest: &str) -> Vec<Split> {
     let of_scenes: Vec<Split> =
         value["scenes"].as_array().into_iter().flatten().map(|s| s["split"].as_str().and_then(|n| n.parse().ok()).unwrap_or_default()).collect();
     Split::ALL.into_iter().filter(|split| of_scenes.contains(split)).collect()
+}
+
+/// The split of every scene a manifest lists (val where it names none, as before splits).
+fn scene_splits(manifest: &Value) -> BTreeMap<String, Split> {
+    manifest["scenes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|s| Some((s["id"].as_str()?.to_string(), s["split"].as_str().map_or(Some(Split::Val), |n| n.parse().ok())?)))
+        .collect()
 }
 
 /// The split a release's main leaderboard ranks and uploads go to by default: test when
@@ -115,35 +125,6 @@ impl Provenance {
     }
 }
 
-/// A writer that hashes what passes through it.
-struct Hashing<W> {
-    inner: W,
-    sha256: sha2::Sha256,
-    size: u64,
-}
-
-impl<W: std::io::Write> std::io::Write for Hashing<W> {
-    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-        let written = self.inner.write(bytes)?;
-        sha2::Digest::update(&mut self.sha256, &bytes[..written]);
-        self.size += written as u64;
-        Ok(written)
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
-    }
-}
-
-/// Pack the sequence folder `dir` into the archive `target` (names under `prefix`), its
-/// size and SHA-256 computed as it is written.
-fn pack_sequence(dir: &Path, prefix: &str, target: &Path) -> anyhow::Result<(u64, String)> {
-    let sink = Hashing { inner: std::io::BufWriter::new(std::fs::File::create(target)?), sha256: sha2::Digest::new(), size: 0 };
-    let (_, Hashing { inner, sha256, size }) = pack_directory_into(dir, prefix, sink, target)?;
-    inner.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-    Ok((size, osmab_dataset::release::manifest::hex(&sha2::Digest::finalize(sha256))))
-}
-
 /// Verify the release in `dir` and stage it into blob storage (blocking work). Fails
 /// with a message naming the file when the release is inconsistent.
 pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyhow::Result<(PreparedRelease, std::path::PathBuf)> {
@@ -184,19 +165,27 @@ pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyho
                 sequences.insert((parts[1].to_string(), parts[2].to_string()), ());
             }
         }
+        let splits = scene_splits(&manifest);
         let mut archives = Vec::new();
         for (lighting, scene) in sequences.keys() {
             let path = format!("archives/sequences/{lighting}/{scene}.tar");
             let target = staging.join(&path);
             std::fs::create_dir_all(target.parent().expect("nested"))?;
-            // A just-built release brings the archives its render jobs packed; else pack them here.
-            let packed = (provenance == Provenance::JustBuilt).then(|| packed_sequence_archive(dir, lighting, scene)).flatten();
+            // An archive holds exactly the manifest's files of its sequence. A just-built
+            // release brings the archives its render jobs packed of the scene's public files;
+            // one that is not the size those files pack to is packed again here.
+            let members = release_archives::members(&entries, lighting, scene);
+            let split = splits.get(scene.as_str()).copied().unwrap_or(Split::Test);
+            let packed = (provenance == Provenance::JustBuilt)
+                .then(|| packed_sequence_archive(dir, lighting, scene, split))
+                .flatten()
+                .filter(|(_, size, _)| *size == release_archives::expected_size(&members));
             let (size, sha256) = match packed {
                 Some((archive, size, sha256)) => {
                     provenance.take(&archive, &target)?;
                     (size, sha256)
                 }
-                None => pack_sequence(&staging.join("sequences").join(lighting).join(scene), &format!("sequences/{lighting}/{scene}/"), &target)?,
+                None => release_archives::pack_members(&staging, &members, lighting, scene, &target)?,
             };
             archives.push(json!({"path": path, "lighting": lighting, "scene": scene, "size": size, "sha256": sha256}));
             files.push(ReleaseFile { version: version.clone(), path, size: size as i64, sha256, kind: "archive".into() });
@@ -347,13 +336,24 @@ mod tests {
     }
 
     #[test]
-    fn a_sequence_archive_is_hashed_as_it_is_written() {
-        let release = release_with(&[("sequences/baseline/scene_000/results/frame000000.jpg", b"jpeg"), ("sequences/baseline/scene_000/traj.txt", b"1 0 0")]);
-        let sequence = release.path().join("sequences/baseline/scene_000");
-        let (hashed, packed) = (release.path().join("hashed.tar"), release.path().join("packed.tar"));
-        let (size, sha256) = pack_sequence(&sequence, "sequences/baseline/scene_000/", &hashed).unwrap();
+    fn a_sequence_archive_is_hashed_as_it_is_written_and_holds_exactly_its_members() {
+        let release = release_with(&[
+            ("sequences/baseline/scene_000/results/frame000000.jpg", b"jpeg"),
+            ("sequences/baseline/scene_000/results/semantic000000.png", b"hidden"),
+            ("sequences/baseline/scene_000/traj.txt", b"1 0 0"),
+        ]);
+        let listed: Vec<FileEntry> = serde_json::from_value(
+            serde_json::from_str::<Value>(&std::fs::read_to_string(release.path().join("manifest.json")).unwrap()).unwrap()["files"].clone(),
+        )
+        .unwrap();
+        // The manifest of a test scene leaves its semantic frame out: so does the archive.
+        let entries: Vec<FileEntry> = listed.into_iter().filter(|f| !f.path.contains("semantic")).collect();
+        let members = release_archives::members(&entries, "baseline", "scene_000");
+        let hashed = release.path().join("hashed.tar");
+        let (size, sha256) = release_archives::pack_members(release.path(), &members, "baseline", "scene_000", &hashed).unwrap();
         assert_eq!((size, sha256), hash_file(&hashed).unwrap());
-        osmab_evaluator::submission::pack_directory_as(&sequence, "sequences/baseline/scene_000/", &packed).unwrap();
-        assert_eq!(std::fs::read(&hashed).unwrap(), std::fs::read(&packed).unwrap(), "the same archive as pack_directory_as");
+        assert_eq!(size, release_archives::expected_size(&members));
+        let names = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&hashed).unwrap(), &hashed).unwrap();
+        assert_eq!(names, ["sequences/baseline/scene_000/results/frame000000.jpg", "sequences/baseline/scene_000/traj.txt"]);
     }
 }

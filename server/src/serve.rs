@@ -176,6 +176,11 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
     let bind = settings.bind;
     let state = open(settings).await?;
     ensure_admin_token(&state).await?;
+    // Before anything is served: every stored archive holds exactly its manifest's files.
+    let healed = crate::release_archives::heal_stored_archives(&state.store, &state.blobs).await.context("checking the stored releases' archives")?;
+    if !healed.repacked.is_empty() {
+        tracing::warn!(repacked = healed.repacked.len(), checked = healed.checked, archives = ?healed.repacked, "sequence archives repacked to hold exactly their manifests' files");
+    }
     if state.settings.demo {
         queue_demo(&state).await?;
     }

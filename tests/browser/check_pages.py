@@ -50,6 +50,8 @@ MIN_PNG_BYTES = 10 * 1024
 MAX_SHOT_HEIGHT = 8000
 METRICS = ["miou", "fmiou", "macc"]
 EXPECTED_ENTRIES = 5
+# Scenes of the demo release (configs/release-demo.toml: four furniture, three manipuland).
+DEMO_SCENES = 7
 
 
 class Failure(Exception):
@@ -712,17 +714,22 @@ def main() -> int:
                     tds = [td.clean() for td in tr.kids("td")]
                     expect(tds[0] == entry["method"], f"VQA row {tds[0]!r}, expected {entry['method']!r}")
                     cells = iter(tds[1:])
-                    for lighting in board["lightings"]:
-                        at = entry["scores"]["vqa"]["lightings"][lighting]
+                    # A test board pools VQA over every lighting (one "All lightings" group).
+                    pooled = board["split"] == "test"
+                    for lighting in (["all"] if pooled else board["lightings"]):
+                        at = entry["scores"]["vqa"]["all_lightings"] if pooled else entry["scores"]["vqa"]["lightings"][lighting]
                         for question_set in ("prompt_grounded", "standard"):
                             for group in ("Measurements", "Relations"):
-                                want = pct(at[question_set]["groups"][group]["accuracy"])
+                                # A group a test score withholds (fewer than five scenes) is absent: "–".
+                                want = pct(at[question_set]["groups"].get(group, {}).get("accuracy"))
                                 got = next(cells)
                                 expect(got == want, f"{entry['method']} {lighting} {question_set} {group}: page {got}, API {want}")
                                 checked += 1
+                groups = [th.clean() for th in table.find("thead").find_all("th", cls="group")]
+                expect(groups == (["All lightings"] if pooled else [state["labels"].get(l, l) for l in board["lightings"]]), f"VQA column groups {groups}")
                 charts = page.boxes(".charts svg")
                 expect(len(charts) == 4 and all(w > 200 and h > 100 for w, h in charts), f"the VQA charts render at {charts}")
-                return f"{len(rows)} rows, {checked} cells equal to the API, 4 charts; {shot}"
+                return f"{len(rows)} rows, {checked} cells equal to the API ({'over all lightings' if pooled else 'per lighting'}), 4 charts; {shot}"
             finally:
                 page.close()
 
@@ -790,11 +797,15 @@ def main() -> int:
                 expect(version in dom.find("h1").clean(), f"h1 is {dom.find('h1').clean()!r}")
                 cards = dom.find_all("article", cls="scene")
                 scenes = manifest["scenes"]
-                expect(len(cards) == len(scenes) == 3, f"{len(cards)} scene cards, the manifest has {len(scenes)} scenes (expected 3)")
+                expect(len(cards) == len(scenes) == DEMO_SCENES, f"{len(cards)} scene cards, the manifest has {len(scenes)} scenes (expected {DEMO_SCENES})")
                 for card, scene in zip(cards, scenes):
                     h3 = card.find("h3").clean()
-                    expect(scene["id"] in h3 and scene["subset"] in h3, f"card title {h3!r} for {scene['id']} ({scene['subset']})")
-                    expect(card.find("p").clean() == " ".join(scene["prompt"].split()), f"{scene['id']}: prompt differs from the manifest")
+                    expect(scene["id"] in h3 and scene["subset"] in h3 and scene["split"] in h3, f"card title {h3!r} for {scene['id']} ({scene['subset']}, {scene['split']})")
+                    if scene["split"] == "test":
+                        # A test scene publishes no prompt: the card says so, the manifest has none.
+                        expect("prompt" not in scene and "hidden test scene" in card.find("p").clean(), f"{scene['id']}: {card.find('p').clean()!r}")
+                    else:
+                        expect(card.find("p").clean() == " ".join(scene["prompt"].split()), f"{scene['id']}: prompt differs from the manifest")
                     img = card.find("img")
                     expect(img is not None and img.attrs.get("src"), f"{scene['id']}: no <img>")
                     status, headers, body = http_get(base + img.attrs["src"])
@@ -802,21 +813,21 @@ def main() -> int:
                     expect(status == 200 and ctype.startswith("image/jpeg") and body[:2] == b"\xff\xd8", f"{img.attrs['src']}: HTTP {status} {ctype}")
                     expect(img.attrs["src"].endswith(scene["preview"]), f"{scene['id']}: the thumbnail is not the manifest's preview frame")
                 rendered = page.boxes(".scene img")
-                expect(len(rendered) == 3 and all(w > 100 and h > 50 for w, h in rendered), f"thumbnails render at {rendered}")
+                expect(len(rendered) == DEMO_SCENES and all(w > 100 and h > 50 for w, h in rendered), f"thumbnails render at {rendered}")
                 # The overview: every scene (rows) under every lighting (columns), one PNG.
                 overview = dom.find("figure", cls="overview")
                 expect(overview is not None and overview.find("img") is not None, "no overview figure")
                 status, headers, body = http_get(base + overview.find("img").attrs["src"])
                 expect(status == 200 and body[:8] == b"\x89PNG\r\n\x1a\n", f"overview: HTTP {status}")
                 width, height = struct.unpack(">II", body[16:24])
-                expect(width > 4 * 190 and height > 3 * 100, f"overview is {width}x{height}, expected 4 lightings x 3 scenes of thumbnails")
+                expect(width > 4 * 190 and height > DEMO_SCENES * 100, f"overview is {width}x{height}, expected 4 lightings x {DEMO_SCENES} scenes of thumbnails")
                 shown = page.boxes(".overview img")
                 expect(len(shown) == 1 and shown[0][0] > 400, f"overview renders at {shown}")
                 archive_table = [t for t in dom.find_all("table") if "SHA-256" in t.find("thead").clean()]
                 expect(archive_table, "no archive table")
                 rows = archive_table[0].find("tbody").kids("tr")
                 want = len(manifest["lightings"]) * len(scenes)
-                expect(len(rows) == want == 12, f"{len(rows)} archive rows, expected {want} (12)")
+                expect(len(rows) == want == 4 * DEMO_SCENES, f"{len(rows)} archive rows, expected {want} ({4 * DEMO_SCENES})")
                 by_path = {a["path"]: a for a in manifest["archives"]}
                 for tr in rows:
                     tds = tr.kids("td")
@@ -839,20 +850,29 @@ def main() -> int:
                 expect(all(m.attrs.get("http-equiv") != "refresh" for m in dom.find_all("meta")), "a scored submission still refreshes itself")
                 main = dom.find("main")
                 heads = [n for n in main.iter() if n.tag in ("h2", "table")]
-                # The leaderboard carries aggregates; the per-scene tables come with the submission.
-                semseg = get_json(f"{base}/api/v1/submissions/{entry['submission_id']}")["scores"]["semseg"]
+                # The leaderboard carries aggregates; the per-scene tables come with the submission —
+                # of a val one: a test submission shows no number of fewer than five test scenes,
+                # so its tables are the pooled rows only, and a notice says why.
+                scores = get_json(f"{base}/api/v1/submissions/{entry['submission_id']}")["scores"]
+                semseg = scores["semseg"]
+                if scores.get("split") == "test":
+                    notice = dom.find(id="withheld")
+                    expect(notice is not None and "fewer than 5 test scenes" in notice.clean(), "a test submission's page does not say what it withholds")
+                    expect(all("scenes" not in semseg[l] for l in semseg), "the API shows a test submission's per-scene rows")
                 tables = 0
                 for i, lighting in enumerate(board["lightings"]):
                     label = state["labels"].get(lighting, lighting)
                     idx = next((k for k, n in enumerate(heads) if n.tag == "h2" and n.clean() == label), None)
                     expect(idx is not None and idx + 1 < len(heads) and heads[idx + 1].tag == "table", f"no table under <h2>{label}</h2>")
                     rows = heads[idx + 1].find("tbody").kids("tr")
-                    scenes = sorted(semseg[lighting]["scenes"])
+                    scenes = sorted(semseg[lighting].get("scenes", {}))
+                    pooled = semseg[lighting].get("pooled")
+                    mean_label = f"mean over {pooled} scenes" if pooled else "mean over scenes"
                     ci = semseg[lighting]["overall"].get("ci95")
                     expect(len(rows) == len(scenes) + 2 + (ci is not None), f"{label}: {len(rows)} rows, expected {len(scenes)} scenes + mean + pooled + its interval")
-                    for tr, scene in zip(rows, scenes + ["mean over scenes", "pooled"]):
+                    for tr, scene in zip(rows, scenes + [mean_label, "pooled"]):
                         tds = [td.clean() for td in tr.kids("td")]
-                        src = semseg[lighting]["scenes"].get(scene) or semseg[lighting]["overall_mean" if scene.startswith("mean") else "overall"]
+                        src = semseg[lighting].get("scenes", {}).get(scene) or semseg[lighting]["overall_mean" if scene.startswith("mean") else "overall"]
                         want = [scene] + [pct(src.get(m)) for m in METRICS]
                         expect(tds == want, f"{label}: row {tds}, the API says {want}")
                     if ci is not None:
@@ -862,7 +882,7 @@ def main() -> int:
                     tables += 1
                 history = [t for t in main.find_all("table") if "State" in t.find("thead").clean()]
                 expect(history and "scored" in history[0].find("tbody").clean(), "the history does not show 'scored'")
-                return f"{entry['method']}: scored, {tables} per-lighting tables of {len(scenes)} scenes; {shot}"
+                return f"{entry['method']} ({scores.get('split')}): scored, {tables} per-lighting tables of {len(scenes)} scene rows; {shot}"
             finally:
                 page.close()
 

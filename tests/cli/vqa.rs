@@ -180,8 +180,9 @@ mod release_questions {
     }
 
     #[test]
-    fn every_scene_has_prompt_grounded_and_standard_questions_with_hidden_answers() {
+    fn the_release_asks_prompt_grounded_and_standard_questions_with_hidden_answers() {
         let index = ReleaseIndex::read(test_release()).unwrap();
+        let mut prompt_grounded = std::collections::BTreeSet::new();
         for scene in &index.scenes {
             let public = index.public_questions(&scene.id).unwrap().expect("public questions");
             let answered = index.answered_questions(&scene.id).unwrap().expect("answers with the ground truth");
@@ -195,9 +196,33 @@ mod release_questions {
                     assert!(answer == "Yes" || answer == "No" || answer.bytes().all(|b| b.is_ascii_digit()), "{q:?}");
                 }
             }
-            assert!(per["PromptGT-Measurement"] >= 3 && per["PromptGT-Relations"] >= 3, "{}: {per:?}", scene.id);
-            assert!((1..=4).contains(&per["PromptGT-Existence"]), "{}: {per:?}", scene.id);
-            assert!(per.keys().filter(|c| !is_prompt_grounded(c)).count() >= 6, "{}: standard categories {per:?}", scene.id);
+            // Drawn against the odds (of this small release's twenty-prompt pool), a scene may go
+            // without a template, even without prompt-grounded questions when the pool makes its
+            // prompt's facts near certain; it still asks standard questions of several kinds.
+            assert!(answered.questions.len() >= 8, "{}: {per:?}", scene.id);
+            assert!(per.keys().filter(|c| !is_prompt_grounded(c)).count() >= 3, "{}: standard categories {per:?}", scene.id);
+            prompt_grounded.extend(per.keys().filter(|c| is_prompt_grounded(c)).map(|c| c.to_string()));
+            // Every yes/no template asks as many yes as no, every count template as many
+            // zeros as not: the template tells nothing of the answer.
+            let mut sides: BTreeMap<(String, &str), [usize; 2]> = BTreeMap::new();
+            for q in &answered.questions {
+                let answer = q.answer.as_deref().unwrap();
+                let side = match answer {
+                    "Yes" => 0,
+                    "No" => 1,
+                    "0" => 1,
+                    a if a.bytes().all(|b| b.is_ascii_digit()) => 0,
+                    _ => continue,
+                };
+                sides.entry((q.category.clone(), q.form.as_ref().unwrap().kind())).or_default()[side] += 1;
+            }
+            for (template, [positive, negative]) in &sides {
+                assert_eq!(positive, negative, "{}: {template:?} asks {positive} positive and {negative} negative", scene.id);
+            }
+            // Ids and order tell nothing either: opaque ids, in id order.
+            let ids: Vec<&str> = answered.questions.iter().map(|q| q.id.as_str()).collect();
+            assert!(ids.windows(2).all(|w| w[0] < w[1]), "{ids:?}");
+            assert!(ids.iter().all(|id| id.len() == scene.id.len() + 12 && id.starts_with(&format!("{}-q", scene.id))), "{ids:?}");
             let manifest: Value = serde_json::from_slice(&std::fs::read(test_release().join("manifest.json")).unwrap()).unwrap();
             let listed = manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == format!("questions/{}.json", scene.id));
             assert!(listed, "the public questions are release files");
@@ -207,17 +232,34 @@ mod release_questions {
             let answered = format!("ground_truth/questions/{}.json", scene.id);
             assert_eq!(manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == answered), scene.split == Split::Val);
         }
+        assert!(prompt_grounded.len() >= 2, "the release asks prompt-grounded questions of several kinds: {prompt_grounded:?}");
+    }
+
+    /// A graph crafted to probe the answerer without mapping anything: one object of every
+    /// class at the room's centre.
+    fn everything_graph(_: &str) -> SceneGraph {
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let objects: Vec<Value> = index
+            .class_names()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| serde_json::json!({"id": format!("n{i}"), "label": c, "bbox_center": [0.0, 0.5, 0.0], "bbox_extent": [0.5, 0.5, 0.5]}))
+            .collect();
+        SceneGraph::parse(&serde_json::json!({"objects": objects}), "everything").unwrap()
     }
 
     #[test]
-    fn the_oracles_scene_graph_answers_every_question_and_an_empty_one_almost_nothing() {
+    fn the_oracles_scene_graph_answers_every_question_and_crafted_graphs_no_better_than_chance() {
         let [(right, total), (std_right, std_total)] = accuracy(&oracle_scene_graph);
         eprintln!("oracle's graph: prompt-grounded {right}/{total}, standard {std_right}/{std_total}");
         assert_eq!((right, std_right), (total, std_total), "a perfect map answers every question");
-        let [(right, total), (std_right, std_total)] = accuracy(&|_| SceneGraph::default());
-        eprintln!("empty graph: prompt-grounded {right}/{total}, standard {std_right}/{std_total}");
-        assert!(right as f64 <= 0.25 * total as f64, "an empty graph answers {right} of {total} prompt-grounded questions");
-        assert!(std_right as f64 <= 0.5 * std_total as f64, "an empty graph answers {std_right} of {std_total} standard questions");
+        // Every yes/no and count template is balanced: a graph that says no to everything (the
+        // empty one) or yes to everything (one of each class) is right about half the time.
+        for (name, graph) in [("empty", &(|_: &str| SceneGraph::default()) as &dyn Fn(&str) -> SceneGraph), ("everything", &everything_graph)] {
+            let [(right, total), (std_right, std_total)] = accuracy(graph);
+            eprintln!("{name} graph: prompt-grounded {right}/{total}, standard {std_right}/{std_total}");
+            assert!((right + std_right) as f64 <= 0.6 * (total + std_total) as f64, "the {name} graph answers {right}/{total} and {std_right}/{std_total}");
+        }
     }
 
     /// Pooled VQA accuracy of a baseline under every lighting.
@@ -271,7 +313,9 @@ mod team_answers {
 
     #[test]
     fn an_answer_to_a_question_the_scene_does_not_have_is_refused() {
-        let dir = oracle_with_answers(&json!([{"question_id": "scene_000-p01", "answer": "2"}, {"question_id": "scene_001-p01", "answer": "Yes"}]));
+        let index = ReleaseIndex::read(test_release()).unwrap();
+        let [own, other] = ["scene_000", "scene_001"].map(|s| index.answered_questions(s).unwrap().unwrap().questions[0].id.clone());
+        let dir = oracle_with_answers(&json!([{"question_id": own, "answer": "2"}, {"question_id": other, "answer": "Yes"}]));
         let index = ReleaseIndex::read(test_release()).unwrap();
         let problems = validate(dir.path(), &index, SubmissionLimits::default()).unwrap_err();
         assert_eq!(problems.len(), 1, "{problems:?}");

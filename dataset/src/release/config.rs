@@ -143,9 +143,14 @@ pub struct QualityConfig {
     /// The oracle's VQA accuracy at least, per question group.
     #[serde(default = "default_oracle_vqa")]
     pub min_oracle_vqa: f64,
-    /// Spare prompts tried for a scene that misses the bar before the build fails.
-    #[serde(default = "default_replacements")]
-    pub replacements: usize,
+    /// Spare prompts tried at most for a scene that misses the bar before the build fails
+    /// (default: every spare of the scene's subset and split).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replacements: Option<usize>,
+    /// Placements tried for each prompt (each from a seed derived from the scene's, each
+    /// honouring every relation of the prompt) before the prompt is replaced.
+    #[serde(default = "default_placements")]
+    pub placements: usize,
 }
 
 fn yes() -> bool {
@@ -166,8 +171,8 @@ fn default_travel() -> f64 {
 fn default_oracle_vqa() -> f64 {
     0.98
 }
-fn default_replacements() -> usize {
-    6
+fn default_placements() -> usize {
+    4
 }
 
 impl Default for QualityConfig {
@@ -179,7 +184,8 @@ impl Default for QualityConfig {
             min_dynamic_changed_fraction: default_dynamic(),
             min_travel: default_travel(),
             min_oracle_vqa: default_oracle_vqa(),
-            replacements: default_replacements(),
+            replacements: None,
+            placements: default_placements(),
         }
     }
 }
@@ -213,6 +219,25 @@ impl ReleaseConfig {
     /// Read and check a config file.
     pub fn read(path: &Path) -> Result<(Self, String)> {
         let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, &e))?;
+        Self::parse(&text, path)
+    }
+
+    /// The digest of everything in this config that shapes a release's content (not its
+    /// name, date or service keys): two configs with one digest build the same release
+    /// (for one operator's secret, where it has a test split).
+    pub fn content_digest(&self) -> String {
+        let mut content = self.clone();
+        content.version.clear();
+        content.created.clear();
+        for service in [&mut content.prompts.llm, &mut content.selection.embeddings].into_iter().flatten() {
+            service.api_key = None;
+        }
+        super::manifest::hex(&<sha2::Sha256 as sha2::Digest>::digest(serde_json::to_vec(&content).expect("serialisable")))
+    }
+
+    /// Check the config `text` (named `path` in errors).
+    pub fn parse(text: &str, path: &Path) -> Result<(Self, String)> {
+        let text = text.to_string();
         let mut config: ReleaseConfig = toml::from_str(&text).map_err(|e| InputError::new(path, "(toml)", e.to_string()))?;
         let bad = |field: &str, m: &str| Err(InputError::new(path, field, m.to_string()));
         if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
@@ -232,6 +257,9 @@ impl ReleaseConfig {
             if !(0.0..=1.0).contains(&value) {
                 return bad(field, "a fraction in [0, 1]");
             }
+        }
+        if !(1..=64).contains(&q.placements) {
+            return bad("quality.placements", "1 to 64 placements a prompt");
         }
         if !(q.min_travel >= 0.0 && q.min_travel < 1000.0) {
             return bad("quality.min_travel", "metres in [0, 1000)");

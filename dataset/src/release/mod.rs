@@ -9,6 +9,7 @@ pub mod config;
 pub mod contact;
 pub mod instances;
 pub mod manifest;
+pub mod publication;
 pub mod quality;
 pub mod split;
 pub mod stages;
@@ -93,6 +94,9 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     // 3–6. Per scene: synthesis, conversion, trajectory, sequences, ground truth, questions.
     let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
     let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
+    let layouts = build.pool_layouts()?;
+    let priors = crate::questions::priors::QuestionPriors::new(&layouts, &lexicon);
+    progress(&format!("questions: odds from {} simulated layouts of the prompt pool", priors.layouts()));
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
     let mut previews: Vec<(String, usize)> = Vec::new();
@@ -110,21 +114,27 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
             summaries.insert(lighting.to_string(), summary);
         }
         let gt_dir = build.ground_truth(i, progress)?;
+        // A test scene's prompt tells its prompt-grounded answers: it stays with the ground truth.
+        let open = publication::publishes_prompt_and_questions(split);
+        let prompt_root = if open { out.to_path_buf() } else { out.join(GROUND_TRUTH) };
         write_json(
-            &out.join("scenes").join(&scene).join("prompt.json"),
+            &prompt_root.join("scenes").join(&scene).join("prompt.json"),
             &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "split": split, "prompt": prompt.text, "spec": prompt.spec}),
         )?;
         let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
         let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
         previews.push((scene.clone(), preview));
-        scenes_json.push(json!({
+        let mut scene_json = json!({
             "id": scene,
             "subset": prompt.spec.regime,
             "split": split,
-            "prompt": prompt.text,
-            "questions": format!("questions/{scene}.json"),
             "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
-        }));
+        });
+        if open {
+            scene_json["prompt"] = json!(prompt.text);
+            scene_json["questions"] = json!(format!("questions/{scene}.json"));
+        }
+        scenes_json.push(scene_json);
 
         // The scene's objects: what the ground truth holds of each, what it rests on.
         let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
@@ -134,10 +144,13 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
         let world = World::load_habitat_scene(&habitat, &scene)?;
         let objects = scene_objects(&conversion, &labels.instances, &resting_on(&world, &conversion));
 
-        // Questions: prompt-grounded and standard, public without their answers; the
-        // answers and the scene objects stay with the ground truth.
-        let questions = scene_questions(&scene, &prompt.spec, &objects, &lexicon, config.seed.wrapping_add(i as u64));
-        write_json(&out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
+        // Questions: prompt-grounded and standard; a val scene's are public without their
+        // answers, a test scene's are not published at all (the server answers them from a
+        // submission's scene graph). The answers and the scene objects stay with the ground truth.
+        let questions = scene_questions(&scene, &prompt.spec, &objects, &lexicon, &priors, config.seed.wrapping_add(i as u64));
+        if open {
+            write_json(&out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
+        }
         write_json(&out.join(GROUND_TRUTH).join("questions").join(format!("{scene}.json")), &questions)?;
         write_json(&out.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json")), &json!({"scene": scene, "objects": objects}))?;
 
@@ -203,28 +216,33 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
     let mut gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
     gt_expected.push(FULL_QUALITY_REPORT.into());
-    for scene in &scene_names {
-        gt_expected.extend([format!("questions/{scene}.json"), format!("objects/{scene}.json")]);
+    for q in &quality {
+        gt_expected.extend([format!("questions/{}.json", q.scene), format!("objects/{}.json", q.scene)]);
+        if !publication::publishes_prompt_and_questions(q.split) {
+            gt_expected.push(format!("scenes/{}/prompt.json", q.scene));
+        }
     }
     refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
     let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
-    for scene in &scene_names {
-        expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
+    for q in &quality {
+        let scene = &q.scene;
+        if publication::publishes_prompt_and_questions(q.split) {
+            expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
+        }
         for lighting in &lightings {
             expected.extend([format!("sequences/{lighting}/{scene}/"), format!("quality/contact_sheets/{lighting}/{scene}.png")]);
         }
     }
     refuse_leftovers(out, &files, &expected)?;
-    let test_scenes: Vec<&str> = quality.iter().filter(|q| q.split == Split::Test).map(|q| q.scene.as_str()).collect();
-    let val_scenes: Vec<&str> = quality.iter().filter(|q| q.split == Split::Val).map(|q| q.scene.as_str()).collect();
-    let files = public_files(files, &gt_files, &test_scenes, &val_scenes);
+    let splits: BTreeMap<&str, Split> = quality.iter().map(|q| (q.scene.as_str(), q.split)).collect();
+    let files = public_files(files, &gt_files, &splits);
     let manifest = json!({
         "version": config.version,
         "created": config.created,
         "digest": digest(&files),
-        "generator": {"config": config_text, "seed": config.seed, "code_version": env!("CARGO_PKG_VERSION")},
+        "generator": generator(config_text, config, build.secret_id()),
         "scenes": scenes_json,
         "lightings": lightings,
         "files": files,
@@ -240,22 +258,39 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     Ok(manifest)
 }
 
-/// The public files of a release: everything built outside the ground truth except the
-/// frames of test scenes other than colour and depth (their semantic frames), and the ground truth of val scenes (under
-/// `ground_truth/`, where the scorer reads it), sorted by path.
-fn public_files(built: Vec<manifest::FileEntry>, ground_truth: &[manifest::FileEntry], test: &[&str], val: &[&str]) -> Vec<manifest::FileEntry> {
-    let hidden = |path: &str| {
-        let parts: Vec<&str> = path.split('/').collect();
-        // An allow-list: of a test sequence's frames only colour and depth are public, whatever
-        // else a renderer wrote beside them (semantic, instance or label images).
-        matches!(parts.as_slice(), ["sequences", _, scene, "results", name] if test.contains(scene) && !(name.starts_with("frame") || name.starts_with("depth")))
+/// The manifest's provenance: the config, its seed and content digest, the code version
+/// and, with a test split, the public id of the operator's secret (a hash that tells
+/// nothing of it: which secret shaped the test scenes, for rotating it).
+fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Option<String>) -> Value {
+    let mut generator = json!({
+        "config": config_text,
+        "seed": config.seed,
+        "content_digest": config.content_digest(),
+        "code_version": env!("CARGO_PKG_VERSION"),
+    });
+    if let Some(id) = secret_id {
+        generator["split_secret_id"] = json!(id);
+    }
+    generator
+}
+
+/// The public files of a release: everything built outside the ground truth that the
+/// scene's split publishes ([`publication::is_public_in_sequence`]; a test sequence keeps
+/// its colour and depth frames), and the ground truth of val scenes (under `ground_truth/`,
+/// where the scorer reads it), sorted by path.
+fn public_files(built: Vec<manifest::FileEntry>, ground_truth: &[manifest::FileEntry], splits: &BTreeMap<&str, Split>) -> Vec<manifest::FileEntry> {
+    let split_of = |scene: &str| splits.get(scene).copied().unwrap_or(Split::Test);
+    let public = |path: &str| match path.split('/').collect::<Vec<&str>>().as_slice() {
+        ["sequences", _, scene, rest @ ..] => publication::is_public_in_sequence(split_of(scene), &rest.join("/")),
+        _ => true,
     };
     let open = |path: &str| {
         let scene = path.split('/').next().unwrap_or_default();
         let file_scene = path.rsplit('/').next().and_then(|n| n.strip_suffix(".json")).unwrap_or_default();
-        val.contains(&scene) || ((path.starts_with("questions/") || path.starts_with("objects/")) && val.contains(&file_scene))
+        splits.get(scene) == Some(&Split::Val)
+            || ((path.starts_with("questions/") || path.starts_with("objects/")) && splits.get(file_scene) == Some(&Split::Val))
     };
-    let mut files: Vec<manifest::FileEntry> = built.into_iter().filter(|f| !hidden(&f.path)).collect();
+    let mut files: Vec<manifest::FileEntry> = built.into_iter().filter(|f| public(&f.path)).collect();
     files.extend(ground_truth.iter().filter(|f| open(&f.path)).map(|f| manifest::FileEntry {
         path: format!("{GROUND_TRUTH}/{}", f.path),
         size: f.size,

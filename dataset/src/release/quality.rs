@@ -247,13 +247,13 @@ pub struct Rendered<'a> {
 
 /// What the public quality report shows of a test scene: the measures of its frames and
 /// path, not those of its semantics (classes, instances, relations met, the oracle's
-/// answers), which would tell its hidden ground truth.
+/// answers) nor its prompt's id (which names a prompt of the pool the published config
+/// rebuilds), which would tell its hidden ground truth and answers.
 #[derive(Serialize)]
 struct PublicTestScene<'a> {
     scene: &'a str,
     subset: Regime,
     split: Split,
-    prompt_id: &'a str,
     frames: usize,
     travelled_m: f64,
     degenerate_fraction: f64,
@@ -270,7 +270,6 @@ impl SceneQuality {
                 scene: &self.scene,
                 subset: self.subset,
                 split: self.split,
-                prompt_id: &self.prompt_id,
                 frames: self.frames,
                 travelled_m: self.travelled_m,
                 degenerate_fraction: self.degenerate_fraction,

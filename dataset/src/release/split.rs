@@ -94,6 +94,33 @@ impl SplitSecret {
         hasher.update((index as u64).to_le_bytes());
         u64::from_le_bytes(hasher.finalize()[..8].try_into().expect("8 bytes"))
     }
+
+    /// The seed of placement `attempt` of test scene `index` (attempt 0 is
+    /// [`SplitSecret::scene_seed`]): a scene whose placement misses its prompt's relations
+    /// or the planned quality check is placed again from the next.
+    pub fn attempt_seed(&self, seed: u64, index: usize, attempt: usize) -> u64 {
+        if attempt == 0 {
+            return self.scene_seed(seed, index);
+        }
+        let mut hasher = Sha256::new();
+        hasher.update(b"osmab test scene placement\0");
+        hasher.update(self.0.as_bytes());
+        hasher.update(seed.to_le_bytes());
+        hasher.update((index as u64).to_le_bytes());
+        hasher.update((attempt as u64).to_le_bytes());
+        u64::from_le_bytes(hasher.finalize()[..8].try_into().expect("8 bytes"))
+    }
+
+    /// Where the prompt `prompt_id` stands in the secret order in which test scenes draw
+    /// their prompts from the pool: the pool is rebuilt by anyone from the published config,
+    /// so which of its prompts the test scenes took is decided by the secret.
+    pub fn test_prompt_rank(&self, prompt_id: &str) -> u64 {
+        let mut hasher = Sha256::new();
+        hasher.update(b"osmab test prompt\0");
+        hasher.update(self.0.as_bytes());
+        hasher.update(prompt_id.as_bytes());
+        u64::from_le_bytes(hasher.finalize()[..8].try_into().expect("8 bytes"))
+    }
 }
 
 #[cfg(test)]

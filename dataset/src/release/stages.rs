@@ -65,21 +65,23 @@ fn archive_paths(work: &Path, lighting: &str, scene: &str) -> (PathBuf, PathBuf)
     (dir.join(format!("{scene}.tar")), dir.join(format!("{scene}.done")))
 }
 
-/// What a sequence's archive is made from: the sequence as its marker records it.
-fn archive_inputs(sequence_marker: &str) -> String {
-    format!("sequence {}", sequence_marker.replace('\n', " "))
+/// What a sequence's archive is made from: the sequence as its marker records it, and
+/// the split whose public files it holds.
+fn archive_inputs(sequence_marker: &str, split: Split) -> String {
+    format!("sequence {} public files of {split}", sequence_marker.replace('\n', " "))
 }
 
-/// The archive of sequence `lighting`/`scene` that the build of the release in `out`
-/// packed when it rendered it, with its size and SHA-256 as its stage marker recorded
-/// them, if there is one made from the sequence as its marker says it is now (a release
-/// built without the service's render jobs has none: its import packs the archives).
-pub fn packed_sequence_archive(out: &Path, lighting: &str, scene: &str) -> Option<(PathBuf, u64, String)> {
+/// The archive of sequence `lighting`/`scene` (a scene of `split`) that the build of the
+/// release in `out` packed when it rendered it, with its size and SHA-256 as its stage
+/// marker recorded them, if there is one made from the sequence as its marker says it is
+/// now, of that split's public files (a release built without the service's render jobs
+/// has none: its import packs the archives).
+pub fn packed_sequence_archive(out: &Path, lighting: &str, scene: &str, split: Split) -> Option<(PathBuf, u64, String)> {
     let work = out.join(WORK);
     let rendered = std::fs::read_to_string(work.join("rendered").join(lighting).join(format!("{scene}.done"))).ok()?;
     let (archive, marker) = archive_paths(&work, lighting, scene);
     let recorded = std::fs::read_to_string(&marker).ok()?;
-    let sha256 = recorded.strip_prefix(&format!("inputs {}\noutput ", archive_inputs(&rendered)))?.strip_suffix('\n')?;
+    let sha256 = recorded.strip_prefix(&format!("inputs {}\noutput ", archive_inputs(&rendered, split)))?.strip_suffix('\n')?;
     let size = std::fs::metadata(&archive).ok()?.len();
     (sha256.len() == 64 && sha256.bytes().all(|b| b.is_ascii_hexdigit())).then(|| (archive, size, sha256.to_string()))
 }
@@ -112,18 +114,6 @@ pub(super) fn staged(marker: &Path, inputs: &str, output: &Path, stage: impl FnO
     Ok(true)
 }
 
-/// The digest of everything in a config that shapes the release's content (not its
-/// name, date or secrets): a stage built from another config is rebuilt.
-fn inputs_digest(config: &ReleaseConfig) -> String {
-    let mut content = config.clone();
-    content.version.clear();
-    content.created.clear();
-    for service in [&mut content.prompts.llm, &mut content.selection.embeddings].into_iter().flatten() {
-        service.api_key = None;
-    }
-    manifest::hex(&<sha2::Sha256 as sha2::Digest>::digest(serde_json::to_vec(&content).expect("serialisable")))
-}
-
 /// One sequence of a release: a scene (by its place in the selection) under one lighting.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SequenceUnit {
@@ -133,18 +123,46 @@ pub struct SequenceUnit {
 }
 
 /// The selected prompts (one per scene, furniture first) and the spares of each regime
-/// that replace a scene missing the quality bar, in farthest-first order.
+/// that replace a scene missing the quality bar, in farthest-first order: val scenes take
+/// `spares`, test scenes `test_spares` (drawn in the secret order, never published).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Selection {
     pub scenes: Vec<ScenePrompt>,
     pub spares: BTreeMap<Regime, Vec<ScenePrompt>>,
+    #[serde(default)]
+    pub test_spares: BTreeMap<Regime, Vec<ScenePrompt>>,
 }
 
-/// The prompt a scene was settled on, and the candidates replaced before it.
+impl Selection {
+    /// The spares a scene of `regime` and `split` may be replaced from.
+    pub fn spares_for(&self, regime: Regime, split: Split) -> &[ScenePrompt] {
+        let spares = if split == Split::Test { &self.test_spares } else { &self.spares };
+        spares.get(&regime).map(Vec::as_slice).unwrap_or(&[])
+    }
+}
+
+/// One side's selection as a stage keeps it: per subset its scenes' prompts in order and
+/// its spares (and, for the val side, the selection's keys and embeddings, which the test
+/// side's draw continues from).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+struct OpenSelection {
+    scenes: BTreeMap<Regime, Vec<ScenePrompt>>,
+    spares: BTreeMap<Regime, Vec<ScenePrompt>>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    keys: BTreeMap<Regime, Vec<String>>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    embeddings: BTreeMap<Regime, Vec<Vec<f32>>>,
+}
+
+/// The prompt a scene was settled on, which placement of it, and the candidates replaced
+/// before it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SettledScene {
     pub prompt: ScenePrompt,
     pub replaced: Vec<Replaced>,
+    /// The placement (0: the scene's own seed; n: the n-th seed derived from it).
+    #[serde(default)]
+    pub placement: usize,
 }
 
 /// A release build in progress: its config and folders.
@@ -163,9 +181,10 @@ pub fn scene_name(index: usize) -> String {
     format!("scene_{index:03}")
 }
 
-/// Spare prompts selected beyond the wanted number, per regime.
+/// Spare prompts selected beyond the wanted number, per regime and split (the test split
+/// keeps the rest of its draw as spares too); none where none is wanted.
 fn spare_count(wanted: usize) -> usize {
-    (wanted / 2).max(4)
+    if wanted == 0 { 0 } else { wanted.max(6) }
 }
 
 impl Build {
@@ -184,9 +203,14 @@ impl Build {
         }
         let work = out.join(WORK);
         std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
-        let inputs = inputs_digest(&config);
+        let inputs = config.content_digest();
         let secret = if config.splits.is_empty() { None } else { secret.cloned() };
         Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs, secret })
+    }
+
+    /// The public id of the operator's secret, when the release has a test split.
+    pub fn secret_id(&self) -> Option<String> {
+        self.secret.as_ref().map(SplitSecret::id)
     }
 
     /// The split of scene `index`.
@@ -203,16 +227,42 @@ impl Build {
         }
     }
 
-    /// The synthesis seed of scene `index`: the config's for a val scene, one derived
-    /// from the operator's secret for a test scene.
-    fn synthesis_seed(&self, index: usize) -> u64 {
+    /// The synthesis seed of placement `attempt` of scene `index`: the config's for a val
+    /// scene, one derived from the operator's secret for a test scene; later attempts
+    /// derive further seeds from the first.
+    fn synthesis_seed(&self, index: usize, attempt: usize) -> u64 {
         match (self.split_of(index), &self.secret) {
-            (Split::Test, Some(secret)) => secret.scene_seed(self.config.seed, index),
-            _ => self.config.seed.wrapping_add(index as u64),
+            (Split::Test, Some(secret)) => secret.attempt_seed(self.config.seed, index, attempt),
+            _ if attempt == 0 => self.config.seed.wrapping_add(index as u64),
+            _ => {
+                let mut hasher = <sha2::Sha256 as sha2::Digest>::new();
+                sha2::Digest::update(&mut hasher, format!("osmab val scene placement\0{}\0{index}\0{attempt}", self.config.seed).as_bytes());
+                u64::from_le_bytes(sha2::Digest::finalize(hasher)[..8].try_into().expect("8 bytes"))
+            }
         }
     }
 
-    /// Stages 1 and 2: the prompt pools, then the selected prompts with their spares.
+    /// What the test scenes' stages are built from: the config's content and the secret's id.
+    fn test_inputs(&self) -> String {
+        match &self.secret {
+            Some(secret) => format!("{} split test {}", self.inputs, secret.id()),
+            None => self.inputs.clone(),
+        }
+    }
+
+    /// How many scenes of `regime` the test split takes.
+    fn test_count(&self, regime: Regime) -> usize {
+        let (selected, test) = match regime {
+            Regime::Furniture => (self.config.selection.furniture, self.config.splits.test_furniture),
+            Regime::Manipuland => (self.config.selection.manipuland, self.config.splits.test_manipuland),
+        };
+        test.min(selected)
+    }
+
+    /// Stages 1 and 2: the prompt pools, then the selected prompts with their spares. Val
+    /// scenes take the pool's farthest-first selection, which the published config rebuilds;
+    /// test scenes draw theirs in the operator's secret order from the rest of the pool, so
+    /// no public file tells which prompt a test scene was built from.
     pub fn prompts(&self, progress: &dyn Fn(&str)) -> Result<Selection> {
         let (config, config_path, work) = (&self.config, &self.config_path, &self.work);
         let mut pools: Vec<PromptPool> = Vec::new();
@@ -231,9 +281,14 @@ impl Build {
             })?;
             pools.push(read_json(&path)?);
         }
+        let keys_of = |pool: &PromptPool| -> Vec<String> { pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect() };
+        let prompt_of = |pool: &PromptPool, key: &str| -> ScenePrompt {
+            let index: usize = key.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
+            pool.accepted[index].clone()
+        };
 
-        let selected_dir = work.join("selection/out");
-        staged(&work.join("selection/.done"), &self.inputs, &selected_dir, || {
+        let open_dir = work.join("selection/out");
+        staged(&work.join("selection/.done"), &self.inputs, &open_dir, || {
             progress("selection: removing near-duplicates, choosing diverse scenes");
             let embedder: Box<dyn Embedder> = match &config.selection.embeddings {
                 Some(e) => Box::new(ServiceEmbedder {
@@ -242,42 +297,133 @@ impl Build {
                 }),
                 None => Box::new(HashingEmbedder::default()),
             };
-            let mut selection = Selection { scenes: Vec::new(), spares: BTreeMap::new() };
+            let mut open = OpenSelection::default();
             let mut reports = BTreeMap::new();
-            for (pool, target) in pools.iter().zip([config.selection.furniture, config.selection.manipuland]) {
+            for pool in &pools {
+                let regime = pool.regime;
+                let target = self.wanted(regime) - self.test_count(regime);
                 let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
-                let keys: Vec<String> = pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect();
+                let keys = keys_of(pool);
                 let embeddings = embedder.embed(&texts).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?;
-                // Farthest-first is greedy: the first `target` are the selection, the rest spares.
-                let report = select(&keys, &embeddings, target + spare_count(target), config.selection.threshold);
+                // Farthest-first is greedy: the first `target` are the val scenes, the rest spares
+                // (as many as the pool has beside what the test scenes need, twice over).
+                let spares = spare_count(target).min(keys.len().saturating_sub(target + 2 * self.test_count(regime)));
+                let report = select(&keys, &embeddings, target + spares, config.selection.threshold);
                 if report.selected.len() < target {
                     return Err(InputError::new(
                         config_path,
                         "selection",
-                        format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), pool.regime.name()),
+                        format!("only {} {} prompts survive selection, {target} wanted; enlarge the pool", report.selected.len(), regime.name()),
                     ));
                 }
-                for (k, s) in report.selected.iter().enumerate() {
-                    let index: usize = s.id.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
-                    let prompt = pool.accepted[index].clone();
-                    if k < target {
-                        selection.scenes.push(prompt);
-                    } else {
-                        selection.spares.entry(pool.regime).or_default().push(prompt);
+                for (k, chosen) in report.selected.iter().enumerate() {
+                    let list = if k < target { open.scenes.entry(regime).or_default() } else { open.spares.entry(regime).or_default() };
+                    list.push(prompt_of(pool, &chosen.id));
+                }
+                open.keys.insert(regime, report.selected.iter().map(|s| s.id.clone()).collect());
+                open.embeddings.insert(regime, embeddings);
+                reports.insert(regime.name(), report);
+            }
+            write_json(&open_dir.join("selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
+            write_json(&open_dir.join("open_selection.json"), &open)
+        })?;
+        let open: OpenSelection = read_json(&open_dir.join("open_selection.json"))?;
+
+        let mut test = OpenSelection::default();
+        if let Some(secret) = &self.secret {
+            let test_dir = work.join("selection/test");
+            staged(&work.join("selection/test.done"), &self.test_inputs(), &test_dir, || {
+                progress("selection: drawing the test scenes' prompts in the secret order");
+                let mut drawn = OpenSelection::default();
+                for pool in &pools {
+                    let regime = pool.regime;
+                    let target = self.test_count(regime);
+                    if target == 0 {
+                        continue;
+                    }
+                    let keys = keys_of(pool);
+                    let earlier = open.keys.get(&regime).cloned().unwrap_or_default();
+                    let embeddings = open.embeddings.get(&regime).cloned().unwrap_or_default();
+                    // The rest of the pool in the secret's order (no near-duplicate of a kept
+                    // prompt: one of a val prompt would all but publish the scene's). A uniform
+                    // draw, not farthest-first: test scenes are drawn like the pool's prompts,
+                    // so the odds questions are drawn against (the pool's) hold for them.
+                    let report = select(&keys, &embeddings, 0, config.selection.threshold);
+                    let duplicates: Vec<&str> = report.near_duplicates.iter().map(|d| d.id.as_str()).collect();
+                    let mut order: Vec<usize> = (0..keys.len()).filter(|&i| !earlier.contains(&keys[i]) && !duplicates.contains(&keys[i].as_str())).collect();
+                    order.sort_by_key(|&i| (secret.test_prompt_rank(&pool.accepted[i].id), i));
+                    let order: Vec<String> = order.into_iter().map(|i| keys[i].clone()).collect();
+                    if order.len() < target {
+                        return Err(InputError::new(
+                            config_path,
+                            "selection",
+                            format!(
+                                "only {} {} prompts are left for the {target} test scenes beside the val selection; enlarge the pool",
+                                order.len(),
+                                regime.name()
+                            ),
+                        ));
+                    }
+                    for (k, key) in order.iter().enumerate() {
+                        let list = if k < target { drawn.scenes.entry(regime).or_default() } else { drawn.spares.entry(regime).or_default() };
+                        list.push(prompt_of(pool, key));
                     }
                 }
-                reports.insert(pool.regime.name(), report);
+                write_json(&test_dir.join("test_selection.json"), &drawn)
+            })?;
+            test = read_json(&test_dir.join("test_selection.json"))?;
+        }
+
+        // Scene by scene in the config's order: each takes the next prompt of its subset and split.
+        let mut scenes = Vec::new();
+        let mut taken: BTreeMap<(Regime, Split), usize> = BTreeMap::new();
+        for regime in [Regime::Furniture, Regime::Manipuland] {
+            for _ in 0..self.wanted(regime) {
+                let index = scenes.len();
+                let split = self.split_of(index);
+                let source = if split == Split::Test { &test } else { &open };
+                let next = taken.entry((regime, split)).or_default();
+                let prompt = source.scenes.get(&regime).and_then(|list| list.get(*next)).cloned().ok_or_else(|| {
+                    InputError::new(config_path, "selection", format!("no {split} prompt of the {} pool is left for scene {index}", regime.name()))
+                })?;
+                *next += 1;
+                scenes.push(prompt);
             }
-            write_json(&selected_dir.join("selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
-            write_json(&selected_dir.join("final_prompts.json"), &selection.scenes)?;
-            write_json(&selected_dir.join("spare_prompts.json"), &selection.spares)
-        })?;
-        Ok(Selection { scenes: read_json(&selected_dir.join("final_prompts.json"))?, spares: read_json(&selected_dir.join("spare_prompts.json"))? })
+        }
+        Ok(Selection { scenes, spares: open.spares, test_spares: test.spares })
     }
 
-    /// The inputs of a scene's stages: the config's content, its split and its prompt.
-    fn scene_inputs(&self, index: usize, prompt: &ScenePrompt) -> String {
-        format!("{} prompt {}", self.split_inputs(index), prompt.id)
+    /// The prompt pools' layouts the odds of questions are read from (stage 1's output,
+    /// which the published config rebuilds; see [`crate::questions::priors`]).
+    pub fn pool_layouts(&self) -> Result<crate::questions::priors::PoolLayouts> {
+        let pools: Vec<PromptPool> = [Regime::Furniture, Regime::Manipuland]
+            .iter()
+            .map(|regime| read_json(&self.work.join(format!("prompts/{}.json", regime.name()))))
+            .collect::<Result<_>>()?;
+        Ok(crate::questions::priors::PoolLayouts::place(&pools, self.config.seed))
+    }
+
+    /// How many scenes of `regime` the config selects.
+    fn wanted(&self, regime: Regime) -> usize {
+        match regime {
+            Regime::Furniture => self.config.selection.furniture,
+            Regime::Manipuland => self.config.selection.manipuland,
+        }
+    }
+
+    /// The inputs of a scene's stages: the config's content, its split, its prompt and
+    /// which placement of it.
+    fn scene_inputs(&self, index: usize, prompt: &ScenePrompt, placement: usize) -> String {
+        match placement {
+            0 => format!("{} prompt {}", self.split_inputs(index), prompt.id),
+            n => format!("{} prompt {} placement {n}", self.split_inputs(index), prompt.id),
+        }
+    }
+
+    /// The inputs of the stages of settled scene `index` (see [`Build::settle_scene`]).
+    fn settled_inputs(&self, index: usize) -> Result<String> {
+        let settled = self.settled(index)?;
+        Ok(self.scene_inputs(index, &settled.prompt, settled.placement))
     }
 
     fn settled_path(&self, index: usize) -> PathBuf {
@@ -294,9 +440,11 @@ impl Build {
     }
 
     /// Stages 3 and 4 and the trajectory plan for scene `index`, settled on the first
-    /// candidate — the selected prompt, then the spares of its regime not used by an
-    /// earlier scene — that passes the planned quality check. Scenes must be settled
-    /// in order.
+    /// candidate — the selected prompt, then every spare of its subset and split not used
+    /// by an earlier scene — and the first of its placements (up to `quality.placements`,
+    /// each from a seed derived from the scene's, each honouring every relation of the
+    /// prompt) that passes the planned quality check. Scenes must be settled in order; a
+    /// scene that no candidate settles fails the build naming every candidate tried.
     pub fn settle_scene(&self, index: usize, selection: &Selection, progress: &dyn Fn(&str)) -> Result<SettledScene> {
         let scene = scene_name(index);
         let selected = selection.scenes.get(index).ok_or_else(|| {
@@ -311,23 +459,33 @@ impl Build {
                 used.push(settled.prompt.id);
                 used.extend(settled.replaced.into_iter().map(|r| r.prompt_id));
             }
-            let spares = selection.spares.get(&selected.spec.regime).map(Vec::as_slice).unwrap_or(&[]);
-            let candidates = std::iter::once(selected).chain(spares.iter().filter(|p| !used.contains(&p.id))).take(1 + self.config.quality.replacements);
+            let spares = selection.spares_for(selected.spec.regime, self.split_of(index));
+            let candidates = std::iter::once(selected)
+                .chain(spares.iter().filter(|p| !used.contains(&p.id)))
+                .take(self.config.quality.replacements.map_or(usize::MAX, |n| n.saturating_add(1)));
             let mut replaced = Vec::new();
             for candidate in candidates {
-                self.scene_assets(index, candidate, progress)?;
-                let plan = self.plan(index, candidate, progress)?;
-                let conversion: ConversionReport = read_json(&self.habitat_dir(index).join("conversion_report.json"))?;
-                let unmet: Vec<String> = read_json(&self.unmet_path(index))?;
-                let problems = planned_problems(&candidate.spec, &conversion, &unmet, &plan, &self.config.quality);
-                if problems.is_empty() || !self.config.quality.enforce {
-                    return write_json(&path, &SettledScene { prompt: candidate.clone(), replaced });
+                let mut misses = Vec::new();
+                for placement in 0..self.config.quality.placements.max(1) {
+                    self.scene_assets(index, candidate, placement, progress)?;
+                    let plan = self.plan(index, candidate, placement, progress)?;
+                    let conversion: ConversionReport = read_json(&self.habitat_dir(index).join("conversion_report.json"))?;
+                    let unmet: Vec<String> = read_json(&self.unmet_path(index))?;
+                    let problems = planned_problems(&candidate.spec, &conversion, &unmet, &plan, &self.config.quality);
+                    if problems.is_empty() || !self.config.quality.enforce {
+                        return write_json(&path, &SettledScene { prompt: candidate.clone(), replaced, placement });
+                    }
+                    misses.push(format!("placement {placement}: {}", problems.join("; ")));
                 }
-                progress(&format!("{scene}: {} misses the bar ({}); trying a spare prompt", candidate.id, problems.join("; ")));
-                replaced.push(Replaced { prompt_id: candidate.id.clone(), problems });
+                progress(&format!("{scene}: {} misses the bar in every placement ({}); trying a spare prompt", candidate.id, misses.join(" / ")));
+                replaced.push(Replaced { prompt_id: candidate.id.clone(), problems: misses });
             }
-            let tried: Vec<String> = replaced.iter().map(|r| format!("{}: {}", r.prompt_id, r.problems.join("; "))).collect();
-            Err(InputError::new(&path, "quality", format!("no prompt for {scene} passes the quality check; tried {}", tried.join(" | "))))
+            let tried: Vec<String> = replaced.iter().map(|r| format!("{}: {}", r.prompt_id, r.problems.join(" / "))).collect();
+            Err(InputError::new(
+                &path,
+                "quality",
+                format!("no prompt for {scene} passes the quality check; tried all {} candidates: {}", tried.len(), tried.join(" | ")),
+            ))
         })?;
         read_json(&path)
     }
@@ -352,28 +510,29 @@ impl Build {
         self.work.join("plans").join(format!("{}.json", scene_name(index)))
     }
 
-    /// Stages 3 and 4 for scene `index` from `prompt`: synthesis and conversion.
-    pub fn scene_assets(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<()> {
+    /// Stages 3 and 4 for scene `index` from `prompt`'s placement `placement`: synthesis
+    /// and conversion.
+    pub fn scene_assets(&self, index: usize, prompt: &ScenePrompt, placement: usize, progress: &dyn Fn(&str)) -> Result<()> {
         let (config, scene) = (&self.config, scene_name(index));
-        let inputs = self.scene_inputs(index, prompt);
+        let inputs = self.scene_inputs(index, prompt, placement);
         let scenesmith = self.scenesmith_dir(index);
         let unmet_path = self.unmet_path(index);
         staged(&self.work.join("scenesmith").join(format!("{scene}.done")), &inputs, &scenesmith, || {
-            progress(&format!("{scene}: synthesis ({})", prompt.id));
+            progress(&format!("{scene}: synthesis ({}, placement {placement})", prompt.id));
             let unmet = if config.synthesis.command.is_empty() {
                 // A grammar prompt carries the seed of the layout it was written from, and the
                 // pool is public: a test scene is placed afresh from its secret seed instead,
-                // honouring every relation the prompt states.
-                let placed = match self.split_of(index) {
-                    Split::Test => ScenePrompt { layout_seed: None, ..prompt.clone() },
-                    Split::Val => prompt.clone(),
+                // honouring every relation the prompt states, as is any later placement.
+                let placed = match (self.split_of(index), placement) {
+                    (Split::Val, 0) => prompt.clone(),
+                    _ => ScenePrompt { layout_seed: None, ..prompt.clone() },
                 };
-                crate::synthesis::synthesize(&placed, self.synthesis_seed(index), &scenesmith, config.synthesis.ceiling)?
+                crate::synthesis::synthesize(&placed, self.synthesis_seed(index, placement), &scenesmith, config.synthesis.ceiling)?
             } else {
                 crate::synthesis::external::run_external(
                     &config.synthesis.command,
                     &prompt.text,
-                    self.synthesis_seed(index),
+                    self.synthesis_seed(index, placement),
                     &scenesmith,
                     std::time::Duration::from_secs(config.synthesis.timeout_secs),
                 )?;
@@ -393,10 +552,10 @@ impl Build {
 
     /// The trajectory of scene `index` (one for all its lightings), planned to observe
     /// every object, the prompted ones first.
-    pub fn plan(&self, index: usize, prompt: &ScenePrompt, progress: &dyn Fn(&str)) -> Result<Plan> {
+    pub fn plan(&self, index: usize, prompt: &ScenePrompt, placement: usize, progress: &dyn Fn(&str)) -> Result<Plan> {
         let (config, scene) = (&self.config, scene_name(index));
         let path = self.plan_path(index);
-        staged(&self.work.join("plans").join(format!("{scene}.done")), &self.scene_inputs(index, prompt), &path, || {
+        staged(&self.work.join("plans").join(format!("{scene}.done")), &self.scene_inputs(index, prompt, placement), &path, || {
             progress(&format!("{scene}: planning the trajectory"));
             let motion = config.render.motion(prompt.spec.regime, config.seed.wrapping_add(index as u64));
             let coverage = CoverageGoals { min_travel: config.quality.min_travel, ..Default::default() };
@@ -419,21 +578,20 @@ impl Build {
     /// Whether `unit` is rendered (its marker matches the config, the scene's prompt and
     /// what is on disk).
     pub fn sequence_rendered(&self, unit: &SequenceUnit) -> Result<bool> {
-        let prompt = self.settled(unit.scene_index)?.prompt;
+        let inputs = self.settled_inputs(unit.scene_index)?;
         let (sequence_dir, _, marker) = self.sequence_paths(unit);
-        Ok(std::fs::read_to_string(&marker)
-            .is_ok_and(|recorded| marker_text(&self.scene_inputs(unit.scene_index, &prompt), &sequence_dir).is_ok_and(|now| now == recorded)))
+        Ok(std::fs::read_to_string(&marker).is_ok_and(|recorded| marker_text(&inputs, &sequence_dir).is_ok_and(|now| now == recorded)))
     }
 
     /// Stage 5 for one sequence (its scene must be settled); returns its summary.
     pub fn render_sequence(&self, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<SequenceSummary> {
         let config = &self.config;
         let (scene, lighting) = (&unit.scene, unit.lighting.as_str());
-        let prompt = self.settled(unit.scene_index)?.prompt;
+        let inputs = self.settled_inputs(unit.scene_index)?;
         let habitat = self.habitat_dir(unit.scene_index);
         let (sequence_dir, summary_path, marker) = self.sequence_paths(unit);
         let sensor = config.render.sensor();
-        staged(&marker, &self.scene_inputs(unit.scene_index, &prompt), &sequence_dir, || {
+        staged(&marker, &inputs, &sequence_dir, || {
             progress(&format!("{scene}: rendering {lighting}"));
             let plan: Plan = read_json(&self.plan_path(unit.scene_index))?;
             if config.render.command.is_empty() {
@@ -472,17 +630,20 @@ impl Build {
     }
 
     /// The sequence's download archive (`.work/archives/LIGHTING/SCENE.tar`, names under
-    /// `sequences/LIGHTING/SCENE/`), packed by the job that rendered it so the import of
-    /// the release need not (see [`packed_sequence_archive`]); made again whenever the
-    /// sequence is.
+    /// `sequences/LIGHTING/SCENE/`): the public files of the sequence for its scene's split
+    /// ([`super::publication`]), exactly those the manifest lists, packed by the job that
+    /// rendered it so the import of the release need not (see [`packed_sequence_archive`]);
+    /// made again whenever the sequence is.
     pub fn sequence_archive(&self, unit: &SequenceUnit) -> Result<PathBuf> {
         let (sequence_dir, _, sequence_marker) = self.sequence_paths(unit);
         let (archive, marker) = archive_paths(&self.work, &unit.lighting, &unit.scene);
         let rendered = std::fs::read_to_string(&sequence_marker).map_err(|e| InputError::io(&sequence_marker, &e))?;
-        staged(&marker, &archive_inputs(&rendered), &archive, || {
+        let split = self.split_of(unit.scene_index);
+        staged(&marker, &archive_inputs(&rendered, split), &archive, || {
             std::fs::create_dir_all(archive.parent().expect("in the archives folder")).map_err(|e| InputError::io(&archive, &e))?;
             let prefix = format!("sequences/{}/{}/", unit.lighting, unit.scene);
-            osmab_evaluator::submission::pack_directory_as(&sequence_dir, &prefix, &archive).map(|_| ())
+            let files = super::publication::public_sequence_files(split, &sequence_dir)?;
+            osmab_evaluator::submission::pack_files_as(&sequence_dir, &files, &prefix, &archive).map(|_| ())
         })?;
         Ok(archive)
     }
@@ -498,11 +659,11 @@ impl Build {
     /// object instance of every point.
     pub fn ground_truth(&self, index: usize, progress: &dyn Fn(&str)) -> Result<PathBuf> {
         let scene = scene_name(index);
-        let prompt = self.settled(index)?.prompt;
+        let inputs = self.settled_inputs(index)?;
         let gt_dir = self.out.join(super::GROUND_TRUTH).join(&scene);
         let gt_source = self.out.join("sequences").join(self.ground_truth_lighting()).join(&scene);
         let habitat = self.habitat_dir(index);
-        staged(&self.work.join("gt").join(format!("{scene}.done")), &self.scene_inputs(index, &prompt), &gt_dir, || {
+        staged(&self.work.join("gt").join(format!("{scene}.done")), &inputs, &gt_dir, || {
             progress(&format!("{scene}: ground truth"));
             let sequence = Sequence::open(&gt_source)?;
             let gt = GroundTruth::build(&sequence)?;

@@ -29,6 +29,22 @@ pub const CARDBOARD: Material = Material { name: "cardboard", color: [0.70, 0.55
 pub const PAPER: Material = Material { name: "paper", color: [0.96, 0.94, 0.86, 1.0] };
 pub const STONE: Material = Material { name: "stone", color: [0.80, 0.79, 0.76, 1.0] };
 
+/// The finishes an instance's main material is drawn from, one per colour name the
+/// questions use: every class draws from the same list with the same odds, so a class
+/// says nothing of an instance's colour.
+pub const FINISHES: [Material; 10] = [
+    Material { name: "finish_red", color: [0.72, 0.12, 0.10, 1.0] },
+    Material { name: "finish_orange", color: [0.90, 0.46, 0.10, 1.0] },
+    Material { name: "finish_yellow", color: [0.90, 0.78, 0.14, 1.0] },
+    Material { name: "finish_green", color: [0.18, 0.52, 0.22, 1.0] },
+    Material { name: "finish_blue", color: [0.16, 0.30, 0.70, 1.0] },
+    Material { name: "finish_purple", color: [0.45, 0.20, 0.62, 1.0] },
+    Material { name: "finish_white", color: [0.90, 0.90, 0.88, 1.0] },
+    Material { name: "finish_black", color: [0.07, 0.07, 0.08, 1.0] },
+    Material { name: "finish_grey", color: [0.50, 0.50, 0.52, 1.0] },
+    Material { name: "finish_brown", color: [0.42, 0.26, 0.14, 1.0] },
+];
+
 /// A shape of an asset.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
@@ -218,9 +234,42 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
     }
 }
 
-/// Make the asset of `category`, sized by `rng`, facing +y (SceneSmith's front).
+/// Make the asset of `category`, sized by `rng`, its main material a finish drawn from the
+/// state of `rng` (see [`FINISHES`]), facing +y (SceneSmith's front).
 pub fn make_asset(category: &str, rng: &mut Rng) -> Option<Asset> {
-    build(category, rng).map(face_plus_y)
+    let asset = build(category, rng)?;
+    // Drawn from the stream without advancing it: sizes and layouts stay those of the seed.
+    let finish = FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())];
+    Some(face_plus_y(with_finish(asset, finish)))
+}
+
+/// The surface area of a part (a box's six faces, a cylinder's side and caps).
+fn area(shape: &Shape) -> f64 {
+    match *shape {
+        Shape::Box { size: [x, y, z], .. } => 2.0 * (x * y + y * z + x * z),
+        Shape::Cylinder { radius, height, .. } => std::f64::consts::TAU * radius * (radius + height),
+    }
+}
+
+/// `asset` with its main material (the one covering most of its surface) replaced by `finish`.
+fn with_finish(mut asset: Asset, finish: Material) -> Asset {
+    let mut by_material: Vec<(&'static str, f64)> = Vec::new();
+    for part in &asset.parts {
+        match by_material.iter_mut().find(|(name, _)| *name == part.material.name) {
+            Some((_, total)) => *total += area(&part.shape),
+            None => by_material.push((part.material.name, area(&part.shape))),
+        }
+    }
+    let main = by_material.iter().fold(None, |best: Option<(&str, f64)>, &(name, a)| match best {
+        Some((_, b)) if b >= a => best,
+        _ => Some((name, a)),
+    });
+    if let Some((main, _)) = main {
+        for part in asset.parts.iter_mut().filter(|p| p.material.name == main) {
+            part.material = finish;
+        }
+    }
+    asset
 }
 
 /// The builders put fronts (doors, seats) at −y; turn the asset half way round.

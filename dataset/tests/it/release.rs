@@ -107,6 +107,28 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     };
     let files = listed(&first);
     assert!(!files.keys().any(|p| p.contains("scene_001/results/semantic")), "no semantic frame of the test scene is listed");
+    // Nor its prompt, spec or questions: they would tell its answers. The server keeps them.
+    let test_entry = &first["scenes"][1];
+    assert!(test_entry.get("prompt").is_none() && test_entry.get("questions").is_none(), "{test_entry}");
+    assert!(first["scenes"][0]["prompt"].is_string(), "the val scene's prompt is public");
+    for hidden in ["scenes/scene_001/prompt.json", "questions/scene_001.json"] {
+        assert!(!files.contains_key(hidden) && !dir.path().join("a").join(hidden).exists(), "{hidden}");
+    }
+    for kept in ["ground_truth/scenes/scene_001/prompt.json", "ground_truth/questions/scene_001.json"] {
+        assert!(dir.path().join("a").join(kept).is_file(), "{kept} stays with the ground truth");
+    }
+    let quality: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("a/quality/quality_report.json")).unwrap()).unwrap();
+    let test_quality = quality["per_scene"].as_array().unwrap().iter().find(|s| s["scene"] == "scene_001").unwrap();
+    assert!(test_quality.get("prompt_id").is_none(), "a prompt id names a prompt of the pool anyone rebuilds: {test_quality}");
+    assert_eq!(first["generator"]["split_secret_id"].as_str(), Some(secret.id().as_str()));
+    // The archive a render job packs holds exactly the manifest's files of its sequence.
+    let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: "baseline".into() };
+    osmab_dataset::release::render_release_sequence(&config, &dir.path().join("a"), Some(&secret), &unit, &|_| {}).unwrap();
+    let (archive, _, _) =
+        osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), "baseline", "scene_001", osmab_evaluator::scores::Split::Test).unwrap();
+    let held = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();
+    let expected: Vec<&String> = files.keys().filter(|p| p.starts_with("sequences/baseline/scene_001/")).collect();
+    assert_eq!(held.iter().collect::<Vec<_>>(), expected);
     assert!(dir.path().join("a/sequences/baseline/scene_001/results/semantic000000.png").is_file(), "the operator's copy keeps them");
     assert!(files.contains_key("ground_truth/scene_000/semantic.npy") && !files.keys().any(|p| p.starts_with("ground_truth/") && p.contains("scene_001")));
     assert_eq!(verify_release(&dir.path().join("a")).unwrap(), files.len());
@@ -295,9 +317,10 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     let secret = SplitSecret::new("the demo test's secret", "test").unwrap();
     build_release(&config, &out, Some(&secret), &|_| {}).expect("the demo release passes its quality bar");
     let public: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("quality/quality_report.json")).unwrap()).unwrap();
-    assert_eq!((public["full_match"].as_u64(), public["test_scenes"].clone()), (Some(1), serde_json::json!(["scene_001", "scene_002"])), "val counted");
+    let test_scenes = serde_json::json!(["scene_000", "scene_002", "scene_003", "scene_004", "scene_006"]);
+    assert_eq!((public["full_match"].as_u64(), public["test_scenes"].clone()), (Some(2), test_scenes), "five test scenes, val counted");
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join(GROUND_TRUTH).join("quality_report.json")).unwrap()).unwrap();
-    assert_eq!((report["scenes"].as_u64(), report["full_match"].as_u64(), report["passed"].as_u64()), (Some(3), Some(3), Some(3)));
+    assert_eq!((report["scenes"].as_u64(), report["full_match"].as_u64(), report["passed"].as_u64()), (Some(7), Some(7), Some(7)));
     for (category, accuracy) in report["oracle_vqa"].as_object().unwrap() {
         assert_eq!(accuracy.as_f64(), Some(1.0), "the oracle answers every {category} question");
     }

@@ -8,6 +8,7 @@
 //! untyped one did (a test round-trips stored documents).
 
 pub mod axes;
+pub mod disclosure;
 mod vqa;
 
 use std::collections::BTreeMap;
@@ -15,6 +16,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime, Split};
+pub use disclosure::{MIN_TEST_SCENES, Withheld};
 pub use vqa::{Accuracy, AnswerRow, QuestionSetScores, SceneAnswers, SetsScores, VqaCell, VqaScores};
 
 use crate::semseg::report::MetricTriple;
@@ -43,6 +45,9 @@ pub struct Scores {
     /// VQA, when the submission has scene graphs or answers and the release questions.
     #[serde(default)]
     pub vqa: Option<VqaScores>,
+    /// What a shown score of a test submission leaves out ([`Scores::disclosed`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub withheld: Option<Withheld>,
 }
 
 /// The segmentation scores of one lighting.
@@ -58,6 +63,10 @@ pub struct LightingScores {
     pub overall: MetricTriple,
     /// Mean of the scene rows.
     pub overall_mean: MetricTriple,
+    /// How many scenes the aggregates pool, where a shown score of a test submission no
+    /// longer lists them ([`Scores::disclosed`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pooled: Option<usize>,
     /// Per scene; left out of summaries ([`Scores::summary`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub scenes: BTreeMap<String, MetricTriple>,

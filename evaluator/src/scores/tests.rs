@@ -42,3 +42,102 @@ fn a_document_without_vqa_serialises_vqa_as_null() {
     let json = serde_json::to_string(&scores).unwrap();
     assert_eq!(json, r#"{"complete":false,"evaluator_version":"v","missing_maps":[],"relative_change":{},"release":"r","semseg":{},"vqa":null}"#);
 }
+
+/// A score of `split` with `scenes[l]` scenes under lighting `l` (furniture first, then
+/// manipuland, by `furniture`), and VQA pooled over `vqa_scenes` scenes.
+fn scored(split: Split, scenes: &[(Lighting, usize)], furniture: usize, vqa_scenes: usize) -> Scores {
+    use crate::semseg::report::MetricTriple;
+    let triple = MetricTriple { fmiou: 0.5, macc: 0.5, miou: 0.5, ci95: None };
+    let mut semseg = BTreeMap::new();
+    for &(lighting, n) in scenes {
+        let subsets = [(Regime::Furniture, n.min(furniture)), (Regime::Manipuland, n.saturating_sub(furniture))]
+            .into_iter()
+            .filter(|(_, k)| *k > 0)
+            .map(|(r, k)| (r, SubsetScores { overall: triple.clone(), overall_mean: triple.clone(), scenes: k }))
+            .collect();
+        semseg.insert(
+            lighting,
+            LightingScores {
+                bootstrap_miou: vec![Some(0.5); 10],
+                overall: triple.clone(),
+                overall_mean: triple.clone(),
+                pooled: None,
+                scenes: (0..n).map(|k| (format!("scene_{k:03}"), triple.clone())).collect(),
+                subsets,
+            },
+        );
+    }
+    let relative_change = scenes.iter().map(|(l, _)| (*l, RelativeChange { overall: triple.clone(), overall_mean: triple.clone() })).collect();
+    let accuracy = |scenes: usize| Accuracy { accuracy: Some(0.5), ci95: None, correct: 1, scenes, total: 2 };
+    let set = |scenes: usize| QuestionSetScores {
+        categories: [("Measurement".to_string(), accuracy(scenes)), ("Comparison".to_string(), accuracy(scenes.min(3)))].into_iter().collect(),
+        groups: [(QuestionGroup::Measurements, accuracy(scenes))].into_iter().collect(),
+        overall: accuracy(scenes),
+    };
+    let cell = |scenes: usize| VqaCell {
+        overall: accuracy(scenes),
+        prompt_grounded: set(scenes),
+        standard: set(scenes),
+        subsets: [
+            (
+                Regime::Furniture,
+                SetsScores { overall: accuracy(scenes.min(furniture)), prompt_grounded: set(scenes.min(furniture)), standard: set(scenes.min(furniture)) },
+            ),
+            (Regime::Manipuland, SetsScores { overall: accuracy(scenes - scenes.min(furniture)), prompt_grounded: set(0), standard: set(0) }),
+        ]
+        .into_iter()
+        .collect(),
+    };
+    let answers = SceneAnswers { answers: Vec::new(), correct: 1, total: 2 };
+    let vqa = VqaScores {
+        all_lightings: cell(vqa_scenes),
+        answered_by: BTreeMap::new(),
+        judged_by: BTreeMap::new(),
+        lightings: scenes.iter().map(|(l, _)| (*l, cell(vqa_scenes))).collect(),
+        scenes: [(Lighting::Baseline, [("scene_000".to_string(), answers)].into_iter().collect())].into_iter().collect(),
+    };
+    Scores {
+        complete: true,
+        evaluator_version: "v".into(),
+        release: "r".into(),
+        relative_change,
+        semseg,
+        split: Some(split),
+        vqa: Some(vqa),
+        ..Scores::default()
+    }
+}
+
+#[test]
+fn a_val_score_is_shown_whole() {
+    let val = scored(Split::Val, &[(Lighting::Baseline, 2)], 1, 2);
+    assert_eq!(val.disclosed(), val);
+}
+
+#[test]
+fn a_test_score_shows_no_number_that_depends_on_fewer_than_five_scenes() {
+    // Twelve furniture and eight manipuland scenes under baseline, four under camera.
+    let test = scored(Split::Test, &[(Lighting::Baseline, 20), (Lighting::Camera, 4)], 12, 20);
+    let shown = test.disclosed();
+    let baseline = &shown.semseg[&Lighting::Baseline];
+    assert!(baseline.scenes.is_empty() && baseline.bootstrap_miou.is_empty(), "no per-scene rows, no replicates");
+    assert_eq!(baseline.pooled, Some(20));
+    assert_eq!(baseline.subsets.keys().copied().collect::<Vec<_>>(), [Regime::Furniture, Regime::Manipuland], "12 and 8 scenes: both shown");
+    assert!(!shown.semseg.contains_key(&Lighting::Camera), "four scenes under camera: withheld");
+    assert_eq!(shown.relative_change.keys().copied().collect::<Vec<_>>(), [Lighting::Baseline]);
+    let vqa = shown.vqa.as_ref().unwrap();
+    assert!(vqa.lightings.is_empty() && vqa.scenes.is_empty(), "VQA only over all lightings, no per-scene answers");
+    assert_eq!(vqa.all_lightings.overall.scenes, 20);
+    assert!(vqa.all_lightings.standard.categories.contains_key("Measurement"));
+    assert!(!vqa.all_lightings.standard.categories.contains_key("Comparison"), "a category of three scenes is withheld");
+    assert_eq!(vqa.all_lightings.subsets.keys().copied().collect::<Vec<_>>(), [Regime::Furniture, Regime::Manipuland]);
+    assert_eq!(shown.withheld.as_ref().map(|w| w.min_scenes), Some(MIN_TEST_SCENES));
+
+    // Two furniture and two manipuland scenes: nothing at all.
+    let small = scored(Split::Test, &[(Lighting::Baseline, 4)], 2, 4).disclosed();
+    assert!(small.semseg.is_empty() && small.vqa.is_none() && small.relative_change.is_empty(), "{small:?}");
+    // Six scenes, three of each subset: the whole is shown, no subset.
+    let six = scored(Split::Test, &[(Lighting::Baseline, 6)], 3, 6).disclosed();
+    assert!(six.semseg[&Lighting::Baseline].subsets.is_empty());
+    assert!(six.vqa.as_ref().unwrap().all_lightings.subsets.is_empty());
+}

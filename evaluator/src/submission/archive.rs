@@ -121,7 +121,7 @@ impl Writer<'_> {
     fn entry(&mut self, name: &str) -> Result<PathBuf> {
         self.entries += 1;
         if self.entries > self.limits.max_entries {
-            return Err(InputError::new(self.archive, "(archive)", format!("more than {} entries; a submission needs far fewer", self.limits.max_entries)));
+            return Err(InputError::new(self.archive, "(archive)", format!("more than {} entries, the most this archive may hold", self.limits.max_entries)));
         }
         safe_relative_path(self.archive, name)
     }
@@ -221,7 +221,7 @@ fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
     let mut zip =
         zip::ZipArchive::new(BufReader::new(file)).map_err(|e| InputError::new(archive_path, "(archive)", format!("not a readable zip archive: {e}")))?;
     if zip.len() > writer.limits.max_entries {
-        return Err(InputError::new(archive_path, "(archive)", format!("more than {} entries; a submission needs far fewer", writer.limits.max_entries)));
+        return Err(InputError::new(archive_path, "(archive)", format!("more than {} entries, the most this archive may hold", writer.limits.max_entries)));
     }
     // The zip reader keeps one entry per name: a central directory that lists more entries
     // than it reads holds some name twice (the later copy would silently win).
@@ -296,19 +296,32 @@ pub fn pack_directory(dir: &Path, out: &Path) -> Result<usize> {
 /// As [`pack_directory`], with every name inside the archive starting with `prefix`
 /// (`sequences/baseline/scene_000/`).
 pub fn pack_directory_as(dir: &Path, prefix: &str, out: &Path) -> Result<usize> {
+    pack_files_as(dir, &list_tree(dir)?, prefix, out)
+}
+
+/// As [`pack_directory_as`], packing only `files` (relative paths under `dir` with '/'
+/// separators, in the order given): an archive holds what a list says, never whatever else
+/// lies in the folder.
+pub fn pack_files_as(dir: &Path, files: &[String], prefix: &str, out: &Path) -> Result<usize> {
     let sink = File::create(out).map_err(|e| InputError::io(out, &e))?;
-    let (files, writer) = pack_directory_into(dir, prefix, std::io::BufWriter::new(sink), out)?;
+    let writer = pack_files_into(dir, files, prefix, std::io::BufWriter::new(sink), out)?;
     writer.into_inner().map_err(|e| InputError::io(out, &e.into_error()))?.sync_all().map_err(|e| InputError::io(out, &e))?;
-    Ok(files)
+    Ok(files.len())
 }
 
 /// As [`pack_directory_as`], writing the archive to `sink` (named `out` in errors) and
 /// giving it back, with the number of files, once the archive is complete.
 pub fn pack_directory_into<W: std::io::Write>(dir: &Path, prefix: &str, sink: W, out: &Path) -> Result<(usize, W)> {
     let files = list_tree(dir)?;
+    let writer = pack_files_into(dir, &files, prefix, sink, out)?;
+    Ok((files.len(), writer))
+}
+
+/// Pack `files` (relative to `dir`) into a tar written to `sink`, as [`pack_files_as`].
+pub fn pack_files_into<W: std::io::Write>(dir: &Path, files: &[String], prefix: &str, sink: W, out: &Path) -> Result<W> {
     let mut builder = tar::Builder::new(sink);
     builder.mode(tar::HeaderMode::Deterministic);
-    for name in &files {
+    for name in files {
         let path = dir.join(name);
         let mut file = File::open(&path).map_err(|e| InputError::io(&path, &e))?;
         let size = file.seek(std::io::SeekFrom::End(0)).map_err(|e| InputError::io(&path, &e))?;
@@ -322,6 +335,40 @@ pub fn pack_directory_into<W: std::io::Write>(dir: &Path, prefix: &str, sink: W,
         header.set_entry_type(tar::EntryType::Regular);
         builder.append_data(&mut header, format!("{prefix}{name}"), &mut file).map_err(|e| InputError::io(out, &e))?;
     }
-    let writer = builder.into_inner().map_err(|e| InputError::io(out, &e))?;
-    Ok((files.len(), writer))
+    builder.into_inner().map_err(|e| InputError::io(out, &e))
+}
+
+/// The size of the tar [`pack_files_into`] writes for files whose names inside the archive
+/// (prefix included) are `name_bytes` long and whose contents are `size` bytes: a header
+/// block a file (and a GNU long-name record before a name of more than 100 bytes), the
+/// content rounded up to whole blocks, and the two closing blocks. Lets a stored archive be
+/// checked against the list it should hold without reading it.
+pub fn packed_size(files: impl IntoIterator<Item = (usize, u64)>) -> u64 {
+    const BLOCK: u64 = 512;
+    let blocks = |bytes: u64| bytes.div_ceil(BLOCK) * BLOCK;
+    let entries: u64 = files
+        .into_iter()
+        .map(|(name_bytes, size)| {
+            let long_name = if name_bytes > 100 { BLOCK + blocks(name_bytes as u64 + 1) } else { 0 };
+            long_name + BLOCK + blocks(size)
+        })
+        .sum();
+    entries + 2 * BLOCK
+}
+
+/// The names of the files a tar archive holds, in order (directories left out), read
+/// without unpacking: what a check that an archive holds exactly a list needs.
+pub fn tar_file_names(reader: impl Read, archive: &Path) -> Result<Vec<String>> {
+    let mut tar = tar::Archive::new(reader);
+    let entries = tar.entries().map_err(|e| truncated(archive, "(archive)", &e))?;
+    let mut names = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| truncated(archive, "(archive)", &e))?;
+        let name = String::from_utf8(entry.path_bytes().into_owned()).map_err(|_| InputError::new(archive, "(archive)", "an entry name is not valid UTF-8"))?;
+        match entry.header().entry_type() {
+            tar::EntryType::Directory | tar::EntryType::XHeader | tar::EntryType::XGlobalHeader | tar::EntryType::GNULongName => {}
+            _ => names.push(name),
+        }
+    }
+    Ok(names)
 }

@@ -13,7 +13,7 @@ pub mod score;
 pub mod validate;
 pub mod warm;
 
-pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, pack_directory_into, unpack};
+pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, pack_directory_into, pack_files_as, pack_files_into, tar_file_names, unpack};
 pub use release::ReleaseIndex;
 pub use score::{ScoringTimings, score_submission, score_submission_timed};
 pub use validate::{MethodCard, SubmissionLimits, ValidSubmission, validate};

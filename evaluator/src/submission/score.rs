@@ -181,6 +181,7 @@ pub fn score_submission_timed(
                 bootstrap_miou: replicates.miou(),
                 overall: MetricTriple { ci95: replicates.intervals(), ..(&table.overall).into() },
                 overall_mean: table.overall_mean,
+                pooled: None,
                 scenes: table.scenes.iter().map(|(s, m)| (s.clone(), m.into())).collect(),
                 subsets,
             },
@@ -222,6 +223,7 @@ pub fn score_submission_timed(
         semseg,
         split: release.split,
         vqa,
+        withheld: None,
     };
     Ok((scores, timings))
 }

@@ -434,6 +434,16 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
                 }
                 entry.graph = Some(path);
             }
+            _ if release.scene(scene).is_some_and(|s| s.split == crate::scores::Split::Test) => {
+                problems.push(InputError::new(
+                    name.as_str(),
+                    "(file)",
+                    format!(
+                        "{scene} is a test scene: its questions are hidden and the server answers them from your scene graph (graphs/{}/{scene}.json); answers/ is for val scenes only",
+                        parts[1]
+                    ),
+                ));
+            }
             _ => {
                 let known = release
                     .public_questions(scene)

@@ -117,6 +117,11 @@ impl<'g> ClassifiedGraph<'g> {
         self.of(class).count()
     }
 
+    /// The largest box volume of a node of `class`, if the graph has one.
+    fn largest(&self, class: &str) -> Option<f64> {
+        self.of(class).map(GraphObject::volume).fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))))
+    }
+
     /// The colour a node of `class` is described with, if any.
     fn colour(&self, class: &str) -> Option<&'static str> {
         self.of(class).find_map(|o| {
@@ -139,21 +144,24 @@ impl<'g> ClassifiedGraph<'g> {
                 yes_no(self.of(subject).any(|s| self.of(object).any(|o| !std::ptr::eq(s, o) && related(s, *relation, o))))
             }
             QuestionForm::MoreThan { more, fewer } => yes_no(self.count(more) > self.count(fewer)),
-            QuestionForm::Larger { a, b } => {
-                let largest = |class: &str| self.of(class).map(GraphObject::volume).fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
-                match (largest(a), largest(b)) {
-                    (Some(va), Some(vb)) => {
-                        if va >= vb {
-                            a.clone()
-                        } else {
-                            b.clone()
-                        }
-                    }
-                    (Some(_), None) => a.clone(),
-                    (None, Some(_)) => b.clone(),
-                    (None, None) => NO_ANSWER.into(),
-                }
+            QuestionForm::RestsOn { class, support } => yes_no(self.answer(&QuestionForm::Support { class: class.clone() }) == *support),
+            QuestionForm::NearestIs { class, nearest } => yes_no(self.answer(&QuestionForm::Nearest { class: class.clone() }) == *nearest),
+            QuestionForm::LargerThan { a, b } => {
+                let (va, vb) = (self.largest(a), self.largest(b));
+                yes_no(matches!((va, vb), (Some(va), Some(vb)) if va > vb) || (va.is_some() && vb.is_none()))
             }
+            QuestionForm::Larger { a, b } => match (self.largest(a), self.largest(b)) {
+                (Some(va), Some(vb)) => {
+                    if va >= vb {
+                        a.clone()
+                    } else {
+                        b.clone()
+                    }
+                }
+                (Some(_), None) => a.clone(),
+                (None, Some(_)) => b.clone(),
+                (None, None) => NO_ANSWER.into(),
+            },
             QuestionForm::Colour { class } => self.colour(class).map_or(NO_ANSWER.into(), str::to_string),
             QuestionForm::HasColour { class, colour } => {
                 yes_no(self.of(class).any(|o| o.texts.iter().any(|t| t.split(|c: char| !c.is_alphanumeric()).any(|w| w == colour))))
@@ -226,6 +234,14 @@ mod tests {
             (QuestionForm::Nearest { class: s("sofa") }, "book"),
             (QuestionForm::Support { class: s("mug") }, "table"),
             (QuestionForm::Support { class: s("table") }, "floor"),
+            (QuestionForm::RestsOn { class: s("mug"), support: s("table") }, "Yes"),
+            (QuestionForm::RestsOn { class: s("mug"), support: s("floor") }, "No"),
+            (QuestionForm::RestsOn { class: s("table"), support: s("floor") }, "Yes"),
+            (QuestionForm::NearestIs { class: s("sofa"), nearest: s("book") }, "Yes"),
+            (QuestionForm::NearestIs { class: s("sofa"), nearest: s("table") }, "No"),
+            (QuestionForm::LargerThan { a: s("sofa"), b: s("mug") }, "Yes"),
+            (QuestionForm::LargerThan { a: s("mug"), b: s("sofa") }, "No"),
+            (QuestionForm::LargerThan { a: s("bed"), b: s("mug") }, "No"),
             (QuestionForm::Support { class: s("book") }, "sofa"),
             (QuestionForm::Related { subject: s("book"), relation: Relation::On, object: s("sofa") }, "Yes"),
             (QuestionForm::Related { subject: s("sofa"), relation: Relation::On, object: s("book") }, "No"),

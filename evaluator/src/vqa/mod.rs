@@ -93,6 +93,35 @@ pub enum QuestionForm {
     Nearest { class: String },
     /// What is the `class` resting on? A class name or "floor".
     Support { class: String },
+    /// Is the `class` resting on the `support` (a class or "floor")? Yes/No.
+    RestsOn { class: String, support: String },
+    /// Is the `nearest` the object closest to the `class`? Yes/No.
+    NearestIs { class: String, nearest: String },
+    /// Is the `a` larger (bounding-box volume) than the `b`? Yes/No.
+    LargerThan { a: String, b: String },
+}
+
+impl QuestionForm {
+    /// The form's kind as its files name it (`exists`, `rests_on`): with the category, the
+    /// template a question was made from.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            QuestionForm::Exists { .. } => "exists",
+            QuestionForm::ExistsAll { .. } => "exists_all",
+            QuestionForm::ExistsAny { .. } => "exists_any",
+            QuestionForm::Count { .. } => "count",
+            QuestionForm::Related { .. } => "related",
+            QuestionForm::MoreThan { .. } => "more_than",
+            QuestionForm::Larger { .. } => "larger",
+            QuestionForm::Colour { .. } => "colour",
+            QuestionForm::HasColour { .. } => "has_colour",
+            QuestionForm::Nearest { .. } => "nearest",
+            QuestionForm::Support { .. } => "support",
+            QuestionForm::RestsOn { .. } => "rests_on",
+            QuestionForm::NearestIs { .. } => "nearest_is",
+            QuestionForm::LargerThan { .. } => "larger_than",
+        }
+    }
 }
 
 /// One question of a release, with its answer where the release keeps it.

@@ -97,3 +97,28 @@ fn v7_tar_archives_unpack_and_zips_naming_an_entry_twice_or_with_nul_are_refused
         assert!(err.to_string().contains(needle), "{label}: {err}");
     }
 }
+
+#[test]
+fn a_packed_list_holds_exactly_its_files_and_its_size_is_known_before_packing() {
+    use osmab_evaluator::submission::archive::{packed_size, tar_file_names};
+    use osmab_evaluator::submission::pack_files_as;
+    let dir = tempfile::tempdir().unwrap();
+    let long = format!("results/{}.png", "n".repeat(120));
+    let files: Vec<(String, usize)> =
+        vec![("results/frame000000.jpg".into(), 0), ("results/depth000000.png".into(), 511), ("traj.txt".into(), 512), (long.clone(), 1300)];
+    for (name, size) in &files {
+        let path = dir.path().join("seq").join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, vec![7u8; *size]).unwrap();
+    }
+    // A file the list leaves out stays out of the archive.
+    std::fs::write(dir.path().join("seq/results/semantic000000.png"), b"hidden").unwrap();
+    let names: Vec<String> = files.iter().map(|(n, _)| n.clone()).collect();
+    let prefix = "sequences/baseline/scene_001/";
+    let archive = dir.path().join("seq.tar");
+    assert_eq!(pack_files_as(&dir.path().join("seq"), &names, prefix, &archive).unwrap(), 4);
+    let listed = tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();
+    assert_eq!(listed, names.iter().map(|n| format!("{prefix}{n}")).collect::<Vec<_>>());
+    let predicted = packed_size(files.iter().map(|(n, size)| (prefix.len() + n.len(), *size as u64)));
+    assert_eq!(predicted, std::fs::metadata(&archive).unwrap().len(), "a long name's record counted too");
+}

@@ -37,6 +37,22 @@ impl LocalBlobs {
         }
     }
 
+    /// Move `source` into `key` in place of what it holds, atomically (blocking): readers see
+    /// the old blob or the new one, never a part.
+    pub fn replace_file(&self, key: &str, source: &Path) -> io::Result<()> {
+        let target = self.path(key);
+        if let Some(parent) = target.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        if std::fs::rename(source, &target).is_err() {
+            let partial = target.with_extension("partial");
+            std::fs::copy(source, &partial)?;
+            std::fs::rename(&partial, &target)?;
+            std::fs::remove_file(source)?;
+        }
+        Ok(())
+    }
+
     /// Move the directory `source` into `prefix`, which must not exist (blocking).
     pub fn put_dir(&self, prefix: &str, source: &Path) -> io::Result<()> {
         let target = self.path(prefix);

@@ -137,6 +137,24 @@ impl Blobs {
         }
     }
 
+    /// Store `source` (a scratch file, consumed) as `key` in place of the blob there: only
+    /// for a repair that keeps the key's meaning (an archive repacked to hold exactly what
+    /// its manifest lists), never to change published content.
+    pub async fn replace_file(&self, key: &str, source: &Path) -> io::Result<()> {
+        check_key(key)?;
+        match &self.backend {
+            Backend::Local(local) => {
+                let (local, key, source) = (local.clone(), key.to_string(), source.to_path_buf());
+                tokio::task::spawn_blocking(move || local.replace_file(&key, &source)).await.map_err(io::Error::other)?
+            }
+            Backend::Object(object) => {
+                object.upload(key, source).await?;
+                let _ = tokio::fs::remove_file(source).await;
+                Ok(())
+            }
+        }
+    }
+
     /// Store the folder `source` (a scratch folder, consumed) under `prefix`, which holds
     /// nothing yet.
     pub async fn put_dir(&self, prefix: &str, source: &Path) -> io::Result<()> {

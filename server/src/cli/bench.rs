@@ -85,6 +85,24 @@ pub enum BenchCommand {
         timed_frames: usize,
     },
     /// Time the symbolic VQA answerer and the judge on a full-size synthetic submission.
+    /// How much of a build's hidden test answers text-only predictors get right, per question
+    /// template, against each template's majority answer (an operator's build folder: its
+    /// ground truth and `.work/prompts`); several builds are summed.
+    Questions {
+        /// Build folders of `osmab release build`.
+        #[arg(long = "release", required = true)]
+        releases: Vec<PathBuf>,
+        /// Draw the questions anew with this binary's generator, from the scenes' objects and
+        /// prompts the builds kept (measures a change of the generator without rendering again).
+        #[arg(long)]
+        regenerate: bool,
+        /// With --regenerate: independent draws of the test scenes' questions to measure over.
+        #[arg(long, default_value_t = 1)]
+        draws: u64,
+        /// Write the tallies as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     Vqa {
         #[arg(long, default_value_t = 40)]
         scenes: usize,
@@ -185,6 +203,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => {
             scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref())
         }
+        BenchCommand::Questions { releases, regenerate, draws, json } => super::bench_questions::run(&releases, regenerate, draws, json.as_deref()),
         BenchCommand::Vqa { scenes, lightings, objects, questions, repeat } => {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }

@@ -11,14 +11,15 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use osmab_dataset::questions::SceneObject;
-use osmab_dataset::questions::standard::standard_questions;
+use osmab_dataset::questions::priors::{PoolLayouts, QuestionPriors};
+use osmab_dataset::questions::scene_questions;
+use osmab_dataset::spec::SceneSpec as PromptSpec;
 use osmab_evaluator::formats::map::TextFeatures;
 use osmab_evaluator::scores::{Lighting, Regime};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
 use osmab_evaluator::submission::warm::{Warmed, warm_release};
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, pack_directory, score_submission_timed, unpack, validate};
 use osmab_evaluator::synthetic::{SceneSpec, SyntheticScene, generate};
-use osmab_evaluator::vqa::SceneQuestions;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -210,7 +211,9 @@ fn write_scene(i: usize, spec: SceneSpec, text: &TextFeatures, release: &Path, s
     scene.classes.write(&gt_dir.join("embed_semseg_classes.json"))?;
     let objects = scene_objects(&scene);
     let lexicon: Vec<String> = scene.classes.entries().into_iter().map(|c| c.name).filter(|n| n != "other").collect();
-    let questions = SceneQuestions { scene: id.clone(), questions: standard_questions(&id, &objects, &lexicon, spec.seed) };
+    let room = PromptSpec { regime: Regime::Furniture, room: "room".into(), objects: Vec::new(), relations: Vec::new() };
+    let layouts = PoolLayouts::none();
+    let questions = scene_questions(&id, &room, &objects, &lexicon, &QuestionPriors::new(&layouts, &lexicon), spec.seed);
     let questions_path = release.join("ground_truth").join("questions").join(format!("{id}.json"));
     std::fs::create_dir_all(questions_path.parent().expect("nested"))?;
     std::fs::write(&questions_path, serde_json::to_vec(&questions)?)?;

@@ -49,10 +49,10 @@ fn random_form(rng: &mut Rng, classes: &[String]) -> QuestionForm {
         4 => QuestionForm::Related { subject: a, relation: Relation::On, object: b },
         5 => QuestionForm::Related { subject: a, relation: Relation::NextTo, object: b },
         6 => QuestionForm::MoreThan { more: a, fewer: b },
-        7 => QuestionForm::Larger { a, b },
+        7 => QuestionForm::LargerThan { a, b },
         8 => QuestionForm::Colour { class: a },
-        9 => QuestionForm::Nearest { class: a },
-        _ => QuestionForm::Support { class: a },
+        9 => QuestionForm::NearestIs { class: a, nearest: b },
+        _ => QuestionForm::RestsOn { class: a, support: b },
     }
 }
 

@@ -2,6 +2,7 @@
 
 mod baseline;
 mod bench;
+mod bench_questions;
 mod bench_submission;
 mod bench_vqa;
 mod client;

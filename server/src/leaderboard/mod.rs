@@ -94,9 +94,12 @@ impl Leaderboard {
             .into_iter()
             .filter(|row| row.split == split)
             .map(|row| {
+                // Shown and ranked by what may be shown (Scores::disclosed); the replicates,
+                // never shown, still tell which entries are within noise of each other.
+                let shown = row.scores.disclosed();
                 let standing = Standing {
-                    value: row.scores.semseg(key, None, Aggregate::Overall, Metric::Miou),
-                    replicates: row.scores.semseg.get(&key).map(|l| l.bootstrap_miou.clone()).unwrap_or_default(),
+                    value: shown.semseg(key, None, Aggregate::Overall, Metric::Miou),
+                    replicates: row.scores.semseg.get(&key).filter(|_| shown.semseg.contains_key(&key)).map(|l| l.bootstrap_miou.clone()).unwrap_or_default(),
                 };
                 let entry = Entry {
                     anonymous: row.anonymous,
@@ -108,8 +111,8 @@ impl Leaderboard {
                     paper_url: row.paper_url.filter(|_| !row.anonymous),
                     rank: 0,
                     rank_group: 0,
-                    robustness: Robustness::of(&row.scores, &lightings),
-                    scores: row.scores.summary(),
+                    robustness: Robustness::of(&shown, &lightings),
+                    scores: shown.summary(),
                     submission_id: row.submission_id,
                     submitted_at: crate::clock::rfc3339(row.created_at),
                     team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },

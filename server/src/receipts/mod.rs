@@ -29,9 +29,13 @@ pub struct ReceiptSummary {
     pub complete: bool,
     /// Pooled segmentation metrics per lighting.
     pub semseg: BTreeMap<Lighting, MetricTriple>,
-    /// Pooled VQA accuracy per lighting, where the submission had scene graphs or answers.
+    /// Pooled VQA accuracy per lighting, where the submission had scene graphs or answers
+    /// (not for a test submission: see `Scores::disclosed`).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub vqa: BTreeMap<Lighting, Option<f64>>,
+    /// Pooled VQA accuracy over every lighting.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vqa_all_lightings: Option<f64>,
 }
 
 /// The signed payload (fields in the order of their keys).
@@ -89,6 +93,7 @@ impl Receipt {
             complete: scores.complete,
             semseg: scores.semseg.iter().map(|(l, t)| (*l, t.overall)).collect(),
             vqa: scores.vqa.iter().flat_map(|v| v.lightings.iter().map(|(l, cell)| (*l, cell.overall.accuracy))).collect(),
+            vqa_all_lightings: scores.vqa.as_ref().and_then(|v| v.all_lightings.overall.accuracy),
         };
         Receipt {
             evaluator_version: scores.evaluator_version.clone(),

@@ -201,11 +201,41 @@ pub struct BuildBody {
     publish: bool,
     #[serde(default)]
     baselines: bool,
+    /// Build it even when an existing release was built from the same config content and
+    /// secret (it would be the same release under another version).
+    #[serde(default)]
+    identical: bool,
+}
+
+/// The existing release a config (by its content digest) and the operator's secret
+/// would rebuild byte for byte, if any: its version and digest.
+async fn same_release(state: &AppState, config: &osmab_dataset::release::config::ReleaseConfig) -> Result<Option<(String, String)>, Problem> {
+    let digest = config.content_digest();
+    let secret_id = (!config.splits.is_empty()).then(|| state.split_secret.id());
+    for release in state.store.releases().await? {
+        let manifest: serde_json::Value = serde_json::from_str(&release.manifest).unwrap_or_default();
+        let generator = &manifest["generator"];
+        let built_digest = generator["content_digest"].as_str().map(str::to_string).or_else(|| {
+            let text = generator["config"].as_str()?;
+            osmab_dataset::release::config::ReleaseConfig::parse(text, std::path::Path::new("manifest.json")).ok().map(|(c, _)| c.content_digest())
+        });
+        if built_digest.as_deref() == Some(digest.as_str()) && generator["split_secret_id"].as_str().map(str::to_string) == secret_id {
+            return Ok(Some((release.version, release.digest)));
+        }
+    }
+    Ok(None)
 }
 
 /// Queue a build of the release `config` describes (the demo configuration when absent):
-/// the job's id and the release version.
-pub async fn queue_release_build(state: &AppState, config: Option<String>, publish: bool, baselines: bool) -> Result<(String, String), Problem> {
+/// the job's id and the release version. A config that would rebuild an existing release
+/// byte for byte is refused unless `identical` says to build it anyway.
+pub async fn queue_release_build(
+    state: &AppState,
+    config: Option<String>,
+    publish: bool,
+    baselines: bool,
+    identical: bool,
+) -> Result<(String, String), Problem> {
     let config = config.unwrap_or_else(|| crate::jobs::release_build::DEMO_CONFIG.to_string());
     let version = config_version(&config).map_err(unprocessable)?;
     let scratch = state.blobs.scratch("config-check");
@@ -218,9 +248,17 @@ pub async fn queue_release_build(state: &AppState, config: Option<String>, publi
     })
     .await
     .map_err(Problem::internal)?;
-    checked.map_err(|e| unprocessable(format!("config: {}: {}", e.field, e.message)))?;
+    let (checked, _) = checked.map_err(|e| unprocessable(format!("config: {}: {}", e.field, e.message)))?;
     if state.store.release(&version).await.is_ok() {
         return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
+    }
+    if !identical && let Some((existing, digest)) = same_release(state, &checked).await? {
+        return Err(Problem::conflict(format!(
+            "Release {existing} was built from this config's content{} (digest {digest}): {version} would be the same release under another name. \
+             Change the config (its seed, say){}, or ask for it with \"identical\": true.",
+            if checked.splits.is_empty() { "" } else { " and the same split secret" },
+            if checked.splits.is_empty() { "" } else { " or rotate the secret" },
+        )));
     }
     let job = crate::jobs::new_job(&BuildRelease { config, publish, baselines }, state);
     match state.store.enqueue(&job).await {
@@ -232,7 +270,7 @@ pub async fn queue_release_build(state: &AppState, config: Option<String>, publi
 
 /// `POST /api/v1/admin/releases`: build a release from a config as a job → `202 {"job", "version"}`.
 pub async fn build_release(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<BuildBody>) -> ApiResult<Response> {
-    let (job, version) = queue_release_build(&state, body.config, body.publish, body.baselines).await?;
+    let (job, version) = queue_release_build(&state, body.config, body.publish, body.baselines, body.identical).await?;
     let url = format!("/api/v1/jobs/{job}");
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, url.clone())], axum::Json(QueuedJob { job, submission: None, url, version: Some(version) })).into_response())
 }

@@ -32,13 +32,14 @@ pub async fn keys(State(state): State<AppState>) -> Response {
     ([(header::CACHE_CONTROL, "public, max-age=300")], axum::Json(state.receipts.published().clone())).into_response()
 }
 
-/// The latest score document of a visible submission, with when it was scored.
+/// The latest score document of a visible submission as it may be shown
+/// (`Scores::disclosed`), with when it was scored.
 async fn latest(state: &AppState, caller: &Caller, id: &str) -> ApiResult<(crate::store::SubmissionRecord, osmab_evaluator::scores::Scores, i64)> {
     let submission = super::submissions::visible_submission(state, caller, id).await?;
     let latest = state.store.scores(id).await?.pop();
     match latest {
         Some(record) => match record.scores {
-            Some(scores) => Ok((submission, scores, record.created_at)),
+            Some(scores) => Ok((submission, scores.disclosed(), record.created_at)),
             None => Err(Problem::internal(format!("the latest score of {id} does not read"))),
         },
         None => Err(Problem::conflict(format!("Submission {id} is {}; it has no score to issue a receipt for yet.", submission.state))),

@@ -145,7 +145,8 @@ impl SubmissionView {
             reason: s.reason.clone(),
             release: s.release.clone(),
             score_history,
-            scores: scores.pop().and_then(|c| c.scores),
+            // Of a test submission, only what pools enough hidden scenes (Scores::disclosed).
+            scores: scores.pop().and_then(|c| c.scores).map(|s| s.disclosed()),
             split: s.split,
             state: s.state,
             team: if hidden { crate::leaderboard::ANONYMOUS.to_string() } else { team.name },

@@ -82,6 +82,28 @@ impl Store {
         })
     }
 
+    /// Record a sequence archive of release `version` repacked to hold exactly its
+    /// manifest's files: its new size and SHA-256, and the served manifest that lists them,
+    /// in one transaction.
+    pub async fn replace_release_archive(&self, version: &str, path: &str, size: i64, sha256: &str, manifest: &str) -> StoreResult<()> {
+        on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            let changed = sqlx::query("UPDATE release_files SET size = $3, sha256 = $4 WHERE version = $1 AND path = $2 AND kind = 'archive'")
+                .bind(version)
+                .bind(path)
+                .bind(size)
+                .bind(sha256)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+            if changed == 0 {
+                return Err(StoreError::NotFound);
+            }
+            sqlx::query("UPDATE releases SET manifest = $2 WHERE version = $1").bind(version).bind(manifest).execute(&mut *tx).await?;
+            tx.commit().await.map_err(StoreError::from)
+        })
+    }
+
     /// A public file of a release.
     pub async fn release_file(&self, version: &str, path: &str) -> StoreResult<ReleaseFile> {
         Ok(on_pool!(self, |pool| sqlx::query_as("SELECT version, path, size, sha256, kind FROM release_files WHERE version = $1 AND path = $2")

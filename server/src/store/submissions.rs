@@ -4,11 +4,12 @@
 use super::{JobRecord, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool};
 use osmab_evaluator::scores::{Scores, Split};
 
-/// A team's earlier submission with the idempotency key `$2` (first) or, active, of the
-/// archive `$3` to the split `$5`: its id, archive and key.
+/// A team's earlier submission to the split `$5` with the idempotency key `$2` (first) or,
+/// active, of the archive `$3`: its id, archive and key. Keys are scoped by split: the
+/// same key to the other split is a new submission, as the same archive is.
 /// `$4` is a submission to leave out (the one just inserted, in the recording transaction).
 const REPEAT_QUERY: &str = "SELECT id, archive_sha256, idempotency_key FROM submissions \
-     WHERE team_id = $1 AND id <> $4 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND split = $5 AND state NOT IN ('failed', 'cancelled'))) \
+     WHERE team_id = $1 AND id <> $4 AND split = $5 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
      ORDER BY CASE WHEN idempotency_key = $2 THEN 0 ELSE 1 END, created_at LIMIT 1";
 
 /// What an earlier submission `(id, archive, key)` found by [`REPEAT_QUERY`] makes of an

@@ -433,6 +433,8 @@ async fn a_repeated_upload_or_idempotency_key_finds_the_earlier_submission_and_r
         assert_eq!(store.repeated_submission(&team.id, "bb", Split::Test, Some("key-1")).await.unwrap(), Some(Recorded::KeyReused("sub_1".into())));
         assert_eq!(store.repeated_submission(&team.id, "aa", Split::Test, None).await.unwrap(), Some(Recorded::Repeat("sub_1".into())));
         assert_eq!(store.repeated_submission(&team.id, "", Split::Test, Some("key-9")).await.unwrap(), None);
+        // Keys are scoped by split: the same key (and archive) to val is a new submission.
+        assert_eq!(store.repeated_submission(&team.id, "aa", Split::Val, Some("key-1")).await.unwrap(), None, "{}", store.backend());
         assert!(matches!(store.submission("sub_2").await, Err(StoreError::NotFound)), "{}: nothing recorded", store.backend());
         assert!(matches!(store.job("j2").await, Err(StoreError::NotFound)));
         assert_eq!(store.submissions_since(&team.id, Split::Test, t - 1).await.unwrap().len(), 1, "one quota unit");

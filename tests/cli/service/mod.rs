@@ -273,8 +273,8 @@ created = "2026-11-22"
 seed = 7
 
 [prompts]
-furniture_pool = 6
-manipuland_pool = 4
+furniture_pool = 12
+manipuland_pool = 8
 
 [selection]
 furniture = 1

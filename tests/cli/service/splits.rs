@@ -16,10 +16,20 @@ use super::{Backend, Deployment, TEST_RELEASE_CONFIG, baseline_dir_of, on_both_b
 /// The operator's secret the split release is built with.
 const SPLIT_SECRET: &str = "e2e-split-secret-0123456789";
 
-/// The test release's config with its manipuland scene held out as the test split.
+/// The test release's config grown to six scenes, five of them held out as the test split
+/// (the fewest a test score's numbers may pool): scene_001 is val, the others test.
 fn split_config() -> String {
-    TEST_RELEASE_CONFIG.replace("version = \"e2e-1\"", "version = \"e2e-split-1\"") + "\n[splits]\ntest_manipuland = 1\n"
+    TEST_RELEASE_CONFIG
+        .replace("version = \"e2e-1\"", "version = \"e2e-split-1\"")
+        .replace("furniture_pool = 12", "furniture_pool = 24")
+        .replace("manipuland_pool = 8", "manipuland_pool = 16")
+        .replace("furniture = 1\nmanipuland = 1", "furniture = 4\nmanipuland = 2")
+        + "\n[splits]\ntest_furniture = 3\ntest_manipuland = 2\n"
 }
+
+/// The scenes of the split release: the val one, and the test ones.
+const VAL_SCENE: &str = "scene_001";
+const TEST_SCENES: [&str; 5] = ["scene_000", "scene_002", "scene_003", "scene_004", "scene_005"];
 
 fn build(config: &Path, out: &Path, secret: Option<&str>) -> Output {
     let mut command = Command::new(env!("CARGO_BIN_EXE_osmab"));
@@ -30,7 +40,7 @@ fn build(config: &Path, out: &Path, secret: Option<&str>) -> Output {
     command.output().unwrap()
 }
 
-/// The split release (scene_000 val, scene_001 test), built once per test run.
+/// The split release (see [`split_config`]), built once per test run.
 fn split_release() -> &'static Path {
     static RELEASE: OnceLock<PathBuf> = OnceLock::new();
     RELEASE.get_or_init(|| {
@@ -57,24 +67,51 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     assert_eq!(imported.status(), 201, "{}", imported.text().unwrap());
     let version = "e2e-split-1";
 
-    // The manifest: each scene's split; no semantic frame and no ground truth of the test scene.
+    // The manifest: each scene's split; no semantic frame, ground truth, prompt or question of a test scene.
     let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
     let splits: Vec<(&str, &str)> = manifest["scenes"].as_array().unwrap().iter().map(|s| (s["id"].as_str().unwrap(), s["split"].as_str().unwrap())).collect();
-    assert_eq!(splits, [("scene_000", "val"), ("scene_001", "test")]);
+    let expected: Vec<(&str, &str)> = ["scene_000", "scene_001", "scene_002", "scene_003", "scene_004", "scene_005"]
+        .iter()
+        .map(|s| (*s, if *s == VAL_SCENE { "val" } else { "test" }))
+        .collect();
+    assert_eq!(splits, expected);
+    for scene in manifest["scenes"].as_array().unwrap() {
+        let open = scene["id"] == VAL_SCENE;
+        assert_eq!((scene.get("prompt").is_some(), scene.get("questions").is_some()), (open, open), "{scene}: a test scene's prompt tells its answers");
+    }
     let files: Vec<&str> = manifest["files"].as_array().unwrap().iter().map(|f| f["path"].as_str().unwrap()).collect();
-    assert!(files.iter().any(|f| f.starts_with("sequences/baseline/scene_001/results/depth")), "test scenes keep their RGB-D frames");
-    assert!(!files.iter().any(|f| f.contains("scene_001/results/semantic")), "no semantic frame of the test scene is public");
-    assert!(files.contains(&"ground_truth/scene_000/semantic.npy") && files.contains(&"ground_truth/questions/scene_000.json"), "val ground truth is public");
-    assert!(!files.iter().any(|f| f.starts_with("ground_truth/") && f.contains("scene_001")), "test ground truth is not");
-    for hidden in ["ground_truth/scene_001/semantic.npy", "ground_truth/questions/scene_001.json", "sequences/baseline/scene_001/results/semantic000000.png"] {
+    let test = TEST_SCENES[0];
+    assert!(files.iter().any(|f| f.starts_with(&format!("sequences/baseline/{test}/results/depth"))), "test scenes keep their RGB-D frames");
+    for test in TEST_SCENES {
+        assert!(!files.iter().any(|f| f.contains(&format!("{test}/results/semantic"))), "no semantic frame of {test} is public");
+        assert!(
+            !files.iter().any(|f| f.contains(test) && (f.starts_with("ground_truth/") || f.starts_with("scenes/") || f.starts_with("questions/"))),
+            "{test}"
+        );
+    }
+    assert!(files.contains(&"ground_truth/scene_001/semantic.npy") && files.contains(&"ground_truth/questions/scene_001.json"), "val ground truth is public");
+    for hidden in [
+        format!("ground_truth/{test}/semantic.npy"),
+        format!("ground_truth/questions/{test}.json"),
+        format!("ground_truth/scenes/{test}/prompt.json"),
+        format!("questions/{test}.json"),
+        format!("scenes/{test}/prompt.json"),
+        format!("sequences/baseline/{test}/results/semantic000000.png"),
+    ] {
         let response = server.get(&format!("/api/v1/releases/{version}/files/{hidden}")).send().unwrap();
         assert_eq!(response.status(), 404, "{hidden} is not served");
     }
+    // Every archive holds exactly the manifest's files of its sequence (a test scene's: no semantic frame).
+    for archive in manifest["archives"].as_array().unwrap() {
+        let bytes = server.get(&format!("/api/v1/releases/{version}/files/{}", archive["path"].as_str().unwrap())).send().unwrap().bytes().unwrap();
+        let held = osmab_evaluator::submission::tar_file_names(&bytes[..], Path::new("archive")).unwrap();
+        let prefix = format!("sequences/{}/{}/", archive["lighting"].as_str().unwrap(), archive["scene"].as_str().unwrap());
+        let listed: Vec<&str> = files.iter().copied().filter(|f| f.starts_with(&prefix)).collect();
+        assert_eq!(held.iter().map(String::as_str).collect::<Vec<_>>(), listed, "{prefix}");
+    }
     let quality: Value = server.get(&format!("/api/v1/releases/{version}/files/quality/quality_report.json")).send().unwrap().json().unwrap();
-    let test_scene = quality["per_scene"].as_array().unwrap().iter().find(|s| s["scene"] == "scene_001").unwrap();
-    assert!(test_scene.get("class_pixels").is_none() && test_scene.get("instances").is_none() && test_scene.get("oracle_vqa").is_none(), "{test_scene}");
-    let questions: Value = server.get(&format!("/api/v1/releases/{version}/files/questions/scene_001.json")).send().unwrap().json().unwrap();
-    assert!(!questions.to_string().contains("\"answer\""), "test questions carry no answers");
+    let test_scene = quality["per_scene"].as_array().unwrap().iter().find(|s| s["scene"] == test).unwrap();
+    assert!(["class_pixels", "instances", "oracle_vqa", "prompt_id", "prompted"].iter().all(|k| test_scene.get(k).is_none()), "{test_scene}");
 
     // A team downloads the public release: `osmab gt build` rebuilds val, not test.
     let token = server.team("Team Split");
@@ -85,19 +122,19 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     let download = client(&config, &["download", "--out", crate::path(public.path())]);
     assert!(download.status.success(), "{}", said(&download));
     let gt = tempfile::tempdir().unwrap();
-    let test_gt = crate::osmab(&["gt", "build", crate::path(&public.path().join("sequences/baseline/scene_001")), "--out", crate::path(gt.path())]);
+    let test_gt = crate::osmab(&["gt", "build", crate::path(&public.path().join(format!("sequences/baseline/{test}"))), "--out", crate::path(gt.path())]);
     assert!(!test_gt.status.success() && said(&test_gt).contains("no semantic frames"), "{}", said(&test_gt));
     assert!(!gt.path().join("semantic.npy").exists(), "nothing was written");
-    let val_gt = crate::osmab(&["gt", "build", crate::path(&public.path().join("sequences/baseline/scene_000")), "--out", crate::path(gt.path())]);
+    let val_gt = crate::osmab(&["gt", "build", crate::path(&public.path().join("sequences/baseline/scene_001")), "--out", crate::path(gt.path())]);
     assert!(val_gt.status.success(), "{}", said(&val_gt));
-    assert_eq!(std::fs::read(gt.path().join("semantic.npy")).unwrap(), std::fs::read(public.path().join("ground_truth/scene_000/semantic.npy")).unwrap());
+    assert_eq!(std::fs::read(gt.path().join("semantic.npy")).unwrap(), std::fs::read(public.path().join("ground_truth/scene_001/semantic.npy")).unwrap());
     // The oracle anyone can make from the public files covers val only.
     let public_oracle = baseline_dir_of(public.path(), "oracle");
-    assert!(public_oracle.path().join("maps/baseline/scene_000.npz").is_file() && !public_oracle.path().join("maps/baseline/scene_001.npz").exists());
+    assert!(public_oracle.path().join("maps/baseline/scene_001.npz").is_file() && !public_oracle.path().join(format!("maps/baseline/{test}.npz")).exists());
 
     if backend == Backend::Sqlite {
         // The published config, rebuilt without the secret, is refused; with another secret
-        // it builds the same val scene and another test room.
+        // it builds the same val scene and other test rooms.
         let rebuild = tempfile::tempdir().unwrap();
         let published = rebuild.path().join("published.toml");
         std::fs::write(&published, manifest["generator"]["config"].as_str().unwrap()).unwrap();
@@ -105,9 +142,11 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
         assert!(!refused.status.success() && said(&refused).contains("OSMAB_SPLIT_SECRET"), "{}", said(&refused));
         let guess = rebuild.path().join("guess");
         assert!(build(&published, &guess, Some("a-guess-at-the-secret-1234")).status.success());
-        let depth = |root: &Path, scene: &str| std::fs::read(root.join(format!("sequences/baseline/{scene}/traj.txt"))).unwrap();
-        assert_eq!(depth(&guess, "scene_000"), depth(public.path(), "scene_000"), "the val scene is rebuilt exactly");
-        assert_ne!(depth(&guess, "scene_001"), depth(public.path(), "scene_001"), "the test scene is not");
+        let traj = |root: &Path, scene: &str| std::fs::read(root.join(format!("sequences/baseline/{scene}/traj.txt"))).unwrap();
+        assert_eq!(traj(&guess, VAL_SCENE), traj(public.path(), VAL_SCENE), "the val scene is rebuilt exactly");
+        for test in TEST_SCENES {
+            assert_ne!(traj(&guess, test), traj(public.path(), test), "{test} is not");
+        }
     }
 
     // Quotas, shown before uploading: test is the default split.
@@ -128,33 +167,73 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     assert!(offline.status.success() && text.contains("Valid for the test split") && text.contains("Scored the val split"), "{text}");
     assert!(text.contains("baseline: pooled mIoU 100.0") && text.contains("test split's ground truth is hidden"), "{text}");
 
-    // One archive to each split: two submissions, each scored on its split's scenes.
+    // Answers of a test scene are refused: its questions are hidden, the server answers them.
+    let with_answers = baseline_dir_of(split_release(), "oracle");
+    let answers = with_answers.path().join(format!("answers/baseline/{test}.json"));
+    std::fs::create_dir_all(answers.parent().unwrap()).unwrap();
+    std::fs::write(&answers, r#"[{"question_id": "q", "answer": "Yes"}]"#).unwrap();
+    let refused = problem(server.upload(&token, &tar_of(with_answers.path()), "?split=test&dry_run=true"), 422, "invalid_submission");
+    assert!(refused.to_string().contains(&format!("{test} is a test scene")) && refused.to_string().contains("answers/ is for val scenes only"), "{refused}");
+
+    // One archive to each split, with one idempotency key: two submissions (the key is
+    // scoped by split), each scored on its split's scenes.
     let archive = tar_of(oracle.path());
-    let to_val = server.upload(&token, &archive, "?split=val");
+    let keyed = |query: &str| {
+        server
+            .post(&format!("/api/v1/submissions{query}"))
+            .bearer_auth(&token)
+            .header("content-type", "application/x-tar")
+            .header("idempotency-key", "one-key-for-both-splits")
+            .body(archive.clone())
+            .send()
+            .unwrap()
+    };
+    let to_val = keyed("?split=val");
     assert_eq!(to_val.status(), 202);
     let to_val: Value = to_val.json().unwrap();
     assert_eq!((to_val["split"].as_str(), to_val["quota"]["remaining"].as_i64()), (Some("val"), Some(2)), "{to_val}");
-    let to_test = server.upload(&token, &archive, "");
-    assert_eq!(to_test.status(), 202, "the same archive to the other split is a new submission");
+    let to_test = keyed("");
+    assert_eq!(to_test.status(), 202, "the same archive and key to the other split is a new submission");
     let to_test: Value = to_test.json().unwrap();
+    assert_ne!(to_test["id"], to_val["id"]);
     assert_eq!((to_test["split"].as_str(), to_test["quota"]["remaining"].as_i64()), (Some("test"), Some(0)), "{to_test}");
-    for (answer, scene) in [(&to_val, "scene_000"), (&to_test, "scene_001")] {
-        let done = server.wait_done(answer["id"].as_str().unwrap(), &token);
-        assert_eq!(done["state"], "scored", "{done}");
-        let scenes: Vec<&String> = done["scores"]["semseg"]["baseline"]["scenes"].as_object().unwrap().keys().collect();
-        assert_eq!(scenes, [scene], "scored on its split's scenes only");
-        assert_eq!((done["split"].as_str(), done["scores"]["split"].as_str()), (answer["split"].as_str(), answer["split"].as_str()));
-        // Per question, the answer given and whether it was right (and per scene, how many):
-        // shown for val, never for test (the oracle's results document would list the
-        // hidden answers), public or not; the pooled accuracies are there for both.
+    assert_eq!(keyed("").status(), 200, "the key again to test is the test submission's repeat");
+    for answer in [&to_val, &to_test] {
         let id = answer["id"].as_str().unwrap();
+        let done = server.wait_done(id, &token);
+        assert_eq!(done["state"], "scored", "{done}");
+        assert_eq!((done["split"].as_str(), done["scores"]["split"].as_str()), (answer["split"].as_str(), answer["split"].as_str()));
         let results: Value = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().json().unwrap();
-        for document in [&done["scores"], &results] {
-            assert!(document["vqa"]["lightings"]["baseline"]["overall"]["total"].as_u64().unwrap() > 0, "{}", document["vqa"]);
-            let listed = document["vqa"]["scenes"]["baseline"][scene]["answers"].as_array().map_or(0, Vec::len);
-            assert_eq!(listed > 0, scene == "scene_000", "{scene}: {listed} answers listed");
-            assert_eq!(document["vqa"].get("scenes").is_some(), scene == "scene_000");
+        let receipt: Value = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().json().unwrap();
+        if answer["split"] == "val" {
+            // Val: everything, per scene and question, per lighting.
+            let scenes: Vec<&String> = done["scores"]["semseg"]["baseline"]["scenes"].as_object().unwrap().keys().collect();
+            assert_eq!(scenes, [VAL_SCENE], "scored on its split's scenes only");
+            for document in [&done["scores"], &results] {
+                assert!(document["vqa"]["lightings"]["baseline"]["overall"]["total"].as_u64().unwrap() > 0, "{}", document["vqa"]);
+                assert!(document["vqa"]["scenes"]["baseline"][VAL_SCENE]["answers"].as_array().is_some_and(|a| !a.is_empty()));
+            }
+            continue;
         }
+        // Test: no number that depends on fewer than five test scenes, published or private —
+        // no per-scene rows, no replicates, no subset of three or two scenes, VQA over all
+        // lightings only (a cell per lighting lets one submission try four answer sets).
+        for document in [&done["scores"], &results] {
+            let baseline = &document["semseg"]["baseline"];
+            assert!(baseline.get("scenes").is_none() && baseline.get("bootstrap_miou").is_none(), "{baseline}");
+            assert_eq!(baseline["pooled"], 5, "{baseline}");
+            assert!(baseline["overall"]["miou"].as_f64().unwrap() > 0.99, "the oracle's pooled score is shown");
+            assert_eq!(baseline["subsets"], json!({}), "three furniture and two manipuland scenes: no subset is shown");
+            let vqa = &document["vqa"];
+            assert_eq!(vqa["lightings"], json!({}), "{vqa}");
+            assert!(vqa.get("scenes").is_none());
+            assert_eq!(vqa["all_lightings"]["overall"]["scenes"], 5, "{vqa}");
+            assert_eq!(vqa["all_lightings"]["subsets"], json!({}));
+            assert_eq!(document["withheld"]["min_scenes"], 5);
+        }
+        assert!(receipt["receipt"]["summary"].get("vqa").is_none() && receipt["receipt"]["summary"]["vqa_all_lightings"].is_number(), "{receipt}");
+        let page = server.get(&format!("/submissions/{id}")).send().unwrap().text().unwrap();
+        assert!(page.contains("id=\"withheld\"") && !page.contains(&format!("<td>{test}</td>")), "the page shows no test scene's row");
     }
 
     // The test quota is used: refused with problem+json and Retry-After; dry runs stay free.
@@ -198,3 +277,104 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
 }
 
 on_both_backends!(a_test_split_release_hides_its_ground_truth_and_ranks_each_split_apart, super::a_test_split_keeps_its_ground_truth_on_the_server);
+
+/// A sequence archive packed from the whole sequence folder (what imports did before
+/// archives followed the manifest): the test scene's semantic frames included.
+fn archive_of_the_whole_folder(lighting: &str, scene: &str, out: &Path) -> (u64, String) {
+    let sequence = split_release().join("sequences").join(lighting).join(scene);
+    osmab_evaluator::submission::pack_directory_as(&sequence, &format!("sequences/{lighting}/{scene}/"), out).unwrap();
+    let bytes = std::fs::read(out).unwrap();
+    (bytes.len() as u64, super::sha256_hex(&bytes))
+}
+
+/// Record in `database_url` that the archive `path` of `version` is `size` bytes with
+/// `sha256`, as an import before the rule recorded it (release_files and the served manifest).
+fn record_archive(database_url: &str, version: &str, path: &str, size: u64, sha256: &str) {
+    super::block_on(async {
+        let sql = ["UPDATE release_files SET size = $3, sha256 = $4 WHERE version = $1 AND path = $2", "SELECT manifest FROM releases WHERE version = $1"];
+        let manifest: String = if database_url.starts_with("sqlite") {
+            let pool = sqlx::SqlitePool::connect(database_url).await.unwrap();
+            sqlx::query(sql[0]).bind(version).bind(path).bind(size as i64).bind(sha256).execute(&pool).await.unwrap();
+            let (manifest,): (String,) = sqlx::query_as(sql[1]).bind(version).fetch_one(&pool).await.unwrap();
+            pool.close().await;
+            manifest
+        } else {
+            let pool = sqlx::PgPool::connect(database_url).await.unwrap();
+            sqlx::query(sql[0]).bind(version).bind(path).bind(size as i64).bind(sha256).execute(&pool).await.unwrap();
+            let (manifest,): (String,) = sqlx::query_as(sql[1]).bind(version).fetch_one(&pool).await.unwrap();
+            pool.close().await;
+            manifest
+        };
+        let mut manifest: Value = serde_json::from_str(&manifest).unwrap();
+        for archive in manifest["archives"].as_array_mut().unwrap() {
+            if archive["path"] == path {
+                archive["size"] = json!(size);
+                archive["sha256"] = json!(sha256);
+            }
+        }
+        let text = serde_json::to_string_pretty(&manifest).unwrap();
+        let update = "UPDATE releases SET manifest = $2 WHERE version = $1";
+        if database_url.starts_with("sqlite") {
+            let pool = sqlx::SqlitePool::connect(database_url).await.unwrap();
+            sqlx::query(update).bind(version).bind(&text).execute(&pool).await.unwrap();
+            pool.close().await;
+        } else {
+            let pool = sqlx::PgPool::connect(database_url).await.unwrap();
+            sqlx::query(update).bind(version).bind(&text).execute(&pool).await.unwrap();
+            pool.close().await;
+        }
+    });
+}
+
+fn an_archive_that_holds_more_than_its_manifest_is_refused_by_the_client_and_repacked_at_start(backend: Backend) {
+    let deployment = Deployment::new(backend, &[]);
+    let version = "e2e-split-1";
+    let (test, lighting) = (TEST_SCENES[0], "baseline");
+    let path = format!("archives/sequences/{lighting}/{test}.tar");
+    let server = deployment.serve();
+    let request = server.post("/api/v1/admin/releases/import").timeout(std::time::Duration::from_secs(600));
+    assert_eq!(server.admin(request.json(&json!({"path": split_release(), "publish": true}))).status(), 201);
+    let healthy: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
+    let healthy_archive = healthy["archives"].as_array().unwrap().iter().find(|a| a["path"] == path.as_str()).unwrap().clone();
+
+    // An import from before the rule: the archive packed from the folder, semantic frames and all.
+    let blob = deployment.data.path().join("blobs/releases").join(version).join(&path);
+    let (size, sha256) = archive_of_the_whole_folder(lighting, test, &blob);
+    assert!(size > healthy_archive["size"].as_u64().unwrap());
+    let database_url = deployment.env.iter().find(|(k, _)| k == "DATABASE_URL").map(|(_, v)| v.clone()).unwrap();
+    record_archive(&database_url, version, &path, size, &sha256);
+
+    // The client checks an archive against the manifest before unpacking it.
+    let token = server.team("Team Archive");
+    let home = tempfile::tempdir().unwrap();
+    let config = home.path().join("client.toml");
+    assert!(client(&config, &["login", "--url", &server.url, "--token", &token]).status.success());
+    let out = tempfile::tempdir().unwrap();
+    let args = ["download", "--scene", test, "--lighting", lighting, "--out", crate::path(out.path())];
+    let refused = client(&config, &args);
+    let text = said(&refused);
+    assert!(!refused.status.success() && text.contains("where the manifest lists") && text.contains("semantic"), "{text}");
+    assert!(!out.path().join(format!("sequences/{lighting}/{test}/results/semantic000000.png")).exists(), "nothing of it was unpacked");
+    drop(server);
+
+    // At start the server repacks it from the stored public files, and says so.
+    let server = deployment.serve();
+    let manifest: Value = server.get(&format!("/api/v1/releases/{version}/manifest.json")).send().unwrap().json().unwrap();
+    let archive = manifest["archives"].as_array().unwrap().iter().find(|a| a["path"] == path.as_str()).unwrap();
+    assert_eq!(archive, &healthy_archive, "the archive is the one a fresh import packs");
+    let served = server.get(&format!("/api/v1/releases/{version}/files/{path}")).send().unwrap().bytes().unwrap();
+    assert_eq!((served.len() as u64, super::sha256_hex(&served)), (archive["size"].as_u64().unwrap(), archive["sha256"].as_str().unwrap().to_string()));
+    let held = osmab_evaluator::submission::tar_file_names(&served[..], Path::new("archive")).unwrap();
+    assert!(!held.iter().any(|name| name.contains("semantic")), "{held:?}");
+    assert!(deployment.log("serve").contains("repacked"), "{}", deployment.log("serve"));
+    // The restarted server listens elsewhere: the client follows it, and the archive unpacks.
+    assert!(client(&config, &["login", "--url", &server.url, "--token", &token]).status.success());
+    let downloaded = client(&config, &args);
+    assert!(downloaded.status.success(), "{}", said(&downloaded));
+    assert!(out.path().join(format!("sequences/{lighting}/{test}/results/depth000000.png")).is_file());
+}
+
+on_both_backends!(
+    an_archive_holding_more_than_its_manifest_is_repacked_at_start,
+    super::an_archive_that_holds_more_than_its_manifest_is_refused_by_the_client_and_repacked_at_start
+);

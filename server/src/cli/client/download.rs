@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use anyhow::{Context, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use osmab_evaluator::submission::archive::{ArchiveLimits, unpack};
+use osmab_evaluator::submission::archive::{ArchiveLimits, tar_file_names, unpack};
 use serde::Deserialize;
 use serde_json::Value;
 use sha2::{Digest, Sha256};
@@ -208,8 +208,21 @@ fn remove_empty_folders(dir: &Path) {
     let _ = std::fs::remove_dir(dir);
 }
 
-/// Unpack a verified sequence archive and check every file it holds.
+/// Unpack a verified sequence archive, which must hold exactly the manifest's files of its
+/// sequence, and check every file it holds.
 fn unpack_sequence(archive: &Path, out: &Path, files: &[FileEntry]) -> anyhow::Result<()> {
+    let held = tar_file_names(std::fs::File::open(archive)?, archive).map_err(|e| anyhow!("{e}"))?;
+    let listed: BTreeSet<&str> = files.iter().map(|f| f.path.as_str()).collect();
+    let extra: Vec<&str> = held.iter().map(String::as_str).filter(|name| !listed.contains(name)).collect();
+    if !extra.is_empty() || held.len() != listed.len() {
+        bail!(
+            "{}: the archive holds {} files where the manifest lists {} for its sequence{}; the server's archive is out of date (tell the organisers: restarting the server repacks it)",
+            archive.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default(),
+            held.len(),
+            listed.len(),
+            if extra.is_empty() { String::new() } else { format!(" (not listed: {})", extra.iter().take(3).copied().collect::<Vec<_>>().join(", ")) }
+        );
+    }
     let staging_dir = tempfile::Builder::new().prefix(".osmab-unpack-").tempdir_in(out)?;
     let staging = staging_dir.path();
     let limits = ArchiveLimits { max_entries: files.len() + 64, max_total_bytes: files.iter().map(|f| f.size).sum::<u64>() + (1 << 20) };

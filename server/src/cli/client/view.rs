@@ -95,8 +95,12 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
     for (lighting, table) in &scores.semseg {
         let mut rows: Vec<Vec<String>> = table.scenes.iter().map(|(scene, m)| std::iter::once(scene.clone()).chain(cells(m)).collect()).collect();
         for aggregate in [Aggregate::OverallMean, Aggregate::Overall] {
-            let name = if aggregate == Aggregate::Overall { "pooled" } else { "mean over scenes" };
-            rows.push(std::iter::once(name.to_string()).chain(cells(table.aggregate(aggregate))).collect());
+            let name = match (aggregate, table.pooled) {
+                (Aggregate::Overall, _) => "pooled".to_string(),
+                (_, Some(n)) => format!("mean over {n} scenes"),
+                (_, None) => "mean over scenes".to_string(),
+            };
+            rows.push(std::iter::once(name).chain(cells(table.aggregate(aggregate))).collect());
         }
         println!("\nSegmentation, {lighting} (%)\n{}", table_text(&header, &rows));
     }
@@ -105,14 +109,19 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
         let rows: Vec<Vec<String>> = vqa
             .lightings
             .iter()
+            .map(|(l, v)| (l.to_string(), v))
+            .chain(std::iter::once(("all lightings".to_string(), &vqa.all_lightings)))
             .map(|(l, v)| {
-                std::iter::once(l.to_string())
+                std::iter::once(l)
                     .chain(crate::leaderboard::vqa::pairs().map(|(set, group)| pct(v.group_accuracy(set, group))))
                     .chain(std::iter::once(pct(v.overall.accuracy)))
                     .collect()
             })
             .collect();
         println!("\nQuestion answering, pooled accuracy (%)\n{}", table_text(&header, &rows));
+    }
+    if let Some(withheld) = &scores.withheld {
+        println!("\n{}", withheld.note);
     }
     Ok(())
 }
@@ -138,7 +147,8 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
         .enumerate()
         .map(|(i, e)| {
             let metric = |m| pct(e.metric(lighting, None, Aggregate::Overall, m));
-            let vqa = e.scores.vqa.as_ref().and_then(|v| v.lightings.get(&lighting));
+            // A test board pools VQA over every lighting (Scores::disclosed).
+            let vqa = e.scores.vqa.as_ref().and_then(|v| v.lightings.get(&lighting).or((board.split == Split::Test).then_some(&v.all_lightings)));
             let mut tags = Vec::new();
             if e.baseline {
                 tags.push("baseline");

@@ -267,7 +267,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         chart,
         csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
         json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
-        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset),
+        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split == Split::Test),
         ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
     }
 }

@@ -22,7 +22,10 @@ fn lighting_label(name: &str) -> String {
 pub struct SceneView {
     pub id: String,
     pub subset: String,
-    pub prompt: String,
+    /// `val` or `test`.
+    pub split: String,
+    /// The prompt (none for a test scene, which publishes none).
+    pub prompt: Option<String>,
     pub thumbnail: Option<String>,
 }
 
@@ -69,7 +72,8 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
             let frame = s["preview"].as_str().map(str::to_string).unwrap_or_else(|| format!("sequences/{thumbnail_lighting}/{id}/results/frame000000.jpg"));
             SceneView {
                 subset: s["subset"].as_str().unwrap_or("").to_string(),
-                prompt: s["prompt"].as_str().unwrap_or("").to_string(),
+                split: s["split"].as_str().unwrap_or("val").to_string(),
+                prompt: s["prompt"].as_str().map(str::to_string),
                 thumbnail: has(&frame).then(|| format!("/api/v1/releases/{version}/files/{frame}")),
                 id,
             }

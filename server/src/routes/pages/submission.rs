@@ -34,6 +34,8 @@ pub struct LightingResult {
     pub pooled_ci: Vec<String>,
     pub mean: Vec<String>,
     pub scenes: Vec<SceneResult>,
+    /// How many scenes the aggregates pool, where the rows are not shown (a test submission).
+    pub pooled_scenes: Option<usize>,
 }
 
 #[derive(Template, WebTemplate)]
@@ -60,6 +62,8 @@ pub struct SubmissionPage {
     pub results: Vec<LightingResult>,
     pub vqa: Vec<VqaLighting>,
     pub vqa_sources: String,
+    /// What the scores of a test submission leave out, in words.
+    pub withheld: Option<String>,
     pub evaluator_version: String,
     pub refresh: bool,
 }
@@ -89,6 +93,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
                 },
                 mean: cells(&table.overall_mean),
                 scenes: table.scenes.iter().map(|(scene, t)| SceneResult { scene: scene.clone(), cells: cells(t) }).collect(),
+                pooled_scenes: table.pooled,
             })
             .collect(),
         None => Vec::new(),
@@ -101,6 +106,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         results,
         vqa: submission_vqa(vqa, &order),
         vqa_sources: vqa_sources(vqa),
+        withheld: scores.and_then(|s| s.withheld.as_ref()).map(|w| w.note.clone()),
         evaluator_version: scores.map(|s| s.evaluator_version.clone()).unwrap_or_default(),
         id: view.id,
         team: view.team,

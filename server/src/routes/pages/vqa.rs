@@ -38,13 +38,45 @@ fn column_label(set: QuestionSet, group: QuestionGroup) -> String {
     format!("{} {short}", set.label())
 }
 
-/// The section for `entries` (in the page's order), over all scenes or one `subset`;
-/// `None` when no entry has VQA scores.
-pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>) -> Option<VqaView> {
+/// The lightings a VQA table has columns for: each of the release's, or (a test board,
+/// whose scores pool VQA over every lighting: `Scores::disclosed`) all of them at once.
+#[derive(Clone, Copy)]
+enum Columns {
+    Lighting(Lighting),
+    AllLightings,
+}
+
+impl Columns {
+    fn label(self) -> &'static str {
+        match self {
+            Columns::Lighting(l) => l.label(),
+            Columns::AllLightings => "All lightings",
+        }
+    }
+
+    fn short_label(self) -> &'static str {
+        match self {
+            Columns::Lighting(l) => l.short_label(),
+            Columns::AllLightings => "All",
+        }
+    }
+
+    fn accuracy(self, e: &Entry, subset: Option<Regime>, set: QuestionSet, group: QuestionGroup) -> Option<f64> {
+        match self {
+            Columns::Lighting(l) => accuracy(e, l, subset, set, group),
+            Columns::AllLightings => e.scores.vqa.as_ref()?.all_lightings.set_of(subset, set)?.group(group)?.accuracy,
+        }
+    }
+}
+
+/// The section for `entries` (in the page's order), over all scenes or one `subset`, per
+/// lighting or (`pooled`, a test board) over all lightings; `None` when no entry has VQA scores.
+pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>, pooled: bool) -> Option<VqaView> {
     let with_vqa: Vec<&Entry> = entries.iter().copied().filter(|e| e.scores.vqa.is_some()).collect();
     if with_vqa.is_empty() {
         return None;
     }
+    let groups: Vec<Columns> = if pooled { vec![Columns::AllLightings] } else { lightings.iter().map(|&l| Columns::Lighting(l)).collect() };
     let columns: Vec<(QuestionSet, QuestionGroup)> = pairs().collect();
     let rows = with_vqa
         .iter()
@@ -52,7 +84,7 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
             submission_id: e.submission_id.clone(),
             method: e.method.clone(),
             baseline: e.baseline,
-            cells: lightings.iter().flat_map(|&l| columns.iter().map(move |&(set, group)| percent(accuracy(e, l, subset, set, group)))).collect(),
+            cells: groups.iter().flat_map(|&g| columns.iter().map(move |&(set, group)| percent(g.accuracy(e, subset, set, group)))).collect(),
         })
         .collect();
     let charts = columns
@@ -60,11 +92,11 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
         .map(|&(set, group)| {
             BarChart {
                 title: format!("{} {group}", set.label()),
-                groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
-                group_titles: lightings.iter().map(|l| l.label().to_string()).collect(),
+                groups: groups.iter().map(|g| g.short_label().to_string()).collect(),
+                group_titles: groups.iter().map(|g| g.label().to_string()).collect(),
                 series: with_vqa
                     .iter()
-                    .map(|e| Series { name: e.method.clone(), values: lightings.iter().map(|&l| accuracy(e, l, subset, set, group)).collect() })
+                    .map(|e| Series { name: e.method.clone(), values: groups.iter().map(|&g| g.accuracy(e, subset, set, group)).collect() })
                     .collect(),
                 axis: Axis::Fraction,
                 size: Size::Small,
@@ -73,7 +105,7 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
         })
         .collect();
     Some(VqaView {
-        lighting_groups: lightings.iter().map(|l| (l.label(), columns.len())).collect(),
+        lighting_groups: groups.iter().map(|g| (g.label(), columns.len())).collect(),
         columns: columns.iter().map(|&(set, group)| column_label(set, group)).collect(),
         rows,
         charts,
@@ -102,14 +134,16 @@ fn category_row(name: String, cell: &Accuracy, group: bool) -> VqaCategoryRow {
     VqaCategoryRow { name, counts: format!("{} / {}", cell.correct, cell.total), accuracy: percent(cell.accuracy), interval: interval(cell.ci95), group }
 }
 
-/// Per lighting (in `lightings` order): each question set's groups, then its categories.
+/// Per lighting (in `lightings` order), then over all lightings: each question set's
+/// groups, then its categories (a test submission's are over all lightings only).
 pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting]) -> Vec<VqaLighting> {
     let Some(vqa) = vqa else { return Vec::new() };
     let none = Accuracy::default();
     lightings
         .iter()
-        .filter_map(|l| Some((l, vqa.lightings.get(l)?)))
-        .map(|(l, at)| {
+        .filter_map(|l| Some((l.label(), vqa.lightings.get(l)?)))
+        .chain(std::iter::once(("All lightings", &vqa.all_lightings)))
+        .map(|(label, at)| {
             let mut rows = Vec::new();
             for set in QuestionSet::ALL {
                 let scores = at.set(set);
@@ -120,7 +154,7 @@ pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting]) -> Vec<Vq
                     rows.push(category_row(category.clone(), cell, false));
                 }
             }
-            VqaLighting { label: l.label(), rows }
+            VqaLighting { label, rows }
         })
         .collect()
 }

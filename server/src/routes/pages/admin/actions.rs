@@ -56,6 +56,8 @@ struct RegenerateForm {
     /// Checkboxes: present ("on") when ticked.
     publish: Option<String>,
     baselines: Option<String>,
+    /// Build even what would be an existing release under another name.
+    identical: Option<String>,
 }
 
 impl FormWithToken for RegenerateForm {
@@ -72,7 +74,7 @@ pub async fn regenerate(State(state): State<AppState>, session: AdminSession, he
         Err(refused) => return refused,
     };
     let config = Some(form.config.replace("\r\n", "\n")).filter(|c| !c.trim().is_empty());
-    match admin::queue_release_build(&state, config, form.publish.is_some(), form.baselines.is_some()).await {
+    match admin::queue_release_build(&state, config, form.publish.is_some(), form.baselines.is_some(), form.identical.is_some()).await {
         Ok((job, _)) => Redirect::to(&format!("/admin/jobs/{job}")).into_response(),
         Err(problem) => AdminMessage::problem(problem),
     }

@@ -1,0 +1,286 @@
+//! The odds of a question's answer before any scene is seen: every prompt of the release's
+//! pool placed as the synthesizer places it (no rendering), and each question form's answer
+//! read off those layouts with the very test that decides whether it is asked
+//! ([`super::facts::SceneFacts::truth`]). The pool follows from the published config, so
+//! anyone can compute these odds; the questions are drawn so that they tell nothing
+//! ([`super::draw`]): a question whose answer the odds make likely is asked that much less.
+
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
+
+use osmab_evaluator::synthetic::Rng;
+use osmab_evaluator::vqa::QuestionForm;
+
+use super::facts::{SceneFacts, oracle_scene_graph};
+use super::{SceneObject, object_id};
+use crate::convert::lexicon::normalise_name;
+use crate::prompts::{PromptPool, ScenePrompt};
+use crate::spec::Regime;
+use crate::synthesis::placement::{Layout, place};
+
+/// Layouts of the same room at least, before a room's own odds count fully.
+const ROOM_WEIGHT: f64 = 1.0;
+
+/// One simulated scene: its room, subset, objects and the oracle's graph of them.
+struct Simulated {
+    room: String,
+    regime: Regime,
+    objects: Vec<SceneObject>,
+    graph: osmab_evaluator::vqa::graph::SceneGraph,
+}
+
+/// Every prompt of a pool placed as the built-in synthesizer places it: what
+/// [`QuestionPriors`] reads its odds from.
+pub struct PoolLayouts {
+    scenes: Vec<Simulated>,
+}
+
+/// Fresh placements of each prompt beside its own layout: test scenes (and later placements
+/// of val scenes) are placed afresh from other seeds, so the odds see those layouts too.
+const FRESH_PLACEMENTS: usize = 3;
+
+impl PoolLayouts {
+    /// Every accepted prompt of `pools` placed as a val scene is (from its layout seed, when
+    /// it has one) and [`FRESH_PLACEMENTS`] times afresh, honouring every relation, as a
+    /// test scene is (from seeds derived from `seed`).
+    pub fn place(pools: &[PromptPool], seed: u64) -> Self {
+        let mut rng = Rng::new(seed ^ 0x5052_494f_5253);
+        let mut scenes = Vec::new();
+        for prompt in pools.iter().flat_map(|pool| pool.accepted.iter()) {
+            let fresh = || ScenePrompt { layout_seed: None, ..prompt.clone() };
+            let mut layouts = vec![placed(prompt, rng.next_u64())];
+            layouts.extend((0..FRESH_PLACEMENTS).map(|_| placed(&fresh(), rng.next_u64())));
+            for layout in layouts {
+                let objects = layout_objects(&layout);
+                scenes.push(Simulated { room: prompt.spec.room.clone(), regime: prompt.spec.regime, graph: oracle_scene_graph(&objects), objects });
+            }
+        }
+        PoolLayouts { scenes }
+    }
+
+    /// No layouts at all: every yes/no question is even odds.
+    pub fn none() -> Self {
+        PoolLayouts { scenes: Vec::new() }
+    }
+}
+
+/// One layout's facts, with its room and subset.
+struct LayoutFacts<'a> {
+    room: &'a str,
+    regime: Regime,
+    facts: SceneFacts<'a>,
+}
+
+/// The odds of every question form, per room, from the layouts of a prompt pool.
+pub struct QuestionPriors<'a> {
+    layouts: Vec<LayoutFacts<'a>>,
+    lexicon: &'a [String],
+    memo: RefCell<HashMap<(String, Regime, String), f64>>,
+}
+
+/// The objects of a layout as the question generator sees a rendered scene's (every one
+/// seen, y up, resting on its host or the floor; no colour: colours are drawn evenly).
+pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
+    let ids: BTreeMap<&str, String> = layout.objects.iter().enumerate().map(|(k, o)| (o.object_id.as_str(), object_id(k as i64 + 1))).collect();
+    layout
+        .objects
+        .iter()
+        .enumerate()
+        .filter_map(|(k, o)| {
+            let label = normalise_name(&o.category).filter(|c| !super::STRUCTURAL.contains(c))?.to_string();
+            let ([x0, y0], [x1, y1]) = o.footprint();
+            let height = o.asset.size[2];
+            // Drake (x, y, z) is Habitat's (x, z, −y).
+            let center = [(x0 + x1) / 2.0, o.position[2] + height / 2.0, -(y0 + y1) / 2.0];
+            let extent = [x1 - x0, height, y1 - y0];
+            let rests_on = match &o.host {
+                Some(host) if o.position[2] > 0.01 => ids.get(host.as_str()).cloned(),
+                _ => Some("floor".to_string()),
+            };
+            Some(SceneObject {
+                id: object_id(k as i64 + 1),
+                caption: format!("a {label}"),
+                label,
+                bbox_center: center,
+                bbox_extent: extent,
+                points: 1000,
+                colour: None,
+                rests_on,
+            })
+        })
+        .collect()
+}
+
+/// A prompt placed as the built-in synthesizer places it.
+fn placed(prompt: &ScenePrompt, seed: u64) -> Layout {
+    match prompt.layout_seed {
+        Some(layout_seed) => place(&prompt.spec.primary_only(), layout_seed),
+        None => place(&prompt.spec, seed),
+    }
+}
+
+impl<'a> QuestionPriors<'a> {
+    /// The odds read off `layouts`.
+    pub fn new(layouts: &'a PoolLayouts, lexicon: &'a [String]) -> Self {
+        let layouts =
+            layouts.scenes.iter().map(|s| LayoutFacts { room: &s.room, regime: s.regime, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) }).collect();
+        QuestionPriors { layouts, lexicon, memo: RefCell::new(HashMap::new()) }
+    }
+
+    /// How many layouts the odds come from.
+    pub fn layouts(&self) -> usize {
+        self.layouts.len()
+    }
+
+    /// (answered yes, settled) over the layouts `which` admits, each asked what `forms`
+    /// makes of it (one form, or every form of a family).
+    fn tally(&self, which: impl Fn(&LayoutFacts) -> bool, forms: impl Fn(&SceneFacts) -> Vec<QuestionForm>) -> (f64, f64) {
+        let (mut yes, mut settled) = (0.0, 0.0);
+        for layout in self.layouts.iter().filter(|s| which(s)) {
+            let facts = &layout.facts;
+            for form in forms(facts) {
+                if let Some(answer) = facts.truth(&form) {
+                    settled += 1.0;
+                    yes += f64::from(u8::from(answer == "Yes" || (matches!(form, QuestionForm::Count { .. }) && answer != "0")));
+                }
+            }
+        }
+        (yes, settled)
+    }
+
+    fn memoised(&self, key: (String, Regime, String), odds: impl FnOnce() -> f64) -> f64 {
+        if let Some(&p) = self.memo.borrow().get(&key) {
+            return p;
+        }
+        let p = odds();
+        self.memo.borrow_mut().insert(key, p);
+        p
+    }
+
+    /// The odds that `form`'s answer is "Yes" (a count's is not zero) in a scene of `room`
+    /// (of `regime`), among the layouts where it is asked at all: the room's own layouts,
+    /// drawn towards the odds over the whole subset where it has few, and those towards
+    /// the odds of the form's family ([`QuestionPriors::family_odds`]).
+    pub fn yes_odds(&self, room: &str, regime: Regime, form: &QuestionForm) -> f64 {
+        let key = (room.to_string(), regime, serde_json::to_string(form).expect("serialisable"));
+        self.memoised(key, || {
+            let family = self.family_odds(regime, form);
+            let (yes_subset, n_subset) = self.tally(|s| s.regime == regime, |_| vec![form.clone()]);
+            let subset = (yes_subset + ROOM_WEIGHT * family) / (n_subset + ROOM_WEIGHT);
+            let (yes_room, n_room) = self.tally(|s| s.regime == regime && s.room == room, |_| vec![form.clone()]);
+            (yes_room + ROOM_WEIGHT * subset) / (n_room + ROOM_WEIGHT)
+        })
+    }
+
+    /// The odds of the family a form belongs to, over the subset's layouts: what is known of
+    /// a form the layouts never settle (two classes that never meet in a pool's room) —
+    /// resting on the same support, being the nearest of the same class, the same relation
+    /// to the same class, any pair's sizes as the asset library makes them, two classes'
+    /// presence taken apart.
+    fn family_odds(&self, regime: Regime, form: &QuestionForm) -> f64 {
+        let key = (String::from("(family)"), regime, family_key(form));
+        self.memoised(key, || {
+            let subset = |s: &LayoutFacts| s.regime == regime;
+            let (yes, n) = match form {
+                QuestionForm::Exists { .. } | QuestionForm::Count { .. } => {
+                    self.tally(subset, |_| self.lexicon.iter().map(|c| QuestionForm::Exists { class: c.clone() }).collect())
+                }
+                QuestionForm::ExistsAll { classes } | QuestionForm::ExistsAny { classes } => {
+                    let each: Vec<f64> = classes.iter().map(|c| self.family_free_presence(regime, c)).collect();
+                    let p = match form {
+                        QuestionForm::ExistsAll { .. } => each.iter().product(),
+                        _ => 1.0 - each.iter().map(|p| 1.0 - p).product::<f64>(),
+                    };
+                    return p;
+                }
+                QuestionForm::LargerThan { a, b } => return library_larger_odds(a, b),
+                QuestionForm::RestsOn { support, .. } => self.tally(subset, |facts| {
+                    facts.singles().into_iter().map(|x| QuestionForm::RestsOn { class: x.label.clone(), support: support.clone() }).collect()
+                }),
+                QuestionForm::NearestIs { nearest, .. } => self.tally(subset, |facts| {
+                    facts.singles().into_iter().map(|x| QuestionForm::NearestIs { class: x.label.clone(), nearest: nearest.clone() }).collect()
+                }),
+                QuestionForm::Related { relation, object, .. } => self.tally(subset, |facts| {
+                    facts.classes().map(|s| QuestionForm::Related { subject: s.to_string(), relation: *relation, object: object.clone() }).collect()
+                }),
+                QuestionForm::MoreThan { .. } => self.tally(subset, |facts| {
+                    let classes: Vec<&str> = facts.classes().collect();
+                    classes
+                        .iter()
+                        .flat_map(|a| {
+                            classes.iter().filter(move |b| *b != a).map(move |b| QuestionForm::MoreThan { more: a.to_string(), fewer: b.to_string() })
+                        })
+                        .collect()
+                }),
+                _ => (0.0, 0.0),
+            };
+            (yes + 1.0) / (n + 2.0)
+        })
+    }
+
+    /// The odds of `class` being in a scene of the subset (no room, no family).
+    fn family_free_presence(&self, regime: Regime, class: &str) -> f64 {
+        let (yes, n) = self.tally(|s| s.regime == regime, |_| vec![QuestionForm::Exists { class: class.to_string() }]);
+        (yes + 0.5) / (n + 1.0)
+    }
+
+    /// The odds that a scene of `room` has `class` (a count question's answer is not zero).
+    pub fn presence_odds(&self, room: &str, regime: Regime, class: &str) -> f64 {
+        self.yes_odds(room, regime, &QuestionForm::Exists { class: class.to_string() })
+    }
+}
+
+/// What identifies a form's family (see [`QuestionPriors::family_odds`]).
+fn family_key(form: &QuestionForm) -> String {
+    match form {
+        QuestionForm::Exists { .. } | QuestionForm::Count { .. } => "presence".into(),
+        QuestionForm::RestsOn { support, .. } => format!("rests on {support}"),
+        QuestionForm::NearestIs { nearest, .. } => format!("nearest is {nearest}"),
+        QuestionForm::Related { relation, object, .. } => format!("{} {object}", relation.words()),
+        other => serde_json::to_string(other).expect("serialisable"),
+    }
+}
+
+/// The odds that the asset library makes an `a` clearly larger than a `b`, among pairs of
+/// its assets that differ clearly (sixteen of each, drawn alike every time).
+fn library_larger_odds(a: &str, b: &str) -> f64 {
+    use crate::synthesis::library::make_asset;
+    let volumes = |class: &str| -> Vec<f64> {
+        let mut rng = Rng::new(0x5a5a_0001);
+        (0..16).filter_map(|_| make_asset(class, &mut rng)).map(|asset| asset.size.iter().product()).collect()
+    };
+    let (va, vb) = (volumes(a), volumes(b));
+    let (mut larger, mut clear) = (0.0, 0.0);
+    for x in &va {
+        for y in &vb {
+            if x / y >= super::facts::CLEARLY_LARGER {
+                larger += 1.0;
+                clear += 1.0;
+            } else if y / x >= super::facts::CLEARLY_LARGER {
+                clear += 1.0;
+            }
+        }
+    }
+    (larger + 0.5) / (clear + 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn odds_follow_the_pool_s_rooms() {
+        let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
+        let pools = [crate::prompts::grammar_pool(Regime::Furniture, 120, 3)];
+        let layouts = PoolLayouts::place(&pools, 1);
+        let priors = QuestionPriors::new(&layouts, &lexicon);
+        assert_eq!(priors.layouts(), 120 * 4);
+        let dining = pools[0].accepted.iter().find(|p| p.spec.room == "dining room").map(|p| p.spec.room.clone()).expect("a dining room in 120");
+        let table = priors.presence_odds(&dining, Regime::Furniture, "dining table");
+        let bed = priors.presence_odds(&dining, Regime::Furniture, "bed");
+        assert!(table > 0.8 && bed < 0.2, "a dining room has its table ({table}) and no bed ({bed})");
+        let no_layouts = PoolLayouts::none();
+        let none = QuestionPriors::new(&no_layouts, &lexicon);
+        assert_eq!(none.presence_odds(&dining, Regime::Furniture, "bed"), 0.5, "without layouts, even odds");
+    }
+}

@@ -1,0 +1,233 @@
+//! `osmab bench questions`: how much of a release's hidden answers follows from public text.
+//! Text-only predictors, each seeing only what the public release and its published config
+//! give (the val scenes' questions with their answers, the subsets, the question texts,
+//! and the prompt pool the config rebuilds), answer the test scenes' questions as if they
+//! were published; each template's accuracy is set against the accuracy of always giving
+//! the template's majority answer. A question design that tells nothing keeps every
+//! predictor at that majority (docs/vqa.md, "Questions that tell nothing").
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use osmab_dataset::prompts::PromptPool;
+use osmab_dataset::questions::priors::{PoolLayouts, QuestionPriors};
+use osmab_evaluator::scores::{Regime, Split};
+use osmab_evaluator::submission::release::ReleaseIndex;
+use osmab_evaluator::vqa::{Question, QuestionForm, SceneQuestions};
+use serde::Serialize;
+
+/// What each predictor got right of one template's questions.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct TemplateTally {
+    pub questions: usize,
+    /// Always the majority answer of the template's test questions themselves.
+    pub majority: usize,
+    /// Always the majority answer of the template's val questions.
+    pub val_majority: usize,
+    /// The val answers of the same form (or the same template and first class), else the val majority.
+    pub val_lookup: usize,
+    /// The odds of the prompt pool's simulated layouts (the generator's own priors): yes
+    /// where they favour yes, zero where a class is more likely absent.
+    pub pool_odds: usize,
+}
+
+/// A question's template: its category and the kind of its form.
+fn template(q: &Question) -> String {
+    format!("{} / {}", q.category, q.form.as_ref().map_or("free", QuestionForm::kind))
+}
+
+/// The first class a form names (what a lookup by class keys on).
+fn first_class(form: &QuestionForm) -> String {
+    let value = serde_json::to_value(form).expect("serialisable");
+    ["class", "subject", "more", "a"].iter().find_map(|k| value.get(k).and_then(|v| v.as_str()).map(str::to_string)).unwrap_or_default()
+}
+
+/// The room a question's text names (`… in the dining room?`), if any.
+fn room_of(text: &str) -> Option<String> {
+    let rest = text.rsplit_once(" in the ")?.1.trim_end_matches('?');
+    (rest != "scene").then(|| rest.to_string())
+}
+
+/// The most frequent value of `values`, the first on ties.
+fn mode<'a>(values: impl Iterator<Item = &'a str>) -> Option<String> {
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for v in values {
+        *counts.entry(v).or_default() += 1;
+    }
+    counts.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0))).map(|(v, _)| v.to_string())
+}
+
+fn read_questions(release: &Path, scene: &str) -> anyhow::Result<SceneQuestions> {
+    let path = release.join("ground_truth/questions").join(format!("{scene}.json"));
+    SceneQuestions::read(&path).with_context(|| format!("{}: the answered questions (run on an operator's build, which keeps them)", path.display()))
+}
+
+/// The questions the current generator draws for `scene` (the `index`-th) of the build in
+/// `release`, from the scene's objects and prompt as the build kept them.
+fn regenerate(release: &Path, scene: &str, index: usize, seed: u64, lexicon: &[String], priors: &QuestionPriors) -> anyhow::Result<SceneQuestions> {
+    let objects_path = release.join("ground_truth/objects").join(format!("{scene}.json"));
+    let objects: serde_json::Value = serde_json::from_slice(&std::fs::read(&objects_path).with_context(|| objects_path.display().to_string())?)?;
+    let objects: Vec<osmab_dataset::questions::SceneObject> = serde_json::from_value(objects["objects"].clone())?;
+    let prompt_path = [release.join("scenes").join(scene).join("prompt.json"), release.join("ground_truth/scenes").join(scene).join("prompt.json")]
+        .into_iter()
+        .find(|p| p.is_file())
+        .with_context(|| format!("{scene}: no prompt.json in the build"))?;
+    let prompt: serde_json::Value = serde_json::from_slice(&std::fs::read(&prompt_path)?)?;
+    let spec: osmab_dataset::spec::SceneSpec = serde_json::from_value(prompt["spec"].clone())?;
+    Ok(osmab_dataset::questions::scene_questions(scene, &spec, &objects, lexicon, priors, seed.wrapping_add(index as u64)))
+}
+
+/// Run the predictors over the build in `release` (an operator's build folder: its
+/// `ground_truth/` and `.work/prompts/`); returns the tally per template. With
+/// `regenerate`, the questions are drawn anew by this binary's generator from the scenes'
+/// objects and prompts (to measure a change of the generator without rendering again), as
+/// `draws` independent draws of the test scenes' questions (the first is the build's own).
+pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow::Result<BTreeMap<String, TemplateTally>> {
+    let index = ReleaseIndex::read(release)?;
+    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(release.join("manifest.json"))?)?;
+    let seed = manifest["generator"]["seed"].as_u64().context("manifest.json: generator.seed")?;
+    let pools: Vec<PromptPool> = ["furniture", "manipuland"]
+        .iter()
+        .map(|r| -> anyhow::Result<PromptPool> {
+            let path = release.join(format!(".work/prompts/{r}.json"));
+            Ok(serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: the prompt pool the config rebuilds", path.display()))?)?)
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let lexicon: Vec<String> = osmab_dataset::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
+    let layouts = PoolLayouts::place(&pools, seed);
+    let priors = QuestionPriors::new(&layouts, &lexicon);
+    // How many of a class a prompt of each room states, when it states the class.
+    let mut stated: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();
+    for prompt in pools.iter().flat_map(|p| &p.accepted) {
+        let mut per_class: BTreeMap<&str, u32> = BTreeMap::new();
+        for o in &prompt.spec.objects {
+            if let Some(class) = osmab_dataset::questions::prompt::class_of(&o.category) {
+                *per_class.entry(class).or_default() += o.count;
+            }
+        }
+        for (class, n) in per_class {
+            stated.entry((prompt.spec.room.clone(), class.to_string())).or_default().push(n.to_string());
+            stated.entry((String::new(), class.to_string())).or_default().push(n.to_string());
+        }
+    }
+
+    let questions_of = |scene: &str, draw: u64| -> anyhow::Result<SceneQuestions> {
+        if regenerate_questions {
+            let position = index.scenes.iter().position(|s| s.id == scene).expect("a scene of the index");
+            regenerate(release, scene, position, seed.wrapping_add(draw << 32), &lexicon, &priors)
+        } else {
+            read_questions(release, scene)
+        }
+    };
+    let (val, test): (Vec<_>, Vec<_>) = index.scenes.iter().partition(|s| s.split == Split::Val);
+    anyhow::ensure!(!test.is_empty(), "{}: the release has no test scenes to measure", release.display());
+    let val_questions: Vec<Question> =
+        val.iter().map(|s| questions_of(&s.id, 0)).collect::<anyhow::Result<Vec<_>>>()?.into_iter().flat_map(|q| q.questions).collect();
+    let answer = |q: &Question| q.answer.clone().unwrap_or_default();
+    let val_majority = |t: &str| mode(val_questions.iter().filter(|q| template(q) == t).map(|q| q.answer.as_deref().unwrap_or("")));
+    let val_lookup = |q: &Question| {
+        let same_form = mode(val_questions.iter().filter(|v| v.form == q.form && v.category == q.category).map(|v| v.answer.as_deref().unwrap_or("")));
+        let form = q.form.as_ref();
+        let same_class = || {
+            mode(
+                val_questions
+                    .iter()
+                    .filter(|v| template(v) == template(q) && v.form.as_ref().map(first_class) == form.map(first_class))
+                    .map(|v| v.answer.as_deref().unwrap_or("")),
+            )
+        };
+        same_form.or_else(same_class).or_else(|| val_majority(&template(q)))
+    };
+
+    let mut test_questions: Vec<(Regime, Question)> = Vec::new();
+    for draw in 0..draws.max(1) {
+        for scene in &test {
+            test_questions.extend(questions_of(&scene.id, draw)?.questions.into_iter().map(|q| (scene.subset, q)));
+        }
+    }
+    let pool_odds = |regime: Regime, q: &Question| -> Option<String> {
+        let form = q.form.as_ref()?;
+        let room = room_of(&q.question).unwrap_or_default();
+        match form {
+            QuestionForm::Count { class } => {
+                if priors.presence_odds(&room, regime, class) < 0.5 {
+                    return Some("0".into());
+                }
+                let key = (room.clone(), class.clone());
+                let counts = stated.get(&key).or_else(|| stated.get(&(String::new(), class.clone())))?;
+                mode(counts.iter().map(String::as_str))
+            }
+            QuestionForm::Colour { .. } => None,
+            other => Some(if priors.yes_odds(&room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
+        }
+    };
+
+    let mut tallies: BTreeMap<String, TemplateTally> = BTreeMap::new();
+    let majorities: BTreeMap<String, Option<String>> = test_questions
+        .iter()
+        .map(|(_, q)| template(q))
+        .map(|t| {
+            let majority = mode(test_questions.iter().filter(|(_, q)| template(q) == t).map(|(_, q)| q.answer.as_deref().unwrap_or("")));
+            (t, majority)
+        })
+        .collect();
+    for (regime, q) in &test_questions {
+        let t = template(q);
+        let truth = answer(q);
+        let hit = |guess: Option<String>| usize::from(guess.is_some_and(|g| g.eq_ignore_ascii_case(&truth)));
+        let tally = tallies.entry(t.clone()).or_default();
+        tally.questions += 1;
+        tally.majority += hit(majorities[&t].clone());
+        tally.val_majority += hit(val_majority(&t));
+        tally.val_lookup += hit(val_lookup(q));
+        tally.pool_odds += hit(pool_odds(*regime, q).or_else(|| val_majority(&t)));
+    }
+    Ok(tallies)
+}
+
+/// `osmab bench questions --release DIR…`: the table over every build given, summed.
+pub fn run(releases: &[PathBuf], regenerate: bool, draws: u64, json: Option<&Path>) -> anyhow::Result<()> {
+    let mut total: BTreeMap<String, TemplateTally> = BTreeMap::new();
+    for release in releases {
+        for (t, tally) in measure(release, regenerate, draws)? {
+            let sum = total.entry(t).or_default();
+            sum.questions += tally.questions;
+            sum.majority += tally.majority;
+            sum.val_majority += tally.val_majority;
+            sum.val_lookup += tally.val_lookup;
+            sum.pool_odds += tally.pool_odds;
+        }
+    }
+    let pct = |k: usize, n: usize| if n == 0 { "—".to_string() } else { format!("{:.1}", 100.0 * k as f64 / n as f64) };
+    println!("| template (category / form) | test questions | majority % | val majority % | val lookup % | pool odds % |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    let mut all = TemplateTally::default();
+    for (t, x) in &total {
+        println!(
+            "| {t} | {} | {} | {} | {} | {} |",
+            x.questions,
+            pct(x.majority, x.questions),
+            pct(x.val_majority, x.questions),
+            pct(x.val_lookup, x.questions),
+            pct(x.pool_odds, x.questions)
+        );
+        all.questions += x.questions;
+        all.majority += x.majority;
+        all.val_majority += x.val_majority;
+        all.val_lookup += x.val_lookup;
+        all.pool_odds += x.pool_odds;
+    }
+    println!(
+        "| **all** | {} | {} | {} | {} | {} |",
+        all.questions,
+        pct(all.majority, all.questions),
+        pct(all.val_majority, all.questions),
+        pct(all.val_lookup, all.questions),
+        pct(all.pool_odds, all.questions)
+    );
+    if let Some(path) = json {
+        std::fs::write(path, serde_json::to_vec_pretty(&total)?)?;
+    }
+    Ok(())
+}

@@ -2,6 +2,7 @@
 //! structured specifications, diverse selection, and (in later stages) synthesis,
 //! conversion, rendering and releases. Knows nothing of the HTTP service.
 
+pub mod assets;
 pub mod baselines;
 pub mod convert;
 pub mod embedding;

@@ -1,5 +1,6 @@
 //! The dataset pipeline's specification, as tests.
 
+mod assets;
 mod convert;
 mod fake_service;
 mod prompts;

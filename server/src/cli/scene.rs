@@ -73,6 +73,12 @@ pub enum SceneCommand {
         #[arg(long, default_value_t = 20_000)]
         max_frames: usize,
     },
+    /// Check an asset pack (the forge's, or an operator's own): its catalogue, every file's
+    /// SHA-256 and every mesh against its entry; lists the classes it covers.
+    Assets {
+        /// The pack: catalogue.json and the files it lists.
+        pack: PathBuf,
+    },
     /// Convert a Drake/SceneSmith scene into a Habitat-style scene.
     Convert {
         /// The scene directory (package.xml, combined_house/house.dmd.yaml, ...).
@@ -161,6 +167,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Prompts(args) => prompts(&args),
         SceneCommand::Select(args) => selection(&args),
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
+        SceneCommand::Assets { pack } => check_assets(&pack),
         SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, pitch, goals, prompted, seed, max_frames } => {
             let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, camera_pitch_deg: pitch, ..Default::default() };
             if let Some((field, expectation)) = sensor.problem() {
@@ -320,6 +327,49 @@ fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[Stri
 }
 
 /// The scene of a converted directory (its single `scenes/*.scene_instance.json`).
+/// Open and inspect the pack at `root`, then print what it holds class by class.
+fn check_assets(root: &Path) -> anyhow::Result<()> {
+    let pack = osmab_dataset::assets::AssetPack::open(root)?;
+    let meshes = pack.inspect()?;
+    let mut classes: BTreeMap<&str, Vec<&osmab_dataset::assets::MeshFacts>> = BTreeMap::new();
+    for mesh in &meshes {
+        classes.entry(mesh.class.as_str()).or_default().push(mesh);
+    }
+    for (class, variants) in &classes {
+        let triangles: Vec<u64> = variants.iter().map(|m| m.triangles).collect();
+        let untextured = variants.iter().filter(|m| !m.textured).count();
+        let sources: std::collections::BTreeSet<&str> = pack.catalogue().variants(class).map(|e| e.source.as_str()).collect();
+        println!(
+            "{class}: {} variants, {}-{} triangles, {}; {}",
+            variants.len(),
+            triangles.iter().min().unwrap_or(&0),
+            triangles.iter().max().unwrap_or(&0),
+            if untextured == 0 { "all textured".to_string() } else { format!("{untextured} without a texture") },
+            sources.into_iter().collect::<Vec<_>>().join(", ")
+        );
+    }
+    for kind in [osmab_dataset::assets::ShellKind::Floor, osmab_dataset::assets::ShellKind::Wall] {
+        let names: Vec<&str> = pack.catalogue().shells_of(kind).map(|s| s.name.as_str()).collect();
+        println!("{kind:?} textures: {}", if names.is_empty() { "none".to_string() } else { names.join(", ") });
+    }
+    let missing: Vec<String> = osmab_dataset::convert::lexicon::classes()
+        .into_iter()
+        .map(|c| c.name)
+        .filter(|c| {
+            !classes.contains_key(c.as_str()) && osmab_dataset::synthesis::library::make_asset(c, &mut osmab_evaluator::synthetic::Rng::new(0)).is_some()
+        })
+        .collect();
+    println!(
+        "{}: {} meshes of {} classes, digest {}; classes without a mesh keep the built-in procedural asset: {}",
+        root.display(),
+        meshes.len(),
+        classes.len(),
+        pack.digest(),
+        if missing.is_empty() { "none".to_string() } else { missing.join(", ") }
+    );
+    Ok(())
+}
+
 fn scene_name(habitat: &Path) -> anyhow::Result<String> {
     let dir = habitat.join("scenes");
     let mut names: Vec<String> = std::fs::read_dir(&dir)

@@ -23,12 +23,18 @@ import json
 import logging
 import math
 import os
+import struct
 import sys
 import time
 import zlib
 from pathlib import Path
 
-import bpy  # first: bmesh and mathutils come with it
+# Infinigen's generated pictures (book covers, TV screens) depend on Python's string hashing:
+# the forge always runs with it fixed, so the same seeds give byte-identical files.
+if __name__ == "__main__" and os.environ.get("PYTHONHASHSEED") != "0":
+    os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, "PYTHONHASHSEED": "0"})
+
+import bpy  # noqa: E402 (first of Blender's: bmesh and mathutils come with it)
 import bmesh  # noqa: E402
 import numpy as np
 from mathutils import Matrix, Vector
@@ -40,7 +46,8 @@ import recipes  # noqa: E402
 GENERATOR = "infinigen 1.15.5, bpy 4.2.0"
 LICENSE = "BSD-3-Clause (Infinigen, Princeton University)"
 CATALOGUE_FORMAT = "osmab-assets/1"
-SEEDS_PER_VARIANT = 6  # seeds tried for a variant that fits
+SEEDS_PER_VARIANT = 6
+MIN_CLEAR_HEIGHT = 0.05  # free height above a support something can stand in, metres  # seeds tried for a variant that fits
 FRONTS = {"+y": 0.0, "-x": -90.0, "-y": 180.0, "+x": 90.0}  # degrees about z that turn a front to +y
 
 log = logging.getLogger("forge")
@@ -119,6 +126,13 @@ def normalise(obj, front, size_range):
     obj.data.transform(Matrix.Scale(scale, 4))
     obj.data.update()
     return scale
+
+
+def stand_centred(obj):
+    """Stand the object on z = 0, centred in x and y."""
+    lo, hi = bounds(obj)
+    obj.data.transform(Matrix.Translation(Vector((-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]))))
+    obj.data.update()
 
 
 def decimate(obj, budget):
@@ -313,6 +327,36 @@ def write_catalogue(path, pack):
     path.write_text(json.dumps(pack, indent=1) + "\n")
 
 
+def canonical_triangle_order(path):
+    """Rewrite the triangle lists of the GLB at `path` in one canonical order (each triangle
+    started at its smallest index, winding kept; triangles sorted): Blender's exporter lists
+    the same triangles in an order that varies between runs. Returns how many triangles the
+    GLB holds (the exporter drops degenerate ones, so it can be fewer than Blender counted)."""
+    data = bytearray(path.read_bytes())
+    json_length = struct.unpack_from("<I", data, 12)[0]
+    gltf = json.loads(data[20 : 20 + json_length])
+    binary = 20 + json_length + 8
+    types = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32}
+    triangles_total = 0
+    for mesh in gltf["meshes"]:
+        for primitive in mesh["primitives"]:
+            if "indices" not in primitive or primitive.get("mode", 4) != 4:
+                continue
+            accessor = gltf["accessors"][primitive["indices"]]
+            view = gltf["bufferViews"][accessor["bufferView"]]
+            start = binary + view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+            dtype = np.dtype(types[accessor["componentType"]])
+            count = accessor["count"]
+            triangles = np.frombuffer(bytes(data[start : start + count * dtype.itemsize]), dtype=dtype).reshape(-1, 3)
+            first = triangles.argmin(axis=1)
+            rotated = np.stack([np.roll(t, -k) for t, k in zip(triangles, first)]) if len(triangles) else triangles
+            ordered = rotated[np.lexsort(rotated.T[::-1])]
+            triangles_total += len(ordered)
+            data[start : start + count * dtype.itemsize] = ordered.astype(dtype).tobytes()
+    path.write_bytes(bytes(data))
+    return triangles_total
+
+
 def sha256(path):
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
@@ -380,6 +424,8 @@ def supports_of(obj):
                 front = bvh.ray_cast(Vector((x, y, height + 0.05)), Vector((0, 1, 0)), hi[1] - y + 0.05)
                 escapes += front[0] is None
             clear = min(above)
+            if clear < MIN_CLEAR_HEIGHT:
+                continue  # a surface right under another one: nothing can rest on it
             supports.append(
                 {
                     "height": round(height, 4),
@@ -486,6 +532,7 @@ def forge_variant(name, recipe, seed, size_range, budget, texture, out_dir, fron
     if shots is not None:
         shot(obj, shots / "original.png", "three_quarters")
     triangles = decimate(obj, budget)
+    stand_centred(obj)  # decimation may move the extreme vertices
     if triangles > 1.5 * budget:
         # Thousands of small islands (a woven seat) that collapsing cannot merge: another seed.
         log.info("%s seed %d: %d triangles after decimation, over 1.5 × the budget of %d", name, seed, triangles, budget)
@@ -547,6 +594,7 @@ def main():
                 obj, record = made_variant
                 path = out / "meshes" / f"{slug}-{variant}.glb"
                 export_glb(obj, path)
+                record["triangles"] = canonical_triangle_order(path)
                 source = "infinigen" if recipe != "composed" else "composed (infinigen materials)"
                 generator = f"{GENERATOR}: " + recipes.describe(recipe)
                 catalogue.append(

@@ -202,30 +202,20 @@ pub fn run(releases: &[PathBuf], regenerate: bool, draws: u64, json: Option<&Pat
     let pct = |k: usize, n: usize| if n == 0 { "—".to_string() } else { format!("{:.1}", 100.0 * k as f64 / n as f64) };
     println!("| template (category / form) | test questions | majority % | val majority % | val lookup % | pool odds % |");
     println!("|---|---:|---:|---:|---:|---:|");
+    let row = |label: &str, x: &TemplateTally| {
+        let cells = [x.majority, x.val_majority, x.val_lookup, x.pool_odds].map(|k| pct(k, x.questions));
+        println!("| {label} | {} | {} |", x.questions, cells.join(" | "));
+    };
     let mut all = TemplateTally::default();
     for (t, x) in &total {
-        println!(
-            "| {t} | {} | {} | {} | {} | {} |",
-            x.questions,
-            pct(x.majority, x.questions),
-            pct(x.val_majority, x.questions),
-            pct(x.val_lookup, x.questions),
-            pct(x.pool_odds, x.questions)
-        );
+        row(t, x);
         all.questions += x.questions;
         all.majority += x.majority;
         all.val_majority += x.val_majority;
         all.val_lookup += x.val_lookup;
         all.pool_odds += x.pool_odds;
     }
-    println!(
-        "| **all** | {} | {} | {} | {} | {} |",
-        all.questions,
-        pct(all.majority, all.questions),
-        pct(all.val_majority, all.questions),
-        pct(all.val_lookup, all.questions),
-        pct(all.pool_odds, all.questions)
-    );
+    row("**all**", &all);
     if let Some(path) = json {
         std::fs::write(path, serde_json::to_vec_pretty(&total)?)?;
     }

@@ -8,7 +8,7 @@ ConceptGraphs, BBQ, PyTorch nor OmegaConf has to be installed. Every array and t
 the bytes the file holds before it is read; a malformed file ends in one error line on stderr and exit
 status 1 (OSMAB_EXPORT_DEBUG=1 shows the traceback of an unexpected error).
 
-    python3 tools/osmab_export.py init --out SUB --release demo-1 --method "ConceptGraphs (ours)"
+    python3 tools/osmab_export.py init --out SUB --release demo-2 --method "ConceptGraphs (ours)"
     python3 tools/osmab_export.py conceptgraphs --map full_pcd_..._post.pkl.gz \\
         --scene-graph sg_cache/scene_graph.json --lighting baseline --scene scene_000 --out SUB
     python3 tools/osmab_export.py bbq --map baseline_scene_000_with_feats.pkl.gz \\

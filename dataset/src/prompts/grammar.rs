@@ -9,6 +9,7 @@ use osmab_evaluator::synthetic::Rng;
 use crate::spec::{ObjectKind, ObjectSpec, Regime, Relation, RelationKind, SceneSpec};
 use crate::synthesis::placement::{Layout, place};
 use crate::synthesis::relations::satisfied_by;
+use crate::synthesis::source::AssetSource;
 
 /// Where a companion goes, relative to the anchor or the room.
 #[derive(Clone, Copy)]
@@ -250,7 +251,7 @@ fn true_relations(layout: &Layout, spec: &SceneSpec, subject: &str, kinds: &[Rel
 
 /// Write one prompt of `regime` from `rng`: its text, its spec, the seed of the layout
 /// it describes, and the relations that layout fails (a prompt with any is not used).
-pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec, u64, Vec<String>) {
+pub fn write_prompt(regime: Regime, rng: &mut Rng, assets: &AssetSource) -> (String, SceneSpec, u64, Vec<String>) {
     let plan = pick(rng, PLANS);
     let anchor_count = count_in(rng, plan.anchor_counts);
     let mut objects = vec![ObjectSpec { category: plan.anchor.into(), count: anchor_count, kind: ObjectKind::Furniture }];
@@ -318,7 +319,7 @@ pub fn write_prompt(regime: Regime, rng: &mut Rng) -> (String, SceneSpec, u64, V
     // layout: the prompt states only what its scene will show.
     let layout_seed = rng.next_u64();
     let primary = SceneSpec { regime, room: plan.room.into(), objects: objects.clone(), relations: relations.clone() };
-    let layout = place(&primary, layout_seed);
+    let layout = place(&primary, layout_seed, assets);
     let mut spec = primary;
     if regime == Regime::Manipuland {
         let target = spec.objects.iter().find(|o| o.kind == ObjectKind::Manipuland).map(|o| (o.category.clone(), o.count));

@@ -117,8 +117,15 @@ pub fn judge(regime: Regime, candidates: impl IntoIterator<Item = ScenePrompt>) 
 }
 
 /// Write `count` prompts of `regime` with the built-in grammar from `seed`, keeping
-/// those that pass (at most `20 × count + 100` tries).
+/// those that pass (at most `20 × count + 100` tries), each describing a layout of the
+/// procedural library's assets.
 pub fn grammar_pool(regime: Regime, count: usize, seed: u64) -> PromptPool {
+    grammar_pool_with(regime, count, seed, &crate::synthesis::source::AssetSource::procedural())
+}
+
+/// [`grammar_pool`] with each prompt describing a layout of `assets`, the assets its scene
+/// will be synthesized from.
+pub fn grammar_pool_with(regime: Regime, count: usize, seed: u64, assets: &crate::synthesis::source::AssetSource) -> PromptPool {
     let mut rng = osmab_evaluator::synthetic::Rng::new(seed ^ (regime as u64 + 1).wrapping_mul(0x51_7C_C1_B7_27_22_0A_95));
     let mut judge = PromptJudge::new(regime);
     let mut pool = PromptPool { regime, accepted: Vec::new(), rejected: Vec::new() };
@@ -127,7 +134,7 @@ pub fn grammar_pool(regime: Regime, count: usize, seed: u64) -> PromptPool {
         if pool.accepted.len() == count {
             break;
         }
-        let (text, spec, layout_seed, unmet) = grammar::write_prompt(regime, &mut rng);
+        let (text, spec, layout_seed, unmet) = grammar::write_prompt(regime, &mut rng, assets);
         let id = format!("{}-{next:04}", regime.name());
         if !unmet.is_empty() {
             pool.rejected.push(RejectedPrompt { id, text, reasons: vec![Rejection::UnplaceableLayout], details: unmet });

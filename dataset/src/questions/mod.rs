@@ -130,7 +130,10 @@ pub fn scene_objects(report: &ConversionReport, instances: &BTreeMap<i64, Instan
         .filter(|o| !STRUCTURAL.contains(&o.class.as_str()))
         .map(|o| {
             let seen = instances.get(&o.instance_id).cloned().unwrap_or_default();
-            let colour = seen.albedo.filter(|_| seen.points >= MIN_SEEN_POINTS).and_then(colour_name).map(str::to_string);
+            // Screens, leaves and clock faces keep their own colours, which follow from the
+            // class: no colour is named (or asked) for them.
+            let own_colours = crate::synthesis::source::OWN_COLOURS.contains(&o.class.as_str());
+            let colour = seen.albedo.filter(|_| seen.points >= MIN_SEEN_POINTS && !own_colours).and_then(colour_name).map(str::to_string);
             let center = std::array::from_fn(|a| (o.bbox_min[a] + o.bbox_max[a]) / 2.0);
             let extent = std::array::from_fn(|a| o.bbox_max[a] - o.bbox_min[a]);
             let caption = match &colour {

@@ -17,6 +17,7 @@ use crate::convert::lexicon::normalise_name;
 use crate::prompts::{PromptPool, ScenePrompt};
 use crate::spec::Regime;
 use crate::synthesis::placement::{Layout, place};
+use crate::synthesis::source::AssetSource;
 
 /// Layouts of the same room at least, before a room's own odds count fully.
 const ROOM_WEIGHT: f64 = 1.0;
@@ -33,6 +34,8 @@ struct Simulated {
 /// [`QuestionPriors`] reads its odds from.
 pub struct PoolLayouts {
     scenes: Vec<Simulated>,
+    /// The assets the layouts were placed with (their sizes decide size comparisons).
+    assets: AssetSource,
 }
 
 /// Fresh placements of each prompt beside its own layout: test scenes (and later placements
@@ -43,24 +46,24 @@ impl PoolLayouts {
     /// Every accepted prompt of `pools` placed as a val scene is (from its layout seed, when
     /// it has one) and [`FRESH_PLACEMENTS`] times afresh, honouring every relation, as a
     /// test scene is (from seeds derived from `seed`).
-    pub fn place(pools: &[PromptPool], seed: u64) -> Self {
+    pub fn place(pools: &[PromptPool], seed: u64, assets: &AssetSource) -> Self {
         let mut rng = Rng::new(seed ^ 0x5052_494f_5253);
         let mut scenes = Vec::new();
         for prompt in pools.iter().flat_map(|pool| pool.accepted.iter()) {
             let fresh = || ScenePrompt { layout_seed: None, ..prompt.clone() };
-            let mut layouts = vec![placed(prompt, rng.next_u64())];
-            layouts.extend((0..FRESH_PLACEMENTS).map(|_| placed(&fresh(), rng.next_u64())));
+            let mut layouts = vec![placed(prompt, rng.next_u64(), assets)];
+            layouts.extend((0..FRESH_PLACEMENTS).map(|_| placed(&fresh(), rng.next_u64(), assets)));
             for layout in layouts {
                 let objects = layout_objects(&layout);
                 scenes.push(Simulated { room: prompt.spec.room.clone(), regime: prompt.spec.regime, graph: oracle_scene_graph(&objects), objects });
             }
         }
-        PoolLayouts { scenes }
+        PoolLayouts { scenes, assets: assets.clone() }
     }
 
     /// No layouts at all: every yes/no question is even odds.
     pub fn none() -> Self {
-        PoolLayouts { scenes: Vec::new() }
+        PoolLayouts { scenes: Vec::new(), assets: AssetSource::procedural() }
     }
 }
 
@@ -75,6 +78,7 @@ struct LayoutFacts<'a> {
 pub struct QuestionPriors<'a> {
     layouts: Vec<LayoutFacts<'a>>,
     lexicon: &'a [String],
+    assets: &'a AssetSource,
     memo: RefCell<HashMap<(String, Regime, String), f64>>,
 }
 
@@ -112,19 +116,19 @@ pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
 }
 
 /// A prompt placed as the built-in synthesizer places it.
-fn placed(prompt: &ScenePrompt, seed: u64) -> Layout {
+fn placed(prompt: &ScenePrompt, seed: u64, assets: &AssetSource) -> Layout {
     match prompt.layout_seed {
-        Some(layout_seed) => place(&prompt.spec.primary_only(), layout_seed),
-        None => place(&prompt.spec, seed),
+        Some(layout_seed) => place(&prompt.spec.primary_only(), layout_seed, assets),
+        None => place(&prompt.spec, seed, assets),
     }
 }
 
 impl<'a> QuestionPriors<'a> {
     /// The odds read off `layouts`.
     pub fn new(layouts: &'a PoolLayouts, lexicon: &'a [String]) -> Self {
-        let layouts =
+        let facts =
             layouts.scenes.iter().map(|s| LayoutFacts { room: &s.room, regime: s.regime, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) }).collect();
-        QuestionPriors { layouts, lexicon, memo: RefCell::new(HashMap::new()) }
+        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: RefCell::new(HashMap::new()) }
     }
 
     /// How many layouts the odds come from.
@@ -193,7 +197,7 @@ impl<'a> QuestionPriors<'a> {
                     };
                     return p;
                 }
-                QuestionForm::LargerThan { a, b } => return library_larger_odds(a, b),
+                QuestionForm::LargerThan { a, b } => return library_larger_odds(self.assets, a, b),
                 QuestionForm::RestsOn { support, .. } => self.tally(subset, |facts| {
                     facts.singles().into_iter().map(|x| QuestionForm::RestsOn { class: x.label.clone(), support: support.clone() }).collect()
                 }),
@@ -241,13 +245,12 @@ fn family_key(form: &QuestionForm) -> String {
     }
 }
 
-/// The odds that the asset library makes an `a` clearly larger than a `b`, among pairs of
-/// its assets that differ clearly (sixteen of each, drawn alike every time).
-fn library_larger_odds(a: &str, b: &str) -> f64 {
-    use crate::synthesis::library::make_asset;
+/// The odds that the assets make an `a` clearly larger than a `b`, among pairs of them that
+/// differ clearly (sixteen of each, drawn alike every time).
+fn library_larger_odds(assets: &AssetSource, a: &str, b: &str) -> f64 {
     let volumes = |class: &str| -> Vec<f64> {
         let mut rng = Rng::new(0x5a5a_0001);
-        (0..16).filter_map(|_| make_asset(class, &mut rng)).map(|asset| asset.size.iter().product()).collect()
+        (0..16).filter_map(|_| assets.make(class, &mut rng)).map(|asset| asset.size.iter().product()).collect()
     };
     let (va, vb) = (volumes(a), volumes(b));
     let (mut larger, mut clear) = (0.0, 0.0);
@@ -272,7 +275,7 @@ mod tests {
     fn odds_follow_the_pool_s_rooms() {
         let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
         let pools = [crate::prompts::grammar_pool(Regime::Furniture, 120, 3)];
-        let layouts = PoolLayouts::place(&pools, 1);
+        let layouts = PoolLayouts::place(&pools, 1, &AssetSource::procedural());
         let priors = QuestionPriors::new(&layouts, &lexicon);
         assert_eq!(priors.layouts(), 120 * 4);
         let dining = pools[0].accepted.iter().find(|p| p.spec.room == "dining room").map(|p| p.spec.room.clone()).expect("a dining room in 120");

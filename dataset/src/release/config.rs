@@ -45,6 +45,11 @@ pub struct SynthesisConfig {
     pub command: Vec<String>,
     #[serde(default = "default_synthesis_timeout")]
     pub timeout_secs: u64,
+    /// The asset pack the built-in synthesizer draws objects and room shells from (a folder
+    /// with `catalogue.json`, relative to the working directory; `assets` is the one this
+    /// repository ships); the procedural library alone when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub assets: Option<String>,
 }
 
 fn default_synthesis_timeout() -> u64 {

@@ -242,7 +242,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
         "version": config.version,
         "created": config.created,
         "digest": digest(&files),
-        "generator": generator(config_text, config, build.secret_id()),
+        "generator": generator(config_text, config, build.secret_id(), build.assets_digest()),
         "scenes": scenes_json,
         "lightings": lightings,
         "files": files,
@@ -261,7 +261,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
 /// The manifest's provenance: the config, its seed and content digest, the code version
 /// and, with a test split, the public id of the operator's secret (a hash that tells
 /// nothing of it: which secret shaped the test scenes, for rotating it).
-fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Option<String>) -> Value {
+fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Option<String>, assets_digest: Option<&str>) -> Value {
     let mut generator = json!({
         "config": config_text,
         "seed": config.seed,
@@ -270,6 +270,9 @@ fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Optio
     });
     if let Some(id) = secret_id {
         generator["split_secret_id"] = json!(id);
+    }
+    if let Some(digest) = assets_digest {
+        generator["assets_digest"] = json!(digest);
     }
     generator
 }

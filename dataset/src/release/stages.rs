@@ -25,12 +25,13 @@ use crate::convert::habitat::{ConversionReport, ConvertOptions, write_habitat_sc
 use crate::convert::scene::load_scene;
 use crate::embedding::{Embedder, HashingEmbedder, ServiceEmbedder};
 use crate::openai::ServiceClient;
-use crate::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
+use crate::prompts::{PromptPool, ScenePrompt, grammar_pool_with, llm::llm_pool};
 use crate::render::coverage::{CoverageGoals, Plan};
 use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
 use crate::selection::select;
 use crate::spec::Regime;
+use crate::synthesis::source::AssetSource;
 use osmab_evaluator::scores::Split;
 
 /// Where the build keeps its intermediate stages (not part of the release).
@@ -174,6 +175,8 @@ pub struct Build {
     pub work: PathBuf,
     inputs: String,
     secret: Option<SplitSecret>,
+    /// Where the built-in synthesizer takes its assets from.
+    assets: AssetSource,
 }
 
 /// The name of the scene at `index` of the selection.
@@ -203,9 +206,20 @@ impl Build {
         }
         let work = out.join(WORK);
         std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
-        let inputs = config.content_digest();
+        let assets = AssetSource::for_config(config.synthesis.assets.as_deref())
+            .map_err(|e| InputError::new(config_path, "synthesis.assets", format!("the asset pack cannot be used: {e}")))?;
+        // The pack's content, not its path, is what the scenes are made of.
+        let inputs = match assets.digest() {
+            Some(pack) => format!("{} assets {pack}", config.content_digest()),
+            None => config.content_digest(),
+        };
         let secret = if config.splits.is_empty() { None } else { secret.cloned() };
-        Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs, secret })
+        Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs, secret, assets })
+    }
+
+    /// The digest of the asset pack the scenes are drawn from, when there is one.
+    pub fn assets_digest(&self) -> Option<&str> {
+        self.assets.digest()
     }
 
     /// The public id of the operator's secret, when the release has a test split.
@@ -275,7 +289,7 @@ impl Build {
                         let client = ServiceClient::new(llm.clone()).map_err(|e| InputError::new(config_path, "prompts.llm", e.to_string()))?;
                         llm_pool(&client, regime, count, 12, 80).map_err(|(_, e)| InputError::new(config_path, "prompts.llm", e.to_string()))?
                     }
-                    None => grammar_pool(regime, count, config.seed),
+                    None => grammar_pool_with(regime, count, config.seed, &self.assets),
                 };
                 write_json(&path, &pool)
             })?;
@@ -400,7 +414,7 @@ impl Build {
             .iter()
             .map(|regime| read_json(&self.work.join(format!("prompts/{}.json", regime.name()))))
             .collect::<Result<_>>()?;
-        Ok(crate::questions::priors::PoolLayouts::place(&pools, self.config.seed))
+        Ok(crate::questions::priors::PoolLayouts::place(&pools, self.config.seed, &self.assets))
     }
 
     /// How many scenes of `regime` the config selects.
@@ -527,7 +541,7 @@ impl Build {
                     (Split::Val, 0) => prompt.clone(),
                     _ => ScenePrompt { layout_seed: None, ..prompt.clone() },
                 };
-                crate::synthesis::synthesize(&placed, self.synthesis_seed(index, placement), &scenesmith, config.synthesis.ceiling)?
+                crate::synthesis::synthesize(&placed, self.synthesis_seed(index, placement), &scenesmith, config.synthesis.ceiling, &self.assets)?
             } else {
                 crate::synthesis::external::run_external(
                     &config.synthesis.command,

@@ -76,7 +76,7 @@ pub struct SupportSurface {
     pub clear_height: f64,
 }
 
-/// A procedural asset.
+/// An asset: procedural parts, or a pack mesh ([`super::source`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Asset {
     pub category: String,
@@ -89,6 +89,8 @@ pub struct Asset {
     /// The floor area under the object that is free up to `clearance` (x/y min, max).
     pub under: Option<([f64; 2], [f64; 2])>,
     pub description: String,
+    /// The pack mesh it is drawn with (then `parts` is empty).
+    pub mesh: Option<super::source::PackMesh>,
 }
 
 fn bx(center: [f64; 3], size: [f64; 3], material: Material) -> Part {
@@ -129,6 +131,7 @@ fn table(category: &str, w: f64, d: f64, h: f64, top: Material, leg: Material) -
         clearance: h - t - 0.02,
         under: Some(([-w / 2.0 + 0.08, -d / 2.0 + 0.08], [w / 2.0 - 0.08, d / 2.0 - 0.08])),
         description: format!("A {category} with a flat top on four legs."),
+        mesh: None,
     }
 }
 
@@ -187,6 +190,7 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
         clearance: 0.0,
         under: None,
         description: format!("A {category} with {shelves} shelves."),
+        mesh: None,
     }
 }
 
@@ -203,6 +207,7 @@ fn chair(category: &str, rng: &mut Rng, seat: Material, frame: Material) -> Asse
         clearance: 0.0,
         under: None,
         description: format!("A {category} with a backrest."),
+        mesh: None,
     }
 }
 
@@ -231,6 +236,7 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
         clearance: 0.0,
         under: None,
         description: format!("An upholstered {category} with arms."),
+        mesh: None,
     }
 }
 
@@ -331,6 +337,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                 clearance: 0.0,
                 under: None,
                 description: "A swivel office chair on a five-star base.".into(),
+                mesh: None,
             }
         }
         "armchair" => sofa(category, vary(rng, 0.8, 0.95), vary(rng, 0.8, 0.9), FABRIC, CUSHION),
@@ -363,6 +370,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                 clearance: 0.0,
                 under: None,
                 description: "A bed with a headboard.".into(),
+                mesh: None,
             }
         }
         "nightstand" => cabinet(category, vary(rng, 0.4, 0.5), 0.4, vary(rng, 0.5, 0.6), WOOD, METAL, 1, false),
@@ -388,6 +396,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A ceramic mug with a handle.".into(),
+            mesh: None,
         },
         "book" => {
             let (w, d, h) = (vary(rng, 0.15, 0.22), vary(rng, 0.2, 0.28), vary(rng, 0.02, 0.05));
@@ -399,6 +408,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                 clearance: 0.0,
                 under: None,
                 description: "A hardcover book.".into(),
+                mesh: None,
             }
         }
         "laptop" => Asset {
@@ -409,6 +419,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "An open laptop.".into(),
+            mesh: None,
         },
         "plate" => Asset {
             category: category.into(),
@@ -418,6 +429,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A round plate.".into(),
+            mesh: None,
         },
         "bowl" => Asset {
             category: category.into(),
@@ -427,6 +439,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A ceramic bowl.".into(),
+            mesh: None,
         },
         "bottle" => Asset {
             category: category.into(),
@@ -436,6 +449,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A glass bottle.".into(),
+            mesh: None,
         },
         "can" => Asset {
             category: category.into(),
@@ -445,6 +459,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A metal can.".into(),
+            mesh: None,
         },
         "box" => {
             let s = [vary(rng, 0.25, 0.45), vary(rng, 0.2, 0.35), vary(rng, 0.15, 0.3)];
@@ -456,6 +471,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                 clearance: 0.0,
                 under: None,
                 description: "A cardboard box.".into(),
+                mesh: None,
             }
         }
         "bucket" => Asset {
@@ -466,6 +482,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A metal bucket with a handle.".into(),
+            mesh: None,
         },
         "towel" => Asset {
             category: category.into(),
@@ -475,6 +492,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A folded towel.".into(),
+            mesh: None,
         },
         "pillow" => Asset {
             category: category.into(),
@@ -484,6 +502,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A pillow.".into(),
+            mesh: None,
         },
         "blanket" => Asset {
             category: category.into(),
@@ -493,6 +512,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A folded blanket.".into(),
+            mesh: None,
         },
         "backpack" => Asset {
             category: category.into(),
@@ -502,6 +522,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A backpack with a front pocket.".into(),
+            mesh: None,
         },
         "suitcase" => Asset {
             category: category.into(),
@@ -511,6 +532,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A hard-shell suitcase.".into(),
+            mesh: None,
         },
         "helmet" => Asset {
             category: category.into(),
@@ -520,6 +542,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A helmet.".into(),
+            mesh: None,
         },
         "clock" => Asset {
             category: category.into(),
@@ -529,6 +552,7 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             clearance: 0.0,
             under: None,
             description: "A desk clock.".into(),
+            mesh: None,
         },
         _ => return None,
     };

@@ -4,10 +4,13 @@
 
 pub mod export;
 pub mod external;
+pub mod gltf_out;
 pub mod layout;
 pub mod library;
 pub mod placement;
 pub mod relations;
+pub mod source;
+pub mod textured;
 pub mod writer;
 
 use std::path::Path;
@@ -15,10 +18,12 @@ use std::path::Path;
 use osmab_evaluator::Result;
 
 use crate::prompts::ScenePrompt;
+use source::AssetSource;
 
 /// Synthesize `prompt` into the SceneSmith scene directory `dir` (with a ceiling when
-/// `ceiling`); returns the spec's relations the scene does not satisfy.
-pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool) -> Result<Vec<String>> {
+/// `ceiling`), its objects and room shell from `assets`; returns the spec's relations the
+/// scene does not satisfy.
+pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool, assets: &AssetSource) -> Result<Vec<String>> {
     let problems = prompt.spec.problems();
     if !problems.is_empty() {
         return Err(osmab_evaluator::InputError::new(&prompt.id, "spec", problems.join("; ")));
@@ -26,10 +31,11 @@ pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool) ->
     // A grammar prompt describes a layout it placed: reproduce it from the primary
     // relations and its seed. Other prompts are placed honouring every relation.
     let layout = match prompt.layout_seed {
-        Some(layout_seed) => placement::place(&prompt.spec.primary_only(), layout_seed),
-        None => placement::place(&prompt.spec, seed),
+        Some(layout_seed) => placement::place(&prompt.spec.primary_only(), layout_seed, assets),
+        None => placement::place(&prompt.spec, seed, assets),
     };
     let unmet = relations::unmet_relations(&prompt.spec, &layout);
-    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout, &unmet, ceiling)?;
+    let shell = assets.room_shell(seed);
+    writer::write_scenesmith_scene(dir, &prompt.spec, &prompt.text, &layout, &unmet, ceiling, shell.as_ref())?;
     Ok(unmet)
 }

@@ -6,7 +6,8 @@
 use osmab_evaluator::synthetic::Rng;
 
 pub use super::layout::{Layout, PlacedObject};
-use super::library::{Asset, make_asset};
+use super::library::Asset;
+use super::source::AssetSource;
 use crate::spec::{ObjectKind, RelationKind, SceneSpec};
 
 const GAP: f64 = 0.08;
@@ -28,6 +29,7 @@ fn yaw_towards(dir: [f64; 2]) -> f64 {
 
 struct Placer<'a> {
     spec: &'a SceneSpec,
+    assets: &'a AssetSource,
     rng: Rng,
     width: f64,
     depth: f64,
@@ -154,9 +156,9 @@ impl Placer<'_> {
     fn place_furniture(&mut self, category: &str, count: u32, asset_seed: &mut Rng) {
         let relation = self.spec.relations.iter().find(|r| r.subject == category).cloned();
         for k in 0..count as usize {
-            let asset = make_asset(category, asset_seed).unwrap_or_else(|| {
-                self.notes.push(format!("no procedural asset for '{category}'; a cabinet stands in"));
-                let mut a = make_asset("cabinet", asset_seed).expect("cabinets exist");
+            let asset = self.assets.make(category, asset_seed).unwrap_or_else(|| {
+                self.notes.push(format!("no asset for '{category}'; a cabinet stands in"));
+                let mut a = self.assets.make("cabinet", asset_seed).expect("cabinets exist");
                 a.category = category.into();
                 a
             });
@@ -235,9 +237,9 @@ impl Placer<'_> {
             .find(|r| r.subject == category && matches!(r.kind, RelationKind::On | RelationKind::Inside | RelationKind::Under))
             .cloned();
         for _ in 0..count {
-            let asset = make_asset(category, asset_seed).unwrap_or_else(|| {
-                self.notes.push(format!("no procedural asset for '{category}'; a box stands in"));
-                let mut a = make_asset("box", asset_seed).expect("boxes exist");
+            let asset = self.assets.make(category, asset_seed).unwrap_or_else(|| {
+                self.notes.push(format!("no asset for '{category}'; a box stands in"));
+                let mut a = self.assets.make("box", asset_seed).expect("boxes exist");
                 a.category = category.into();
                 a
             });
@@ -341,14 +343,14 @@ fn placement_order(spec: &SceneSpec) -> Vec<(String, u32)> {
 /// Place `spec` in a room sized for it (starting over in a larger room when it is
 /// too crowded). Which relations the result leaves unmet is for the caller to check
 /// ([`super::relations::unmet_relations`]) against the spec it cares about.
-pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
+pub fn place(spec: &SceneSpec, seed: u64, assets: &AssetSource) -> Layout {
     let sizing_rng = Rng::new(seed ^ 0xA55E_7);
     // Room area: about four times the furniture's footprint, at least 3.5 m a side.
     let footprint: f64 = spec
         .objects
         .iter()
         .filter(|o| o.kind == ObjectKind::Furniture)
-        .map(|o| make_asset(&o.category, &mut sizing_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
+        .map(|o| assets.make(&o.category, &mut sizing_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
         .sum();
     let mut rng = Rng::new(seed);
     let area = (footprint * 4.0).max(12.0);
@@ -357,7 +359,7 @@ pub fn place(spec: &SceneSpec, seed: u64) -> Layout {
     let order = placement_order(spec);
     for attempt in 0.. {
         let mut asset_rng = Rng::new(seed ^ 0xA55E_7);
-        let mut placer = Placer { spec, rng: rng.clone(), width, depth, placed: Vec::new(), notes: Vec::new(), crowded: false };
+        let mut placer = Placer { spec, assets, rng: rng.clone(), width, depth, placed: Vec::new(), notes: Vec::new(), crowded: false };
         for (category, count) in &order {
             placer.place_furniture(category, *count, &mut asset_rng);
         }

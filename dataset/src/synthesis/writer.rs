@@ -1,5 +1,5 @@
 //! Writing a placed layout exactly as SceneSmith writes a scene: `package.xml`, the
-//! room geometry SDF, one SDF 1.7 + glTF per object under `room_main/generated_assets`,
+//! room geometry SDF (textured floor and walls with a pack), one SDF 1.7 + glTF per object under `room_main/generated_assets`,
 //! `combined_house/house.dmd.yaml` (model directives with `!AngleAxis` rotations and
 //! `package://scene/` paths) and `combined_house/house_state.json`.
 
@@ -12,6 +12,8 @@ use serde_json::json;
 
 use super::export::write_asset_gltf;
 use super::placement::Layout;
+use super::source::RoomShell;
+use super::textured::{write_pack_gltf, write_shell_box};
 use crate::spec::{ObjectKind, SceneSpec};
 
 fn write(path: &Path, text: impl AsRef<[u8]>) -> Result<()> {
@@ -41,8 +43,9 @@ fn title(category: &str) -> String {
 }
 
 /// The room's floor, four walls and (optionally) ceiling as SceneSmith's room-geometry
-/// SDF (boxes). SceneSmith itself writes no ceiling.
-fn room_sdf(layout: &Layout, ceiling: bool) -> String {
+/// SDF: boxes, or with a `shell` textured meshes of the same boxes written beside it
+/// (`room_geometry/<part>.gltf`). SceneSmith itself writes no ceiling.
+fn write_room(dir: &Path, layout: &Layout, ceiling: bool, shell: Option<&RoomShell>) -> Result<String> {
     let (w, d, h, t) = (layout.width, layout.depth, layout.wall_height, 0.1);
     let mut visuals = vec![("floor", [0.0, 0.0, -0.05], [w, d, 0.1])];
     if ceiling {
@@ -54,14 +57,20 @@ fn room_sdf(layout: &Layout, ceiling: bool) -> String {
     visuals.push(("front_wall", [0.0, d / 2.0, h / 2.0], [w, t, h]));
     let mut out =
         String::from("<sdf xmlns:drake=\"drake.mit.edu\" version=\"1.7\">\n  <model name=\"room_geometry\">\n    <link name=\"room_geometry_body_link\">\n");
+    let box_geometry = |s: [f64; 3]| format!("<box>\n            <size>{} {} {}</size>\n          </box>", num(s[0]), num(s[1]), num(s[2]));
     for (name, c, s) in visuals {
-        for kind in ["visual", "collision"] {
+        let texture = shell.map(|shell| if name == "floor" { &shell.floor } else { &shell.wall }).filter(|_| name != "ceiling");
+        let visual = match texture {
+            Some(texture) => {
+                write_shell_box(texture, s, &dir.join("room_geometry"), name)?;
+                format!("<mesh>\n            <uri>{name}.gltf</uri>\n          </mesh>")
+            }
+            None => box_geometry(s),
+        };
+        for (kind, geometry) in [("visual", &visual), ("collision", &box_geometry(s))] {
             let _ = write!(
                 out,
-                "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          <box>\n            <size>{} {} {}</size>\n          </box>\n        </geometry>\n        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
-                num(s[0]),
-                num(s[1]),
-                num(s[2]),
+                "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          {geometry}\n        </geometry>\n        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
                 num(c[0]),
                 num(c[1]),
                 num(c[2])
@@ -69,7 +78,7 @@ fn room_sdf(layout: &Layout, ceiling: bool) -> String {
         }
     }
     out.push_str("    </link>\n    <static>true</static>\n  </model>\n</sdf>\n");
-    out
+    Ok(out)
 }
 
 /// An object's SDF as SceneSmith writes it: inertial, the glTF visual and a collision
@@ -90,12 +99,21 @@ fn mass_of(size: [f64; 3]) -> f64 {
 
 /// Write `layout` for `spec` and `prompt` as a SceneSmith scene in `dir`, with the
 /// relations of the spec it leaves `unmet`.
-pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout: &Layout, unmet: &[String], ceiling: bool) -> Result<()> {
+pub fn write_scenesmith_scene(
+    dir: &Path,
+    spec: &SceneSpec,
+    prompt: &str,
+    layout: &Layout,
+    unmet: &[String],
+    ceiling: bool,
+    shell: Option<&RoomShell>,
+) -> Result<()> {
     write(
         &dir.join("package.xml"),
         "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name>scene</name>\n  <version>0.0.1</version>\n  <description>Procedural scene written by osmab.</description>\n  <maintainer email=\"none@example.com\">osmab</maintainer>\n  <license>CC-BY-4.0</license>\n</package>\n",
     )?;
-    write(&dir.join("room_geometry/room_geometry_main.sdf"), room_sdf(layout, ceiling))?;
+    let room = write_room(dir, layout, ceiling, shell)?;
+    write(&dir.join("room_geometry/room_geometry_main.sdf"), room)?;
     let mut dmd = String::from(
         "directives:\n- add_frame:\n    name: house_frame\n    X_PF:\n      base_frame: world\n      translation: [0.0, 0.0, 0.0]\n- add_frame:\n    name: room_main_frame\n    X_PF:\n      base_frame: house_frame\n      translation: [0.0, 0.0, 0.0]\n- add_model:\n    name: room_geometry_main\n    file: package://scene/room_geometry/room_geometry_main.sdf\n- add_weld:\n    parent: room_main_frame\n    child: room_geometry_main::room_geometry_body_link\n",
     );
@@ -106,7 +124,10 @@ pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout
         let agent = if o.kind == ObjectKind::Furniture { "furniture" } else { "manipuland" };
         let stem = o.category.replace(' ', "_");
         let rel_dir = format!("room_main/generated_assets/{agent}/sdf/{}", o.object_id);
-        write_asset_gltf(&o.asset, &dir.join(&rel_dir), &stem)?;
+        match &o.asset.mesh {
+            Some(mesh) => write_pack_gltf(mesh, &o.category, &dir.join(&rel_dir), &stem)?,
+            None => write_asset_gltf(&o.asset, &dir.join(&rel_dir), &stem)?,
+        }
         write(&dir.join(&rel_dir).join(format!("{stem}.sdf")), object_sdf(&stem, &stem, o.asset.size, mass_of(o.asset.size)))?;
         if o.kind == ObjectKind::Furniture {
             let _ = write!(
@@ -140,7 +161,7 @@ pub fn write_scenesmith_scene(dir: &Path, spec: &SceneSpec, prompt: &str, layout
                 "image_path": null,
                 "support_surfaces": o.asset.supports.iter().map(|s| json!({"height": s.height, "min": s.min, "max": s.max, "inside": s.inside})).collect::<Vec<_>>(),
                 "placement_info": o.host.as_ref().map(|h| json!({"parent_object": h})),
-                "metadata": {"asset_source": "procedural", "category": o.category},
+                "metadata": {"asset_source": o.asset.mesh.as_ref().map_or("procedural", |m| m.source.as_str()), "category": o.category},
                 "bbox_min": [-s[0] / 2.0, -s[1] / 2.0, 0.0],
                 "bbox_max": [s[0] / 2.0, s[1] / 2.0, s[2]],
                 "immutable": false,

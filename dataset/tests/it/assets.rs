@@ -15,8 +15,9 @@ fn fixture() -> PathBuf {
 fn edited(edit: impl FnOnce(&mut Value)) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("meshes")).unwrap();
-    for mesh in ["book-0.glb", "desk-0.glb"] {
-        std::fs::copy(fixture().join("meshes").join(mesh), dir.path().join("meshes").join(mesh)).unwrap();
+    std::fs::create_dir_all(dir.path().join("shell")).unwrap();
+    for file in ["meshes/book-0.glb", "meshes/desk-0.glb", "shell/floor-carpet.jpg", "shell/wall-plaster.jpg"] {
+        std::fs::copy(fixture().join(file), dir.path().join(file)).unwrap();
     }
     let mut catalogue: Value = serde_json::from_slice(&std::fs::read(fixture().join("catalogue.json")).unwrap()).unwrap();
     edit(&mut catalogue);

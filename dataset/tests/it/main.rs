@@ -3,6 +3,7 @@
 mod assets;
 mod convert;
 mod fake_service;
+mod pack_scenes;
 mod prompts;
 mod release;
 mod render;

@@ -347,3 +347,24 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     // The oracle's scene graph is the hidden objects file: it answers what the questions ask.
     assert!(out.join(GROUND_TRUTH).join("scene_000/instances.npy").is_file());
 }
+
+#[test]
+fn a_config_naming_an_asset_pack_that_is_not_there_is_refused_before_anything_is_built() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("release.toml");
+    std::fs::write(&config, TINY.replace("[render]", "[synthesis]\nassets = \"no-such-pack\"\n[render]")).unwrap();
+    let err = build_release(&config, &dir.path().join("rel"), None, &|_| {}).unwrap_err().to_string();
+    assert!(err.contains("synthesis.assets") && err.contains("no-such-pack/catalogue.json"), "{err}");
+    assert!(!dir.path().join("rel/manifest.json").exists());
+}
+
+#[test]
+fn a_release_drawn_from_a_pack_records_the_pack_s_digest() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("release.toml");
+    let pack = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/pack");
+    std::fs::write(&config, TINY.replace("[render]", &format!("[synthesis]\nassets = {:?}\n[render]", pack.display().to_string()))).unwrap();
+    let manifest = build_release(&config, &dir.path().join("rel"), None, &|_| {}).unwrap();
+    let digest = osmab_dataset::assets::AssetPack::open(&pack).unwrap().digest().to_string();
+    assert_eq!(manifest["generator"]["assets_digest"], serde_json::json!(digest));
+}

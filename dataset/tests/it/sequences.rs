@@ -12,6 +12,7 @@ use osmab_dataset::render::sequence::{SensorSettings, camera_pose};
 use osmab_dataset::render::trajectory::{Action, AgentState, MotionSettings};
 use osmab_dataset::render::{LIGHTINGS, plan_scene, render_scene};
 use osmab_dataset::spec::Regime;
+use osmab_dataset::synthesis::source::AssetSource;
 use osmab_dataset::synthesis::synthesize;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
 use osmab_evaluator::formats::sequence::Sequence;
@@ -21,7 +22,7 @@ use osmab_evaluator::semseg::score_scene;
 /// A synthesized and converted scene in `dir/habitat`; returns its name.
 fn converted_scene(dir: &Path) -> String {
     let prompt = grammar_pool(Regime::Manipuland, 1, 17).accepted.remove(0);
-    synthesize(&prompt, 0, &dir.join("scenesmith"), false).unwrap();
+    synthesize(&prompt, 0, &dir.join("scenesmith"), false, &AssetSource::procedural()).unwrap();
     let scene = load_scene(&dir.join("scenesmith")).unwrap();
     write_habitat_scene(&scene, &dir.join("habitat"), &ConvertOptions::default()).unwrap();
     scene.name

@@ -13,6 +13,7 @@ use osmab_dataset::synthesis::external::run_external;
 use osmab_dataset::synthesis::library::make_asset;
 use osmab_dataset::synthesis::placement::{MAX_REST_HEIGHT, place};
 use osmab_dataset::synthesis::relations::unmet_relations;
+use osmab_dataset::synthesis::source::AssetSource;
 use osmab_dataset::synthesis::{export::write_asset_gltf, synthesize};
 use osmab_evaluator::synthetic::Rng;
 
@@ -21,7 +22,7 @@ fn synthesized_scenes_round_trip_through_the_converter_with_their_spec_intact() 
     for regime in Regime::ALL {
         for prompt in grammar_pool(regime, 6, 5).accepted {
             let dir = tempfile::tempdir().unwrap();
-            synthesize(&prompt, 1, &dir.path().join("scene"), false).unwrap();
+            synthesize(&prompt, 1, &dir.path().join("scene"), false, &AssetSource::procedural()).unwrap();
             let scene = load_scene(&dir.path().join("scene")).unwrap();
             let report = write_habitat_scene(&scene, &dir.path().join("habitat"), &ConvertOptions::default()).unwrap();
             assert!(report.unknown_names.is_empty(), "{:?}", report.unknown_names);
@@ -45,7 +46,7 @@ fn synthesized_scenes_round_trip_through_the_converter_with_their_spec_intact() 
 #[test]
 fn furniture_never_interpenetrates_and_small_objects_rest_on_their_hosts() {
     for (i, prompt) in grammar_pool(Regime::Manipuland, 10, 9).accepted.iter().chain(&grammar_pool(Regime::Furniture, 10, 9).accepted).enumerate() {
-        let layout = place(&prompt.spec, i as u64);
+        let layout = place(&prompt.spec, i as u64, &AssetSource::procedural());
         let furniture: Vec<_> = layout.objects.iter().filter(|o| o.kind == ObjectKind::Furniture).collect();
         for (a, fa) in furniture.iter().enumerate() {
             let (lo, hi) = fa.footprint();
@@ -96,7 +97,7 @@ fn small_objects_rest_where_a_camera_sees_them_or_the_prompt_is_not_placeable() 
     for seed in 0..5 {
         // On a bookshelf (1.6–2 m tall): on its open shelves, not on its top.
         let on_shelf = spec(RelationKind::On, "bookshelf");
-        let layout = place(&on_shelf, seed);
+        let layout = place(&on_shelf, seed, &AssetSource::procedural());
         let unmet = unmet_relations(&on_shelf, &layout);
         assert!(unmet.is_empty(), "{unmet:?}");
         for book in layout.objects.iter().filter(|o| o.category == "book") {
@@ -104,12 +105,12 @@ fn small_objects_rest_where_a_camera_sees_them_or_the_prompt_is_not_placeable() 
         }
         // Inside a wardrobe (doors): nowhere a camera sees, so the relation is unmet.
         let in_wardrobe = spec(RelationKind::Inside, "wardrobe");
-        let unmet = unmet_relations(&in_wardrobe, &place(&in_wardrobe, seed));
+        let unmet = unmet_relations(&in_wardrobe, &place(&in_wardrobe, seed, &AssetSource::procedural()));
         assert!(unmet.iter().any(|u| u.contains("book inside wardrobe")), "{unmet:?}");
     }
 }
 
-fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
+pub fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
@@ -132,9 +133,9 @@ fn the_same_seed_synthesizes_byte_identical_scenes() {
     let mut prompt = grammar_pool(Regime::Furniture, 1, 3).accepted.remove(0);
     prompt.layout_seed = None;
     let (a, b, c) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    synthesize(&prompt, 7, a.path(), false).unwrap();
-    synthesize(&prompt, 7, b.path(), false).unwrap();
-    synthesize(&prompt, 8, c.path(), false).unwrap();
+    synthesize(&prompt, 7, a.path(), false, &AssetSource::procedural()).unwrap();
+    synthesize(&prompt, 7, b.path(), false, &AssetSource::procedural()).unwrap();
+    synthesize(&prompt, 8, c.path(), false, &AssetSource::procedural()).unwrap();
     assert_eq!(tree(a.path()), tree(b.path()));
     assert_ne!(tree(a.path()), tree(c.path()));
 }
@@ -144,7 +145,7 @@ fn grammar_prompts_get_the_layout_they_describe() {
     for regime in Regime::ALL {
         for prompt in grammar_pool(regime, 12, 21).accepted {
             let dir = tempfile::tempdir().unwrap();
-            let unmet = synthesize(&prompt, 99, dir.path(), false).unwrap();
+            let unmet = synthesize(&prompt, 99, dir.path(), false, &AssetSource::procedural()).unwrap();
             assert_eq!(unmet, Vec::<String>::new(), "{}", prompt.text);
         }
     }
@@ -158,7 +159,7 @@ fn relations_a_layout_fails_are_reported() {
     let anchor = prompt.spec.objects[0].category.clone();
     prompt.spec.relations.push(osmab_dataset::spec::Relation { subject: anchor.clone(), kind: osmab_dataset::spec::RelationKind::InCorner, targets: vec![] });
     let dir = tempfile::tempdir().unwrap();
-    let unmet = synthesize(&prompt, 1, dir.path(), false).unwrap();
+    let unmet = synthesize(&prompt, 1, dir.path(), false, &AssetSource::procedural()).unwrap();
     let state: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("combined_house/house_state.json")).unwrap()).unwrap();
     assert_eq!(state["placement"]["unmet"], serde_json::json!(unmet));
     assert!(unmet.iter().any(|u| u.contains(&anchor)), "{unmet:?}");
@@ -174,6 +175,7 @@ fn procedural_assets_export_as_readable_gltf_of_their_size() {
         let gltf = read_gltf(&dir.path().join("asset.gltf")).unwrap();
         assert!(!gltf.generated_normals, "{category}: normals are written");
         assert!(gltf.materials.len() >= 1);
+        assert!(gltf.materials.iter().all(|m| m.texture.is_some()), "{category}: every material is textured, none a flat colour");
         let (lo, hi) = gltf.bounds().unwrap();
         // glTF is Y-up: height along y, width along x, depth along z.
         assert!((hi[1] - lo[1] - asset.size[2] as f32).abs() < 0.02, "{category}: height {} vs {}", hi[1] - lo[1], asset.size[2]);

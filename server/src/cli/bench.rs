@@ -291,7 +291,7 @@ fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manip
     for (i, prompt) in selected.iter().enumerate() {
         let dir = work.join(format!("scene_{i:03}"));
         let clock = Instant::now();
-        osmab_dataset::synthesis::synthesize(prompt, i as u64, &dir, false)?;
+        osmab_dataset::synthesis::synthesize(prompt, i as u64, &dir, false, &osmab_dataset::synthesis::source::AssetSource::procedural())?;
         synth_times.push(clock.elapsed().as_secs_f64());
         let clock = Instant::now();
         write_habitat_scene(&load_scene(&dir)?, &work.join(format!("habitat_{i:03}")), &ConvertOptions::default())?;
@@ -400,20 +400,20 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
     use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
     use osmab_dataset::convert::scene::load_scene;
     use osmab_dataset::embedding::{Embedder, HashingEmbedder};
-    use osmab_dataset::prompts::grammar_pool;
     use osmab_dataset::release::config::ReleaseConfig;
     use osmab_dataset::render::coverage::CoverageGoals;
     use osmab_dataset::selection::select;
     use osmab_dataset::spec::Regime;
 
     let (config, _) = ReleaseConfig::read(config_path)?;
+    let assets = osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref())?;
     let clock = Instant::now();
     let mut chosen = Vec::new();
     for (regime, pool_size, target) in [
         (Regime::Furniture, config.prompts.furniture_pool, config.selection.furniture),
         (Regime::Manipuland, config.prompts.manipuland_pool, config.selection.manipuland),
     ] {
-        let pool = grammar_pool(regime, pool_size, config.seed);
+        let pool = osmab_dataset::prompts::grammar_pool_with(regime, pool_size, config.seed, &assets);
         let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
         let keys: Vec<String> = (0..texts.len()).map(|i| i.to_string()).collect();
         let report = select(&keys, &HashingEmbedder::default().embed(&texts)?, target, config.selection.threshold);
@@ -432,7 +432,7 @@ fn release_estimate(config_path: &std::path::Path, sample: usize, timed_frames: 
         let prompt = &chosen[i];
         let name = format!("scene_{i:03}");
         let clock = Instant::now();
-        osmab_dataset::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &work.join("ss").join(&name), config.synthesis.ceiling)?;
+        osmab_dataset::synthesis::synthesize(prompt, config.seed.wrapping_add(i as u64), &work.join("ss").join(&name), config.synthesis.ceiling, &assets)?;
         let mut loaded = load_scene(&work.join("ss").join(&name))?;
         loaded.name = name.clone();
         write_habitat_scene(&loaded, &work.join("hab").join(&name), &ConvertOptions::default())?;

@@ -95,7 +95,10 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
         })
         .collect::<anyhow::Result<_>>()?;
     let lexicon: Vec<String> = osmab_dataset::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
-    let layouts = PoolLayouts::place(&pools, seed);
+    let config_text = manifest["generator"]["config"].as_str().context("manifest.json: generator.config")?;
+    let (config, _) = osmab_dataset::release::config::ReleaseConfig::parse(config_text, &release.join("manifest.json"))?;
+    let assets = osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref())?;
+    let layouts = PoolLayouts::place(&pools, seed, &assets);
     let priors = QuestionPriors::new(&layouts, &lexicon);
     // How many of a class a prompt of each room states, when it states the class.
     let mut stated: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();

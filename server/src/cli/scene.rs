@@ -30,6 +30,9 @@ pub enum SceneCommand {
         /// Give the rooms a ceiling (SceneSmith's have none).
         #[arg(long)]
         ceiling: bool,
+        /// An asset pack (a folder with catalogue.json; `assets` is the bundled one) to draw objects and room shells from; the procedural library alone without it.
+        #[arg(long)]
+        assets: Option<String>,
         /// An external synthesizer, as separate arguments after `--`: {prompt}, {prompt_file} and {out} are filled in.
         #[arg(last = true)]
         command: Vec<String>,
@@ -202,7 +205,10 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        SceneCommand::Synthesize { prompts, seed, ceiling, command, out } => synthesize_all(&prompts, seed, ceiling, &command, &out),
+        SceneCommand::Synthesize { prompts, seed, ceiling, assets, command, out } => {
+            let assets = osmab_dataset::synthesis::source::AssetSource::for_config(assets.as_deref())?;
+            synthesize_all(&prompts, seed, ceiling, &assets, &command, &out)
+        }
     }
 }
 
@@ -284,7 +290,14 @@ fn selection(args: &SelectArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[String], out: &Path) -> anyhow::Result<()> {
+fn synthesize_all(
+    prompts_file: &Path,
+    seed: u64,
+    ceiling: bool,
+    assets: &osmab_dataset::synthesis::source::AssetSource,
+    command: &[String],
+    out: &Path,
+) -> anyhow::Result<()> {
     let text = std::fs::read(prompts_file).with_context(|| format!("{}: cannot read", prompts_file.display()))?;
     let prompts: Vec<ScenePrompt> =
         serde_json::from_slice(&text).with_context(|| format!("{}: not a list of prompts written by `osmab scene select`", prompts_file.display()))?;
@@ -293,7 +306,7 @@ fn synthesize_all(prompts_file: &Path, seed: u64, ceiling: bool, command: &[Stri
     for (i, prompt) in prompts.iter().enumerate() {
         let dir = out.join(format!("scene_{i:03}"));
         let result = if command.is_empty() {
-            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir, ceiling)
+            osmab_dataset::synthesis::synthesize(prompt, seed.wrapping_add(i as u64), &dir, ceiling, assets)
         } else {
             osmab_dataset::synthesis::external::run_external(
                 command,

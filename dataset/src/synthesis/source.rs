@@ -1,0 +1,159 @@
+//! Where the built-in synthesizer takes each object from: a variant of an asset pack
+//! ([`crate::assets`]: real-looking, textured meshes forged from Infinigen, or an operator's
+//! own) when the pack has the class, else the procedural library ([`super::library`]).
+//! Either way an instance gets a finish drawn evenly from [`FINISHES`], so a class says
+//! nothing of an instance's colour: a pack mesh's texture is recoloured in it when the scene
+//! is written ([`super::textured`]), keeping its pattern and shading.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use osmab_evaluator::Result;
+use osmab_evaluator::synthetic::Rng;
+
+use super::library::{Asset, FINISHES, Material, SupportSurface, make_asset};
+use crate::assets::{AssetPack, ObjectEntry, ShellKind};
+
+/// The largest uniform change of a pack variant's size, either way: the forge brought it
+/// into its class's plausible range already; this only keeps two instances of one variant
+/// from being twins.
+const SIZE_JITTER: f64 = 0.06;
+
+/// Classes whose look is their colour's meaning (a screen, leaves, a clock face): they keep
+/// their texture's own colours, and the questions ask no colour of them.
+pub const OWN_COLOURS: [&str; 5] = ["television", "monitor", "laptop", "plant", "clock"];
+
+/// A pack mesh an asset is drawn with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PackMesh {
+    /// The mesh file (glTF/GLB) in the pack.
+    pub file: PathBuf,
+    /// The uniform scale from the pack's size to the instance's.
+    pub scale: f64,
+    /// The colour its texture is recoloured in; `None` keeps its own colours.
+    pub finish: Option<Material>,
+    /// Where the geometry comes from ("infinigen", "scan", …) and what made it.
+    pub source: String,
+    pub generator: String,
+}
+
+/// A room-shell texture: the image and the side of the square it covers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShellTexture {
+    pub name: String,
+    pub file: PathBuf,
+    pub tile: f64,
+}
+
+/// The floor and wall textures of one room.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoomShell {
+    pub floor: ShellTexture,
+    pub wall: ShellTexture,
+}
+
+/// The synthesizer's asset source: the procedural library, or a pack in front of it.
+#[derive(Debug, Clone, Default)]
+pub struct AssetSource {
+    pack: Option<Arc<AssetPack>>,
+}
+
+impl AssetSource {
+    /// Only the procedural library.
+    pub fn procedural() -> Self {
+        Self::default()
+    }
+
+    /// The pack at `root` (opened and checked), with the procedural library for the
+    /// classes it lacks.
+    pub fn open(root: &Path) -> Result<Self> {
+        Ok(Self { pack: Some(Arc::new(AssetPack::open(root)?)) })
+    }
+
+    /// The pack a release config names (`synthesis.assets`), else only the procedural
+    /// library. A relative path is looked up in the working directory, then in the source
+    /// tree this program was built from (where `assets`, the pack the repository ships, is),
+    /// so the bundled pack is found from anywhere; the pack's digest, not its path, is what
+    /// a build records.
+    pub fn for_config(assets: Option<&str>) -> Result<Self> {
+        let Some(assets) = assets else { return Ok(Self::procedural()) };
+        let given = Path::new(assets);
+        let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(given);
+        let root = if given.is_relative() && !given.join("catalogue.json").is_file() && bundled.join("catalogue.json").is_file() {
+            bundled
+        } else {
+            given.to_path_buf()
+        };
+        Self::open(&root)
+    }
+
+    /// The pack's digest, when there is a pack: a build input of every scene drawn from it.
+    pub fn digest(&self) -> Option<&str> {
+        self.pack.as_deref().map(AssetPack::digest)
+    }
+
+    /// The asset of `category` drawn from the state of `rng`: a pack variant when the pack
+    /// has the class, else the procedural asset. Its finish is drawn without advancing
+    /// `rng`, as the procedural library draws it.
+    pub fn make(&self, category: &str, rng: &mut Rng) -> Option<Asset> {
+        let variants: Vec<&ObjectEntry> = self.pack.as_deref().map(|p| p.catalogue().variants(category).collect()).unwrap_or_default();
+        let Some(pack) = self.pack.as_deref().filter(|_| !variants.is_empty()) else {
+            return make_asset(category, rng);
+        };
+        let finish = FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())];
+        let entry = variants[rng.below(variants.len())];
+        let scale = ((1.0 + rng.range(-SIZE_JITTER, SIZE_JITTER)) * 1000.0).round() / 1000.0;
+        Some(pack_asset(pack, entry, scale, (!OWN_COLOURS.contains(&category)).then_some(finish)))
+    }
+
+    /// The floor and wall textures of a room, drawn from `seed`; `None` without a pack or
+    /// when it has no floor or no wall texture.
+    pub fn room_shell(&self, seed: u64) -> Option<RoomShell> {
+        let pack = self.pack.as_deref()?;
+        let mut rng = Rng::new(seed ^ 0x5BE1_1);
+        let mut pick = |kind: ShellKind| {
+            let shells: Vec<_> = pack.catalogue().shells_of(kind).collect();
+            (!shells.is_empty()).then(|| {
+                let s = shells[rng.below(shells.len())];
+                ShellTexture { name: s.name.clone(), file: pack.path(&s.path), tile: s.tile }
+            })
+        };
+        Some(RoomShell { floor: pick(ShellKind::Floor)?, wall: pick(ShellKind::Wall)? })
+    }
+}
+
+/// `entry` of `pack` as an asset at `scale`: its size, surfaces and free floor from the
+/// catalogue, scaled.
+fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<Material>) -> Asset {
+    let s2 = |v: [f64; 2]| v.map(|x| x * scale);
+    let supports = entry
+        .supports
+        .iter()
+        .map(|s| SupportSurface {
+            height: s.height * scale,
+            min: s2(s.min),
+            max: s2(s.max),
+            inside: s.inside,
+            open: s.open,
+            clear_height: s.clear_height.map_or(f64::INFINITY, |c| c * scale),
+        })
+        .collect();
+    let (clearance, under) = match &entry.under {
+        Some(u) => (u.clearance * scale, Some((s2(u.min), s2(u.max)))),
+        None => (0.0, None),
+    };
+    let look = match finish {
+        Some(f) => format!("{} ", f.name.trim_start_matches("finish_")),
+        None => String::new(),
+    };
+    Asset {
+        category: entry.class.clone(),
+        parts: Vec::new(),
+        size: entry.size.map(|v| v * scale),
+        supports,
+        clearance,
+        under,
+        description: format!("A {look}{} ({} variant {}).", entry.class, entry.source, entry.variant),
+        mesh: Some(PackMesh { file: pack.path(&entry.path), scale, finish, source: entry.source.clone(), generator: entry.generator.clone() }),
+    }
+}

@@ -601,7 +601,7 @@ def main() -> int:
     ap.add_argument("--keep", action="store_true", help="keep the temporary data dir (and Chromium profile) for debugging")
     ap.add_argument("--bin", help="osmab binary (default $OSMAB_BIN, else target/release/osmab or target/debug/osmab)")
     ap.add_argument("--chromium", help="Chromium binary (default $CHROMIUM, else chromium on PATH)")
-    ap.add_argument("--timeout", type=float, default=180, help="seconds to wait for the five scored baselines (default 180)")
+    ap.add_argument("--timeout", type=float, default=600, help="seconds to wait for the five scored baselines (default 600)")
     args = ap.parse_args()
 
     started = time.monotonic()
@@ -746,7 +746,7 @@ def main() -> int:
             finally:
                 page.close()
             # The baselines of both splits are scored one after another: wait for val's too.
-            deadline = time.monotonic() + 180
+            deadline = time.monotonic() + args.timeout
             while True:
                 val_board = get_json(f"{base}/api/v1/leaderboard?split=val")
                 if len(val_board["entries"]) >= EXPECTED_ENTRIES or time.monotonic() > deadline:

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use osmab_evaluator::formats::image::read_jpeg_rgb;
+use osmab_evaluator::formats::image::{RgbImage, read_jpeg_rgb, write_png_rgb};
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::{InputError, Result};
 
@@ -67,10 +67,5 @@ fn write_grid(paths: &[Option<PathBuf>], columns: usize, gap: usize, out: &Path)
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
     }
-    let file = std::fs::File::create(out).map_err(|e| InputError::io(out, &e))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), sheet_w as u32, sheet_h as u32);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let err = |e: png::EncodingError| InputError::new(out, "(png)", e.to_string());
-    encoder.write_header().map_err(err)?.write_image_data(&sheet).map_err(err)
+    write_png_rgb(out, &RgbImage { width: sheet_w as u32, height: sheet_h as u32, pixels: sheet })
 }

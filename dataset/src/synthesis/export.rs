@@ -6,12 +6,12 @@ use std::collections::BTreeMap;
 use std::f64::consts::TAU;
 use std::path::Path;
 
+use osmab_evaluator::formats::image::{RgbImage, write_png_rgb};
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::{InputError, Result};
 
 use super::gltf_out::{OutMaterial, OutPrimitive, write_gltf};
 use super::library::{Asset, Shape};
-use super::textured::write_png_rgb;
 
 /// Triangles of one material in the object's Drake frame.
 /// The side of the square a material's texture covers, metres.
@@ -130,7 +130,8 @@ pub fn write_asset_gltf(asset: &Asset, dir: &Path, stem: &str) -> Result<()> {
     let mut textures = Vec::new();
     for (material, _) in by_material.values() {
         let name = format!("{stem}_{}.png", material.name);
-        write_png_rgb(&dir.join(&name), TEXTURE_SIDE as u32, TEXTURE_SIDE as u32, &grain_texture(material))?;
+        let texture = RgbImage { width: TEXTURE_SIDE as u32, height: TEXTURE_SIDE as u32, pixels: grain_texture(material) };
+        write_png_rgb(&dir.join(&name), &texture)?;
         textures.push(name);
     }
     let converted: Vec<(Vec<[f32; 3]>, Vec<[f32; 3]>)> = by_material

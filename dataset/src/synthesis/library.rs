@@ -244,9 +244,13 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
 /// state of `rng` (see [`FINISHES`]), facing +y (SceneSmith's front).
 pub fn make_asset(category: &str, rng: &mut Rng) -> Option<Asset> {
     let asset = build(category, rng)?;
-    // Drawn from the stream without advancing it: sizes and layouts stay those of the seed.
-    let finish = FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())];
-    Some(face_plus_y(with_finish(asset, finish)))
+    Some(face_plus_y(with_finish(asset, finish_drawn(rng))))
+}
+
+/// An instance's finish, drawn evenly from [`FINISHES`] off the state of `rng` without
+/// advancing it: sizes and layouts stay those of the seed.
+pub fn finish_drawn(rng: &Rng) -> Material {
+    FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())]
 }
 
 /// The surface area of a part (a box's six faces, a cylinder's side and caps).

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use osmab_evaluator::Result;
 use osmab_evaluator::synthetic::Rng;
 
-use super::library::{Asset, FINISHES, Material, SupportSurface, make_asset};
+use super::library::{Asset, Material, SupportSurface, finish_drawn, make_asset};
 use crate::assets::{AssetPack, ObjectEntry, ShellKind};
 
 /// The largest uniform change of a pack variant's size, either way: the forge brought it
@@ -100,7 +100,7 @@ impl AssetSource {
         let Some(pack) = self.pack.as_deref().filter(|_| !variants.is_empty()) else {
             return make_asset(category, rng);
         };
-        let finish = FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())];
+        let finish = finish_drawn(rng);
         let entry = variants[rng.below(variants.len())];
         let scale = ((1.0 + rng.range(-SIZE_JITTER, SIZE_JITTER)) * 1000.0).round() / 1000.0;
         Some(pack_asset(pack, entry, scale, (!OWN_COLOURS.contains(&category)).then_some(finish)))

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use osmab_evaluator::formats::image::{RgbImage, write_png_rgb};
 use osmab_evaluator::{InputError, Result};
 
 use super::export::to_gltf;
@@ -34,7 +35,7 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
             None => texture.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
         };
         let name = format!("{stem}_{k}.png");
-        write_png_rgb(&dir.join(&name), texture.width, texture.height, &rgb)?;
+        write_png_rgb(&dir.join(&name), &RgbImage { width: texture.width, height: texture.height, pixels: rgb })?;
         names.push(Some(name));
     }
     let primitives: Vec<OutPrimitive> = asset
@@ -144,17 +145,6 @@ fn main_colour(samples: &[([f32; 3], f32)]) -> [f32; 3] {
         }
     }
     if samples.is_empty() { [128.0; 3] } else { main }
-}
-
-pub(super) fn write_png_rgb(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
-    let file = std::fs::File::create(path).map_err(|e| InputError::io(path, &e))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let err = |e: png::EncodingError| InputError::new(path, "(png)", e.to_string());
-    let mut writer = encoder.write_header().map_err(err)?;
-    writer.write_image_data(rgb).map_err(err)?;
-    writer.finish().map_err(err)
 }
 
 /// A box of `size` (Drake axes, centred at the origin) as `dir/stem.gltf`, its faces

@@ -82,6 +82,18 @@ pub fn write_png_gray16(path: &Path, image: &GrayImage16) -> Result<()> {
     writer.finish().map_err(err)
 }
 
+/// Write an 8-bit RGB PNG (default compression).
+pub fn write_png_rgb(path: &Path, image: &RgbImage) -> Result<()> {
+    let file = File::create(path).map_err(|e| InputError::io(path, &e))?;
+    let mut encoder = png::Encoder::new(BufWriter::new(file), image.width, image.height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let err = |e: png::EncodingError| InputError::new(path, "(png)", format!("cannot write PNG: {e}"));
+    let mut writer = encoder.write_header().map_err(err)?;
+    writer.write_image_data(&image.pixels).map_err(err)?;
+    writer.finish().map_err(err)
+}
+
 /// Read a JPEG as 8-bit RGB (grayscale JPEGs are expanded), optionally requiring a size
 /// (checked before decoding). jpeg-decoder follows libjpeg's integer IDCT closely: it
 /// is within a few levels of libjpeg-turbo (Open3D, Pillow), where others differ more.

@@ -279,6 +279,17 @@ mod tests {
     }
 
     #[test]
+    fn every_finish_is_named_by_its_own_name_within_a_twentieth_of_its_brightness() {
+        for finish in crate::synthesis::library::FINISHES {
+            let name = finish.name.trim_start_matches("finish_");
+            for gain in [0.95, 1.0, 1.05] {
+                let albedo = std::array::from_fn(|c| (finish.color[c] as f64 * gain * 255.0).min(255.0));
+                assert_eq!(colour_name(albedo), Some(name), "{name} at {gain}× its brightness");
+            }
+        }
+    }
+
+    #[test]
     fn plurals_follow_english_endings() {
         for (one, many) in [("chair", "chairs"), ("bookshelf", "bookshelves"), ("box", "boxes"), ("dining chair", "dining chairs"), ("bench", "benches")] {
             assert_eq!(plural(one), many);

@@ -47,6 +47,11 @@ pub fn redact_url(url: &str) -> String {
 pub struct Settings {
     /// Address of the HTTP listener (`OSMAB_BIND`).
     pub bind: SocketAddr,
+    /// The origin people reach the service at (`OSMAB_PUBLIC_URL`, e.g.
+    /// `https://osmab.example.org`; unset, `osmab serve` fills in `http://` + the address it
+    /// listens on): the issuer receipts name, which `osmab client verify` checks against
+    /// where the keys came from.
+    pub public_url: Option<String>,
     /// Local storage and the embedded database (`OSMAB_DATA_DIR`).
     pub data_dir: PathBuf,
     /// `DATABASE_URL`; SQLite in the data directory when unset.
@@ -107,6 +112,7 @@ pub struct Settings {
 #[serde(deny_unknown_fields)]
 struct FileSettings {
     bind: Option<String>,
+    public_url: Option<String>,
     data_dir: Option<PathBuf>,
     database_url: Option<String>,
     admin_token: Option<String>,
@@ -131,6 +137,21 @@ struct FileSettings {
     storage_url: Option<String>,
     upload_expiry_secs: Option<u64>,
     ground_truth_cache_bytes: Option<u64>,
+}
+
+/// `url` as an origin (`https://host[:port]`, the default port left out), or why it is not
+/// one: the service's public address, without a path, query or credentials.
+pub fn public_origin(url: &str) -> anyhow::Result<String> {
+    let parsed = reqwest::Url::parse(url).map_err(|e| anyhow::anyhow!("OSMAB_PUBLIC_URL: cannot read '{url}' as a URL: {e}"))?;
+    anyhow::ensure!(
+        ["http", "https"].contains(&parsed.scheme()) && parsed.host().is_some(),
+        "OSMAB_PUBLIC_URL: '{url}' is not an http:// or https:// address with a host"
+    );
+    anyhow::ensure!(
+        parsed.path() == "/" && parsed.query().is_none() && parsed.fragment().is_none() && parsed.username().is_empty() && parsed.password().is_none(),
+        "OSMAB_PUBLIC_URL: '{url}' must be an origin such as https://osmab.example.org, without a path, query or credentials"
+    );
+    Ok(parsed.origin().ascii_serialization())
 }
 
 impl Settings {
@@ -164,6 +185,10 @@ impl Settings {
         }
         let bind_text: String = layer!("OSMAB_BIND", from_file.bind.clone(), "127.0.0.1:8080".to_string());
         let bind = parse("OSMAB_BIND", &bind_text)?;
+        let public_url = match env("OSMAB_PUBLIC_URL").filter(|s| !s.trim().is_empty()).or(from_file.public_url.clone()) {
+            Some(url) => Some(public_origin(url.trim())?),
+            None => None,
+        };
         let data_dir: PathBuf = layer!("OSMAB_DATA_DIR", from_file.data_dir.clone(), PathBuf::from("./osmab-data"));
         let database_url: String = match env("DATABASE_URL").filter(|s| !s.trim().is_empty()).or(from_file.database_url.clone()) {
             Some(url) => url,
@@ -176,6 +201,7 @@ impl Settings {
         let admin_token = env("OSMAB_ADMIN_TOKEN").filter(|s| !s.trim().is_empty()).or(from_file.admin_token.clone()).map(Secret::new);
         let settings = Self {
             bind,
+            public_url,
             data_dir,
             database_url: Secret::new(database_url),
             admin_token,
@@ -239,6 +265,17 @@ mod tests {
         assert_eq!(s.data_dir, PathBuf::from("./osmab-data"));
         assert_eq!(s.database_url.expose(), "sqlite://./osmab-data/osmab.db");
         assert_eq!((s.workers, s.demo, s.daily_quota), (1, true, 5));
+        assert_eq!(s.public_url, None, "`serve` names the address it listens on");
+    }
+
+    #[test]
+    fn the_public_url_is_an_origin() {
+        let s = Settings::load_from(None, &env(&[("OSMAB_PUBLIC_URL", "HTTPS://Osmab.Example.org:443/")])).unwrap();
+        assert_eq!(s.public_url.as_deref(), Some("https://osmab.example.org"));
+        for bad in ["osmab.example.org", "ftp://osmab.example.org", "https://osmab.example.org/board", "https://u:p@osmab.example.org", "https://x.org/?a=1"] {
+            let err = public_origin(bad).unwrap_err().to_string();
+            assert!(err.starts_with("OSMAB_PUBLIC_URL") && err.contains(bad), "{bad}: {err}");
+        }
     }
 
     #[test]

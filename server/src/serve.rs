@@ -172,8 +172,12 @@ async fn stop_workers(state: &AppState, workers: Vec<tokio::task::JoinHandle<()>
 }
 
 /// `osmab serve`.
-pub async fn serve(settings: Settings) -> anyhow::Result<()> {
+pub async fn serve(mut settings: Settings) -> anyhow::Result<()> {
     let bind = settings.bind;
+    let listener = tokio::net::TcpListener::bind(bind).await.with_context(|| format!("cannot listen on {bind}"))?;
+    let address = listener.local_addr()?;
+    // Receipts name the service's public origin; without one configured, where it listens.
+    settings.public_url.get_or_insert_with(|| format!("http://{address}"));
     let state = open(settings).await?;
     ensure_admin_token(&state).await?;
     // Before anything is served: every stored archive holds exactly its manifest's files.
@@ -193,8 +197,6 @@ pub async fn serve(settings: Settings) -> anyhow::Result<()> {
         shutdown_signal().await;
         let _ = stop.send(true);
     });
-    let listener = tokio::net::TcpListener::bind(bind).await.with_context(|| format!("cannot listen on {bind}"))?;
-    let address = listener.local_addr()?;
     tracing::info!(%address, workers = state.settings.workers, "serving");
     println!("osmab listening on http://{address}");
     let _ = std::io::stdout().flush();

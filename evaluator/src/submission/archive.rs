@@ -185,7 +185,8 @@ pub fn unpack(archive: &Path, dest: &Path, limits: ArchiveLimits) -> Result<Unpa
     let file = File::open(archive).map_err(|e| InputError::io(archive, &e))?;
     match kind {
         ArchiveKind::Tar => unpack_tar(BufReader::new(file), &mut writer)?,
-        ArchiveKind::TarGz => unpack_tar(flate2::read::GzDecoder::new(BufReader::new(file)), &mut writer)?,
+        // Every member of a multi-member gzip (`cat a.gz b.gz`, what bgzip writes), never the first alone.
+        ArchiveKind::TarGz => unpack_tar(flate2::read::MultiGzDecoder::new(BufReader::new(file)), &mut writer)?,
         ArchiveKind::Zip => unpack_zip(file, &mut writer)?,
     }
     if writer.out.files.is_empty() {
@@ -194,7 +195,25 @@ pub fn unpack(archive: &Path, dest: &Path, limits: ArchiveLimits) -> Result<Unpa
     Ok(writer.out)
 }
 
-fn unpack_tar(reader: impl Read, writer: &mut Writer<'_>) -> Result<()> {
+fn unpack_tar(mut reader: impl Read, writer: &mut Writer<'_>) -> Result<()> {
+    let archive_path = writer.archive;
+    read_tar_entries(&mut reader, writer)?;
+    // What follows the end of the archive must be its zero padding: anything else (bytes
+    // appended, another gzip member that does not decode) is refused, never ignored.
+    let mut rest = reader.take(writer.limits.max_total_bytes);
+    let mut chunk = vec![0u8; 64 << 10];
+    loop {
+        let n = rest.read(&mut chunk).map_err(|e| truncated(archive_path, "(archive)", &e))?;
+        if n == 0 {
+            return Ok(());
+        }
+        if chunk[..n].iter().any(|&b| b != 0) {
+            return Err(InputError::new(archive_path, "(archive)", "refused: data follows the end of the tar archive; is it two archives in one file?"));
+        }
+    }
+}
+
+fn read_tar_entries(reader: &mut impl Read, writer: &mut Writer<'_>) -> Result<()> {
     let archive_path = writer.archive;
     let mut tar = tar::Archive::new(reader);
     let entries = tar.entries().map_err(|e| truncated(archive_path, "(archive)", &e))?;
@@ -218,16 +237,11 @@ fn unpack_tar(reader: impl Read, writer: &mut Writer<'_>) -> Result<()> {
 
 fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
     let archive_path = writer.archive;
+    // The zip reader keeps one entry per name (a later copy would silently win): the
+    // central directory is read on its own first, ZIP64 or not.
+    super::zip_directory::check_names_are_unique(archive_path, writer.limits.max_entries)?;
     let mut zip =
         zip::ZipArchive::new(BufReader::new(file)).map_err(|e| InputError::new(archive_path, "(archive)", format!("not a readable zip archive: {e}")))?;
-    if zip.len() > writer.limits.max_entries {
-        return Err(InputError::new(archive_path, "(archive)", format!("more than {} entries, the most this archive may hold", writer.limits.max_entries)));
-    }
-    // The zip reader keeps one entry per name: a central directory that lists more entries
-    // than it reads holds some name twice (the later copy would silently win).
-    if central_directory_entries(archive_path).is_some_and(|listed| listed != zip.len() as u64) {
-        return Err(InputError::new(archive_path, "(archive)", "refused: the zip archive holds some name twice"));
-    }
     for i in 0..zip.len() {
         let mut entry = zip.by_index(i).map_err(|e| InputError::new(archive_path, "(archive)", format!("entry {i} is unreadable: {e}")))?;
         if entry.name_raw().contains(&0) {
@@ -244,20 +258,6 @@ fn unpack_zip(file: File, writer: &mut Writer<'_>) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The number of entries a zip's end-of-central-directory record declares (none for a
-/// ZIP64 archive, whose count lives elsewhere, or an unreadable file).
-fn central_directory_entries(path: &Path) -> Option<u64> {
-    let mut file = File::open(path).ok()?;
-    let size = file.seek(std::io::SeekFrom::End(0)).ok()?;
-    let tail = size.min(22 + 65_535);
-    file.seek(std::io::SeekFrom::Start(size - tail)).ok()?;
-    let mut bytes = Vec::with_capacity(tail as usize);
-    file.read_to_end(&mut bytes).ok()?;
-    let at = (0..bytes.len().saturating_sub(21)).rev().find(|&i| bytes[i..i + 4] == *b"PK\x05\x06")?;
-    let total = u16::from_le_bytes([bytes[at + 10], bytes[at + 11]]);
-    (total != u16::MAX).then_some(total as u64)
 }
 
 /// Every file under `dir` as sorted relative paths with '/' separators; links and other

@@ -12,6 +12,7 @@ pub mod release;
 pub mod score;
 pub mod validate;
 pub mod warm;
+pub mod zip_directory;
 
 pub use archive::{ArchiveLimits, pack_directory, pack_directory_as, pack_directory_into, pack_files_as, pack_files_into, tar_file_names, unpack};
 pub use release::ReleaseIndex;

@@ -122,3 +122,125 @@ fn a_packed_list_holds_exactly_its_files_and_its_size_is_known_before_packing() 
     let predicted = packed_size(files.iter().map(|(n, size)| (prefix.len() + n.len(), *size as u64)));
     assert_eq!(predicted, std::fs::metadata(&archive).unwrap().len(), "a long name's record counted too");
 }
+
+/// A zip of `names` (one small JSON document each).
+fn zip_of(names: &[&str]) -> Vec<u8> {
+    use std::io::Write;
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    for (k, name) in names.iter().enumerate() {
+        zip.start_file(*name, zip::write::SimpleFileOptions::default()).unwrap();
+        write!(zip, "{{\"entry\": {k}}}").unwrap();
+    }
+    zip.finish().unwrap().into_inner()
+}
+
+/// `bytes` with every occurrence of `from` replaced by `to` (of the same length).
+fn replace_all(mut bytes: Vec<u8>, from: &[u8], to: &[u8]) -> Vec<u8> {
+    for i in 0..=bytes.len() - from.len() {
+        if &bytes[i..i + from.len()] == from {
+            bytes[i..i + from.len()].copy_from_slice(to);
+        }
+    }
+    bytes
+}
+
+/// The same zip with its end record deferring to ZIP64 records (counts 0xFFFF, offset
+/// 0xFFFFFFFF), as a writer does past 65,535 entries or 4 GiB.
+fn as_zip64(zip: Vec<u8>) -> Vec<u8> {
+    let end = zip.len() - 22;
+    assert_eq!(&zip[end..end + 4], b"PK\x05\x06");
+    let u16_at = |k: usize| u16::from_le_bytes([zip[k], zip[k + 1]]) as u64;
+    let u32_at = |k: usize| u32::from_le_bytes(zip[k..k + 4].try_into().unwrap()) as u64;
+    let (entries, size, offset) = (u16_at(end + 10), u32_at(end + 12), u32_at(end + 16));
+    let mut out = zip[..end].to_vec();
+    let record_at = out.len() as u64;
+    out.extend_from_slice(b"PK\x06\x06");
+    out.extend_from_slice(&44u64.to_le_bytes());
+    out.extend_from_slice(&[45, 0, 45, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    for v in [entries, entries, size, offset] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(b"PK\x06\x07\0\0\0\0");
+    out.extend_from_slice(&record_at.to_le_bytes());
+    out.extend_from_slice(&1u32.to_le_bytes());
+    out.extend_from_slice(b"PK\x05\x06\0\0\0\0");
+    out.extend_from_slice(&[0xff; 12]);
+    out.extend_from_slice(b"\0\0");
+    out
+}
+
+#[test]
+fn zip64_archives_unpack_and_naming_an_entry_twice_is_refused_in_them_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = ["submission.json", "maps/baseline/scene_000.npz"];
+    let good = dir.path().join("good64.zip");
+    std::fs::write(&good, as_zip64(zip_of(&names))).unwrap();
+    let unpacked = unpack(&good, &dir.path().join("out-good64"), ArchiveLimits::default()).unwrap();
+    assert_eq!(unpacked.files.len(), 2, "a ZIP64 archive is read in full");
+
+    let twice = replace_all(zip_of(&["submission.json", "submissioX.json"]), b"submissioX.json", b"submission.json");
+    for (label, bytes) in [("zip", twice.clone()), ("zip64", as_zip64(twice))] {
+        let path = dir.path().join(format!("twice-{label}.zip"));
+        std::fs::write(&path, bytes).unwrap();
+        let err = unpack(&path, &dir.path().join(format!("out-{label}")), ArchiveLimits::default()).unwrap_err();
+        assert_eq!(err.field, "submission.json", "{label}: {err}");
+        assert!(err.to_string().contains("twice"), "{label}: {err}");
+    }
+}
+
+#[test]
+fn a_zip_whose_entries_cannot_all_be_listed_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let zip = zip_of(&["submission.json", "graphs/baseline/scene_000.json"]);
+    let end = zip.len() - 22;
+    // The end record declares three entries where the directory holds two.
+    let mut more = zip.clone();
+    more[end + 8..end + 12].copy_from_slice(&[3, 0, 3, 0]);
+    // A ZIP64 count with no ZIP64 records before it.
+    let mut orphan = zip.clone();
+    orphan[end + 8..end + 12].copy_from_slice(&[0xff; 4]);
+    // A directory that would run past the end record.
+    let mut beyond = zip;
+    beyond[end + 12..end + 16].copy_from_slice(&u32::MAX.wrapping_sub(1).to_le_bytes());
+    for (label, bytes, needle) in [("more", more, "entry 2 of the 3"), ("orphan", orphan, "ZIP64"), ("beyond", beyond, "outside the archive")] {
+        let path = dir.path().join(format!("{label}.zip"));
+        std::fs::write(&path, bytes).unwrap();
+        let err = unpack(&path, &dir.path().join(format!("out-{label}")), ArchiveLimits::default()).unwrap_err();
+        let shown = err.to_string();
+        assert!(shown.contains("cannot all be listed") && shown.contains(needle), "{label}: {shown}");
+    }
+}
+
+#[test]
+fn every_member_of_a_multi_member_gzip_is_read_and_trailing_bytes_are_refused() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    submission_tree(&dir.path().join("my-submission"));
+    run(dir.path(), "tar", &["-cf", "sub.tar", "-C", "my-submission", "."]);
+    let tar = std::fs::read(dir.path().join("sub.tar")).unwrap();
+    // `cat a.gz b.gz`: the tar's first half in one member, the rest in another.
+    let member = |bytes: &[u8]| {
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(bytes).unwrap();
+        gz.finish().unwrap()
+    };
+    let cut = 1536; // after the first file's header and content
+    let two_members = [member(&tar[..cut]), member(&tar[cut..])].concat();
+    let path = dir.path().join("bgzip.tar.gz");
+    std::fs::write(&path, &two_members).unwrap();
+    let unpacked = unpack(&path, &dir.path().join("out-two"), ArchiveLimits::default()).unwrap();
+    assert_eq!(list_tree(&dir.path().join("out-two")).unwrap(), list_tree(&dir.path().join("my-submission")).unwrap());
+    assert_eq!(unpacked.files.len(), 3, "no file of the second member is dropped");
+
+    let garbage = [member(&tar), b"not a gzip member".to_vec()].concat();
+    let path = dir.path().join("trailing.tar.gz");
+    std::fs::write(&path, garbage).unwrap();
+    let err = unpack(&path, &dir.path().join("out-trailing"), ArchiveLimits::default()).unwrap_err();
+    assert!(err.to_string().contains("truncated or corrupt"), "{err}");
+
+    let appended = [tar.clone(), b"PK\x03\x04 a zip appended".to_vec()].concat();
+    let path = dir.path().join("appended.tar");
+    std::fs::write(&path, appended).unwrap();
+    let err = unpack(&path, &dir.path().join("out-appended"), ArchiveLimits::default()).unwrap_err();
+    assert!(err.to_string().contains("data follows the end of the tar archive"), "{err}");
+}

@@ -72,9 +72,34 @@ pub fn sign(payload: &[u8], key: &SigningKey, kid: &str) -> String {
     format!("{signing_input}.{}", B64.encode(signature.to_bytes()))
 }
 
+impl Jwks {
+    /// Whether every key is an Ed25519 key whose `kid` is its RFC 7638 thumbprint, each
+    /// `kid` once: a set that lists an attacker's key under the service's genuine `kid`, or
+    /// two keys under one, is refused whole rather than searched.
+    pub fn check(&self) -> Result<(), String> {
+        let mut seen = std::collections::HashSet::new();
+        for jwk in &self.keys {
+            let key = jwk.key()?;
+            let computed = thumbprint(&key);
+            if computed != jwk.kid {
+                return Err(format!(
+                    "key {}: its kid is not the RFC 7638 thumbprint of its public key ({computed}); the key set is forged or damaged",
+                    jwk.kid
+                ));
+            }
+            if !seen.insert(jwk.kid.as_str()) {
+                return Err(format!("kid {} appears twice in the key set", jwk.kid));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The payload of compact JWS `token` once its signature verifies under the key of its
-/// `kid` in `keys`; otherwise what is wrong, in words.
+/// `kid` in `keys` (a key set that passes [`Jwks::check`]); otherwise what is wrong, in
+/// words.
 pub fn verify(token: &str, keys: &Jwks) -> Result<Vec<u8>, String> {
+    keys.check()?;
     let parts: Vec<&str> = token.trim().split('.').collect();
     let [header, payload, signature] = parts[..] else {
         return Err(format!("a compact JWS has three parts separated by dots; this has {}", parts.len()));
@@ -133,5 +158,23 @@ mod tests {
         assert!(verify("a.b", &keys).unwrap_err().contains("three parts"));
         let unknown = sign(b"{}", &key, "nobody");
         assert!(verify(&unknown, &keys).unwrap_err().contains("no key with kid nobody"));
+    }
+
+    #[test]
+    fn a_key_set_listing_another_key_under_a_genuine_kid_or_one_kid_twice_is_refused() {
+        let genuine = rfc_key();
+        let attacker = SigningKey::from_bytes(&[9; 32]);
+        let kid = thumbprint(&genuine.verifying_key());
+        let token = sign(br#"{"score":0.99}"#, &attacker, &kid);
+        // The attacker's public key published under the genuine kid.
+        let forged = Jwks { keys: vec![Jwk { kid: kid.clone(), ..Jwk::of(&attacker.verifying_key()) }] };
+        assert!(verify(&token, &forged).unwrap_err().contains("not the RFC 7638 thumbprint"), "a mislabelled key is refused");
+        // Two keys under one kid, the attacker's first.
+        let both = Jwks { keys: vec![Jwk { kid: kid.clone(), ..Jwk::of(&attacker.verifying_key()) }, Jwk::of(&genuine.verifying_key())] };
+        assert!(verify(&token, &both).is_err());
+        let twice = Jwks { keys: vec![Jwk::of(&genuine.verifying_key()), Jwk::of(&genuine.verifying_key())] };
+        let honest = sign(b"{}", &genuine, &kid);
+        assert!(verify(&honest, &twice).unwrap_err().contains("appears twice"));
+        assert!(verify(&honest, &Jwks { keys: vec![Jwk::of(&genuine.verifying_key())] }).is_ok());
     }
 }

@@ -19,9 +19,6 @@ use sha2::Digest;
 
 pub use keys::ReceiptKeys;
 
-/// Who signs receipts.
-pub const ISSUER: &str = "osmab";
-
 /// The headline numbers of a receipt, per lighting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ReceiptSummary {
@@ -76,6 +73,9 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// What a receipt is made from.
 pub struct Facts<'a> {
+    /// The service's public origin (`Settings::public_url`): a receipt names who issued it, and
+    /// `osmab client verify` checks it against where the keys came from.
+    pub issuer: &'a str,
     pub submission_id: &'a str,
     pub team: &'a str,
     pub method: &'a str,
@@ -98,7 +98,7 @@ impl Receipt {
         Receipt {
             evaluator_version: scores.evaluator_version.clone(),
             iat: facts.scored_at_ms / 1000,
-            iss: ISSUER.into(),
+            iss: facts.issuer.into(),
             method: facts.method.into(),
             release: scores.release.clone(),
             release_digest: facts.release_digest.into(),
@@ -136,6 +136,7 @@ mod tests {
         let keys = ReceiptKeys::open(dir.path()).unwrap();
         let scores = Scores { release: "r1".into(), evaluator_version: "0.1.0".into(), complete: true, ..Scores::default() };
         let facts = Facts {
+            issuer: "https://osmab.example.org",
             submission_id: "sub_1",
             team: "T",
             method: "M",
@@ -145,7 +146,7 @@ mod tests {
             scores: &scores,
         };
         let receipt = Receipt::of(&facts);
-        assert_eq!(receipt.iat, 1_700_000_000);
+        assert_eq!((receipt.iat, receipt.iss.as_str()), (1_700_000_000, "https://osmab.example.org"));
         assert_eq!(receipt.results_sha256, sha256_hex(results_document(&scores).as_bytes()));
         let token = receipt.sign(&keys);
         assert_eq!(token, Receipt::of(&facts).sign(&keys), "deterministic");

@@ -54,6 +54,8 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
     // An entry that stays anonymous gets an anonymous receipt (a new one once revealed).
     let team_name = if submission.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
     let receipt = Receipt::of(&Facts {
+        // `serve` sets it (to where it listens when not configured).
+        issuer: state.settings.public_url.as_deref().unwrap_or("osmab"),
         submission_id: &submission.id,
         team: team_name,
         method: &submission.method_name,

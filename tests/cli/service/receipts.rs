@@ -46,6 +46,33 @@ pub fn a_receipt_verifies_offline_and_tampering_is_caught(server: &Server<'_>, i
         "{said}{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    assert!(said.contains("issuer was not checked"), "keys from a file check no issuer unless told: {said}");
+    assert_eq!(receipt["iss"].as_str(), Some(server.url.as_str()), "the receipt names the service's origin");
+
+    // Keys fetched from the service: the receipt must name that service as its issuer.
+    let keys_url = format!("{}/api/v1/keys", server.url);
+    let out = crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", &keys_url]);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && said.contains("Valid receipt") && !said.contains("not checked"), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    let out = crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", crate::path(&keys_file), "--issuer", "https://another.example.org"]);
+    let told = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && told.contains("as its issuer, but the keys are https://another.example.org's"), "{told}");
+
+    // A key set listing an attacker's key under the genuine kid is refused whole.
+    let attacker = ed25519_dalek::SigningKey::from_bytes(&[9; 32]);
+    let mut forged_keys = jwks.clone();
+    forged_keys["keys"][0]["x"] = serde_json::json!(B64.encode(attacker.verifying_key().as_bytes()));
+    let out =
+        crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", crate::path(&write("forged-keys.json", forged_keys.to_string().as_bytes()))]);
+    let told = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && told.contains("not the RFC 7638 thumbprint"), "{told}");
+
+    // A receipt file whose readable copy was edited (a better mIoU) is refused, naming the field.
+    let mut edited = signed.clone();
+    edited["receipt"]["summary"]["semseg"]["baseline"]["miou"] = serde_json::json!(0.5);
+    let out = verify(&write("edited.json", edited.to_string().as_bytes()), &results_file);
+    let told = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && told.contains("readable copy") && told.contains("\"summary\""), "{told}");
 
     // A receipt whose payload was changed (a better mIoU) no longer verifies.
     let parts: Vec<&str> = jws.split('.').collect();

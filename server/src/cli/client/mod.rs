@@ -111,9 +111,13 @@ pub enum ClientCommand {
     Verify {
         /// The receipt: the compact JWS, or the JSON of `GET /api/v1/submissions/{id}/receipt`.
         receipt: PathBuf,
-        /// The service's key set (JWKS).
+        /// The service's key set (JWKS): its URL (`https://HOST/api/v1/keys`), whose origin the
+        /// receipt must name as its issuer, or a saved copy.
         #[arg(long)]
-        keys: PathBuf,
+        keys: String,
+        /// The origin the receipt must name as its issuer (`https://HOST`), when --keys is a file.
+        #[arg(long)]
+        issuer: Option<String>,
         /// A results document (`GET /api/v1/submissions/{id}/results.json`) to check against the receipt.
         #[arg(long)]
         results: Option<PathBuf>,
@@ -222,9 +226,10 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             Ok(())
         }
         ClientCommand::Results { id, url } => view::results(&api(url.as_deref())?, &id),
-        ClientCommand::Verify { receipt, keys, results } => {
+        ClientCommand::Verify { receipt, keys, issuer, results } => {
+            let keys = verify::KeySource::parse(&keys, issuer.as_deref())?;
             let checked = verify::verify(&receipt, &keys, results.as_deref())?;
-            print!("{}", verify::describe(&checked, results.is_some()));
+            print!("{}", verify::describe(&checked, &keys, results.is_some()));
             Ok(())
         }
         ClientCommand::Leaderboard { release, split, lighting, url } => {

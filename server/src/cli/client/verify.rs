@@ -1,47 +1,134 @@
-//! `osmab client verify RECEIPT --keys JWKS [--results FILE]`: check a score receipt
-//! offline — its signature against the service's published keys, and optionally that a
+//! `osmab client verify RECEIPT --keys URL|JWKS [--issuer ORIGIN] [--results FILE]`: check a
+//! score receipt — its signature against the service's published keys (refusing a key set
+//! whose kids are not their keys' thumbprints), that it names as issuer the origin the keys
+//! came from, that a receipt file's readable copy is what is signed, and optionally that a
 //! results document is the one the receipt names — and print what it certifies.
 
-use std::path::Path;
+use std::io::Read;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 
 use crate::receipts::jws::Jwks;
 use crate::receipts::{Receipt, sha256_hex};
 
-/// The compact JWS in `text`: the token itself, or the JSON of `GET …/receipt` (its `jws`).
-fn token_of(text: &str) -> anyhow::Result<String> {
+/// Where the service's public keys come from, and which issuer a receipt must therefore name.
+pub struct KeySource {
+    place: KeyPlace,
+    /// The origin the receipt must name (`https://host[:port]`); none when keys come from a
+    /// file and no --issuer is given.
+    issuer: Option<String>,
+}
+
+enum KeyPlace {
+    Url(String),
+    File(PathBuf),
+}
+
+/// The largest key set read from a URL.
+const MAX_KEYS_BYTES: u64 = 1 << 20;
+
+impl KeySource {
+    /// `keys` as a URL (`http://` or `https://`: the issuer is its origin, and --issuer, if
+    /// given, must agree) or a file path (the issuer is --issuer's, if given).
+    pub fn parse(keys: &str, issuer: Option<&str>) -> anyhow::Result<Self> {
+        let issuer = issuer
+            .map(|i| crate::config::public_origin(i).map_err(|e| anyhow::anyhow!("--issuer: {}", e.to_string().trim_start_matches("OSMAB_PUBLIC_URL: "))))
+            .transpose()?;
+        if !(keys.starts_with("http://") || keys.starts_with("https://")) {
+            return Ok(Self { place: KeyPlace::File(PathBuf::from(keys)), issuer });
+        }
+        let url = reqwest::Url::parse(keys).with_context(|| format!("--keys: cannot read '{keys}' as a URL"))?;
+        let origin = url.origin().ascii_serialization();
+        if let Some(given) = &issuer {
+            anyhow::ensure!(*given == origin, "--issuer {given} and the keys' URL ({origin}) name different services");
+        }
+        Ok(Self { place: KeyPlace::Url(keys.to_string()), issuer: Some(origin) })
+    }
+
+    fn load(&self) -> anyhow::Result<Jwks> {
+        let (bytes, from) = match &self.place {
+            KeyPlace::File(path) => (std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?, path.display().to_string()),
+            KeyPlace::Url(url) => {
+                let client = reqwest::blocking::Client::builder().timeout(std::time::Duration::from_secs(30)).build()?;
+                let response = client.get(url).send().with_context(|| format!("{url}: cannot fetch the keys"))?;
+                anyhow::ensure!(response.status().is_success(), "{url}: the keys answer {}", response.status());
+                let mut bytes = Vec::new();
+                response.take(MAX_KEYS_BYTES + 1).read_to_end(&mut bytes).with_context(|| format!("{url}: the keys could not be read"))?;
+                anyhow::ensure!(bytes.len() as u64 <= MAX_KEYS_BYTES, "{url}: more than {MAX_KEYS_BYTES} bytes; not a key set");
+                (bytes, url.clone())
+            }
+        };
+        serde_json::from_slice(&bytes).with_context(|| format!("{from}: not a JWKS ({{\"keys\": [...]}})"))
+    }
+}
+
+/// What a receipt file holds: the compact JWS itself, or the JSON of `GET …/receipt` (its
+/// `jws` and, for reading, an unsigned copy of the payload under `receipt`).
+struct ReceiptFile {
+    token: String,
+    readable_copy: Option<serde_json::Value>,
+}
+
+fn read_receipt_file(text: &str) -> anyhow::Result<ReceiptFile> {
     let text = text.trim();
     if text.starts_with('{') {
-        let value: serde_json::Value = serde_json::from_str(text).context("the receipt file is JSON but does not parse")?;
-        return value["jws"].as_str().map(str::to_string).context("the receipt JSON has no \"jws\"");
+        let mut value: serde_json::Value = serde_json::from_str(text).context("the receipt file is JSON but does not parse")?;
+        let token = value["jws"].as_str().map(str::to_string).context("the receipt JSON has no \"jws\"")?;
+        return Ok(ReceiptFile { token, readable_copy: value.get_mut("receipt").map(serde_json::Value::take) });
     }
-    Ok(text.to_string())
+    Ok(ReceiptFile { token: text.to_string(), readable_copy: None })
 }
 
 /// Verify the receipt in `receipt` against the key set in `keys`; with `results`, check
-/// that file's SHA-256 too. Returns the receipt.
-pub fn verify(receipt: &Path, keys: &Path, results: Option<&Path>) -> anyhow::Result<Receipt> {
+/// that file's SHA-256 too. A receipt file whose unsigned, readable copy differs from what
+/// is signed is refused, naming the fields (someone edited what people read). Returns the
+/// receipt.
+pub fn verify(receipt: &Path, keys: &KeySource, results: Option<&Path>) -> anyhow::Result<Receipt> {
     let text = std::fs::read_to_string(receipt).with_context(|| format!("{}: cannot read", receipt.display()))?;
-    let keys: Jwks = serde_json::from_slice(&std::fs::read(keys).with_context(|| format!("{}: cannot read", keys.display()))?)
-        .with_context(|| format!("{}: not a JWKS ({{\"keys\": [...]}})", keys.display()))?;
-    let receipt = Receipt::verify(&token_of(&text)?, &keys).map_err(|why| anyhow::anyhow!("the receipt does not verify: {why}"))?;
-    if let Some(path) = results {
-        let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-        let found = sha256_hex(&bytes);
-        if found != receipt.results_sha256 {
+    let file = read_receipt_file(&text)?;
+    let signed = Receipt::verify(&file.token, &keys.load()?).map_err(|why| anyhow::anyhow!("the receipt does not verify: {why}"))?;
+    if let Some(issuer) = &keys.issuer
+        && signed.iss != *issuer
+    {
+        bail!("the receipt names {} as its issuer, but the keys are {issuer}'s: it was not issued by the service these keys belong to", signed.iss);
+    }
+    if let Some(copy) = &file.readable_copy {
+        let signed_value = serde_json::to_value(&signed).expect("a receipt serialises");
+        let differing = differing_fields(&signed_value, copy);
+        if !differing.is_empty() {
             bail!(
-                "{}: its SHA-256 is {found}, the receipt names {}; it is not the results document this receipt certifies",
-                path.display(),
-                receipt.results_sha256
+                "{}: the signature is good, but the readable copy under \"receipt\" differs from the signed payload in {}; the file was edited after it was issued (the signed values are the receipt)",
+                receipt.display(),
+                differing.join(", ")
             );
         }
     }
-    Ok(receipt)
+    if let Some(path) = results {
+        let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+        let found = sha256_hex(&bytes);
+        if found != signed.results_sha256 {
+            bail!(
+                "{}: its SHA-256 is {found}, the receipt names {}; it is not the results document this receipt certifies",
+                path.display(),
+                signed.results_sha256
+            );
+        }
+    }
+    Ok(signed)
+}
+
+/// The top-level fields where `copy` differs from `signed` (missing, extra or changed).
+fn differing_fields(signed: &serde_json::Value, copy: &serde_json::Value) -> Vec<String> {
+    let (Some(signed), Some(copy)) = (signed.as_object(), copy.as_object()) else {
+        return vec!["the whole copy (not a JSON object)".into()];
+    };
+    let names: std::collections::BTreeSet<&String> = signed.keys().chain(copy.keys()).collect();
+    names.into_iter().filter(|name| signed.get(*name) != copy.get(*name)).map(|name| format!("\"{name}\"")).collect()
 }
 
 /// The receipt in words.
-pub fn describe(receipt: &Receipt, results_checked: bool) -> String {
+pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> String {
     let mut out = format!(
         "Valid receipt issued by {} for submission {} ({}, team {}), scored {} with evaluator {} on release {} (digest {}).\nUpload SHA-256: {}\nResults SHA-256: {}{}\n",
         receipt.iss,
@@ -56,6 +143,9 @@ pub fn describe(receipt: &Receipt, results_checked: bool) -> String {
         receipt.results_sha256,
         if results_checked { " (matches the results file)" } else { "" }
     );
+    if keys.issuer.is_none() {
+        out.push_str("The issuer was not checked: the keys came from a file (give --issuer ORIGIN, or --keys as the service's URL).\n");
+    }
     for (lighting, t) in &receipt.summary.semseg {
         out.push_str(&format!("  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}\n", t.miou * 100.0, t.fmiou * 100.0, t.macc * 100.0));
     }

@@ -41,12 +41,35 @@ impl CsvWriter {
     }
 }
 
-/// Text a participant chose, made safe for spreadsheets: one starting with `=`, `+`, `-`,
-/// `@`, a tab or a carriage return would be run as a formula by Excel, LibreOffice or
-/// Google Sheets, so it gets a leading apostrophe and stays text (OWASP, "CSV
-/// injection"). Numbers never go through here (a negative number stays a number).
+/// Characters that make a spreadsheet cell a formula when they start it.
+const FORMULA_STARTS: [char; 6] = ['=', '+', '-', '@', '\t', '\r'];
+/// Characters a spreadsheet may split a line into cells at (the comma of this CSV, the
+/// semicolon of many locales' CSV, tab, pipe) or a line break.
+const CELL_BREAKS: [char; 6] = [',', ';', '\t', '|', '\n', '\r'];
+
+/// Text a participant chose, made safe for spreadsheets: wherever a cell could start —
+/// at the beginning, or after a separator some locale splits at (`a;=1+1;b` is three cells
+/// in a semicolon locale), spaces skipped as an importer trims them — a formula start
+/// (`=`, `+`, `-`, `@`, tab, carriage return) gets a leading apostrophe, so Excel,
+/// LibreOffice and Google Sheets keep it as text (OWASP, "CSV injection"). Numbers never go
+/// through here (a negative number stays a number).
 pub fn spreadsheet_safe(text: &str) -> Cow<'_, str> {
-    if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { Cow::Owned(format!("'{text}")) } else { Cow::Borrowed(text) }
+    let mut out = String::with_capacity(text.len() + 2);
+    let mut cell_may_start = true;
+    let mut changed = false;
+    for c in text.chars() {
+        if cell_may_start && c == ' ' {
+            out.push(c);
+            continue;
+        }
+        if cell_may_start && FORMULA_STARTS.contains(&c) {
+            out.push('\'');
+            changed = true;
+        }
+        out.push(c);
+        cell_may_start = CELL_BREAKS.contains(&c);
+    }
+    if changed { Cow::Owned(out) } else { Cow::Borrowed(text) }
 }
 
 #[cfg(test)]
@@ -54,7 +77,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fields_are_quoted_as_pandas_quotes_them_and_formulas_are_defused() {
+    fn fields_are_quoted_as_pandas_quotes_them_and_formulas_are_defused_wherever_a_cell_may_start() {
         let mut csv = CsvWriter::new(LineEnd::Lf);
         csv.row(["plain", "with,comma", "with \"quote\"", "two\nlines", "", "0.5", "-0.25"]);
         csv.row([spreadsheet_safe("=HYPERLINK(\"http://x\")"), spreadsheet_safe("@SUM(A1)"), spreadsheet_safe("-2+3"), spreadsheet_safe("ConceptGraphs")]);
@@ -62,6 +85,17 @@ mod tests {
             csv.finish(),
             "plain,\"with,comma\",\"with \"\"quote\"\"\",\"two\nlines\",,0.5,-0.25\n\"'=HYPERLINK(\"\"http://x\"\")\",'@SUM(A1),'-2+3,ConceptGraphs\n"
         );
+        for (hostile, defused) in [
+            ("a;=1+1;b", "a;'=1+1;b"),
+            ("  =1+1", "  '=1+1"),
+            ("x,@cmd", "x,'@cmd"),
+            ("tab\t+1", "tab\t'+1"),
+            ("pipe| -2", "pipe| '-2"),
+            ("line\n=A1", "line\n'=A1"),
+            ("ok a=b c-d", "ok a=b c-d"),
+        ] {
+            assert_eq!(spreadsheet_safe(hostile), defused, "{hostile:?}");
+        }
         let mut crlf = CsvWriter::new(LineEnd::CrLf);
         crlf.row(["a", "b\rc"]);
         assert_eq!(crlf.finish(), "a,\"b\rc\"\r\n");

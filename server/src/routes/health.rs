@@ -46,8 +46,10 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
     }
 }
 
-/// `GET /metrics`: Prometheus text.
-pub async fn metrics(State(state): State<AppState>) -> Response {
+/// `GET /metrics`: Prometheus text, for the admin token only (Prometheus sends it with
+/// `authorization: {credentials_file: …}`): the counts say how many private submissions
+/// there are and how often the console is logged into.
+pub async fn metrics(_: crate::auth::AdminCaller, State(state): State<AppState>) -> Response {
     let jobs = state.store.job_state_counts().await.unwrap_or_default();
     let submissions = state.store.submission_state_counts().await.unwrap_or_default();
     let text = state.metrics.render(&[("osmab_jobs", "Jobs by state.", jobs), ("osmab_submissions", "Submissions by state.", submissions)]);

@@ -4,6 +4,7 @@
 mod admin;
 mod api_docs;
 mod files;
+mod headers;
 mod health;
 mod jobs;
 mod leaderboard;
@@ -239,5 +240,8 @@ pub fn router(state: AppState) -> Router {
         )
         .layer(PropagateRequestIdLayer::new(REQUEST_ID.clone()))
         .layer(SetRequestIdLayer::new(REQUEST_ID.clone(), RandomRequestId))
+        .layer(axum::middleware::from_fn(headers::accept_request_id))
+        .layer(axum::middleware::from_fn(headers::require_host))
+        .layer(axum::middleware::from_fn(headers::security_headers))
         .with_state(state)
 }

@@ -120,7 +120,7 @@ enum UploadAnswer {
 pub const OPERATIONS: &[Operation] = &[
     op("get", "/livez", Auth::Public, "Liveness: the process answers.", 200).returns::<Live>(),
     op("get", "/readyz", Auth::Public, "Readiness: the database and the storage are reachable.", 200).returns::<Ready>(),
-    op("get", "/metrics", Auth::Public, "Prometheus metrics (requests, latency, jobs and submissions by state).", 200).returns_other("text/plain"),
+    op("get", "/metrics", Auth::Admin, "Prometheus metrics (requests, latency, jobs and submissions by state); the admin token only.", 200).returns_other("text/plain"),
     Operation { output: Body::FreeJson, ..op("get", "/api/v1/openapi.json", Auth::Public, "This document.", 200) },
     op("get", "/api/v1/releases", Auth::Optional, "Published releases (drafts too for admins).", 200).returns::<ReleaseList>(),
     op("get", "/api/v1/releases/{version}", Auth::Optional, "One release; `current` names the current release.", 200).returns::<ReleaseSummary>(),

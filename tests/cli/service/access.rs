@@ -122,7 +122,10 @@ fn the_openapi_document_lists_only_real_routes() {
     }
     let docs = server.get("/api/docs").send().unwrap().text().unwrap();
     assert!(docs.contains("/api/v1/submissions") && docs.contains("problem-quota_exceeded"));
-    let metrics = server.get("/metrics").send().unwrap().text().unwrap();
+    problem(server.get("/metrics").send().unwrap(), 401, "unauthenticated");
+    let team = server.team("Team Metrics");
+    problem(server.get("/metrics").bearer_auth(&team).send().unwrap(), 403, "forbidden");
+    let metrics = server.admin(server.get("/metrics")).text().unwrap();
     assert!(metrics.contains("osmab_http_requests_total{method=\"GET\",route=\"/api/v1/openapi.json\",status=\"200\"}"), "{metrics}");
     assert!(metrics.contains("# TYPE osmab_jobs gauge"), "{metrics}");
 }

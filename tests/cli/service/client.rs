@@ -66,7 +66,7 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     );
     assert_eq!(sha256(&out.path().join("classes.json")), classes["sha256"].as_str().unwrap());
     assert!(!out.path().join("classes.json.part").exists());
-    let metrics = server.get("/metrics").send().unwrap().text().unwrap();
+    let metrics = server.admin(server.get("/metrics")).text().unwrap();
     assert!(metrics.contains("status=\"206\""), "the resumed request was a range request");
     // Only the chosen sequence, every file verified against the manifest.
     let sequence_files: Vec<&Value> =

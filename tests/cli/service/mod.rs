@@ -6,6 +6,7 @@ mod access;
 mod cards;
 mod client;
 mod console;
+mod headers;
 mod hostile;
 mod journey;
 mod multinode;

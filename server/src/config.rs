@@ -106,6 +106,9 @@ pub struct Settings {
     /// Bytes of ground truth a node keeps prepared for scoring (in Z-order) under
     /// `DATA_DIR/cache/prepared-ground-truth` (`OSMAB_GROUND_TRUTH_CACHE_BYTES`); 0 keeps none.
     pub ground_truth_cache_bytes: u64,
+    /// What a release config posted through the API or the console may run, call or read
+    /// (`OSMAB_RELEASE_ALLOW`, a TOML file; nothing but the bundled asset pack when unset).
+    pub release_allow: crate::release_allow::ReleaseAllowList,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -137,6 +140,7 @@ struct FileSettings {
     storage_url: Option<String>,
     upload_expiry_secs: Option<u64>,
     ground_truth_cache_bytes: Option<u64>,
+    release_allow: Option<PathBuf>,
 }
 
 /// `url` as an origin (`https://host[:port]`, the default port left out), or why it is not
@@ -198,6 +202,10 @@ impl Settings {
             Some(url) => Some(crate::blobs::ObjectConfig::parse(url.trim(), env).map_err(|e| anyhow::anyhow!(e))?),
             None => None,
         };
+        let release_allow = match env("OSMAB_RELEASE_ALLOW").filter(|s| !s.trim().is_empty()).map(PathBuf::from).or(from_file.release_allow.clone()) {
+            Some(path) => crate::release_allow::ReleaseAllowList::read(&path)?,
+            None => Default::default(),
+        };
         let admin_token = env("OSMAB_ADMIN_TOKEN").filter(|s| !s.trim().is_empty()).or(from_file.admin_token.clone()).map(Secret::new);
         let settings = Self {
             bind,
@@ -226,6 +234,7 @@ impl Settings {
             storage,
             upload_expiry_secs: layer!("OSMAB_UPLOAD_EXPIRY_SECS", from_file.upload_expiry_secs, 24 * 3600),
             ground_truth_cache_bytes: layer!("OSMAB_GROUND_TRUTH_CACHE_BYTES", from_file.ground_truth_cache_bytes, 8 << 30),
+            release_allow,
         };
         settings.check()?;
         Ok(settings)

@@ -15,6 +15,7 @@ mod problem;
 mod queue;
 mod rate_limit;
 mod receipts;
+mod release_allow;
 mod release_archives;
 mod releases;
 mod routes;

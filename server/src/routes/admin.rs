@@ -249,6 +249,7 @@ pub async fn queue_release_build(
     .await
     .map_err(Problem::internal)?;
     let (checked, _) = checked.map_err(|e| unprocessable(format!("config: {}: {}", e.field, e.message)))?;
+    state.settings.release_allow.check(&checked).map_err(|why| unprocessable(format!("config: {why}")))?;
     if state.store.release(&version).await.is_ok() {
         return Err(Problem::conflict(format!("Release {version} exists; releases are immutable, so build under a new version.")));
     }

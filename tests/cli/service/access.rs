@@ -146,6 +146,26 @@ fn refusals_at_the_edges(backend: Backend) {
     let version = draft.json::<Value>().unwrap()["version"].as_str().unwrap().to_string();
     assert_eq!(server.admin(server.post(&format!("/api/v1/admin/releases/{version}/publish"))).status(), 200);
 
+    // A posted config runs no command, calls no service and reads no folder the operator did
+    // not list (OSMAB_RELEASE_ALLOW), and nothing is queued.
+    let marker = deployment.data.path().join("pwned");
+    let shell = super::TEST_RELEASE_CONFIG
+        .replace("version = \"e2e-1\"", "version = \"shell-1\"")
+        .replace("[render]", &format!("[render]\ncommand = [\"sh\", \"-c\", \"touch {}\"]", marker.display()));
+    let llm = super::TEST_RELEASE_CONFIG
+        .replace("version = \"e2e-1\"", "version = \"llm-1\"")
+        .replace("[selection]", "[prompts.llm]\nbase_url = \"https://collector.example/v1\"\nmodel = \"m\"\n\n[selection]");
+    for (config, field) in [(shell, "render.command"), (llm, "prompts.llm.base_url")] {
+        let body = problem(server.admin(server.post("/api/v1/admin/releases").json(&json!({"config": config}))), 422, "invalid_request");
+        assert!(
+            body["detail"].as_str().unwrap().contains(&format!("config: {field}")) && body["detail"].as_str().unwrap().contains("OSMAB_RELEASE_ALLOW"),
+            "{body}"
+        );
+    }
+    let jobs: Value = server.admin(server.get("/api/v1/admin/jobs")).json().unwrap();
+    assert!(jobs["jobs"].as_array().unwrap().iter().all(|j| j["kind"] != "build_release"), "nothing queued: {jobs}");
+    assert!(!marker.exists());
+
     // Query and path parameters that do not parse.
     problem(server.get("/api/v1/leaderboard/vqa.csv?table=two").send().unwrap(), 400, "invalid_query");
     problem(server.get("/api/v1/leaderboard/vqa.csv?table=4").send().unwrap(), 400, "invalid_query");

@@ -43,19 +43,21 @@ pub fn check(
     let limits = ArchiveLimits { max_entries: 20_000, max_total_bytes: state.settings.max_unpacked_bytes };
     unpack(upload, unpack_to, limits).map_err(|e| Error::InvalidArchive(as_uploaded(e, upload, unpack_to)))?;
     let version = release_named(unpack_to).or(current.map(str::to_string)).unwrap_or_default();
-    if crate::releases::check_version(&version).is_err() {
-        return Err(Error::Invalid(vec![InputError::new("submission.json", "release", format!("'{version}' is not a release of this server"))]));
-    }
-    let Some(dir) = state.blobs.release_blocking(&version).map_err(Error::storage)? else {
-        return Err(Error::Invalid(vec![InputError::new(
+    // A draft and a version that does not exist get the same answer, decided before the
+    // draft's files are looked at: a submission does not tell whether a draft exists.
+    let not_open = || {
+        Error::Invalid(vec![InputError::new(
             "submission.json",
             "release",
-            format!("'{version}' is not a release of this server; see GET /api/v1/releases"),
-        )]));
+            format!("'{version}' is not a published release of this server; see GET /api/v1/releases"),
+        )])
     };
-    if open.is_some_and(|open| !open.contains(&version)) {
-        return Err(Error::ReleaseNotOpen(version));
+    if crate::releases::check_version(&version).is_err() || open.is_some_and(|open| !open.contains(&version)) {
+        return Err(not_open());
     }
+    let Some(dir) = state.blobs.release_blocking(&version).map_err(Error::storage)? else {
+        return Err(not_open());
+    };
     let release = ReleaseIndex::read(&dir).map_err(Error::internal)?;
     let split = split.unwrap_or_else(|| release.primary_split());
     let release = release.for_split(split).map_err(|e| Error::Invalid(vec![InputError::new("(request)", "split", e.message)]))?;

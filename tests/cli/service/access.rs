@@ -138,12 +138,21 @@ fn refusals_at_the_edges(backend: Backend) {
     let token = server.team("Team Edges");
     let archive = tar_of(baseline_dir("drop-small").path());
 
-    // A draft release: a dry run naming it is refused before anything is validated.
+    // A draft release: a dry run naming it is refused before anything is validated, with the
+    // answer a version that does not exist gets (nothing tells a draft exists).
     let draft = server.admin(server.post("/api/v1/admin/releases/import").json(&json!({"path": super::test_release(), "publish": false})));
     assert_eq!(draft.status(), 201);
-    let body = problem(server.upload(&token, &archive, "?dry_run=true"), 409, "release_not_open");
-    assert!(!body.to_string().contains("scene_0"), "nothing of the draft is shown: {body}");
     let version = draft.json::<Value>().unwrap()["version"].as_str().unwrap().to_string();
+    let body = problem(server.upload(&token, &archive, "?dry_run=true"), 422, "invalid_submission");
+    assert!(!body.to_string().contains("scene_0"), "nothing of the draft is shown: {body}");
+    let elsewhere = baseline_dir("drop-small");
+    let card = elsewhere.path().join("submission.json");
+    let renamed = std::fs::read_to_string(&card).unwrap().replace(&format!("\"{version}\""), "\"nowhere-9\"");
+    assert!(renamed.contains("nowhere-9"), "{renamed}");
+    std::fs::write(&card, renamed).unwrap();
+    let unknown = problem(server.upload(&token, &tar_of(elsewhere.path()), "?dry_run=true"), 422, "invalid_submission");
+    assert_eq!(body["detail"].as_str().unwrap().replace(&version, "V"), unknown["detail"].as_str().unwrap().replace("nowhere-9", "V"));
+    assert_eq!(body["errors"].to_string().replace(&version, "V"), unknown["errors"].to_string().replace("nowhere-9", "V"));
     assert_eq!(server.admin(server.post(&format!("/api/v1/admin/releases/{version}/publish"))).status(), 200);
 
     // A posted config runs no command, calls no service and reads no folder the operator did

@@ -237,12 +237,19 @@ fn rate_limits_by_caller(backend: Backend) {
     let other = server.team("Team Unlimited");
     assert_eq!(cancel(format!("Bearer {other}")).status(), 404);
 
-    for _ in 0..6 {
+    // Failed authentications, session cookies of the console included, share one budget per address.
+    let guess_session = || server.get("/admin").header("cookie", "osmab_admin_session=osmab_2222222222222222222222222222222x").send().unwrap();
+    for _ in 0..3 {
         problem(server.get("/api/v1/me").bearer_auth("osmab_0000000000000000000000000000000x").send().unwrap(), 401, "token_invalid");
+        let login = guess_session();
+        assert_eq!((login.status().as_u16(), login.url().path()), (200, "/admin/login"), "a cookie that is no session goes to the sign-in page");
     }
     let refused = server.get("/api/v1/me").bearer_auth("osmab_1111111111111111111111111111111x").send().unwrap();
     assert!(refused.headers().contains_key("retry-after"));
     problem(refused, 429, "rate_limited");
+    let refused = guess_session();
+    assert_eq!(refused.status(), 429, "session guesses are refused once the budget is spent");
+    assert!(refused.headers().contains_key("retry-after"));
     for _ in 0..10 {
         assert_eq!(server.get("/api/v1/releases").send().unwrap().status(), 200, "anonymous reads are not limited");
     }

@@ -92,7 +92,24 @@ impl FromRequestParts<AppState> for AdminSession {
         };
         match caller_with_token(state, token).await {
             Ok((Caller::Admin, record)) => Ok(AdminSession { token: token.to_string(), token_id: record.id }),
-            Ok(_) | Err(_) => Err(to_login()),
+            // A cookie that is no session counts as a failed authentication, as a wrong
+            // token does: guessing sessions is limited per address like guessing tokens.
+            Ok(_) | Err(_) => {
+                let address =
+                    parts.extensions.get::<axum::extract::ConnectInfo<std::net::SocketAddr>>().map_or_else(|| "unknown".to_string(), |c| c.0.ip().to_string());
+                match state.limiter.admit(format!("failed authentication from {address}"), std::time::Instant::now()) {
+                    Ok(()) => Err(to_login()),
+                    Err(seconds) => {
+                        let mut page = AdminMessage::page(
+                            StatusCode::TOO_MANY_REQUESTS,
+                            "Too many attempts",
+                            &format!("Too many failed sign-ins from this address: retry in {seconds} s."),
+                        );
+                        page.headers_mut().insert(header::RETRY_AFTER, seconds.into());
+                        Err(page)
+                    }
+                }
+            }
         }
     }
 }

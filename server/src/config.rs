@@ -109,6 +109,9 @@ pub struct Settings {
     /// What a release config posted through the API or the console may run, call or read
     /// (`OSMAB_RELEASE_ALLOW`, a TOML file; nothing but the bundled asset pack when unset).
     pub release_allow: crate::release_allow::ReleaseAllowList,
+    /// Reverse proxies whose `X-Forwarded-Host` and `X-Forwarded-Proto` count
+    /// (`OSMAB_TRUSTED_PROXIES`, comma-separated addresses or CIDR networks; none when unset).
+    pub trusted_proxies: crate::proxies::TrustedProxies,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -141,6 +144,7 @@ struct FileSettings {
     upload_expiry_secs: Option<u64>,
     ground_truth_cache_bytes: Option<u64>,
     release_allow: Option<PathBuf>,
+    trusted_proxies: Option<Vec<String>>,
 }
 
 /// `url` as an origin (`https://host[:port]`, the default port left out), or why it is not
@@ -206,6 +210,10 @@ impl Settings {
             Some(path) => crate::release_allow::ReleaseAllowList::read(&path)?,
             None => Default::default(),
         };
+        let trusted_proxies = match env("OSMAB_TRUSTED_PROXIES").filter(|s| !s.trim().is_empty()) {
+            Some(text) => crate::proxies::TrustedProxies::parse(&text)?,
+            None => crate::proxies::TrustedProxies::from_entries(from_file.trusted_proxies.iter().flatten().map(String::as_str))?,
+        };
         let admin_token = env("OSMAB_ADMIN_TOKEN").filter(|s| !s.trim().is_empty()).or(from_file.admin_token.clone()).map(Secret::new);
         let settings = Self {
             bind,
@@ -235,6 +243,7 @@ impl Settings {
             upload_expiry_secs: layer!("OSMAB_UPLOAD_EXPIRY_SECS", from_file.upload_expiry_secs, 24 * 3600),
             ground_truth_cache_bytes: layer!("OSMAB_GROUND_TRUTH_CACHE_BYTES", from_file.ground_truth_cache_bytes, 8 << 30),
             release_allow,
+            trusted_proxies,
         };
         settings.check()?;
         Ok(settings)

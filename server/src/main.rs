@@ -12,6 +12,7 @@ mod leaderboard;
 mod llm;
 mod metrics;
 mod problem;
+mod proxies;
 mod queue;
 mod rate_limit;
 mod receipts;

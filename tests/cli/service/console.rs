@@ -80,6 +80,17 @@ fn console(backend: Backend) {
         .send()
         .unwrap();
     assert_eq!(cross.status(), 403);
+    // A client's own X-Forwarded-Host does not make another origin this page's: the test
+    // server trusts no proxy (OSMAB_TRUSTED_PROXIES is unset).
+    let spoofed = browser
+        .post(format!("{}/admin/submissions/{id}/flag", server.url))
+        .header("cookie", &cookie)
+        .header("origin", "https://evil.example")
+        .header("x-forwarded-host", "evil.example")
+        .form(&[("form_token", form_token.as_str()), ("reason", "spoofed host")])
+        .send()
+        .unwrap();
+    assert_eq!(spoofed.status(), 403);
     let missing = form(&browser, &server, &format!("/admin/submissions/{id}/flag"), &cookie, &[("reason", "no token")]);
     assert_eq!(missing.status(), 400);
     let entry = |server: &Server<'_>| {

@@ -6,6 +6,7 @@
 
 mod actions;
 mod console;
+mod origin;
 mod quality;
 mod session;
 

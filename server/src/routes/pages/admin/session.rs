@@ -13,6 +13,7 @@ use axum::response::{IntoResponse, Redirect, Response};
 use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
+use super::origin::PageOrigin;
 use super::{AdminMessage, LoginPage, parse_form};
 use crate::auth::{Caller, caller_with_token, issue_token};
 use crate::clock::now_ms;
@@ -28,6 +29,8 @@ pub const SESSION_HOURS: i64 = 12;
 pub struct AdminSession {
     token: String,
     token_id: String,
+    /// Where the page was served from (forms must come from there).
+    origin: PageOrigin,
 }
 
 impl AdminSession {
@@ -45,14 +48,10 @@ impl AdminSession {
 
     /// Refuse a form that lacks this session's form token or comes from another origin.
     pub fn check_form(&self, headers: &HeaderMap, form_token: &str) -> Result<(), Response> {
-        // The page's host as the browser saw it: the Host header, or the one a proxy in
-        // front forwarded (some proxies rewrite Host).
-        let hosts = [headers.get(header::HOST), headers.get("x-forwarded-host")];
+        // The page's host as the browser saw it: the Host header, a trusted proxy's
+        // forwarded one (some proxies rewrite Host) or the configured public URL's.
         let same_origin = match headers.get(header::ORIGIN) {
-            Some(origin) => {
-                let origin = origin.to_str().unwrap_or("");
-                origin.split_once("://").is_some_and(|(_, rest)| hosts.iter().flatten().any(|host| rest.as_bytes() == host.as_bytes()))
-            }
+            Some(origin) => self.origin.admits(origin.to_str().unwrap_or("")),
             // Without an Origin header (older browsers, curl) the form token decides.
             None => true,
         };
@@ -91,7 +90,10 @@ impl FromRequestParts<AppState> for AdminSession {
             return Err(to_login());
         };
         match caller_with_token(state, token).await {
-            Ok((Caller::Admin, record)) => Ok(AdminSession { token: token.to_string(), token_id: record.id }),
+            Ok((Caller::Admin, record)) => {
+                let peer = parts.extensions.get::<axum::extract::ConnectInfo<std::net::SocketAddr>>().map(|c| c.0.ip());
+                Ok(AdminSession { token: token.to_string(), token_id: record.id, origin: PageOrigin::of(&parts.headers, peer, &state.settings) })
+            }
             // A cookie that is no session counts as a failed authentication, as a wrong
             // token does: guessing sessions is limited per address like guessing tokens.
             Ok(_) | Err(_) => {
@@ -124,15 +126,15 @@ struct LoginForm {
     token: String,
 }
 
-/// The session cookie's header; `Secure` when the request came over HTTPS (a TLS proxy in
-/// front says so with `X-Forwarded-Proto`), so the browser never sends it in clear.
-fn session_cookie(value: &str, max_age_secs: i64, headers: &HeaderMap) -> String {
-    let https = headers.get("x-forwarded-proto").and_then(|v| v.to_str().ok()).is_some_and(|v| v.eq_ignore_ascii_case("https"));
+/// The session cookie's header; `Secure` when the request came over HTTPS (a trusted TLS
+/// proxy in front says so with `X-Forwarded-Proto`), so the browser never sends it in clear.
+fn session_cookie(value: &str, max_age_secs: i64, origin: &PageOrigin) -> String {
+    let https = origin.https;
     format!("{COOKIE}={value}; Path=/admin; HttpOnly; SameSite=Strict; Max-Age={max_age_secs}{}", if https { "; Secure" } else { "" })
 }
 
 /// `POST /admin/login` (`token`): start a session with an admin token.
-pub async fn login(State(state): State<AppState>, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+pub async fn login(State(state): State<AppState>, origin: PageOrigin, body: axum::body::Bytes) -> Response {
     let form: LoginForm = match parse_form(&body) {
         Ok(form) => form,
         Err(response) => return response,
@@ -149,7 +151,7 @@ pub async fn login(State(state): State<AppState>, headers: HeaderMap, body: axum
         return crate::problem::Problem::from(e).into_response();
     }
     tracing::info!(session = %record.id, "operator signed in to the console");
-    ([(header::SET_COOKIE, session_cookie(&session, SESSION_HOURS * 3600, &headers))], Redirect::to("/admin")).into_response()
+    ([(header::SET_COOKIE, session_cookie(&session, SESSION_HOURS * 3600, &origin))], Redirect::to("/admin")).into_response()
 }
 
 #[derive(Deserialize)]
@@ -169,7 +171,7 @@ pub async fn logout(State(state): State<AppState>, session: AdminSession, header
     if let Err(e) = state.store.revoke_token(&session.token_id, now_ms()).await {
         return crate::problem::Problem::from(e).into_response();
     }
-    ([(header::SET_COOKIE, session_cookie("", 0, &headers))], Redirect::to("/admin/login")).into_response()
+    ([(header::SET_COOKIE, session_cookie("", 0, &session.origin))], Redirect::to("/admin/login")).into_response()
 }
 
 #[cfg(test)]
@@ -183,8 +185,9 @@ mod tests {
         assert_eq!(cookie(&headers, COOKIE), Some("osmab_abc"));
         assert_eq!(cookie(&headers, "missing"), None);
 
-        let session = AdminSession { token: "osmab_abc".into(), token_id: "tok_1".into() };
-        let other = AdminSession { token: "osmab_xyz".into(), token_id: "tok_2".into() };
+        let origin = |hosts: &[&str]| PageOrigin { hosts: hosts.iter().map(|h| h.to_string()).collect(), https: false };
+        let session = AdminSession { token: "osmab_abc".into(), token_id: "tok_1".into(), origin: origin(&["bench.example:8080"]) };
+        let other = AdminSession { token: "osmab_xyz".into(), token_id: "tok_2".into(), origin: origin(&["bench.example:8080"]) };
         assert_ne!(session.form_token(), other.form_token());
         let mut same = HeaderMap::new();
         same.insert(header::HOST, "bench.example:8080".parse().unwrap());
@@ -195,19 +198,16 @@ mod tests {
         let mut cross = same.clone();
         cross.insert(header::ORIGIN, "https://evil.example".parse().unwrap());
         assert!(session.check_form(&cross, &session.form_token()).is_err(), "another origin");
+        let behind_proxy = AdminSession { origin: origin(&["10.0.0.5:8080", "bench.example"]), ..session.clone() };
         let mut proxied = cross.clone();
         proxied.insert(header::ORIGIN, "https://bench.example".parse().unwrap());
-        proxied.insert(header::HOST, "10.0.0.5:8080".parse().unwrap());
-        proxied.insert("x-forwarded-host", "bench.example".parse().unwrap());
-        assert!(session.check_form(&proxied, &session.form_token()).is_ok(), "a proxy that rewrites Host forwards the public one");
+        assert!(behind_proxy.check_form(&proxied, &session.form_token()).is_ok(), "a trusted proxy that rewrites Host forwards the public one");
     }
 
     #[test]
     fn the_cookie_is_secure_behind_a_tls_proxy() {
-        let plain = session_cookie("v", 60, &HeaderMap::new());
+        let plain = session_cookie("v", 60, &PageOrigin::default());
         assert_eq!(plain, "osmab_admin_session=v; Path=/admin; HttpOnly; SameSite=Strict; Max-Age=60");
-        let mut proxied = HeaderMap::new();
-        proxied.insert("x-forwarded-proto", "HTTPS".parse().unwrap());
-        assert!(session_cookie("v", 60, &proxied).ends_with("; Secure"));
+        assert!(session_cookie("v", 60, &PageOrigin { hosts: vec![], https: true }).ends_with("; Secure"));
     }
 }

@@ -1,7 +1,9 @@
 //! Names people choose (teams, methods) are shown on pages, in CSV and in terminals:
 //! printable text only. Control characters and Unicode format characters (bidirectional
-//! overrides such as U+202E, zero-width characters, the BOM, invisible tags) and line or
-//! paragraph separators are refused, so a name always reads as what it is.
+//! overrides such as U+202E, zero-width characters, the BOM, invisible tags), line or
+//! paragraph separators and stacks of combining marks are refused, so a name always reads as
+//! what it is; and a name that looks like a reserved one (a Cyrillic "Аnonymous", a
+//! "baseIine-oracle") is told apart by its UTS #39 skeleton.
 
 /// Whether `c` is a control (Cc), format (Cf), line (Zl) or paragraph (Zp) separator
 /// character (Unicode 16 tables for Cf), or one that displays as nothing: variation
@@ -43,6 +45,17 @@ pub fn is_invisible(c: char) -> bool {
         )
 }
 
+/// Combining marks a name may stack on one character (enough for Vietnamese "ệ" written
+/// with two marks); more is "Zalgo" text that spills over the lines around it.
+pub const MAX_STACKED_MARKS: usize = 2;
+
+/// Whether `c` is a combining diacritical mark of the blocks that stack on any letter
+/// (Combining Diacritical Marks and their Extended and Supplement blocks, marks for symbols,
+/// half marks).
+fn is_stacking_mark(c: char) -> bool {
+    matches!(c as u32, 0x0300..=0x036F | 0x1AB0..=0x1AFF | 0x1DC0..=0x1DFF | 0x20D0..=0x20FF | 0xFE20..=0xFE2F)
+}
+
 /// What is wrong with `name` as a display name of 1 to `max_chars` characters (already
 /// trimmed), if anything.
 pub fn display_name_problem(name: &str, max_chars: usize) -> Option<String> {
@@ -50,9 +63,17 @@ pub fn display_name_problem(name: &str, max_chars: usize) -> Option<String> {
     if count == 0 || count > max_chars {
         return Some(format!("expected 1 to {max_chars} printable characters, found {count}"));
     }
-    name.chars()
-        .find(|&c| is_invisible(c))
-        .map(|c| format!("expected printable characters only, found U+{:04X} (a control or invisible formatting character)", c as u32))
+    if let Some(c) = name.chars().find(|&c| is_invisible(c)) {
+        return Some(format!("expected printable characters only, found U+{:04X} (a control or invisible formatting character)", c as u32));
+    }
+    let mut stacked = 0;
+    for c in name.chars() {
+        stacked = if is_stacking_mark(c) { stacked + 1 } else { 0 };
+        if stacked > MAX_STACKED_MARKS {
+            return Some(format!("expected at most {MAX_STACKED_MARKS} combining marks on a character, found more (U+{:04X})", c as u32));
+        }
+    }
+    None
 }
 
 /// Whether `text` (a description; line breaks and tabs allowed) holds a character that
@@ -60,6 +81,25 @@ pub fn display_name_problem(name: &str, max_chars: usize) -> Option<String> {
 /// characters.
 pub fn first_hidden_format(text: &str) -> Option<char> {
     text.chars().find(|&c| !matches!(c, '\n' | '\r' | '\t') && is_invisible(c))
+}
+
+/// The forms two names share when they look alike: UTS #39 skeletons, case folded, with
+/// spaces and word-separating punctuation (`-`, `_`, `.`, dashes) dropped — taken before and
+/// after folding, as case matters both ways (`baseIine` with a capital I reads "baseline",
+/// `BASELINE` is "baseline" although its I alone would read as an l).
+pub fn look_alike_keys(name: &str) -> [String; 2] {
+    let skeleton = |text: &str| -> String { unicode_security::skeleton(text).collect() };
+    let key = |text: &str| -> String {
+        skeleton(&skeleton(text).to_lowercase()).chars().filter(|c| !(c.is_whitespace() || matches!(c, '-' | '_' | '.' | '\u{2010}'..='\u{2015}'))).collect()
+    };
+    [key(name), key(&name.to_lowercase())]
+}
+
+/// Whether `name` looks like `reserved` (a skeleton in common) or, with `prefix`, starts
+/// like it.
+pub fn impersonates(name: &str, reserved: &str, prefix: bool) -> bool {
+    let (names, reserved) = (look_alike_keys(name), look_alike_keys(reserved));
+    names.iter().any(|n| reserved.iter().any(|r| if prefix { n.starts_with(r.as_str()) } else { n == r }))
 }
 
 #[cfg(test)]
@@ -88,8 +128,24 @@ mod tests {
             assert!(problem.contains("U+"), "{problem}");
         }
         assert!(display_name_problem("", 80).unwrap().contains("1 to 80"));
+        assert_eq!(display_name_problem("Nguyễn Thị Ánh – Việt", 80), None, "two marks on a letter are fine");
+        let zalgo = format!("Z{}algo", "\u{0301}".repeat(79));
+        assert!(display_name_problem(&zalgo, 200).unwrap().contains("combining marks"));
         assert!(display_name_problem(&"x".repeat(81), 80).unwrap().contains("found 81"));
         assert_eq!(first_hidden_format("line one\nline two\tend"), None);
         assert_eq!(first_hidden_format("abc\u{2066}def"), Some('\u{2066}'));
+    }
+
+    #[test]
+    fn names_that_look_like_reserved_ones_are_told_apart_by_their_skeleton() {
+        for lookalike in ["Anonymous", "anonymous", "\u{0410}nonymous", "ANONYM0US", "Anonymоus", "anon ymous", "Аnоnуmоus"] {
+            assert!(impersonates(lookalike, "Anonymous", false), "{lookalike}");
+        }
+        assert!(!impersonates("Anonymous Lab", "Anonymous", false));
+        for lookalike in ["baseline-oracle", "Baseline Oracle", "baseIine-oracle", "bаseline_x", "BASELINE"] {
+            assert!(impersonates(lookalike, "baseline", true), "{lookalike}");
+        }
+        assert!(!impersonates("ConceptGraphs", "baseline", true));
+        assert!(!impersonates("my baseline", "baseline", true), "only names that start like one");
     }
 }

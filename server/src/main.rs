@@ -19,6 +19,7 @@ mod receipts;
 mod release_allow;
 mod release_archives;
 mod releases;
+mod reserved_names;
 mod routes;
 mod serve;
 mod split_secret;

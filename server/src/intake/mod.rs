@@ -96,6 +96,11 @@ pub async fn accept(state: &AppState, team: &Team, upload: &Upload, request: &Re
             .await
             .map_err(Error::internal)??;
     let split = release.split.expect("checked against one split");
+    if !request.baseline
+        && let Some(problem) = crate::reserved_names::method_name_problem(submission.method.name.trim())
+    {
+        return Err(Error::Invalid(vec![osmab_evaluator::InputError::new("submission.json", "method.name", problem)]));
+    }
     if let (false, None) = (request.dry_run, request.split) {
         match state.store.repeated_submission(&team.id, &upload.sha256_hex(), split, request.idempotency_key.as_deref()).await? {
             Some(Recorded::Repeat(id)) => return Ok(Accepted::Repeat { id }),

@@ -32,7 +32,7 @@ fn unprocessable(detail: impl Into<String>) -> Problem {
 /// `POST /api/v1/admin/teams` `{"name"}` → `201 {"id", "name", "token"}` (the token is shown once).
 pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<NewTeam>) -> ApiResult<Response> {
     let name = body.name.trim().to_string();
-    if let Some(problem) = osmab_evaluator::text::display_name_problem(&name, 80) {
+    if let Some(problem) = osmab_evaluator::text::display_name_problem(&name, 80).or_else(|| crate::reserved_names::team_name_problem(&name)) {
         return Err(unprocessable(format!("name: {problem}")));
     }
     if body.daily_quota.is_some_and(|q| q < 0) {

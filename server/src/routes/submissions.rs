@@ -394,6 +394,10 @@ pub async fn update(
     };
     card.check("request body")
         .map_err(|e| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("{}: {}", e.field, e.message)))?;
+    let baselines = state.store.team(&s.team_id).await?.name == crate::jobs::release_build::BASELINE_TEAM;
+    if !baselines && let Some(problem) = crate::reserved_names::method_name_problem(card.name.trim()) {
+        return Err(Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("name: {problem}")));
+    }
     state.store.update_method_card(&id, &s, now_ms()).await?;
     state.leaderboard.invalidate();
     Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))

@@ -197,6 +197,24 @@ fn refusals_at_the_edges(backend: Backend) {
     let body = problem(rename("zero\u{200B}width", Some(&token)), 422, "invalid_request");
     assert!(body["detail"].as_str().unwrap().contains("U+200B"), "{body}");
 
+    // Names that read as the service's own: the baselines, "Anonymous"; stacked combining marks.
+    for team in ["\u{0410}nonymous", "OSMa-Bench Baselines"] {
+        let body = problem(server.admin(server.post("/api/v1/admin/teams").json(&json!({"name": team}))), 422, "invalid_request");
+        assert!(body["detail"].as_str().unwrap().contains("reserves"), "{team}: {body}");
+    }
+    let zalgo = format!("Z{}", "\u{0301}".repeat(79));
+    let body = problem(server.admin(server.post("/api/v1/admin/teams").json(&json!({"name": zalgo}))), 422, "invalid_request");
+    assert!(body["detail"].as_str().unwrap().contains("combining marks"), "{body}");
+    for method in ["baseIine-oracle", "Baseline Oracle", "Аnonymous"] {
+        let body = problem(rename(method, Some(&token)), 422, "invalid_request");
+        assert!(body["detail"].as_str().unwrap().contains("reserves") || body["detail"].as_str().unwrap().contains("anonymous"), "{method}: {body}");
+    }
+    let impostor = baseline_dir("drop-small");
+    let card = impostor.path().join("submission.json");
+    std::fs::write(&card, std::fs::read_to_string(&card).unwrap().replace("\"team-drop-small\"", "\"baseline-oracle\"")).unwrap();
+    let body = problem(server.upload(&token, &tar_of(impostor.path()), "?dry_run=true"), 422, "invalid_submission");
+    assert!(body["errors"].to_string().contains("method.name") && body["errors"].to_string().contains("reference baselines"), "{body}");
+
     // Editing needs the team's token: 401 without one, 403 with another team's.
     problem(rename("mine now", None), 401, "unauthenticated");
     let other = server.team("Team Other Edges");

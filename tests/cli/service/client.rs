@@ -110,7 +110,7 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     let pooled = view["scores"]["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap();
     assert!(results.contains(&format!("{:.1}", pooled * 100.0)) && results.contains("Question answering"), "{results}");
     let board = ok(&client(&config, &["leaderboard"]));
-    assert!(board.contains("baseline-label-noise") && board.contains("Team Client"), "{board}");
+    assert!(board.contains("team-label-noise") && board.contains("Team Client"), "{board}");
 
     // A revoked token is explained with what to do, not shown as a raw body.
     let tokens: Value = server.admin(server.get("/api/v1/admin/teams")).json().unwrap();

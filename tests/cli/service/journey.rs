@@ -177,12 +177,12 @@ fn journey(backend: Backend) {
     let csv = server.get("/api/v1/leaderboard").header("accept", "text/csv").send().unwrap().text().unwrap();
     let mut lines = csv.lines();
     assert!(lines.next().unwrap().starts_with("rank,rank_group,submission_id,team,method,baseline,complete,worst_lighting,worst_lighting_miou,largest_drop_lighting,largest_drop,baseline_overall_miou,baseline_overall_fmiou,baseline_overall_macc,baseline_overall_miou_ci95_low"));
-    assert!(lines.next().unwrap().starts_with(&format!("1,1,{oracle_id},Team Journey,baseline-oracle,false,true,baseline,1,camera,0,1,1,1,1,1,1,1,1,1,")));
+    assert!(lines.next().unwrap().starts_with(&format!("1,1,{oracle_id},Team Journey,team-oracle,false,true,baseline,1,camera,0,1,1,1,1,1,1,1,1,1,")));
     assert_eq!(server.get("/api/v1/leaderboard.csv").send().unwrap().text().unwrap(), csv);
 
     // Pages render without JavaScript.
     let page = server.get("/").send().unwrap().text().unwrap();
-    assert!(page.contains("baseline-oracle") && page.contains("baseline-merge") && page.contains("<svg"), "{page}");
+    assert!(page.contains("team-oracle") && page.contains("team-merge") && page.contains("<svg"), "{page}");
     let release_page = server.get(&format!("/releases/{version}")).send().unwrap().text().unwrap();
     assert!(release_page.contains("scene_000") && release_page.contains(".tar"));
     let submission_page = server.get(&format!("/submissions/{oracle_id}")).send().unwrap().text().unwrap();

@@ -69,6 +69,10 @@ pub struct Settings {
     pub val_quota: i64,
     /// Largest upload in bytes (`OSMAB_MAX_UPLOAD_BYTES`).
     pub max_upload_bytes: u64,
+    /// Resumable uploads a team may hold open at once (`OSMAB_MAX_OPEN_UPLOADS`).
+    pub max_open_uploads: i64,
+    /// Declared bytes of a team's open resumable uploads at most (`OSMAB_MAX_OPEN_UPLOAD_BYTES`).
+    pub max_open_upload_bytes: u64,
     /// Largest unpacked submission in bytes (`OSMAB_MAX_UNPACKED_BYTES`).
     pub max_unpacked_bytes: u64,
     /// How long a job's lease lasts without a heartbeat (`OSMAB_JOB_LEASE_SECS`).
@@ -128,6 +132,8 @@ struct FileSettings {
     val_quota: Option<i64>,
     max_upload_bytes: Option<u64>,
     max_unpacked_bytes: Option<u64>,
+    max_open_uploads: Option<i64>,
+    max_open_upload_bytes: Option<u64>,
     job_lease_secs: Option<u64>,
     job_max_attempts: Option<i64>,
     poll_ms: Option<u64>,
@@ -227,6 +233,8 @@ impl Settings {
             val_quota: layer!("OSMAB_VAL_QUOTA", from_file.val_quota, 50),
             max_upload_bytes: layer!("OSMAB_MAX_UPLOAD_BYTES", from_file.max_upload_bytes, 4 << 30),
             max_unpacked_bytes: layer!("OSMAB_MAX_UNPACKED_BYTES", from_file.max_unpacked_bytes, 16 << 30),
+            max_open_uploads: layer!("OSMAB_MAX_OPEN_UPLOADS", from_file.max_open_uploads, 4),
+            max_open_upload_bytes: layer!("OSMAB_MAX_OPEN_UPLOAD_BYTES", from_file.max_open_upload_bytes, 8 << 30),
             job_lease_secs: layer!("OSMAB_JOB_LEASE_SECS", from_file.job_lease_secs, 60),
             job_max_attempts: layer!("OSMAB_JOB_MAX_ATTEMPTS", from_file.job_max_attempts, 3),
             poll_ms: layer!("OSMAB_POLL_MS", from_file.poll_ms, 500),
@@ -258,6 +266,13 @@ impl Settings {
         anyhow::ensure!(self.rate_limit >= 0.0 && self.rate_burst >= 1.0, "rate_limit must be 0 or more and rate_burst at least 1");
         anyhow::ensure!(self.header_timeout_secs >= 1 && self.body_idle_timeout_secs >= 1, "header_timeout_secs and body_idle_timeout_secs must be at least 1");
         anyhow::ensure!(self.upload_expiry_secs >= 60, "upload_expiry_secs must be at least 60");
+        anyhow::ensure!(self.max_open_uploads >= 1, "max_open_uploads must be at least 1");
+        anyhow::ensure!(
+            self.max_open_upload_bytes >= self.max_upload_bytes,
+            "max_open_upload_bytes ({}) must be at least max_upload_bytes ({}), or no upload of the largest size could start",
+            self.max_open_upload_bytes,
+            self.max_upload_bytes
+        );
         anyhow::ensure!(self.max_connections >= 1, "max_connections must be at least 1");
         anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");

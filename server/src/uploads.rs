@@ -17,7 +17,7 @@ use crate::clock::{new_id, now_ms, rfc3339};
 use crate::intake::{Upload, receive};
 use crate::problem::Problem;
 use crate::state::AppState;
-use crate::store::{StoreError, Team, UploadPart, UploadRecord};
+use crate::store::{OpenUploadLimits, OpenUploads, StoreError, Team, UploadPart, UploadRecord};
 
 /// The protocol version served.
 pub const TUS_VERSION: &str = "1.0.0";
@@ -81,9 +81,37 @@ pub async fn create(state: &AppState, team: &Team, length: u64, metadata: &str) 
         expires_at: now + state.settings.upload_expiry_secs as i64 * 1000,
         submission_id: None,
     };
-    state.store.insert_upload(&upload).await?;
+    let limits = OpenUploadLimits { uploads: state.settings.max_open_uploads, bytes: state.settings.max_open_upload_bytes as i64 };
+    if let Err(open) = state.store.insert_upload_within(&upload, limits, now).await? {
+        return Err(open_uploads_refused(open, limits, length));
+    }
     tracing::info!(upload = %upload.id, team = %team.name, length, "resumable upload started");
     Ok(upload)
+}
+
+/// The refusal of an upload that would pass the team's open-upload limits: 429 for their
+/// number, 413 for their bytes, each naming the limit and what frees room.
+fn open_uploads_refused(open: OpenUploads, limits: OpenUploadLimits, length: u64) -> Problem {
+    let frees = "Finish or DELETE an open upload (they also expire OSMAB_UPLOAD_EXPIRY_SECS after their last chunk), then start this one again.";
+    if open.uploads >= limits.uploads {
+        return Problem::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "too_many_uploads",
+            "Too many open uploads",
+            format!("Your team has {} resumable uploads open, the most it may (OSMAB_MAX_OPEN_UPLOADS = {}). {frees}", open.uploads, limits.uploads),
+        )
+        .with("limit", limits.uploads.into());
+    }
+    Problem::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "open_uploads_too_large",
+        "Open uploads too large",
+        format!(
+            "Your team's open resumable uploads declare {} bytes; {length} more would pass {} (OSMAB_MAX_OPEN_UPLOAD_BYTES). {frees}",
+            open.bytes, limits.bytes
+        ),
+    )
+    .with("limit", limits.bytes.into())
 }
 
 /// Where an upload stands (`HEAD`).

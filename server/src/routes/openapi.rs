@@ -325,6 +325,8 @@ pub const PROBLEMS: &[(&str, &str)] = &[
     ("checksum_algorithm", "`Upload-Checksum` names an algorithm other than sha256."),
     ("checksum_mismatch", "The chunk's SHA-256 differs from its `Upload-Checksum` (status 460); nothing was kept, send it again."),
     ("upload_expired", "The resumable upload expired before it was complete; start a new one."),
+    ("too_many_uploads", "The team holds `OSMAB_MAX_OPEN_UPLOADS` resumable uploads open (429); finish or DELETE one, or let it expire."),
+    ("open_uploads_too_large", "The team's open resumable uploads would declare more than `OSMAB_MAX_OPEN_UPLOAD_BYTES` (413); finish or DELETE one."),
     ("internal", "An unexpected failure, logged with the request id."),
 ];
 

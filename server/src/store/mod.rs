@@ -24,7 +24,7 @@ pub use models::*;
 pub use queue::Standing;
 pub use quotas::QuotaPolicyRecord;
 pub use states::{JobState, ReleaseState, SubmissionState};
-pub use uploads::{UploadPart, UploadRecord};
+pub use uploads::{OpenUploadLimits, OpenUploads, UploadPart, UploadRecord};
 
 use sqlx::{PgPool, SqlitePool};
 

@@ -48,29 +48,66 @@ impl UploadRecord {
     }
 }
 
+/// What a team may hold open at once: resumable uploads not yet a submission and not expired.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OpenUploadLimits {
+    /// Open uploads at most.
+    pub uploads: i64,
+    /// Their declared lengths summed at most.
+    pub bytes: i64,
+}
+
+/// A team's open uploads, counted when a new one was refused (the new one not included).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OpenUploads {
+    pub uploads: i64,
+    pub bytes: i64,
+}
+
 const COLUMNS: &str = "id, team_id, length, upload_offset, metadata, parts, created_at, expires_at, submission_id";
 
 impl Store {
-    /// Record a new upload.
-    pub async fn insert_upload(&self, upload: &UploadRecord) -> StoreResult<()> {
+    /// Record a new upload unless its team would then hold more open uploads, or more bytes
+    /// of them, than `limits` allow (counted inside the transaction after a lock on the team,
+    /// so parallel requests on any node cannot overrun it); `Err` carries what the team holds.
+    pub async fn insert_upload_within(&self, upload: &UploadRecord, limits: OpenUploadLimits, now: i64) -> StoreResult<Result<(), OpenUploads>> {
+        let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            if postgres {
+                // Serialise a team's concurrent uploads (SQLite serialises every writer already).
+                sqlx::query("SELECT id FROM teams WHERE id = $1 FOR UPDATE").bind(&upload.team_id).execute(&mut *tx).await?;
+            }
+            // The insert first: on SQLite a transaction that reads before it writes cannot
+            // wait for another writer.
             sqlx::query(
-            "INSERT INTO uploads (id, team_id, length, upload_offset, metadata, parts, created_at, expires_at, submission_id) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)"
-        )
-        .bind(&upload.id)
-        .bind(&upload.team_id)
-        .bind(upload.length)
-        .bind(upload.upload_offset)
-        .bind(&upload.metadata)
-        .bind(&upload.parts)
-        .bind(upload.created_at)
-        .bind(upload.expires_at)
-        .bind(&upload.submission_id)
-        .execute(pool)
-        .await
-        .map(|_| ())
-        })?;
-        Ok(())
+                "INSERT INTO uploads (id, team_id, length, upload_offset, metadata, parts, created_at, expires_at, submission_id) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+            )
+            .bind(&upload.id)
+            .bind(&upload.team_id)
+            .bind(upload.length)
+            .bind(upload.upload_offset)
+            .bind(&upload.metadata)
+            .bind(&upload.parts)
+            .bind(upload.created_at)
+            .bind(upload.expires_at)
+            .bind(&upload.submission_id)
+            .execute(&mut *tx)
+            .await?;
+            let (uploads, bytes): (i64, i64) = sqlx::query_as(
+                "SELECT COUNT(*), CAST(COALESCE(SUM(length), 0) AS BIGINT) FROM uploads WHERE team_id = $1 AND submission_id IS NULL AND expires_at >= $2",
+            )
+            .bind(&upload.team_id)
+            .bind(now)
+            .fetch_one(&mut *tx)
+            .await?;
+            if uploads > limits.uploads || bytes > limits.bytes {
+                tx.rollback().await?;
+                return Ok(Err(OpenUploads { uploads: uploads - 1, bytes: bytes - upload.length }));
+            }
+            tx.commit().await?;
+            Ok(Ok(()))
+        })
     }
 
     /// Upload `id`.

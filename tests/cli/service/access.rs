@@ -274,3 +274,33 @@ fn rate_limits_by_caller(backend: Backend) {
 }
 
 on_both_backends!(rate_limits_follow_the_caller_not_the_header, super::rate_limits_by_caller);
+
+/// A team holds at most `OSMAB_MAX_OPEN_UPLOADS` resumable uploads open, declaring at most
+/// `OSMAB_MAX_OPEN_UPLOAD_BYTES`; each refusal names its limit, and finishing or deleting an
+/// upload frees room.
+fn open_uploads(backend: Backend) {
+    let deployment = Deployment::new(backend, &[("OSMAB_MAX_OPEN_UPLOADS", "2"), ("OSMAB_MAX_UPLOAD_BYTES", "1000"), ("OSMAB_MAX_OPEN_UPLOAD_BYTES", "1200")]);
+    let server = deployment.serve();
+    let token = server.team("Team Open");
+    let start = |token: &str, length: u64| {
+        server.post("/api/v1/uploads").bearer_auth(token).header("tus-resumable", "1.0.0").header("upload-length", length).send().unwrap()
+    };
+    let first = start(&token, 700);
+    assert_eq!(first.status(), 201);
+    let first = first.headers()["location"].to_str().unwrap().to_string();
+    assert_eq!(start(&token, 400).status(), 201);
+    let body = problem(start(&token, 1), 429, "too_many_uploads");
+    assert!(body["detail"].as_str().unwrap().contains("OSMAB_MAX_OPEN_UPLOADS = 2") && body["limit"] == 2, "{body}");
+    let other = server.team("Team Elsewhere");
+    assert_eq!(start(&other, 1000).status(), 201, "another team's uploads are its own");
+
+    let deleted = server.client.delete(format!("{}{first}", server.url)).bearer_auth(&token).header("tus-resumable", "1.0.0").send().unwrap();
+    assert_eq!(deleted.status(), 204);
+    let body = problem(start(&token, 1001), 413, "payload_too_large");
+    assert!(body["detail"].as_str().unwrap().contains("1000"), "one upload's own limit first: {body}");
+    let body = problem(start(&token, 900), 413, "open_uploads_too_large");
+    assert!(body["detail"].as_str().unwrap().contains("OSMAB_MAX_OPEN_UPLOAD_BYTES") && body["limit"] == 1200, "400 open + 900 passes 1200: {body}");
+    assert_eq!(start(&token, 800).status(), 201, "400 + 800 fits under 1200");
+}
+
+on_both_backends!(open_uploads_are_limited_per_team, super::open_uploads);

@@ -1,6 +1,7 @@
 //! `osmab`: the OSMa-Bench++ evaluation service and its command line.
 
 mod auth;
+mod backup;
 mod blobs;
 mod cli;
 mod clock;

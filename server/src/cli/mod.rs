@@ -33,6 +33,10 @@ enum Command {
     Migrate(service::ServiceArgs),
     /// Add a new receipt-signing key; it signs from the next start, the old ones stay published.
     RotateReceiptKey(service::ServiceArgs),
+    /// Copy the records, stored blobs, receipt keys and split secret into a sealed folder, while the service runs.
+    Backup(service::BackupArgs),
+    /// Put a backup back into an empty data directory (and an empty database).
+    Restore(service::RestoreArgs),
     /// The participant's tools: login, download, validate, submit, status, results, leaderboard.
     Client(client::ClientArgs),
     /// Score maps and confusion matrices.
@@ -61,6 +65,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Worker(args) => service::worker(args),
         Command::Migrate(args) => service::migrate(args),
         Command::RotateReceiptKey(args) => service::rotate_receipt_key(args),
+        Command::Backup(args) => service::backup(args),
+        Command::Restore(args) => service::restore(args),
         Command::Client(cmd) => client::run(cmd),
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),

@@ -22,6 +22,52 @@ pub struct WorkerArgs {
     pub concurrency: usize,
 }
 
+#[derive(Debug, Args)]
+pub struct BackupArgs {
+    #[command(flatten)]
+    pub service: ServiceArgs,
+    /// A new or empty folder to write the backup to.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct RestoreArgs {
+    #[command(flatten)]
+    pub service: ServiceArgs,
+    /// A folder written by `osmab backup`.
+    pub backup: PathBuf,
+}
+
+/// `osmab backup --out DIR`.
+pub fn backup(args: BackupArgs) -> anyhow::Result<()> {
+    let settings = settings(&args.service)?;
+    let manifest = runtime()?.block_on(crate::backup::backup(&settings, &args.out))?;
+    let bytes: u64 = manifest.files.iter().map(|f| f.size).sum();
+    println!(
+        "{}: backup of {} files ({bytes} bytes, {} database), sealed by {}",
+        args.out.display(),
+        manifest.files.len(),
+        manifest.database,
+        crate::backup::MANIFEST
+    );
+    Ok(())
+}
+
+/// `osmab restore DIR`.
+pub fn restore(args: RestoreArgs) -> anyhow::Result<()> {
+    let settings = settings(&args.service)?;
+    let manifest = runtime()?.block_on(crate::backup::restore(&settings, &args.backup))?;
+    println!(
+        "{}: restored {} files of the backup taken {} into {}; start the service with `osmab serve`",
+        args.backup.display(),
+        manifest.files.len(),
+        manifest.created_at,
+        settings.data_dir.display()
+    );
+    Ok(())
+}
+
 /// A multi-threaded runtime for the service.
 pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_multi_thread().enable_all().build()?)

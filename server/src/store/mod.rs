@@ -123,4 +123,23 @@ impl Store {
     pub async fn close(&self) {
         on_pool!(self, |pool| pool.close().await)
     }
+
+    /// A consistent copy of a SQLite database at `target` (`VACUUM INTO`: taken while
+    /// others read and write); PostgreSQL is copied with `pg_dump` instead.
+    pub async fn snapshot_into(&self, target: &std::path::Path) -> StoreResult<()> {
+        let Store::Sqlite(pool) = self else {
+            return Err(StoreError::Database(sqlx::Error::Configuration("VACUUM INTO is SQLite's; copy PostgreSQL with pg_dump".into())));
+        };
+        let target = target.to_str().ok_or_else(|| StoreError::Database(sqlx::Error::Configuration("the backup path is not UTF-8".into())))?;
+        sqlx::query("VACUUM INTO $1").bind(target).execute(pool).await?;
+        Ok(())
+    }
+
+    /// Tables in the database's own schema (`public` on PostgreSQL): 0 for a new database.
+    pub async fn table_count(&self) -> StoreResult<i64> {
+        Ok(match self {
+            Store::Sqlite(pool) => sqlx::query_scalar("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'").fetch_one(pool).await?,
+            Store::Postgres(pool) => sqlx::query_scalar("SELECT COUNT(*) FROM information_schema.tables WHERE table_schema = 'public'").fetch_one(pool).await?,
+        })
+    }
 }

@@ -3,6 +3,7 @@
 //! skip, when PostgreSQL is unreachable — `.ci/run` starts it).
 
 mod access;
+mod backup;
 mod cards;
 mod client;
 mod console;
@@ -161,6 +162,17 @@ impl Deployment {
             .spawn()
             .expect("osmab starts");
         Process(child)
+    }
+
+    /// Run `osmab <args>` to its end with this deployment's environment.
+    pub fn run(&self, args: &[&str]) -> std::process::Output {
+        Command::new(env!("CARGO_BIN_EXE_osmab"))
+            .args(args)
+            .env_clear()
+            .env("PATH", std::env::var("PATH").unwrap_or_default())
+            .envs(self.env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
+            .output()
+            .expect("osmab runs")
     }
 
     pub fn log(&self, name: &str) -> String {

@@ -1,0 +1,261 @@
+//! `osmab backup --out DIR` and `osmab restore DIR`: everything a lost disk would take — the
+//! records (teams, tokens, submissions, scores, jobs), the stored blobs (archives, releases,
+//! results), the receipt keys, the split secret and the admin token — as one folder sealed by a
+//! manifest of every file's size and SHA-256, taken while the service runs, and put back into
+//! an empty data directory.
+//!
+//! The database is copied first (SQLite: `VACUUM INTO`, a consistent snapshot a running server
+//! does not notice; PostgreSQL: `pg_dump --format=custom`), the blobs after it: blobs are written
+//! before the records that name them and never changed, so every blob the copied records name
+//! is in the backup. Blobs in an object store are not copied (docs/deploy.md: bucket
+//! versioning keeps them); such a backup refuses to be taken rather than pretend.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail, ensure};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::config::Settings;
+use crate::store::Store;
+
+/// The manifest's name and format.
+pub const MANIFEST: &str = "backup.json";
+pub const FORMAT: &str = "osmab-backup/1";
+/// Where the database goes inside a backup.
+const SQLITE_FILE: &str = "database/osmab.db";
+const POSTGRES_FILE: &str = "database/osmab.pgdump";
+/// The data directory's folders and files a backup holds besides the database.
+const SECRETS: [&str; 3] = [crate::serve::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR, "admin-token"];
+const BLOBS: &str = "blobs";
+/// Scratch space inside the blob folder: uploads in flight, never part of a backup.
+const SCRATCH: &str = ".incoming";
+
+/// What a backup holds.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BackupManifest {
+    pub format: String,
+    pub created_at: String,
+    pub osmab_version: String,
+    /// `sqlite` or `postgres`: which database file the backup holds.
+    pub database: String,
+    /// Every file of the backup but this manifest, sorted by path.
+    pub files: Vec<BackedUpFile>,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BackedUpFile {
+    pub path: String,
+    pub size: u64,
+    pub sha256: String,
+}
+
+/// Take a backup of the service `settings` describe into `out` (absent or empty).
+pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupManifest> {
+    ensure!(
+        settings.storage.is_none(),
+        "the blobs are in an object store (OSMAB_STORAGE_URL): back them up with the bucket's versioning and the database with pg_dump, as docs/deploy.md (\"Backup and restore\") says"
+    );
+    ensure_empty(out, "--out")?;
+    create_private_dir(out)?;
+    let url = settings.database_url.expose();
+    let database = if url.starts_with("sqlite:") {
+        let target = out.join(SQLITE_FILE);
+        create_private_dir(target.parent().expect("a folder"))?;
+        let store = Store::connect(url).await.context("opening the database")?;
+        let copied = store.snapshot_into(&target).await;
+        store.close().await;
+        copied.context("copying the database (VACUUM INTO)")?;
+        "sqlite"
+    } else {
+        let target = out.join(POSTGRES_FILE);
+        create_private_dir(target.parent().expect("a folder"))?;
+        run("pg_dump", &["--format=custom", "--no-owner", "--file", path_text(&target)?, url])?;
+        "postgres"
+    };
+    let data = &settings.data_dir;
+    let (data_owned, out_owned) = (data.clone(), out.to_path_buf());
+    tokio::task::spawn_blocking(move || -> anyhow::Result<()> {
+        copy_tree(&data_owned.join(BLOBS), &out_owned.join(BLOBS), &|rel| !rel.starts_with(SCRATCH))?;
+        for name in SECRETS {
+            let source = data_owned.join(name);
+            if source.is_dir() {
+                copy_tree(&source, &out_owned.join(name), &|_| true)?;
+            } else if source.is_file() {
+                copy_file(&source, &out_owned.join(name))?;
+            }
+        }
+        Ok(())
+    })
+    .await??;
+    let out_owned = out.to_path_buf();
+    let files = tokio::task::spawn_blocking(move || describe_files(&out_owned)).await??;
+    let manifest = BackupManifest {
+        format: FORMAT.into(),
+        created_at: crate::clock::rfc3339(crate::clock::now_ms()),
+        osmab_version: env!("CARGO_PKG_VERSION").into(),
+        database: database.into(),
+        files,
+    };
+    // Written last: a folder without it is an unfinished backup.
+    std::fs::write(out.join(MANIFEST), serde_json::to_vec_pretty(&manifest)?).with_context(|| format!("{}: cannot write", out.join(MANIFEST).display()))?;
+    Ok(manifest)
+}
+
+/// Restore the backup in `from` into the empty data directory (and database) of `settings`;
+/// every file is checked against the manifest before anything is written.
+pub async fn restore(settings: &Settings, from: &Path) -> anyhow::Result<BackupManifest> {
+    let manifest = check_backup(from)?;
+    ensure!(
+        settings.storage.is_none(),
+        "OSMAB_STORAGE_URL is set: this backup holds local blobs; restore into a deployment with local storage (unset it), or see docs/deploy.md for an object-store deployment"
+    );
+    let data = &settings.data_dir;
+    ensure_empty(data, "the data directory (OSMAB_DATA_DIR)")?;
+    let url = settings.database_url.expose();
+    match manifest.database.as_str() {
+        "sqlite" => {
+            let Some(target) = url.strip_prefix("sqlite://").or_else(|| url.strip_prefix("sqlite:")) else {
+                bail!("the backup holds a SQLite database, but DATABASE_URL is not a sqlite: URL");
+            };
+            let target = PathBuf::from(target.split('?').next().unwrap_or(target));
+            ensure!(!target.exists(), "{}: a database exists there; restore into a fresh one", target.display());
+            create_private_dir(data)?;
+            copy_file(&from.join(SQLITE_FILE), &target)?;
+        }
+        "postgres" => {
+            ensure!(!url.starts_with("sqlite:"), "the backup holds a PostgreSQL dump, but DATABASE_URL is a SQLite one");
+            let store = Store::connect(url).await.context("connecting to the database to restore into")?;
+            let tables = store.table_count().await;
+            store.close().await;
+            let tables = tables?;
+            ensure!(tables == 0, "the database of DATABASE_URL holds {tables} tables; restore into an empty database");
+            create_private_dir(data)?;
+            run("pg_restore", &["--no-owner", "--exit-on-error", "--dbname", url, path_text(&from.join(POSTGRES_FILE))?])?;
+        }
+        other => bail!("{}: database '{other}' is neither sqlite nor postgres", from.join(MANIFEST).display()),
+    }
+    let (from_owned, data_owned) = (from.to_path_buf(), data.clone());
+    tokio::task::spawn_blocking(move || -> anyhow::Result<()> {
+        for name in [BLOBS].into_iter().chain(SECRETS) {
+            let source = from_owned.join(name);
+            if source.is_dir() {
+                copy_tree(&source, &data_owned.join(name), &|_| true)?;
+            } else if source.is_file() {
+                copy_file(&source, &data_owned.join(name))?;
+            }
+        }
+        Ok(())
+    })
+    .await??;
+    Ok(manifest)
+}
+
+/// The manifest of the backup in `dir`, once every file it lists is there with its size and
+/// SHA-256 and nothing else is.
+pub fn check_backup(dir: &Path) -> anyhow::Result<BackupManifest> {
+    let path = dir.join(MANIFEST);
+    let manifest: BackupManifest =
+        serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: cannot read (is this a backup?)", path.display()))?)
+            .with_context(|| format!("{}: not a backup manifest", path.display()))?;
+    ensure!(manifest.format == FORMAT, "{}: format '{}', expected '{FORMAT}'", path.display(), manifest.format);
+    let found = describe_files(dir)?;
+    let listed: std::collections::BTreeMap<&str, &BackedUpFile> = manifest.files.iter().map(|f| (f.path.as_str(), f)).collect();
+    for file in &found {
+        match listed.get(file.path.as_str()) {
+            None => bail!("{}: not listed in {MANIFEST}; the backup was changed after it was taken", dir.join(&file.path).display()),
+            Some(expected) if *expected != file => bail!(
+                "{}: {} bytes with SHA-256 {}, the manifest says {} bytes with {}; the backup is damaged",
+                dir.join(&file.path).display(),
+                file.size,
+                file.sha256,
+                expected.size,
+                expected.sha256
+            ),
+            Some(_) => {}
+        }
+    }
+    if let Some(missing) = manifest.files.iter().find(|f| !found.iter().any(|g| g.path == f.path)) {
+        bail!("{}: listed in {MANIFEST} but missing; the backup is incomplete", dir.join(&missing.path).display());
+    }
+    Ok(manifest)
+}
+
+/// Every file under `dir` but the manifest, with its size and SHA-256, sorted by path.
+fn describe_files(dir: &Path) -> anyhow::Result<Vec<BackedUpFile>> {
+    let mut files = Vec::new();
+    for rel in osmab_evaluator::submission::archive::list_tree(dir).map_err(|e| anyhow::anyhow!("{e}"))? {
+        if rel == MANIFEST {
+            continue;
+        }
+        let path = dir.join(&rel);
+        let mut file = std::fs::File::open(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+        let mut hasher = Sha256::new();
+        let mut buffer = vec![0u8; 1 << 20];
+        let mut size = 0u64;
+        loop {
+            let n = file.read(&mut buffer).with_context(|| format!("{}: cannot read", path.display()))?;
+            if n == 0 {
+                break;
+            }
+            hasher.update(&buffer[..n]);
+            size += n as u64;
+        }
+        files.push(BackedUpFile { path: rel, size, sha256: hasher.finalize().iter().map(|b| format!("{b:02x}")).collect() });
+    }
+    Ok(files)
+}
+
+/// Copy the files under `from` whose relative path `keep` accepts to `to`, keeping their
+/// permission bits (the keys stay owner-only).
+fn copy_tree(from: &Path, to: &Path, keep: &dyn Fn(&str) -> bool) -> anyhow::Result<()> {
+    if !from.exists() {
+        return Ok(());
+    }
+    for rel in osmab_evaluator::submission::archive::list_tree(from).map_err(|e| anyhow::anyhow!("{e}"))? {
+        if keep(&rel) {
+            copy_file(&from.join(&rel), &to.join(&rel))?;
+        }
+    }
+    Ok(())
+}
+
+fn copy_file(from: &Path, to: &Path) -> anyhow::Result<()> {
+    if let Some(parent) = to.parent() {
+        create_private_dir(parent)?;
+    }
+    std::fs::copy(from, to).with_context(|| format!("copying {} to {}", from.display(), to.display()))?;
+    Ok(())
+}
+
+fn create_private_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)).with_context(|| format!("{}: cannot make owner-only", dir.display()))?;
+    }
+    Ok(())
+}
+
+fn ensure_empty(dir: &Path, what: &str) -> anyhow::Result<()> {
+    if let Ok(mut entries) = std::fs::read_dir(dir) {
+        ensure!(entries.next().is_none(), "{what} {} is not empty; give a new or empty folder", dir.display());
+    }
+    Ok(())
+}
+
+fn path_text(path: &Path) -> anyhow::Result<&str> {
+    path.to_str().with_context(|| format!("{}: not valid UTF-8", path.display()))
+}
+
+/// Run a PostgreSQL client tool, or say what is missing.
+fn run(program: &str, args: &[&str]) -> anyhow::Result<()> {
+    let output = std::process::Command::new(program)
+        .args(args)
+        .output()
+        .with_context(|| format!("{program} could not be run (PostgreSQL's client tools, e.g. Debian's postgresql-client, of the server's major version)"))?;
+    ensure!(output.status.success(), "{program} failed ({}): {}", output.status, String::from_utf8_lossy(&output.stderr).trim());
+    Ok(())
+}

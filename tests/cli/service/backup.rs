@@ -1,0 +1,94 @@
+//! The restore drill: a backup taken while the service runs, restored into a fresh data
+//! directory and database, serves the same leaderboard byte for byte, every submission with
+//! its history, receipts that verify with the restored keys, and scores new submissions. A
+//! damaged backup or a data directory in use is refused.
+
+use serde_json::Value;
+
+use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of};
+
+fn said(output: &std::process::Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
+}
+
+fn a_backup_restores_the_service_as_it_was(backend: Backend) {
+    let original = Deployment::new(backend, &[]);
+    let server = original.serve();
+    server.import_test_release();
+    let token = server.team("Team Backup");
+    let accepted: Value = server.upload(&token, &tar_of(baseline_dir("oracle").path()), "").json().unwrap();
+    let id = accepted["id"].as_str().unwrap().to_string();
+    assert_eq!(server.wait_done(&id, &token)["state"], "scored");
+    let board = server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap();
+    assert!(board.contains(&id) && board.contains("Team Backup"), "the entry is on the board: {board}");
+    let submission = server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().text().unwrap();
+    let receipt = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().text().unwrap();
+    let results = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().bytes().unwrap();
+
+    // Taken while the server runs.
+    let backups = tempfile::tempdir().unwrap();
+    let backup = backups.path().join("b1");
+    let taken = original.run(&["backup", "--out", backup.to_str().unwrap()]);
+    assert!(taken.status.success(), "{}", said(&taken));
+    let manifest: Value = serde_json::from_slice(&std::fs::read(backup.join("backup.json")).unwrap()).unwrap();
+    let paths: Vec<&str> = manifest["files"].as_array().unwrap().iter().map(|f| f["path"].as_str().unwrap()).collect();
+    assert!(paths.iter().any(|p| p.starts_with("receipt-keys/")) && paths.iter().any(|p| p.starts_with("split-secret/")), "{paths:?}");
+    assert!(paths.iter().any(|p| p.starts_with("blobs/")) && paths.iter().any(|p| p.starts_with("database/")), "{paths:?}");
+    let again = original.run(&["backup", "--out", backup.to_str().unwrap()]);
+    assert!(!again.status.success() && said(&again).contains("is not empty"), "{}", said(&again));
+    drop(server);
+
+    // Into a data directory in use: refused, nothing changed.
+    let refused = original.run(&["restore", backup.to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("is not empty"), "{}", said(&refused));
+
+    // A damaged copy of the backup is refused naming the file, before anything is written.
+    let fresh = Deployment::new(backend, &[]);
+    let damaged = backups.path().join("damaged");
+    copy_dir(&backup, &damaged);
+    let key = std::fs::read_dir(damaged.join("receipt-keys")).unwrap().next().unwrap().unwrap().path();
+    let mut bytes = std::fs::read(&key).unwrap();
+    bytes[0] ^= 1;
+    std::fs::write(&key, bytes).unwrap();
+    let refused = fresh.run(&["restore", damaged.to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("receipt-keys/") && said(&refused).contains("damaged"), "{}", said(&refused));
+    assert_eq!(std::fs::read_dir(fresh.data.path()).unwrap().count(), 0, "nothing written");
+
+    // The restore: the same board, submission and receipt; new submissions score.
+    let restored = fresh.run(&["restore", backup.to_str().unwrap()]);
+    assert!(restored.status.success(), "{}", said(&restored));
+    let server = fresh.serve();
+    assert_eq!(server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap(), board, "the board byte for byte");
+    assert_eq!(server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().text().unwrap(), submission, "the team's token works");
+    assert_eq!(server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().bytes().unwrap(), results);
+    let restored_receipt: Value = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().json().unwrap();
+    let old_receipt: Value = serde_json::from_str(&receipt).unwrap();
+    let signed_by_same_key = |r: &Value| r["jws"].as_str().unwrap().split('.').next().unwrap().to_string();
+    assert_eq!(signed_by_same_key(&restored_receipt), signed_by_same_key(&old_receipt), "the same signing key");
+    // The old receipt verifies against the restored service's keys.
+    let files = tempfile::tempdir().unwrap();
+    let (receipt_file, keys_file) = (files.path().join("receipt.json"), files.path().join("keys.json"));
+    std::fs::write(&receipt_file, &receipt).unwrap();
+    std::fs::write(&keys_file, server.get("/api/v1/keys").send().unwrap().bytes().unwrap()).unwrap();
+    let verified = fresh.run(&["client", "verify", receipt_file.to_str().unwrap(), "--keys", keys_file.to_str().unwrap()]);
+    assert!(verified.status.success() && said(&verified).contains("Valid receipt"), "{}", said(&verified));
+    let accepted: Value = server.upload(&token, &tar_of(baseline_dir("drop-small").path()), "").json().unwrap();
+    let new_id = accepted["id"].as_str().unwrap();
+    assert_eq!(server.wait_done(new_id, &token)["state"], "scored", "a new submission scores after the restore");
+}
+
+fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            std::fs::create_dir_all(&target).unwrap();
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::create_dir_all(to).unwrap();
+            std::fs::copy(entry.path(), &target).unwrap();
+        }
+    }
+}
+
+on_both_backends!(a_backup_taken_while_serving_restores_the_same_service, super::a_backup_restores_the_service_as_it_was);

@@ -69,6 +69,8 @@ pub struct Settings {
     pub val_quota: i64,
     /// Largest upload in bytes (`OSMAB_MAX_UPLOAD_BYTES`).
     pub max_upload_bytes: u64,
+    /// Bytes an upload may unpack to, as a multiple of its own size (`OSMAB_MAX_EXPANSION_RATIO`).
+    pub max_expansion_ratio: u64,
     /// Resumable uploads a team may hold open at once (`OSMAB_MAX_OPEN_UPLOADS`).
     pub max_open_uploads: i64,
     /// Declared bytes of a team's open resumable uploads at most (`OSMAB_MAX_OPEN_UPLOAD_BYTES`).
@@ -132,6 +134,7 @@ struct FileSettings {
     val_quota: Option<i64>,
     max_upload_bytes: Option<u64>,
     max_unpacked_bytes: Option<u64>,
+    max_expansion_ratio: Option<u64>,
     max_open_uploads: Option<i64>,
     max_open_upload_bytes: Option<u64>,
     job_lease_secs: Option<u64>,
@@ -233,6 +236,7 @@ impl Settings {
             val_quota: layer!("OSMAB_VAL_QUOTA", from_file.val_quota, 50),
             max_upload_bytes: layer!("OSMAB_MAX_UPLOAD_BYTES", from_file.max_upload_bytes, 4 << 30),
             max_unpacked_bytes: layer!("OSMAB_MAX_UNPACKED_BYTES", from_file.max_unpacked_bytes, 16 << 30),
+            max_expansion_ratio: layer!("OSMAB_MAX_EXPANSION_RATIO", from_file.max_expansion_ratio, 200),
             max_open_uploads: layer!("OSMAB_MAX_OPEN_UPLOADS", from_file.max_open_uploads, 4),
             max_open_upload_bytes: layer!("OSMAB_MAX_OPEN_UPLOAD_BYTES", from_file.max_open_upload_bytes, 8 << 30),
             job_lease_secs: layer!("OSMAB_JOB_LEASE_SECS", from_file.job_lease_secs, 60),
@@ -267,6 +271,7 @@ impl Settings {
         anyhow::ensure!(self.header_timeout_secs >= 1 && self.body_idle_timeout_secs >= 1, "header_timeout_secs and body_idle_timeout_secs must be at least 1");
         anyhow::ensure!(self.upload_expiry_secs >= 60, "upload_expiry_secs must be at least 60");
         anyhow::ensure!(self.max_open_uploads >= 1, "max_open_uploads must be at least 1");
+        anyhow::ensure!(self.max_expansion_ratio >= 2, "max_expansion_ratio must be at least 2");
         anyhow::ensure!(
             self.max_open_upload_bytes >= self.max_upload_bytes,
             "max_open_upload_bytes ({}) must be at least max_upload_bytes ({}), or no upload of the largest size could start",

@@ -18,11 +18,15 @@ pub struct ArchiveLimits {
     pub max_entries: usize,
     /// Largest sum of unpacked file sizes.
     pub max_total_bytes: u64,
+    /// Largest sum of unpacked file sizes as a multiple of the archive's own size, when set:
+    /// a small compressed archive cannot make the unpacking write far more than it sent
+    /// (a free dry run would otherwise turn 1 MB into gigabytes of scratch).
+    pub max_expansion_ratio: Option<u64>,
 }
 
 impl Default for ArchiveLimits {
     fn default() -> Self {
-        Self { max_entries: 20_000, max_total_bytes: 16 << 30 }
+        Self { max_entries: 20_000, max_total_bytes: 16 << 30, max_expansion_ratio: None }
     }
 }
 
@@ -112,9 +116,18 @@ struct Writer<'a> {
     archive: &'a Path,
     dest: &'a Path,
     limits: ArchiveLimits,
+    /// Bytes this archive may unpack to, and what sets that bound.
+    budget: (u64, Bound),
     seen: HashSet<PathBuf>,
     entries: usize,
     out: Unpacked,
+}
+
+/// Which limit bounds an archive's unpacked bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Bound {
+    Total,
+    Expansion { ratio: u64, archive_bytes: u64 },
 }
 
 impl Writer<'_> {
@@ -146,15 +159,18 @@ impl Writer<'_> {
             std::fs::create_dir_all(parent).map_err(|e| unwritable(self.archive, name, &e))?;
         }
         let mut file = File::create(&path).map_err(|e| unwritable(self.archive, name, &e))?;
-        let budget = self.limits.max_total_bytes - self.out.bytes;
+        let (limit, bound) = self.budget;
+        let budget = limit - self.out.bytes;
         // Count what actually arrives: declared sizes in headers can lie.
         let written = std::io::copy(&mut content.take(budget.saturating_add(1)), &mut file).map_err(|e| truncated(self.archive, name, &e))?;
         if written > budget {
-            return Err(InputError::new(
-                self.archive,
-                name,
-                format!("the archive unpacks to more than {} bytes (the submission size limit)", self.limits.max_total_bytes),
-            ));
+            let why = match bound {
+                Bound::Total => format!("the archive unpacks to more than {limit} bytes (the submission size limit)"),
+                Bound::Expansion { ratio, archive_bytes } => format!(
+                    "the archive unpacks to more than {ratio} times its own {archive_bytes} bytes ({limit} bytes, the expansion limit): it is mostly compressed repetition"
+                ),
+            };
+            return Err(InputError::new(self.archive, name, why));
         }
         file.flush().map_err(|e| unwritable(self.archive, name, &e))?;
         self.out.bytes += written;
@@ -181,7 +197,14 @@ fn truncated(archive: &Path, name: &str, e: &std::io::Error) -> InputError {
 pub fn unpack(archive: &Path, dest: &Path, limits: ArchiveLimits) -> Result<Unpacked> {
     let kind = ArchiveKind::sniff(archive)?;
     std::fs::create_dir_all(dest).map_err(|e| InputError::io(dest, &e))?;
-    let mut writer = Writer { archive, dest, limits, seen: HashSet::new(), entries: 0, out: Unpacked::default() };
+    let archive_bytes = std::fs::metadata(archive).map_err(|e| InputError::io(archive, &e))?.len();
+    let budget = match limits.max_expansion_ratio {
+        Some(ratio) if ratio.saturating_mul(archive_bytes) < limits.max_total_bytes => {
+            (ratio.saturating_mul(archive_bytes), Bound::Expansion { ratio, archive_bytes })
+        }
+        _ => (limits.max_total_bytes, Bound::Total),
+    };
+    let mut writer = Writer { archive, dest, limits, budget, seen: HashSet::new(), entries: 0, out: Unpacked::default() };
     let file = File::open(archive).map_err(|e| InputError::io(archive, &e))?;
     match kind {
         ArchiveKind::Tar => unpack_tar(BufReader::new(file), &mut writer)?,

@@ -244,3 +244,35 @@ fn every_member_of_a_multi_member_gzip_is_read_and_trailing_bytes_are_refused() 
     let err = unpack(&path, &dir.path().join("out-appended"), ArchiveLimits::default()).unwrap_err();
     assert!(err.to_string().contains("data follows the end of the tar archive"), "{err}");
 }
+
+#[test]
+fn an_archive_unpacks_to_at_most_its_expansion_limit_and_its_total_limit() {
+    use std::io::{Read, Write};
+    let dir = tempfile::tempdir().unwrap();
+    // 4 MiB of zeros in a gzip of a few kB.
+    let mut builder = tar::Builder::new(Vec::new());
+    let mut header = tar::Header::new_gnu();
+    header.set_size(4 << 20);
+    header.set_mode(0o644);
+    header.set_entry_type(tar::EntryType::Regular);
+    builder.append_data(&mut header, "maps/baseline/scene_000.npz", std::io::repeat(0).take(4 << 20)).unwrap();
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    gz.write_all(&builder.into_inner().unwrap()).unwrap();
+    let bomb = dir.path().join("zeros.tar.gz");
+    std::fs::write(&bomb, gz.finish().unwrap()).unwrap();
+    let size = std::fs::metadata(&bomb).unwrap().len();
+    assert!(size < 40_000, "{size}");
+
+    let limited = ArchiveLimits { max_expansion_ratio: Some(100), ..ArchiveLimits::default() };
+    let err = unpack(&bomb, &dir.path().join("out-ratio"), limited).unwrap_err();
+    assert!(err.to_string().contains(&format!("100 times its own {size} bytes")), "{err}");
+    let written: u64 =
+        list_tree(&dir.path().join("out-ratio")).unwrap().iter().map(|f| std::fs::metadata(dir.path().join("out-ratio").join(f)).unwrap().len()).sum();
+    assert!(written <= 100 * size + 1, "at most the limit was written: {written}");
+
+    let total = ArchiveLimits { max_total_bytes: 1 << 20, max_expansion_ratio: Some(10_000), ..ArchiveLimits::default() };
+    let err = unpack(&bomb, &dir.path().join("out-total"), total).unwrap_err();
+    assert!(err.to_string().contains(&format!("more than {} bytes (the submission size limit)", 1 << 20)), "{err}");
+    let unbounded = ArchiveLimits::default();
+    assert_eq!(unpack(&bomb, &dir.path().join("out-free"), unbounded).unwrap().bytes, 4 << 20, "without a ratio only the total limit counts");
+}

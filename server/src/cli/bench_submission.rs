@@ -100,7 +100,8 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, node: Node, repeat: usize) -
         }
         let started = Instant::now();
         let clock = Instant::now();
-        unpack(&archive, &unpacked, ArchiveLimits { max_entries: 20_000, max_total_bytes: 1 << 40 }).map_err(|e| anyhow::anyhow!("{e}"))?;
+        unpack(&archive, &unpacked, ArchiveLimits { max_entries: 20_000, max_total_bytes: 1 << 40, max_expansion_ratio: None })
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
         let unpack_time = clock.elapsed();
         let clock = Instant::now();
         let index = ReleaseIndex::read(&release).map_err(|e| anyhow::anyhow!("{e}"))?;

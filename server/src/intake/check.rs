@@ -40,7 +40,11 @@ pub fn check(
     split: Option<Split>,
     open: Option<&BTreeSet<String>>,
 ) -> Result<(ValidSubmission, ReleaseIndex), Error> {
-    let limits = ArchiveLimits { max_entries: 20_000, max_total_bytes: state.settings.max_unpacked_bytes };
+    let limits = ArchiveLimits {
+        max_entries: 20_000,
+        max_total_bytes: state.settings.max_unpacked_bytes,
+        max_expansion_ratio: Some(state.settings.max_expansion_ratio),
+    };
     unpack(upload, unpack_to, limits).map_err(|e| Error::InvalidArchive(as_uploaded(e, upload, unpack_to)))?;
     let version = release_named(unpack_to).or(current.map(str::to_string)).unwrap_or_default();
     // A draft and a version that does not exist get the same answer, decided before the

@@ -84,7 +84,8 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
         let root = unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
-        unpack(stored.path(), &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked }).map_err(|e| JobError::Retryable(e.to_string()))?;
+        unpack(stored.path(), &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked, max_expansion_ratio: None })
+            .map_err(|e| JobError::Retryable(e.to_string()))?;
         let index = ReleaseIndex::read(&release).and_then(|index| index.for_split(split)).map_err(|e| JobError::Retryable(e.to_string()))?;
         let limits = SubmissionLimits::for_release(&index, max_unpacked);
         let valid =

@@ -103,11 +103,14 @@ fn hostile_uploads(backend: Backend) {
         .chain(walk(deployment.data.path().parent().unwrap()).into_iter().filter(|p| p.parent() == deployment.data.path().parent()));
     assert!(escaped.into_iter().all(|p| p.file_name().unwrap() != "evil.txt"), "the entry was not written anywhere");
 
-    // Archive bomb: 64 MiB of zeros in a small zip, over the unpacked limit.
+    // Archive bomb: 64 MiB of zeros in a small zip, over the expansion limit (200 times the
+    // archive's size, OSMAB_MAX_EXPANSION_RATIO) long before the unpacked limit; a dry run too.
     let bomb = zip_bomb();
     assert!(bomb.len() < 1_000_000);
-    let body = problem(server.upload(&token, &bomb, ""), 422, "invalid_archive");
-    assert!(body["detail"].as_str().unwrap().contains("30000000"), "{body}");
+    for query in ["", "?dry_run=true"] {
+        let body = problem(server.upload(&token, &bomb, query), 422, "invalid_archive");
+        assert!(body["detail"].as_str().unwrap().contains(&format!("200 times its own {} bytes", bomb.len())), "{body}");
+    }
 
     // Wrong checksum.
     let response = server

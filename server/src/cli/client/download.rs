@@ -225,7 +225,8 @@ fn unpack_sequence(archive: &Path, out: &Path, files: &[FileEntry]) -> anyhow::R
     }
     let staging_dir = tempfile::Builder::new().prefix(".osmab-unpack-").tempdir_in(out)?;
     let staging = staging_dir.path();
-    let limits = ArchiveLimits { max_entries: files.len() + 64, max_total_bytes: files.iter().map(|f| f.size).sum::<u64>() + (1 << 20) };
+    let limits =
+        ArchiveLimits { max_entries: files.len() + 64, max_total_bytes: files.iter().map(|f| f.size).sum::<u64>() + (1 << 20), max_expansion_ratio: None };
     unpack(archive, staging, limits).map_err(|e| anyhow!("{e}"))?;
     for f in files {
         let unpacked = staging.join(&f.path);

@@ -48,7 +48,8 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Op
         submission.to_path_buf()
     } else {
         unpacked = tempfile::tempdir()?;
-        unpack(submission, unpacked.path(), ArchiveLimits { max_entries: 20_000, max_total_bytes: 64 << 30 }).map_err(|e| anyhow!("{e}"))?;
+        unpack(submission, unpacked.path(), ArchiveLimits { max_entries: 20_000, max_total_bytes: 64 << 30, max_expansion_ratio: None })
+            .map_err(|e| anyhow!("{e}"))?;
         unpacked.path().to_path_buf()
     };
     let facts;

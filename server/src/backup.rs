@@ -7,8 +7,9 @@
 //! The database is copied first (SQLite: `VACUUM INTO`, a consistent snapshot a running server
 //! does not notice; PostgreSQL: `pg_dump --format=custom`), the blobs after it: blobs are written
 //! before the records that name them and never changed, so every blob the copied records name
-//! is in the backup. Blobs in an object store are not copied (docs/deploy.md: bucket
-//! versioning keeps them); such a backup refuses to be taken rather than pretend.
+//! is in the backup. Blobs in an object store are listed, not copied (key, size, ETag; the
+//! bucket's versioning keeps the bytes, docs/deploy.md), and a restore first checks that the
+//! bucket holds every listed object as it was.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -17,6 +18,7 @@ use anyhow::{Context, bail, ensure};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use crate::blobs::{Blobs, StoredObject};
 use crate::config::Settings;
 use crate::store::Store;
 
@@ -31,6 +33,9 @@ const SECRETS: [&str; 3] = [crate::serve::RECEIPT_KEYS, crate::split_secret::SPL
 const BLOBS: &str = "blobs";
 /// Scratch space inside the blob folder: uploads in flight, never part of a backup.
 const SCRATCH: &str = ".incoming";
+/// Key prefixes of transient objects: resumable-upload parts (expire within a day) and the
+/// shared folders of release builds in progress.
+const TRANSIENT: [&str; 2] = ["uploads/", "builds/"];
 
 /// What a backup holds.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -40,6 +45,11 @@ pub struct BackupManifest {
     pub osmab_version: String,
     /// `sqlite` or `postgres`: which database file the backup holds.
     pub database: String,
+    /// The objects of the bucket the blobs were in (empty for local blobs, copied under
+    /// `blobs/`): what a restore checks the bucket for. Transient prefixes (resumable-upload
+    /// parts, release builds in progress) are left out.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<StoredObject>,
     /// Every file of the backup but this manifest, sorted by path.
     pub files: Vec<BackedUpFile>,
 }
@@ -53,10 +63,6 @@ pub struct BackedUpFile {
 
 /// Take a backup of the service `settings` describe into `out` (absent or empty).
 pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupManifest> {
-    ensure!(
-        settings.storage.is_none(),
-        "the blobs are in an object store (OSMAB_STORAGE_URL): back them up with the bucket's versioning and the database with pg_dump, as docs/deploy.md (\"Backup and restore\") says"
-    );
     ensure_empty(out, "--out")?;
     create_private_dir(out)?;
     let url = settings.database_url.expose();
@@ -75,15 +81,31 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
         "postgres"
     };
     let data = &settings.data_dir;
-    let (data_owned, out_owned) = (data.clone(), out.to_path_buf());
+    let mut objects = Vec::new();
+    if let Some(config) = &settings.storage {
+        // The bucket holds the blobs, the receipt keys and the split secret.
+        let scratch = ScratchDir::new()?;
+        let blobs = Blobs::object(&scratch.0, config.clone())?;
+        objects = blobs.inventory().await.context("listing the bucket")?.unwrap_or_default();
+        objects.retain(|o| !TRANSIENT.iter().any(|prefix| o.key.starts_with(prefix)));
+        for name in [crate::serve::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR] {
+            blobs.pull_tree(name, &out.join(name)).await.with_context(|| format!("copying {name}/ from the bucket"))?;
+        }
+    }
+    let (data_owned, out_owned, local_blobs) = (data.clone(), out.to_path_buf(), settings.storage.is_none());
     tokio::task::spawn_blocking(move || -> anyhow::Result<()> {
-        copy_tree(&data_owned.join(BLOBS), &out_owned.join(BLOBS), &|rel| !rel.starts_with(SCRATCH))?;
+        if local_blobs {
+            copy_tree(&data_owned.join(BLOBS), &out_owned.join(BLOBS), &|rel| !rel.starts_with(SCRATCH))?;
+        }
         for name in SECRETS {
-            let source = data_owned.join(name);
+            let (source, target) = (data_owned.join(name), out_owned.join(name));
+            if target.exists() {
+                continue; // taken from the bucket already
+            }
             if source.is_dir() {
-                copy_tree(&source, &out_owned.join(name), &|_| true)?;
+                copy_tree(&source, &target, &|_| true)?;
             } else if source.is_file() {
-                copy_file(&source, &out_owned.join(name))?;
+                copy_file(&source, &target)?;
             }
         }
         Ok(())
@@ -96,6 +118,7 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
         created_at: crate::clock::rfc3339(crate::clock::now_ms()),
         osmab_version: env!("CARGO_PKG_VERSION").into(),
         database: database.into(),
+        objects,
         files,
     };
     // Written last: a folder without it is an unfinished backup.
@@ -107,12 +130,20 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
 /// every file is checked against the manifest before anything is written.
 pub async fn restore(settings: &Settings, from: &Path) -> anyhow::Result<BackupManifest> {
     let manifest = check_backup(from)?;
-    ensure!(
-        settings.storage.is_none(),
-        "OSMAB_STORAGE_URL is set: this backup holds local blobs; restore into a deployment with local storage (unset it), or see docs/deploy.md for an object-store deployment"
-    );
     let data = &settings.data_dir;
     ensure_empty(data, "the data directory (OSMAB_DATA_DIR)")?;
+    let in_bucket = !manifest.objects.is_empty();
+    match (&settings.storage, in_bucket) {
+        (None, false) | (Some(_), true) => {}
+        (Some(_), false) => {
+            bail!("OSMAB_STORAGE_URL is set, but this backup holds local blobs: restore it into a deployment with local storage (unset OSMAB_STORAGE_URL)")
+        }
+        (None, true) => bail!("this backup lists the objects of a bucket: restore it with OSMAB_STORAGE_URL set to that bucket"),
+    }
+    if let Some(config) = &settings.storage {
+        let scratch = ScratchDir::new()?;
+        check_bucket(&Blobs::object(&scratch.0, config.clone())?, &manifest.objects).await?;
+    }
     let url = settings.database_url.expose();
     match manifest.database.as_str() {
         "sqlite" => {
@@ -150,6 +181,48 @@ pub async fn restore(settings: &Settings, from: &Path) -> anyhow::Result<BackupM
     })
     .await??;
     Ok(manifest)
+}
+
+/// A folder of its own under the system's temporary directory, removed when dropped: where
+/// opening the object store puts its scratch space, away from any data directory.
+struct ScratchDir(PathBuf);
+
+impl ScratchDir {
+    fn new() -> anyhow::Result<Self> {
+        let dir = std::env::temp_dir().join(format!("osmab-backup-{}", crate::clock::random_alphanumeric(12)));
+        create_private_dir(&dir)?;
+        Ok(Self(dir))
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Whether `blobs` holds every object of `objects` with its size (and ETag, where both have
+/// one); otherwise which do not, and how to bring them back.
+async fn check_bucket(blobs: &Blobs, objects: &[StoredObject]) -> anyhow::Result<()> {
+    let mut differing = Vec::new();
+    for object in objects {
+        let stored = blobs.stored(&object.key).await.with_context(|| format!("reading {} in the bucket", object.key))?;
+        let same = stored.as_ref().is_some_and(|s| s.size == object.size && (s.e_tag.is_none() || object.e_tag.is_none() || s.e_tag == object.e_tag));
+        if !same {
+            differing.push(match stored {
+                None => format!("{} (missing)", object.key),
+                Some(s) => format!("{} ({} bytes, {} in the backup)", object.key, s.size, object.size),
+            });
+        }
+    }
+    ensure!(
+        differing.is_empty(),
+        "{} of the {} objects this backup lists are not in the bucket as they were, e.g. {}: restore them from the bucket's versions first (docs/deploy.md, \"Backup and restore\"); nothing was written",
+        differing.len(),
+        objects.len(),
+        differing.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+    );
+    Ok(())
 }
 
 /// The manifest of the backup in `dir`, once every file it lists is there with its size and

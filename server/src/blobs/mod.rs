@@ -42,6 +42,16 @@ pub struct Blobs {
     caching: Arc<tokio::sync::Mutex<()>>,
 }
 
+/// An object as the object store lists it: what a backup of a bucket deployment records.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct StoredObject {
+    pub key: String,
+    pub size: u64,
+    /// The store's entity tag (for single-part uploads to S3, the MD5 of the bytes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub e_tag: Option<String>,
+}
+
 fn check_key(key: &str) -> io::Result<()> {
     let bad = key.is_empty() || key.starts_with('/') || key.split('/').any(|part| part.is_empty() || part == "." || part == "..") || key.contains('\\');
     if bad { Err(io::Error::new(io::ErrorKind::InvalidInput, format!("'{key}' is not a blob key"))) } else { Ok(()) }
@@ -311,6 +321,23 @@ impl Blobs {
             .try_collect::<Vec<()>>()
             .await?;
         Ok(count)
+    }
+
+    /// Every object of an object store (none for a local store, whose files a backup copies).
+    pub async fn inventory(&self) -> io::Result<Option<Vec<StoredObject>>> {
+        match &self.backend {
+            Backend::Object(object) => object.inventory().await.map(Some),
+            Backend::Local(_) => Ok(None),
+        }
+    }
+
+    /// `key` as an object store holds it (a local store answers `None`).
+    pub async fn stored(&self, key: &str) -> io::Result<Option<StoredObject>> {
+        check_key(key)?;
+        match &self.backend {
+            Backend::Object(object) => object.stored(key).await,
+            Backend::Local(_) => Ok(None),
+        }
     }
 
     /// Whether scratch space can be written and the store answers (readiness).

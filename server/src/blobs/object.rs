@@ -204,6 +204,34 @@ impl ObjectBlobs {
             .await
     }
 
+    /// Every object of this deployment (under its key prefix), sorted by key.
+    pub async fn inventory(&self) -> io::Result<Vec<super::StoredObject>> {
+        let base = (!self.prefix.is_empty()).then(|| ObjectPath::from(self.prefix.as_str()));
+        let strip = if self.prefix.is_empty() { String::new() } else { format!("{}/", base.as_ref().expect("a prefix").as_ref()) };
+        let mut objects: Vec<super::StoredObject> = self
+            .store
+            .list(base.as_ref())
+            .map_err(io_error)
+            .map_ok(|meta| super::StoredObject {
+                key: meta.location.as_ref().strip_prefix(&strip).unwrap_or(meta.location.as_ref()).to_string(),
+                size: meta.size,
+                e_tag: meta.e_tag,
+            })
+            .try_collect()
+            .await?;
+        objects.sort_by(|a, b| a.key.cmp(&b.key));
+        Ok(objects)
+    }
+
+    /// `key` as stored (its size and ETag), if it is.
+    pub async fn stored(&self, key: &str) -> io::Result<Option<super::StoredObject>> {
+        match self.store.head(&self.location(key)).await {
+            Ok(meta) => Ok(Some(super::StoredObject { key: key.to_string(), size: meta.size, e_tag: meta.e_tag })),
+            Err(object_store::Error::NotFound { .. }) => Ok(None),
+            Err(e) => Err(io_error(e)),
+        }
+    }
+
     /// Remove every object under `prefix/` (and `prefix` itself).
     pub async fn remove_prefix(&self, prefix: &str) -> io::Result<()> {
         let base = self.location(prefix);

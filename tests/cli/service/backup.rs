@@ -92,3 +92,56 @@ fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
 }
 
 on_both_backends!(a_backup_taken_while_serving_restores_the_same_service, super::a_backup_restores_the_service_as_it_was);
+
+/// With PostgreSQL and a bucket: the backup lists the bucket's objects (the bytes stay in the
+/// bucket, versioned) beside the database dump, the keys and the secret; a restore checks the
+/// bucket first and refuses one that lacks them, then serves the same board.
+#[test]
+fn a_backup_of_a_bucket_deployment_lists_its_objects_and_restores_against_the_bucket() {
+    use super::object_store::{Relay, bucket, storage_env};
+    let relay = Relay::to_moto();
+    let (kept, empty) = (bucket(), bucket());
+    let in_bucket = |name: &str| storage_env(&relay, name);
+    let kept_env = in_bucket(&kept);
+    let env: Vec<(&str, &str)> = kept_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let original = Deployment::new(Backend::Postgres, &env);
+    let server = original.serve();
+    server.import_test_release();
+    let token = server.team("Team Bucket");
+    let accepted: Value = server.upload(&token, &tar_of(baseline_dir("oracle").path()), "").json().unwrap();
+    let id = accepted["id"].as_str().unwrap().to_string();
+    assert_eq!(server.wait_done(&id, &token)["state"], "scored");
+    let board = server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap();
+    assert!(board.contains(&id), "{board}");
+
+    let backups = tempfile::tempdir().unwrap();
+    let backup = backups.path().join("b");
+    let taken = original.run(&["backup", "--out", backup.to_str().unwrap()]);
+    assert!(taken.status.success(), "{}", said(&taken));
+    drop(server);
+    let manifest: Value = serde_json::from_slice(&std::fs::read(backup.join("backup.json")).unwrap()).unwrap();
+    let objects: Vec<&str> = manifest["objects"].as_array().unwrap().iter().map(|o| o["key"].as_str().unwrap()).collect();
+    assert!(objects.contains(&format!("submissions/{id}/upload").as_str()), "{objects:?}");
+    assert!(objects.iter().any(|k| k.starts_with("releases/")) && objects.iter().any(|k| k.starts_with("receipt-keys/")), "{objects:?}");
+    let files: Vec<&str> = manifest["files"].as_array().unwrap().iter().map(|f| f["path"].as_str().unwrap()).collect();
+    assert!(files.contains(&"database/osmab.pgdump") && files.iter().any(|f| f.starts_with("receipt-keys/")), "{files:?}");
+    assert!(!files.iter().any(|f| f.starts_with("blobs/")), "the bucket's bytes are not copied: {files:?}");
+
+    // A bucket without the objects: refused, naming one, nothing written.
+    let empty_env = in_bucket(&empty);
+    let env: Vec<(&str, &str)> = empty_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let wrong = Deployment::new(Backend::Postgres, &env);
+    let refused = wrong.run(&["restore", backup.to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("(missing)") && said(&refused).contains("nothing was written"), "{}", said(&refused));
+    assert_eq!(std::fs::read_dir(wrong.data.path()).unwrap().count(), 0);
+
+    // The bucket it was taken from: restored, the same board; new submissions score.
+    let env: Vec<(&str, &str)> = kept_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let fresh = Deployment::new(Backend::Postgres, &env);
+    let restored = fresh.run(&["restore", backup.to_str().unwrap()]);
+    assert!(restored.status.success(), "{}", said(&restored));
+    let server = fresh.serve();
+    assert_eq!(server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap(), board);
+    let accepted: Value = server.upload(&token, &tar_of(baseline_dir("drop-small").path()), "").json().unwrap();
+    assert_eq!(server.wait_done(accepted["id"].as_str().unwrap(), &token)["state"], "scored");
+}

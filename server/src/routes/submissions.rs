@@ -244,7 +244,22 @@ pub async fn create(
         release: None,
         split: query.split,
     };
-    let (status, id, body) = match intake::accept(&state, &team, &upload, &request).await? {
+    let accepted = match intake::accept(&state, &team, &upload, &request).await {
+        Ok(accepted) => accepted,
+        Err(e) => {
+            let problem = Problem::from(e);
+            // The bytes of a resumable upload that are not a valid submission never will be:
+            // it is removed, so it does not hold the team's open-upload room for a day.
+            if let Some(upload_id) = query.upload.as_deref()
+                && ["invalid_archive", "invalid_submission", "digest_mismatch"].contains(&problem.code)
+                && let Err(e) = uploads::terminate(&state, &team, upload_id).await
+            {
+                tracing::warn!(upload = %upload_id, error = %e.detail, "a refused upload could not be removed; it expires on its own");
+            }
+            return Err(problem);
+        }
+    };
+    let (status, id, body) = match accepted {
         Accepted::Valid { submission: valid, split } => {
             let entries = valid
                 .entries

@@ -300,7 +300,27 @@ fn open_uploads(backend: Backend) {
     assert!(body["detail"].as_str().unwrap().contains("1000"), "one upload's own limit first: {body}");
     let body = problem(start(&token, 900), 413, "open_uploads_too_large");
     assert!(body["detail"].as_str().unwrap().contains("OSMAB_MAX_OPEN_UPLOAD_BYTES") && body["limit"] == 1200, "400 open + 900 passes 1200: {body}");
-    assert_eq!(start(&token, 800).status(), 201, "400 + 800 fits under 1200");
+    let last = start(&token, 800);
+    assert_eq!(last.status(), 201, "400 + 800 fits under 1200");
+    let last = last.headers()["location"].to_str().unwrap().to_string();
+
+    // A complete upload that is no submission is removed when refused: it frees its room.
+    let patched = server
+        .client
+        .patch(format!("{}{last}", server.url))
+        .bearer_auth(&token)
+        .header("tus-resumable", "1.0.0")
+        .header("content-type", "application/offset+octet-stream")
+        .header("upload-offset", 0)
+        .body(vec![b'x'; 800])
+        .send()
+        .unwrap();
+    assert_eq!(patched.status(), 204);
+    let upload_id = last.rsplit('/').next().unwrap();
+    problem(server.post(&format!("/api/v1/submissions?upload={upload_id}")).bearer_auth(&token).send().unwrap(), 422, "invalid_archive");
+    let gone = server.client.head(format!("{}{last}", server.url)).bearer_auth(&token).header("tus-resumable", "1.0.0").send().unwrap();
+    assert_eq!(gone.status(), 404, "the refused upload is removed");
+    assert_eq!(start(&token, 800).status(), 201, "its room is free again");
 }
 
 on_both_backends!(open_uploads_are_limited_per_team, super::open_uploads);

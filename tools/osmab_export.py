@@ -37,7 +37,13 @@ import sys
 import zipfile
 import zlib
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:  # --help and every command need it; say so instead of a traceback
+    sys.exit(
+        "osmab_export.py needs NumPy (the only package it uses): pip install numpy\n"
+        f"(this Python is {sys.executable}; install it into the environment that runs the exporter)"
+    )
 
 # ---------------------------------------------------------------- reading pickles without their packages
 #

@@ -463,3 +463,14 @@ class ExportTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class WithoutNumPy(unittest.TestCase):
+    def test_help_without_numpy_says_what_to_install_instead_of_a_traceback(self):
+        # A Python where `import numpy` fails, as on a machine without it.
+        script = "import runpy, sys; sys.modules['numpy'] = None; sys.argv = ['osmab_export.py', '--help']; runpy.run_path(%r, run_name='__main__')" % EXPORTER
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+        self.assertEqual(done.returncode, 1, done.stderr)
+        self.assertIn("needs NumPy", done.stderr)
+        self.assertIn("pip install numpy", done.stderr)
+        self.assertNotIn("Traceback", done.stderr)

@@ -262,6 +262,10 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
         ctx.progress(&json!({"stage": "baselines", "message": format!("{queued} baseline submissions queued for scoring")})).await;
     }
     ctx.progress(&json!({"stage": "done", "message": format!("release {version} ready")})).await;
+    if request.publish {
+        let board = format!("{}/", state.settings.public_url.as_deref().unwrap_or(""));
+        tracing::info!(release = %version, "release {version} is published: the leaderboard is ready at {board}");
+    }
     Ok(())
 }
 

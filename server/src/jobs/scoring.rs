@@ -101,7 +101,13 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
         drop(unpack_to);
         let (scores, timings) = scored?;
         for why in &timings.cache_misses {
-            tracing::info!(%why, "ground truth prepared again");
+            // A first preparation is the cache filling, not news; anything else says why
+            // prepared ground truth could not be reused.
+            if why.ends_with("not cached yet") {
+                tracing::debug!(%why, "ground truth prepared for the first time on this node");
+            } else {
+                tracing::info!(%why, "ground truth prepared again (the cached copy could not be used)");
+            }
         }
         for why in &timings.not_kept {
             tracing::warn!(%why, "prepared ground truth not kept in this node's cache");

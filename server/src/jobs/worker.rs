@@ -53,7 +53,13 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
         fail(state, owner, &job, &message, Fault::Service).await;
         return;
     }
-    tracing::info!("job started");
+    // One line per job, at INFO for the jobs a person follows (a build fans out into many
+    // render jobs, which say so at DEBUG).
+    if job.kind == "render_sequence" {
+        tracing::debug!(attempt = job.attempts, "render job started");
+    } else {
+        tracing::info!("{} job started (attempt {} of {})", job.kind, job.attempts, job.max_attempts);
+    }
     let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string() };
     let mut work = tokio::spawn(run_job(ctx));
     let mut heartbeat = tokio::time::interval(lease / 3);

@@ -111,6 +111,9 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     assert!(results.contains(&format!("{:.1}", pooled * 100.0)) && results.contains("Question answering"), "{results}");
     let board = ok(&client(&config, &["leaderboard"]));
     assert!(board.contains("team-label-noise") && board.contains("Team Client"), "{board}");
+    let quota = ok(&client(&config, &["quota"]));
+    let header = quota.lines().find(|l| l.contains("split") && l.contains("remaining")).unwrap_or_else(|| panic!("{quota}"));
+    assert!(header.trim_end().ends_with("default split"), "every column is labelled: {quota}");
 
     // A revoked token is explained with what to do, not shown as a raw body.
     let tokens: Value = server.admin(server.get("/api/v1/admin/teams")).json().unwrap();

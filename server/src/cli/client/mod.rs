@@ -35,6 +35,7 @@ pub struct ClientArgs {
 pub enum ClientCommand {
     /// Store the server URL and your team token (owner-only file in your configuration folder).
     Login {
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
         /// The team token (`osmab_…`); read from OSMAB_TOKEN when not given.
@@ -43,6 +44,7 @@ pub enum ClientCommand {
     },
     /// Download a release: manifest, then files and sequence archives, resumed and verified.
     Download {
+        /// The release version (default: the current release).
         #[arg(long)]
         release: Option<String>,
         /// Only this lighting (repeatable).
@@ -51,11 +53,13 @@ pub enum ClientCommand {
         /// Only this scene (repeatable).
         #[arg(long)]
         scene: Vec<String>,
+        /// The folder to download into; what it already holds is verified and kept, interrupted files resume.
         #[arg(long)]
         out: PathBuf,
         /// Parallel connections.
         #[arg(long, default_value_t = 4)]
         jobs: usize,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -69,6 +73,7 @@ pub enum ClientCommand {
         /// has one. Every split whose ground truth the folder holds (val's is public) is scored.
         #[arg(long)]
         split: Option<Split>,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -88,6 +93,7 @@ pub enum ClientCommand {
         /// `val` (open scenes, their own board); the release's test split when it has one.
         #[arg(long)]
         split: Option<Split>,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -96,12 +102,14 @@ pub enum ClientCommand {
         id: String,
         #[arg(long)]
         watch: bool,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
     /// Print a scored submission's tables.
     Results {
         id: String,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -124,6 +132,7 @@ pub enum ClientCommand {
     },
     /// Print the team's quota of every split: what it may still submit, and when more.
     Quota {
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -136,6 +145,7 @@ pub enum ClientCommand {
         split: Option<Split>,
         #[arg(long)]
         lighting: Option<String>,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -201,7 +211,11 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
                 return Ok(());
             }
             let id = answer["id"].as_str().unwrap_or_default().to_string();
-            println!("{id}");
+            // The id alone on stdout for scripts (`ID=$(osmab client submit …)`); in a
+            // terminal the sentence below says it once.
+            if !std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                println!("{id}");
+            }
             if answer["repeat"] == true {
                 eprintln!("The server already had this archive as {id} ({}); no quota was used.", answer["state"].as_str().unwrap_or("?"));
             } else {

@@ -188,7 +188,7 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
 /// Print the team's quota of every split (`GET /api/v1/quota`).
 pub fn quota(api: &Api) -> anyhow::Result<()> {
     let answer = api.get_team_json("/api/v1/quota")?;
-    let header: Vec<String> = ["split", "used", "limit", "remaining", "window (h)", "next possible", ""].iter().map(|s| s.to_string()).collect();
+    let header: Vec<String> = ["split", "used", "limit", "remaining", "window (h)", "next possible", "default split"].iter().map(|s| s.to_string()).collect();
     let default = answer["default_split"].as_str().unwrap_or_default();
     let rows: Vec<Vec<String>> = answer["splits"]
         .as_array()
@@ -203,7 +203,7 @@ pub fn quota(api: &Api) -> anyhow::Result<()> {
                 q["remaining"].to_string(),
                 q["window_hours"].to_string(),
                 q["next_at"].as_str().unwrap_or("now").to_string(),
-                if split == default { "default".into() } else { String::new() },
+                if split == default { "yes".into() } else { String::new() },
             ]
         })
         .collect();

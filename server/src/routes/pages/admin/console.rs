@@ -66,7 +66,9 @@ pub struct ConsolePage {
     pub releases: Vec<ReleaseRow>,
     pub builds: Vec<BuildRow>,
     pub submissions: Vec<SubmissionRow>,
-    pub demo_config: &'static str,
+    /// The regeneration form's starting point: the demo config under a version no release
+    /// or build uses yet.
+    pub demo_config: String,
     pub refresh: bool,
     /// Every split's submission limit.
     pub quotas: Vec<crate::routes::quota_policies::PolicyView>,
@@ -165,7 +167,14 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
                 quota_refunded: s.quota_refunded,
             })
             .collect(),
-        demo_config: crate::jobs::release_build::DEMO_CONFIG,
+        demo_config: with_free_version(
+            crate::jobs::release_build::DEMO_CONFIG,
+            &releases
+                .iter()
+                .map(|r| r.version.clone())
+                .chain(jobs.iter().filter(|j| j.kind == "build_release").map(|j| subject_version(&j.subject).to_string()))
+                .collect(),
+        ),
         quotas,
     }
     .into_response()
@@ -264,9 +273,41 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
     .into_response()
 }
 
+/// `config` with its `version = "…"` line naming the first version no entry of `taken` has:
+/// its own, else its trailing number counted up (`demo-2` → `demo-3` → …), or `-2`, `-3` … added.
+fn with_free_version(config: &str, taken: &std::collections::BTreeSet<String>) -> String {
+    let Some(line) = config.lines().find(|l| l.trim_start().starts_with("version") && l.contains('"')) else {
+        return config.to_string();
+    };
+    let Some(version) = line.split('"').nth(1) else { return config.to_string() };
+    let digits = version.len() - version.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+    let (stem, first) = match version[version.len() - digits..].parse::<u64>() {
+        Ok(n) if digits > 0 => (version[..version.len() - digits].to_string(), n),
+        _ => (format!("{version}-"), 1),
+    };
+    let free = std::iter::once(version.to_string())
+        .chain((first + 1..).map(|n| format!("{stem}{n}")))
+        .find(|candidate| !taken.contains(candidate))
+        .expect("some number is free");
+    config.replacen(line, &line.replacen(version, &free, 1), 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_regeneration_form_starts_from_a_free_version() {
+        let taken = |versions: &[&str]| versions.iter().map(|v| v.to_string()).collect::<std::collections::BTreeSet<_>>();
+        let config = "# a comment naming version = \"x\"?\nversion = \"demo-2\"\ncreated = \"2026-11-22\"\n";
+        assert_eq!(with_free_version(config, &taken(&[])), config);
+        let next = with_free_version(config, &taken(&["demo-2", "demo-3"]));
+        assert!(next.contains("version = \"demo-4\"\n") && next.contains("created"), "{next}");
+        let plain = with_free_version("version = \"nightly\"\n", &taken(&["nightly"]));
+        assert_eq!(plain, "version = \"nightly-2\"\n");
+        let demo = with_free_version(crate::jobs::release_build::DEMO_CONFIG, &taken(&["demo-2"]));
+        assert!(demo.contains("\nversion = \"demo-3\"") && osmab_dataset::release::config::ReleaseConfig::parse(&demo, std::path::Path::new("x")).is_ok());
+    }
 
     #[test]
     fn render_subjects_name_their_release() {

@@ -171,23 +171,17 @@ async fn stop_workers(state: &AppState, workers: Vec<tokio::task::JoinHandle<()>
     }
 }
 
-/// On a service without teams, say where the board is and how the first team is made (the
-/// admin token is in the data directory unless it was configured).
+/// On a service without teams, say where the board is and how the first team is made.
 async fn say_how_to_begin(state: &AppState) {
     let Ok(teams) = state.store.teams().await else { return };
     if teams.iter().any(|t| t.name != crate::jobs::release_build::BASELINE_TEAM) {
         return;
     }
     let origin = state.settings.public_url.clone().unwrap_or_default();
-    let token = if state.settings.admin_token.is_some() {
-        "$OSMAB_ADMIN_TOKEN".to_string()
-    } else {
-        format!("$(cat {})", state.settings.data_dir.join("admin-token").display())
-    };
     tracing::info!(
         "no teams yet: the leaderboard is at {origin}/ (filled once the demo release is built); create a team with \
-         curl -X POST {origin}/api/v1/admin/teams -H \"Authorization: Bearer {token}\" -H 'Content-Type: application/json' -d '{{\"name\": \"My lab\"}}' \
-         (its token is shown once), or sign in to {origin}/admin"
+         `osmab admin team create \"My lab\" --url {origin}` on this machine (with this server's settings; it prints the team's token once), \
+         or through {origin}/admin"
     );
 }
 

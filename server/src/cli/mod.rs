@@ -1,5 +1,6 @@
 //! The subcommands of `osmab`.
 
+mod admin;
 mod baseline;
 mod bench;
 mod bench_questions;
@@ -33,6 +34,8 @@ enum Command {
     Migrate(service::ServiceArgs),
     /// Add a new receipt-signing key; it signs from the next start, the old ones stay published.
     RotateReceiptKey(service::ServiceArgs),
+    /// Teams and their tokens, with this machine's service's admin token (no curl needed).
+    Admin(admin::AdminArgs),
     /// Copy the records, stored blobs, receipt keys and split secret into a sealed folder, while the service runs.
     Backup(service::BackupArgs),
     /// Put a backup back into an empty data directory (and an empty database).
@@ -65,6 +68,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Worker(args) => service::worker(args),
         Command::Migrate(args) => service::migrate(args),
         Command::RotateReceiptKey(args) => service::rotate_receipt_key(args),
+        Command::Admin(args) => admin::run(args),
         Command::Backup(args) => service::backup(args),
         Command::Restore(args) => service::restore(args),
         Command::Client(cmd) => client::run(cmd),

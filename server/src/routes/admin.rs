@@ -52,7 +52,7 @@ pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(
 }
 
 /// A created team with its first token (shown once).
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct CreatedTeam {
     pub daily_quota: Option<i64>,
     pub id: String,
@@ -62,7 +62,7 @@ pub struct CreatedTeam {
 }
 
 /// A team in the admin's list.
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct TeamView {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub created_at: Option<String>,
@@ -73,7 +73,7 @@ pub struct TeamView {
 }
 
 /// `GET /api/v1/admin/teams`.
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct TeamList {
     pub teams: Vec<TeamView>,
 }
@@ -139,7 +139,7 @@ pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Api
 }
 
 /// A token issued for a team (shown once).
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct IssuedToken {
     pub expires_at: Option<String>,
     pub id: String,
@@ -149,7 +149,7 @@ pub struct IssuedToken {
 }
 
 /// A token in a list: its hint and state, never the token.
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct TokenView {
     pub created_at: String,
     pub expires_at: Option<String>,
@@ -160,7 +160,7 @@ pub struct TokenView {
 }
 
 /// `GET /api/v1/admin/teams/{id}/tokens`.
-#[derive(Debug, Serialize, JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, JsonSchema)]
 pub struct TokenList {
     pub tokens: Vec<TokenView>,
 }

@@ -1,7 +1,7 @@
 //! The HTTP surface: one `router(state)` the server, the tests and the benchmarks share.
 //! Each module owns the routes, handlers and response shapes of one area.
 
-mod admin;
+pub mod admin;
 mod api_docs;
 mod files;
 mod headers;

@@ -3,6 +3,7 @@
 //! skip, when PostgreSQL is unreachable — `.ci/run` starts it).
 
 mod access;
+mod admin_cli;
 mod backup;
 mod cards;
 mod client;

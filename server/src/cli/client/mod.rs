@@ -12,6 +12,9 @@ mod submit;
 mod verify;
 mod view;
 
+pub use api::checked;
+pub use view::table_text;
+
 use osmab_evaluator::scores::Split;
 use std::path::PathBuf;
 

@@ -459,7 +459,19 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         }
     }
     if entries.values().all(|e| e.map.is_none() && e.graph.is_none()) && problems.is_empty() {
-        problems.push(InputError::new("maps/", "(folder)", "the submission has no maps and no scene graphs; expected maps/<lighting>/<scene>.npz"));
+        let message = match (release.split, outside_split.first()) {
+            // Everything is for the other split's scenes: say so, and how to choose it.
+            (Some(split), Some(example)) => {
+                let other = if split == crate::scores::Split::Test { crate::scores::Split::Val } else { crate::scores::Split::Test };
+                format!(
+                    "the submission has no maps and no scene graphs for the {split} split: its {} files are for {other} scenes (e.g. {example}); \
+                     submit or validate them for the {other} split (`--split {other}`, or `?split={other}` in the API)",
+                    outside_split.len()
+                )
+            }
+            _ => "the submission has no maps and no scene graphs; expected maps/<lighting>/<scene>.npz".to_string(),
+        };
+        problems.push(InputError::new("maps/", "(folder)", message));
     }
     if !problems.is_empty() {
         if problems.len() > MAX_REPORTED_PROBLEMS {

@@ -175,6 +175,21 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     let refused = problem(server.upload(&token, &tar_of(with_answers.path()), "?split=test&dry_run=true"), 422, "invalid_submission");
     assert!(refused.to_string().contains(&format!("{test} is a test scene")) && refused.to_string().contains("answers/ is for val scenes only"), "{refused}");
 
+    // Maps of val scenes only, sent to the test split: the refusal says which split they are for.
+    let val_only = baseline_dir_of(split_release(), "oracle");
+    for folder in ["maps", "graphs", "answers"] {
+        for lighting in std::fs::read_dir(val_only.path().join(folder)).into_iter().flatten().flatten() {
+            for file in std::fs::read_dir(lighting.path()).unwrap().flatten() {
+                if TEST_SCENES.iter().any(|t| file.file_name().to_string_lossy().starts_with(t)) {
+                    std::fs::remove_file(file.path()).unwrap();
+                }
+            }
+        }
+    }
+    let refused = problem(server.upload(&token, &tar_of(val_only.path()), "?split=test&dry_run=true"), 422, "invalid_submission");
+    let detail = refused["errors"].to_string();
+    assert!(detail.contains("no scene graphs for the test split") && detail.contains("are for val scenes") && detail.contains("--split val"), "{refused}");
+
     // One archive to each split, with one idempotency key: two submissions (the key is
     // scoped by split), each scored on its split's scenes.
     let archive = tar_of(oracle.path());

@@ -109,6 +109,18 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     let results = ok(&client(&config, &["results", &id]));
     let pooled = view["scores"]["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap();
     assert!(results.contains(&format!("{:.1}", pooled * 100.0)) && results.contains("Question answering"), "{results}");
+    // Every VQA category is listed with its count, and the counts add up to "all".
+    let by_category = results.split("Question answering by category").nth(1).unwrap_or_else(|| panic!("{results}"));
+    let all = &view["scores"]["vqa"]["all_lightings"];
+    let mut listed = 0;
+    for set in ["prompt_grounded", "standard"] {
+        for (category, accuracy) in all[set]["categories"].as_object().unwrap() {
+            let total = accuracy["total"].as_u64().unwrap();
+            assert!(by_category.lines().any(|l| l.contains(category.as_str()) && l.trim_end().ends_with(&format!(" {total}"))), "{category}: {by_category}");
+            listed += total;
+        }
+    }
+    assert_eq!(listed, all["overall"]["total"].as_u64().unwrap(), "{by_category}");
     let board = ok(&client(&config, &["leaderboard"]));
     assert!(board.contains("team-label-noise") && board.contains("Team Client"), "{board}");
     let quota = ok(&client(&config, &["quota"]));

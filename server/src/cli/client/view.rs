@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::bail;
 
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores, Split};
+use osmab_evaluator::scores::{Accuracy, Aggregate, Lighting, Metric, QuestionSet, Scores, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
@@ -105,7 +105,10 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
         println!("\nSegmentation, {lighting} (%)\n{}", table_text(&header, &rows));
     }
     if let Some(vqa) = &scores.vqa {
-        let header: Vec<String> = ["lighting", "PromptGT Meas.", "PromptGT Rel.", "Standard Meas.", "Standard Rel.", "all"].map(String::from).to_vec();
+        let header: Vec<String> = std::iter::once("lighting".to_string())
+            .chain(crate::leaderboard::vqa::pairs().map(|(set, group)| format!("{} {}", set.label(), group.label())))
+            .chain(std::iter::once("all".to_string()))
+            .collect();
         let rows: Vec<Vec<String>> = vqa
             .lightings
             .iter()
@@ -119,6 +122,16 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
             })
             .collect();
         println!("\nQuestion answering, pooled accuracy (%)\n{}", table_text(&header, &rows));
+        // Every category, so the groups above (the paper's tables) and "all" add up.
+        let all = &vqa.all_lightings;
+        let header: Vec<String> = ["question set", "category", "accuracy (%)", "correct", "questions"].map(String::from).to_vec();
+        let count = |a: &Accuracy| vec![pct(a.accuracy), a.correct.to_string(), a.total.to_string()];
+        let mut rows: Vec<Vec<String>> = [(QuestionSet::PromptGrounded, &all.prompt_grounded), (QuestionSet::Standard, &all.standard)]
+            .into_iter()
+            .flat_map(|(set, scores)| scores.categories.iter().map(move |(category, a)| [vec![set.label().to_string(), category.clone()], count(a)].concat()))
+            .collect();
+        rows.push([vec!["all".to_string(), String::new()], count(&all.overall)].concat());
+        println!("\nQuestion answering by category, all lightings\n{}", table_text(&header, &rows));
     }
     if let Some(withheld) = &scores.withheld {
         println!("\n{}", withheld.note);

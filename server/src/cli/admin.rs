@@ -1,4 +1,4 @@
-//! `osmab admin team create|list|tokens|token|revoke-token`: teams and their tokens through the
+//! `osmab admin team create|list|tokens|token` and `osmab admin token revoke ID`: teams and their tokens through the
 //! admin API, from the machine the service runs on. The server and the admin token come from the
 //! service's own settings (`OSMAB_PUBLIC_URL` or the bind address; `OSMAB_ADMIN_TOKEN` or the
 //! data directory's `admin-token` file), so no token is typed or pasted.
@@ -24,6 +24,19 @@ enum AdminCommand {
     /// Teams and their tokens.
     #[command(subcommand)]
     Team(TeamCommand),
+    /// Tokens by id.
+    #[command(subcommand)]
+    Token(TokenCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum TokenCommand {
+    /// Revoke a token by its id (`osmab admin team tokens TEAM` lists a team's).
+    Revoke {
+        token_id: String,
+        #[command(flatten)]
+        target: Target,
+    },
 }
 
 /// The service to talk to.
@@ -64,12 +77,6 @@ enum TeamCommand {
     Token {
         /// The team's name or id.
         team: String,
-        #[command(flatten)]
-        target: Target,
-    },
-    /// Revoke a token by its id (`osmab admin team tokens TEAM` lists them).
-    RevokeToken {
-        token_id: String,
         #[command(flatten)]
         target: Target,
     },
@@ -120,7 +127,16 @@ impl AdminApi {
 }
 
 pub fn run(args: AdminArgs) -> anyhow::Result<()> {
-    let AdminCommand::Team(command) = args.command;
+    let command = match args.command {
+        AdminCommand::Team(command) => command,
+        AdminCommand::Token(TokenCommand::Revoke { token_id, target }) => {
+            let api = AdminApi::open(&target)?;
+            let response = api.client.delete(format!("{}/api/v1/admin/tokens/{token_id}", api.url)).bearer_auth(&api.token).send()?;
+            crate::cli::client::checked(response)?;
+            println!("token {token_id} revoked");
+            return Ok(());
+        }
+    };
     match command {
         TeamCommand::Create { name, daily_quota, target } => {
             let api = AdminApi::open(&target)?;
@@ -166,12 +182,6 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
             let issued: IssuedToken = api.send(api.client.post(format!("{}/api/v1/admin/teams/{}/tokens", api.url, team.id)))?;
             println!("{}", issued.token);
             eprintln!("A new token ({}) for team '{}', shown this once; its earlier tokens stay valid until revoked.", issued.id, issued.team);
-        }
-        TeamCommand::RevokeToken { token_id, target } => {
-            let api = AdminApi::open(&target)?;
-            let response = api.client.delete(format!("{}/api/v1/admin/tokens/{token_id}", api.url)).bearer_auth(&api.token).send()?;
-            crate::cli::client::checked(response)?;
-            println!("token {token_id} revoked");
         }
     }
     Ok(())

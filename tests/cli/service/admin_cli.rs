@@ -14,7 +14,7 @@ fn an_operator_creates_lists_reissues_and_revokes_team_tokens_from_the_command_l
     let deployment = Deployment::new(Backend::Sqlite, &[]);
     let server = deployment.serve();
     let admin = |args: &[&str]| {
-        let mut all = vec!["admin", "team"];
+        let mut all = vec!["admin", if args[0] == "revoke" { "token" } else { "team" }];
         all.extend_from_slice(args);
         all.extend_from_slice(&["--url", &server.url]);
         deployment.run(&all)
@@ -35,7 +35,7 @@ fn an_operator_creates_lists_reissues_and_revokes_team_tokens_from_the_command_l
     assert_eq!(ids.len(), 2, "{tokens}");
 
     // Revoke one: it stops working, the other still works.
-    assert!(admin(&["revoke-token", ids[0]]).status.success());
+    assert!(admin(&["revoke", ids[0]]).status.success(), "osmab admin token revoke ID");
     let statuses: Vec<u16> = [token.trim(), second.trim()].iter().map(|t| server.get("/api/v1/me").bearer_auth(t).send().unwrap().status().as_u16()).collect();
     assert_eq!(statuses.iter().filter(|s| **s == 401).count(), 1, "exactly the revoked token is refused: {statuses:?}");
 

@@ -978,6 +978,23 @@ def main() -> int:
 
         run("internal links", internal_links)
         run("operator console (sign in, flag, build, quality)", operator_console)
+
+        def about_page():
+            page, dom, shot = load("/about", "17-about")
+            try:
+                expect(dom.find("h1").clean() == "About OSMa-Bench++", f"the About page's title is {dom.find('h1').clean()!r}")
+                for section in ("take-part", "splits", "cite", "licence"):
+                    expect(dom.find(id=section) is not None, f"the About page has no #{section} section")
+                expect(board["release"] in dom.clean(), "the About page does not name the current release")
+            finally:
+                page.close()
+            # Every page the checks above opened links to it (the saved DOM of each).
+            dumps = sorted(out.glob("*.html"))
+            missing = [d.name for d in dumps if 'href="/about"' not in d.read_text()]
+            expect(dumps and not missing, f"pages without a link to /about: {missing}")
+            return f"{shot}; linked from all {len(dumps)} pages opened"
+
+        run("about page, linked from every page", about_page)
     except Fatal as e:
         results.append(("setup", False, time.monotonic() - started, str(e)))
         log(f"FATAL {e}")

@@ -213,6 +213,7 @@ pub fn router(state: AppState) -> Router {
         .route("/admin/submissions/{id}/refund", post(pages::admin::refund))
         .route("/admin/quotas", post(pages::admin::set_quota))
         .route("/api/docs", get(api_docs::docs_page))
+        .route("/about", get(pages::about))
         .route("/static/{file}", get(pages::static_file));
     let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));
     Router::new()

@@ -287,6 +287,20 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     assert!(csv.headers()["content-disposition"].to_str().unwrap().contains("leaderboard-e2e-split-1-val.csv"));
     let page = server.get("/?split=val").send().unwrap().text().unwrap();
     assert!(page.contains("data-split=\"val\"") && page.contains("Validation split") && page.contains("split=test"), "the page links the other board");
+
+    // The About page: linked from every page, naming the current release, its splits and the
+    // commands for this server.
+    let about = server.get("/about").send().unwrap().text().unwrap();
+    let scenes = TEST_SCENES.len();
+    assert!(about.contains(&format!("{scenes} of them in the hidden test split")) && about.contains("e2e-split-1"), "{about}");
+    assert!(
+        about.contains(&format!("osmab client login --url {}", server.url)) && about.contains("id=\"cite\"") && about.contains("id=\"licence\""),
+        "{about}"
+    );
+    for path in ["/", "/?split=val", "/releases/e2e-split-1", "/api/docs", "/about", "/admin/login"] {
+        let page = server.get(path).send().unwrap().text().unwrap();
+        assert!(page.contains("href=\"/about\""), "{path} links the About page");
+    }
     let page = server.get("/").send().unwrap().text().unwrap();
     assert!(page.contains("data-split=\"test\""));
 }

@@ -2,6 +2,7 @@
 //! work without JavaScript: sorting and the choice of aggregate and subset are links.
 //! Numbers are formatted in [`format`], and every chart is a [`chart::BarChart`].
 
+mod about;
 pub mod admin;
 mod chart;
 mod format;
@@ -15,6 +16,7 @@ use askama_web::WebTemplate;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 
+pub use about::about;
 pub use leaderboard::leaderboard;
 pub use release::release;
 pub use submission::submission;

@@ -97,18 +97,8 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
         if local_blobs {
             copy_tree(&data_owned.join(BLOBS), &out_owned.join(BLOBS), &|rel| !rel.starts_with(SCRATCH))?;
         }
-        for name in SECRETS {
-            let (source, target) = (data_owned.join(name), out_owned.join(name));
-            if target.exists() {
-                continue; // taken from the bucket already
-            }
-            if source.is_dir() {
-                copy_tree(&source, &target, &|_| true)?;
-            } else if source.is_file() {
-                copy_file(&source, &target)?;
-            }
-        }
-        Ok(())
+        // Those taken from the bucket already are not copied again.
+        copy_entries(&data_owned, &out_owned, SECRETS.into_iter().filter(|name| !out_owned.join(name).exists()))
     })
     .await??;
     let out_owned = out.to_path_buf();
@@ -168,18 +158,7 @@ pub async fn restore(settings: &Settings, from: &Path) -> anyhow::Result<BackupM
         other => bail!("{}: database '{other}' is neither sqlite nor postgres", from.join(MANIFEST).display()),
     }
     let (from_owned, data_owned) = (from.to_path_buf(), data.clone());
-    tokio::task::spawn_blocking(move || -> anyhow::Result<()> {
-        for name in [BLOBS].into_iter().chain(SECRETS) {
-            let source = from_owned.join(name);
-            if source.is_dir() {
-                copy_tree(&source, &data_owned.join(name), &|_| true)?;
-            } else if source.is_file() {
-                copy_file(&source, &data_owned.join(name))?;
-            }
-        }
-        Ok(())
-    })
-    .await??;
+    tokio::task::spawn_blocking(move || -> anyhow::Result<()> { copy_entries(&from_owned, &data_owned, [BLOBS].into_iter().chain(SECRETS)) }).await??;
     Ok(manifest)
 }
 
@@ -278,6 +257,19 @@ fn describe_files(dir: &Path) -> anyhow::Result<Vec<BackedUpFile>> {
         files.push(BackedUpFile { path: rel, size, sha256: hasher.finalize().iter().map(|b| format!("{b:02x}")).collect() });
     }
     Ok(files)
+}
+
+/// Copy each folder or file `names` of `from` that exists to the same name under `to`.
+fn copy_entries<'a>(from: &Path, to: &Path, names: impl IntoIterator<Item = &'a str>) -> anyhow::Result<()> {
+    for name in names {
+        let source = from.join(name);
+        if source.is_dir() {
+            copy_tree(&source, &to.join(name), &|_| true)?;
+        } else if source.is_file() {
+            copy_file(&source, &to.join(name))?;
+        }
+    }
+    Ok(())
 }
 
 /// Copy the files under `from` whose relative path `keep` accepts to `to`, keeping their

@@ -16,6 +16,11 @@ use tokio::sync::{Semaphore, watch};
 use tower::ServiceExt;
 use tower_http::timeout::TimeoutBody;
 
+/// The address of the client a request came from (inserted by [`serve`] as `ConnectInfo`).
+pub fn peer_ip(extensions: &axum::http::Extensions) -> Option<std::net::IpAddr> {
+    extensions.get::<ConnectInfo<std::net::SocketAddr>>().map(|c| c.0.ip())
+}
+
 /// The limits of [`serve`].
 #[derive(Debug, Clone, Copy)]
 pub struct Limits {

@@ -6,6 +6,12 @@ use std::collections::HashMap;
 use std::sync::Mutex;
 use std::time::Instant;
 
+/// The bucket that failed authentications from `address` share: wrong tokens and console
+/// cookies that are no session alike.
+pub fn failed_authentication(address: Option<std::net::IpAddr>) -> String {
+    format!("failed authentication from {}", address.map_or_else(|| "unknown".to_string(), |a| a.to_string()))
+}
+
 /// Token buckets keyed by client.
 #[derive(Debug)]
 pub struct RateLimiter {

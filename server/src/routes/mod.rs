@@ -17,11 +17,10 @@ pub mod submission_view;
 mod submissions;
 mod uploads;
 
-use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use axum::Router;
-use axum::extract::{ConnectInfo, DefaultBodyLimit, FromRequest, FromRequestParts, MatchedPath, Request, State};
+use axum::extract::{DefaultBodyLimit, FromRequest, FromRequestParts, MatchedPath, Request, State};
 use axum::http::request::Parts;
 use axum::http::{HeaderName, Method, StatusCode};
 use axum::middleware::{Next, from_fn_with_state};
@@ -112,13 +111,14 @@ async fn limit_requests(State(state): State<AppState>, request: Request, next: N
     if !write && !request.headers().contains_key(axum::http::header::AUTHORIZATION) {
         return next.run(request).await;
     }
-    let address = request.extensions().get::<ConnectInfo<SocketAddr>>().map_or_else(|| "unknown".to_string(), |c| c.0.ip().to_string());
+    let peer = crate::http::peer_ip(request.extensions());
+    let address = peer.map_or_else(|| "unknown".to_string(), |ip| ip.to_string());
     let (mut parts, body) = request.into_parts();
     let client = match crate::auth::caller_of(&mut parts, &state).await {
         Ok(crate::auth::Caller::Team(team)) => write.then(|| format!("team {}", team.id)),
         Ok(crate::auth::Caller::Admin) => write.then(|| "admin".to_string()),
         Ok(crate::auth::Caller::Anonymous) => write.then(|| format!("address {address}")),
-        Err(problem) if problem.status == StatusCode::UNAUTHORIZED => Some(format!("failed authentication from {address}")),
+        Err(problem) if problem.status == StatusCode::UNAUTHORIZED => Some(crate::rate_limit::failed_authentication(peer)),
         // The store is unavailable: the handler answers with its own error.
         Err(_) => None,
     };

@@ -305,17 +305,7 @@ fn open_uploads(backend: Backend) {
     let last = last.headers()["location"].to_str().unwrap().to_string();
 
     // A complete upload that is no submission is removed when refused: it frees its room.
-    let patched = server
-        .client
-        .patch(format!("{}{last}", server.url))
-        .bearer_auth(&token)
-        .header("tus-resumable", "1.0.0")
-        .header("content-type", "application/offset+octet-stream")
-        .header("upload-offset", 0)
-        .body(vec![b'x'; 800])
-        .send()
-        .unwrap();
-    assert_eq!(patched.status(), 204);
+    assert_eq!(server.tus_patch(&token, &last, 0, &[b'x'; 800]).status(), 204);
     let upload_id = last.rsplit('/').next().unwrap();
     problem(server.post(&format!("/api/v1/submissions?upload={upload_id}")).bearer_auth(&token).send().unwrap(), 422, "invalid_archive");
     let gone = server.client.head(format!("{}{last}", server.url)).bearer_auth(&token).header("tus-resumable", "1.0.0").send().unwrap();

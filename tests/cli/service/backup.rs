@@ -11,16 +11,23 @@ fn said(output: &std::process::Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
 }
 
-fn a_backup_restores_the_service_as_it_was(backend: Backend) {
-    let original = Deployment::new(backend, &[]);
-    let server = original.serve();
+/// The test release on `server`, a team `team` and its oracle submission scored: the team's
+/// token, the submission's id and the val board showing it.
+fn a_scored_entry(server: &super::Server<'_>, team: &str) -> (String, String, String) {
     server.import_test_release();
-    let token = server.team("Team Backup");
+    let token = server.team(team);
     let accepted: Value = server.upload(&token, &tar_of(baseline_dir("oracle").path()), "").json().unwrap();
     let id = accepted["id"].as_str().unwrap().to_string();
     assert_eq!(server.wait_done(&id, &token)["state"], "scored");
     let board = server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap();
-    assert!(board.contains(&id) && board.contains("Team Backup"), "the entry is on the board: {board}");
+    assert!(board.contains(&id) && board.contains(team), "the entry is on the board: {board}");
+    (token, id, board)
+}
+
+fn a_backup_restores_the_service_as_it_was(backend: Backend) {
+    let original = Deployment::new(backend, &[]);
+    let server = original.serve();
+    let (token, id, board) = a_scored_entry(&server, "Team Backup");
     let submission = server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().text().unwrap();
     let receipt = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().text().unwrap();
     let results = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().bytes().unwrap();
@@ -106,13 +113,7 @@ fn a_backup_of_a_bucket_deployment_lists_its_objects_and_restores_against_the_bu
     let env: Vec<(&str, &str)> = kept_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
     let original = Deployment::new(Backend::Postgres, &env);
     let server = original.serve();
-    server.import_test_release();
-    let token = server.team("Team Bucket");
-    let accepted: Value = server.upload(&token, &tar_of(baseline_dir("oracle").path()), "").json().unwrap();
-    let id = accepted["id"].as_str().unwrap().to_string();
-    assert_eq!(server.wait_done(&id, &token)["state"], "scored");
-    let board = server.get("/api/v1/leaderboard?split=val").send().unwrap().text().unwrap();
-    assert!(board.contains(&id), "{board}");
+    let (token, id, board) = a_scored_entry(&server, "Team Bucket");
 
     let backups = tempfile::tempdir().unwrap();
     let backup = backups.path().join("b");

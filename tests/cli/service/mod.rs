@@ -262,6 +262,24 @@ impl Server<'_> {
     }
 
     /// Poll a submission until it is scored or failed.
+    /// Append `bytes` at `offset` to the resumable upload at `path` (tus PATCH, with its
+    /// SHA-256 in `Upload-Checksum`).
+    pub fn tus_patch(&self, token: &str, path: &str, offset: usize, bytes: &[u8]) -> Response {
+        use base64::Engine;
+        use sha2::Digest;
+        let checksum = format!("sha256 {}", base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(bytes)));
+        self.client
+            .patch(format!("{}{path}", self.url))
+            .bearer_auth(token)
+            .header("tus-resumable", "1.0.0")
+            .header("content-type", "application/offset+octet-stream")
+            .header("upload-offset", offset)
+            .header("upload-checksum", checksum)
+            .body(bytes.to_vec())
+            .send()
+            .unwrap()
+    }
+
     pub fn wait_done(&self, id: &str, token: &str) -> Value {
         let started = Instant::now();
         loop {

@@ -32,21 +32,6 @@ fn create_upload(server: &Server<'_>, token: &str, size: usize) -> String {
     response.headers()["location"].to_str().unwrap().to_string()
 }
 
-fn patch(server: &Server<'_>, token: &str, path: &str, offset: usize, bytes: &[u8]) -> reqwest::blocking::Response {
-    let checksum = format!("sha256 {}", base64::engine::general_purpose::STANDARD.encode(Sha256::digest(bytes)));
-    server
-        .client
-        .patch(format!("{}{path}", server.url))
-        .bearer_auth(token)
-        .header("tus-resumable", "1.0.0")
-        .header("content-type", "application/offset+octet-stream")
-        .header("upload-offset", offset)
-        .header("upload-checksum", checksum)
-        .body(bytes.to_vec())
-        .send()
-        .unwrap()
-}
-
 fn offset_at(server: &Server<'_>, token: &str, path: &str) -> u64 {
     let response = server.client.head(format!("{}{path}", server.url)).bearer_auth(token).header("tus-resumable", "1.0.0").send().unwrap();
     assert_eq!(response.status(), 200);
@@ -86,12 +71,12 @@ fn two_servers_and_two_workers_share_only_postgres_and_the_bucket() {
     let upload = tar_of(baseline_dir("merge").path());
     let path = create_upload(&server_a, &token, upload.len());
     let half = upload.len() / 2;
-    let first = patch(&server_a, &token, &path, 0, &upload[..half]);
+    let first = server_a.tus_patch(&token, &path, 0, &upload[..half]);
     assert_eq!((first.status().as_u16(), first.headers()["upload-offset"].to_str().unwrap()), (204, half.to_string().as_str()));
     signal(&server_a.child, "KILL");
     let _ = server_a.child.wait();
     assert_eq!(offset_at(&server_b, &token, &path), half as u64, "B knows how far the upload came on A");
-    let stale = patch(&server_b, &token, &path, 0, &upload[..half]);
+    let stale = server_b.tus_patch(&token, &path, 0, &upload[..half]);
     assert_eq!(problem(stale, 409, "offset_mismatch")["offset"], half);
     let mut damaged = upload[half..].to_vec();
     damaged[0] ^= 1;
@@ -109,7 +94,7 @@ fn two_servers_and_two_workers_share_only_postgres_and_the_bucket() {
         .unwrap();
     assert_eq!(corrupt.status().as_u16(), 460, "a chunk that does not match its checksum is refused");
     assert_eq!(offset_at(&server_b, &token, &path), half as u64, "and nothing of it is kept");
-    assert_eq!(patch(&server_b, &token, &path, half, &upload[half..]).status(), 204);
+    assert_eq!(server_b.tus_patch(&token, &path, half, &upload[half..]).status(), 204);
     let upload_id = path.rsplit('/').next().unwrap();
     let submitted = server_b.post(&format!("/api/v1/submissions?upload={upload_id}")).bearer_auth(&token).send().unwrap();
     assert_eq!(submitted.status(), 202, "answered as a direct upload");

@@ -3,9 +3,9 @@
 //! `X-Forwarded-Proto` count only from a proxy the operator trusts (`OSMAB_TRUSTED_PROXIES`);
 //! from anyone else they are words a client wrote.
 
-use std::net::{IpAddr, SocketAddr};
+use std::net::IpAddr;
 
-use axum::extract::{ConnectInfo, FromRequestParts};
+use axum::extract::FromRequestParts;
 use axum::http::request::Parts;
 use axum::http::{HeaderMap, header};
 
@@ -48,8 +48,7 @@ impl FromRequestParts<AppState> for PageOrigin {
     type Rejection = std::convert::Infallible;
 
     async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
-        let peer = parts.extensions.get::<ConnectInfo<SocketAddr>>().map(|c| c.0.ip());
-        Ok(Self::of(&parts.headers, peer, &state.settings))
+        Ok(Self::of(&parts.headers, crate::http::peer_ip(&parts.extensions), &state.settings))
     }
 }
 

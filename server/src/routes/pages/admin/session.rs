@@ -89,29 +89,25 @@ impl FromRequestParts<AppState> for AdminSession {
         let Some(token) = cookie(&parts.headers, COOKIE) else {
             return Err(to_login());
         };
+        let peer = crate::http::peer_ip(&parts.extensions);
         match caller_with_token(state, token).await {
             Ok((Caller::Admin, record)) => {
-                let peer = parts.extensions.get::<axum::extract::ConnectInfo<std::net::SocketAddr>>().map(|c| c.0.ip());
                 Ok(AdminSession { token: token.to_string(), token_id: record.id, origin: PageOrigin::of(&parts.headers, peer, &state.settings) })
             }
             // A cookie that is no session counts as a failed authentication, as a wrong
             // token does: guessing sessions is limited per address like guessing tokens.
-            Ok(_) | Err(_) => {
-                let address =
-                    parts.extensions.get::<axum::extract::ConnectInfo<std::net::SocketAddr>>().map_or_else(|| "unknown".to_string(), |c| c.0.ip().to_string());
-                match state.limiter.admit(format!("failed authentication from {address}"), std::time::Instant::now()) {
-                    Ok(()) => Err(to_login()),
-                    Err(seconds) => {
-                        let mut page = AdminMessage::page(
-                            StatusCode::TOO_MANY_REQUESTS,
-                            "Too many attempts",
-                            &format!("Too many failed sign-ins from this address: retry in {seconds} s."),
-                        );
-                        page.headers_mut().insert(header::RETRY_AFTER, seconds.into());
-                        Err(page)
-                    }
+            Ok(_) | Err(_) => match state.limiter.admit(crate::rate_limit::failed_authentication(peer), std::time::Instant::now()) {
+                Ok(()) => Err(to_login()),
+                Err(seconds) => {
+                    let mut page = AdminMessage::page(
+                        StatusCode::TOO_MANY_REQUESTS,
+                        "Too many attempts",
+                        &format!("Too many failed sign-ins from this address: retry in {seconds} s."),
+                    );
+                    page.headers_mut().insert(header::RETRY_AFTER, seconds.into());
+                    Err(page)
                 }
-            }
+            },
         }
     }
 }

@@ -218,6 +218,10 @@ pub struct ReleaseConfig {
     /// The hidden test split; every scene is val without it.
     #[serde(default, skip_serializing_if = "SplitsConfig::is_empty")]
     pub splits: SplitsConfig,
+    /// The licence of the release's data (an SPDX id such as `CC-BY-4.0`), written into its
+    /// LICENSE and CITATION.cff; without it, LICENSE says none was named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub licence: Option<String>,
 }
 
 impl ReleaseConfig {
@@ -247,6 +251,11 @@ impl ReleaseConfig {
         let bad = |field: &str, m: &str| Err(InputError::new(path, field, m.to_string()));
         if config.version.is_empty() || !config.version.chars().all(|c| c.is_ascii_alphanumeric() || "._-".contains(c)) {
             return bad("version", "expected letters, digits, '.', '_' or '-'");
+        }
+        if let Some(licence) = &config.licence
+            && (licence.is_empty() || licence.len() > 100 || !licence.chars().all(|c| c.is_ascii_alphanumeric() || " .-+()".contains(c)))
+        {
+            return bad("licence", "expected an SPDX licence expression such as CC-BY-4.0 (letters, digits, ' ', '.', '-', '+', '(', ')'; at most 100)");
         }
         let sensor = config.render.sensor();
         if let Some((field, expectation)) = sensor.problem() {

@@ -7,6 +7,7 @@
 
 pub mod config;
 pub mod contact;
+pub mod front_matter;
 pub mod instances;
 pub mod manifest;
 pub mod publication;
@@ -191,6 +192,8 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let classes_json: Value =
         read_json(&work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
     write_json(&out.join("classes.json"), &classes_json)?;
+    let scene_splits: Vec<Split> = quality.iter().map(|q| q.split).collect();
+    front_matter::write(out, &front_matter::Contents { config, splits: &scene_splits, lightings: &lightings })?;
     let full = quality.iter().filter(|q| q.full_match).count();
     write_json(
         &out.join(GROUND_TRUTH).join(FULL_QUALITY_REPORT),
@@ -226,6 +229,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
     let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
+    expected.extend(front_matter::FILES.iter().map(|f| f.to_string()));
     for q in &quality {
         let scene = &q.scene;
         if publication::publishes_prompt_and_questions(q.split) {

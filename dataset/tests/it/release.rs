@@ -57,10 +57,24 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
         "scenes/scene_000/prompt.json",
         "sequences/baseline/scene_000/traj.txt",
         "quality/contact_sheets/no_lights/scene_001.png",
+        "README.md",
+        "LICENSE",
+        "CITATION.cff",
     ] {
         assert!(files.iter().any(|f| f["path"] == expected), "{expected} missing from the manifest");
     }
     assert_eq!(verify_release(&rel).unwrap(), files.len());
+
+    // Its front matter says what it is, its terms and how to cite it.
+    let read = |name: &str| std::fs::read_to_string(rel.join(name)).unwrap();
+    let version = manifest["version"].as_str().unwrap();
+    let readme = read("README.md");
+    assert!(readme.starts_with(&format!("# OSMa-Bench++ release {version}\n")), "{readme}");
+    assert!(readme.contains("2 scenes: 0 in the hidden **test** split") && readme.contains("2 in the open **val** split"), "{readme}");
+    assert!(readme.contains("Lightings: baseline, no_lights."), "{readme}");
+    assert!(read("LICENSE").contains("named no licence"), "this config names none: {}", read("LICENSE"));
+    let citation = read("CITATION.cff");
+    assert!(citation.contains("type: dataset") && citation.contains(&format!("version: \"{version}\"")) && !citation.contains("license:"), "{citation}");
 
     // The oracle (the ground truth as a map) scores 1 on every scene.
     for scene in ["scene_000", "scene_001"] {

@@ -87,4 +87,34 @@ pub fn a_receipt_verifies_offline_and_tampering_is_caught(server: &Server<'_>, i
     other.push(b' ');
     let out = verify(&write("raw.jws", jws.as_bytes()), &write("other.json", &other));
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not the results document"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // One command does the three downloads and every check, the issuer being the server asked.
+    let fetched = dir.path().join("fetched");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_osmab"))
+        .args(["client", "receipt", id, "--verify", "--out", crate::path(&fetched), "--url", &server.url])
+        .env("OSMAB_CLIENT_CONFIG", dir.path().join("no-login.toml"))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && said.contains("Valid receipt") && said.contains("matches the results file") && !said.contains("not checked"),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(fetched.join(format!("results-{id}.json"))).unwrap(), results.to_vec(), "the results as served");
+    assert_eq!(std::fs::read_to_string(fetched.join("keys.json")).unwrap(), keys);
+    // What was saved is what a later offline check reads.
+    std::fs::write(fetched.join(format!("results-{id}.json")), &other).unwrap();
+    let out = crate::osmab(&[
+        "client",
+        "verify",
+        crate::path(&fetched.join(format!("receipt-{id}.json"))),
+        "--keys",
+        crate::path(&fetched.join("keys.json")),
+        "--results",
+        crate::path(&fetched.join(format!("results-{id}.json"))),
+    ]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not the results document"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = crate::osmab(&["client", "receipt", "../etc", "--url", &server.url]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("is not a submission id"), "{}", String::from_utf8_lossy(&out.stderr));
 }

@@ -133,6 +133,21 @@ pub enum ClientCommand {
         #[arg(long)]
         results: Option<PathBuf>,
     },
+    /// Fetch a scored submission's signed receipt, the results document it certifies and the
+    /// service's keys into --out; with --verify, check all three as `osmab client verify` does
+    /// (the issuer must be this server's origin).
+    Receipt {
+        id: String,
+        /// Where the three files go (`receipt-ID.json`, `results-ID.json`, `keys.json`).
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+        /// Check the signature, the issuer and the results' SHA-256, and print what it certifies.
+        #[arg(long)]
+        verify: bool,
+        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        #[arg(long)]
+        url: Option<String>,
+    },
     /// Print the team's quota of every split: what it may still submit, and when more.
     Quota {
         /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
@@ -247,6 +262,10 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let keys = verify::KeySource::parse(&keys, issuer.as_deref())?;
             let checked = verify::verify(&receipt, &keys, results.as_deref())?;
             print!("{}", verify::describe(&checked, &keys, results.is_some()));
+            Ok(())
+        }
+        ClientCommand::Receipt { id, out, verify, url } => {
+            print!("{}", verify::fetch_receipt(&api(url.as_deref())?, &id, &out, verify)?);
             Ok(())
         }
         ClientCommand::Leaderboard { release, split, lighting, url } => {

@@ -118,6 +118,43 @@ pub fn verify(receipt: &Path, keys: &KeySource, results: Option<&Path>) -> anyho
     Ok(signed)
 }
 
+/// `osmab client receipt ID [--verify]`: save the receipt of submission `id`, its results
+/// document and the service's keys under `out` (a team's token is sent where there is one:
+/// a dry run's receipt is its team's); with `verify`, check them against each other, the
+/// issuer being the origin they came from. Returns what to print.
+pub fn fetch_receipt(api: &super::api::Api, id: &str, out: &Path, verify_them: bool) -> anyhow::Result<String> {
+    anyhow::ensure!(!id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'), "'{id}' is not a submission id (sub_…)");
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create the folder", out.display()))?;
+    let fetch = |path: &str| -> anyhow::Result<Vec<u8>> {
+        let request = api.get_as_team(path).unwrap_or_else(|_| api.get(path));
+        let response = api.send(request)?;
+        Ok(response.bytes().with_context(|| format!("GET {}: the answer could not be read", api.url(path)))?.to_vec())
+    };
+    let receipt = out.join(format!("receipt-{id}.json"));
+    let results = out.join(format!("results-{id}.json"));
+    let keys = out.join("keys.json");
+    for (path, file) in
+        [(format!("/api/v1/submissions/{id}/receipt"), &receipt), (format!("/api/v1/submissions/{id}/results.json"), &results), ("/api/v1/keys".into(), &keys)]
+    {
+        let bytes = fetch(&path)?;
+        std::fs::write(file, bytes).with_context(|| format!("{}: cannot write", file.display()))?;
+    }
+    let saved = format!("Saved {}, {} and {}.\n", receipt.display(), results.display(), keys.display());
+    if !verify_them {
+        return Ok(saved
+            + &format!(
+                "Check them with: osmab client receipt {id} --verify (or osmab client verify {} --keys {} --results {})\n",
+                receipt.display(),
+                api.url("/api/v1/keys"),
+                results.display()
+            ));
+    }
+    let origin = reqwest::Url::parse(&api.url("/")).context("the server's URL")?.origin().ascii_serialization();
+    let source = KeySource { place: KeyPlace::File(keys), issuer: Some(origin) };
+    let checked = verify(&receipt, &source, Some(&results))?;
+    Ok(saved + &describe(&checked, &source, true))
+}
+
 /// The top-level fields where `copy` differs from `signed` (missing, extra or changed).
 fn differing_fields(signed: &serde_json::Value, copy: &serde_json::Value) -> Vec<String> {
     let (Some(signed), Some(copy)) = (signed.as_object(), copy.as_object()) else {

@@ -100,6 +100,18 @@ impl Lighting {
     /// The lightings of an OSMa-Bench++ release, in render order.
     pub const RELEASE: [Lighting; 4] = [Lighting::Baseline, Lighting::Camera, Lighting::DynamicLights, Lighting::NoLights];
 
+    /// What the lighting is, in one line (pages show it beside a frame under it).
+    pub const fn explanation(self) -> &'static str {
+        match self {
+            Lighting::Baseline => "Ceiling lights on a grid, calibrated per room: the reference the others are compared against.",
+            Lighting::Camera => "Only a lamp riding with the camera: near surfaces bright, the far room dim, as a robot's headlight.",
+            Lighting::CameraLights => "The scene's lights plus a lamp on the camera (OSMa-Bench).",
+            Lighting::DynamicLights => "The ceiling lights in two zones, switched and dimmed goal by goal: the room brightens and darkens along the way.",
+            Lighting::NoLights => "No light at all, only the meshes' own colour (mesh emission): flat and bright, without shading.",
+            Lighting::Velocity => "Baseline lighting, the camera moving faster (OSMa-Bench).",
+        }
+    }
+
     /// A short label for narrow column headers.
     pub const fn short_label(self) -> &'static str {
         match self {

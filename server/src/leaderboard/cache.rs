@@ -40,6 +40,11 @@ impl Rendered {
     }
 
     /// The page of `view` (a normalised key of sort, aggregate and subset), rendered once.
+    /// The page of `view`, when it was rendered already.
+    pub fn cached_page(&self, view: &str) -> Option<Bytes> {
+        self.pages.lock().expect("page cache lock").get(view).cloned()
+    }
+
     pub fn page(&self, view: &str, render: impl FnOnce() -> String) -> Bytes {
         if let Some(page) = self.pages.lock().expect("page cache lock").get(view) {
             return page.clone();

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 pub use cache::{LeaderboardCache, Rendered};
 pub use ranking::Robustness;
-use ranking::{Standing, rank_groups};
+use ranking::{MIN_SCENES_FOR_GROUPS, Standing, rank_groups};
 
 use crate::store::LeaderboardRow;
 
@@ -82,6 +82,14 @@ pub struct Leaderboard {
     /// Every split of the release, test first: each has a board (`?split=`).
     #[serde(default)]
     pub splits: Vec<Split>,
+    /// How many scenes the ranking metric pools (the most of any entry).
+    #[serde(default)]
+    pub scenes: usize,
+    /// Whether the rank groups come from the paired bootstrap over scenes. With fewer than
+    /// [`MIN_SCENES_FOR_GROUPS`] scenes they do not: entries are grouped only with equal
+    /// values, and pages show neither groups nor intervals.
+    #[serde(default)]
+    pub significance: bool,
 }
 
 impl Leaderboard {
@@ -90,6 +98,13 @@ impl Leaderboard {
     /// without that metric last.
     pub fn new(release: &str, lightings: Vec<Lighting>, split: Split, splits: Vec<Split>, rows: Vec<LeaderboardRow>) -> Self {
         let key = lightings.first().copied().unwrap_or(Lighting::BASELINE);
+        let scenes = rows
+            .iter()
+            .filter(|row| row.split == split)
+            .filter_map(|row| row.scores.semseg.get(&key).map(|l| l.pooled.unwrap_or(l.scenes.len())))
+            .max()
+            .unwrap_or(0);
+        let significance = scenes >= MIN_SCENES_FOR_GROUPS;
         let mut ranked: Vec<(Entry, Standing)> = rows
             .into_iter()
             .filter(|row| row.split == split)
@@ -99,7 +114,13 @@ impl Leaderboard {
                 let shown = row.scores.disclosed();
                 let standing = Standing {
                     value: shown.semseg(key, None, Aggregate::Overall, Metric::Miou),
-                    replicates: row.scores.semseg.get(&key).filter(|_| shown.semseg.contains_key(&key)).map(|l| l.bootstrap_miou.clone()).unwrap_or_default(),
+                    replicates: row
+                        .scores
+                        .semseg
+                        .get(&key)
+                        .filter(|_| significance && shown.semseg.contains_key(&key))
+                        .map(|l| l.bootstrap_miou.clone())
+                        .unwrap_or_default(),
                 };
                 let entry = Entry {
                     anonymous: row.anonymous,
@@ -127,7 +148,7 @@ impl Leaderboard {
             entry.rank = rank + 1;
             entry.rank_group = group;
         }
-        Self { entries, lightings, release: release.to_string(), split, splits }
+        Self { entries, lightings, release: release.to_string(), split, splits, scenes, significance }
     }
 
     /// Entries with VQA scores, in rank order.

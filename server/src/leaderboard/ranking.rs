@@ -51,6 +51,11 @@ impl Robustness {
     }
 }
 
+/// The fewest scenes a board's rank groups and intervals mean something with: a bootstrap
+/// over fewer scenes has a handful of distinct resamples, and "significantly above" then
+/// says only "above in every scene" (the same floor as a test score's disclosure).
+pub const MIN_SCENES_FOR_GROUPS: usize = osmab_evaluator::scores::MIN_TEST_SCENES;
+
 /// What ranking one entry needs: the ranking metric and its bootstrap replicates.
 pub struct Standing {
     pub value: Option<f64>,

@@ -21,8 +21,8 @@ use crate::store::{StoreError, SubmissionState, Team};
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewTeam {
-    name: String,
-    daily_quota: Option<i64>,
+    pub name: String,
+    pub daily_quota: Option<i64>,
 }
 
 fn unprocessable(detail: impl Into<String>) -> Problem {
@@ -31,6 +31,12 @@ fn unprocessable(detail: impl Into<String>) -> Problem {
 
 /// `POST /api/v1/admin/teams` `{"name"}` → `201 {"id", "name", "token"}` (the token is shown once).
 pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(body): ApiJson<NewTeam>) -> ApiResult<Response> {
+    let created = new_team(&state, &body).await?;
+    Ok((StatusCode::CREATED, [(header::LOCATION, format!("/api/v1/admin/teams/{}", created.id))], axum::Json(created)).into_response())
+}
+
+/// Create the team `body` names with its first token (the API and the console's form).
+pub async fn new_team(state: &AppState, body: &NewTeam) -> ApiResult<CreatedTeam> {
     let name = body.name.trim().to_string();
     if let Some(problem) = osmab_evaluator::text::display_name_problem(&name, 80).or_else(|| crate::reserved_names::team_name_problem(&name)) {
         return Err(unprocessable(format!("name: {problem}")));
@@ -47,8 +53,7 @@ pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(
     let (token, record) = issue_token("team", Some(&team.id), None);
     state.store.insert_token(&record).await?;
     tracing::info!(team = %team.name, token = %record.hint, "team created");
-    let body = CreatedTeam { daily_quota: team.daily_quota, id: team.id.clone(), name: team.name, token, token_id: record.id };
-    Ok((StatusCode::CREATED, [(header::LOCATION, format!("/api/v1/admin/teams/{}", team.id))], axum::Json(body)).into_response())
+    Ok(CreatedTeam { daily_quota: team.daily_quota, id: team.id, name: team.name, token, token_id: record.id })
 }
 
 /// A created team with its first token (shown once).

@@ -207,11 +207,13 @@ pub fn router(state: AppState) -> Router {
         .route("/admin/regenerate", post(pages::admin::regenerate))
         .route("/admin/jobs/{id}", get(pages::admin::job))
         .route("/admin/releases/{version}/quality", get(pages::admin::quality))
+        .route("/admin/releases/{version}/files/{*path}", get(pages::admin::release_file))
         .route("/admin/releases/{version}/publish", post(pages::admin::publish))
         .route("/admin/submissions/{id}/flag", post(pages::admin::flag))
         .route("/admin/submissions/{id}/unflag", post(pages::admin::unflag))
         .route("/admin/submissions/{id}/refund", post(pages::admin::refund))
         .route("/admin/quotas", post(pages::admin::set_quota))
+        .route("/admin/teams", post(pages::admin::create_team))
         .route("/api/docs", get(api_docs::docs_page))
         .route("/about", get(pages::about))
         .route("/static/{file}", get(pages::static_file));

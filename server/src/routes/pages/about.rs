@@ -4,8 +4,8 @@
 use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
-use serde::Deserialize;
 
+use super::manifest::PublishedManifest;
 use crate::state::AppState;
 
 #[derive(Template, WebTemplate)]
@@ -25,24 +25,11 @@ pub struct CurrentRelease {
     pub val_scenes: usize,
 }
 
-/// What the page reads of a manifest: each scene's split (`val` where a release predates splits).
-#[derive(Deserialize)]
-struct ManifestScenes {
-    scenes: Vec<ManifestScene>,
-}
-
-#[derive(Deserialize)]
-struct ManifestScene {
-    #[serde(default)]
-    split: Option<String>,
-}
-
 /// `GET /about`.
 pub async fn about(State(state): State<AppState>) -> AboutPage {
     let release = state.store.current_release().await.ok().map(|r| {
-        let scenes = serde_json::from_str::<ManifestScenes>(&r.manifest).map(|m| m.scenes).unwrap_or_default();
-        let test_scenes = scenes.iter().filter(|s| s.split.as_deref() == Some("test")).count();
-        CurrentRelease { version: r.version, digest: r.digest, scenes: scenes.len(), test_scenes, val_scenes: scenes.len() - test_scenes }
+        let (test_scenes, val_scenes) = PublishedManifest::parse(&r.manifest).split_sizes();
+        CurrentRelease { version: r.version, digest: r.digest, scenes: test_scenes + val_scenes, test_scenes, val_scenes }
     });
     AboutPage { origin: state.settings.public_url.clone().unwrap_or_default(), release }
 }

@@ -1,10 +1,12 @@
 //! The one SVG chart of the pages: grouped bars (one group per lighting, one bar per
 //! method, the first eight), a horizontal grid, group labels and a legend. Values are
-//! fractions; the axis is either 0–100 % or symmetric around zero (relative changes).
+//! fractions; the axis is either 0–100 % or fitted to the data around zero (relative
+//! changes). A method keeps its colour on every chart (its name picks it), and a zero
+//! value still draws a mark on the axis.
 
 use super::format::escape_xml;
 
-/// Bar colours, one per method in the order given.
+/// Bar colours; a method's name picks one ([`colours`]).
 const PALETTE: [&str; 8] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
 
 /// At most this many methods are drawn.
@@ -15,8 +17,9 @@ const SHOWN: usize = 8;
 pub enum Axis {
     /// 0 to 100 %.
     Fraction,
-    /// −extent to +extent, the extent the largest change rounded up to 5 % (at most 100 %).
-    Symmetric,
+    /// From the lowest to the highest value, zero included, each end rounded out to 5 %
+    /// (at most ±100 %).
+    Change,
 }
 
 /// The size of a chart.
@@ -26,6 +29,27 @@ pub enum Size {
     Wide,
     /// One of a row of small charts.
     Small,
+    /// The robustness figure on a phone: the same content in a 360-unit-wide box, so its
+    /// text stays legible when the page is 390 px wide.
+    Narrow,
+}
+
+/// The colour of each of `names`: the palette entry its name hashes to, or the next one
+/// not taken by an earlier name of the same chart. The same method gets the same colour
+/// on every board and chart unless it collides there.
+fn colours(names: &[&str]) -> Vec<&'static str> {
+    let mut taken = [false; PALETTE.len()];
+    names
+        .iter()
+        .map(|name| {
+            // FNV-1a: stable across builds and platforms.
+            let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+            let start = (hash % PALETTE.len() as u64) as usize;
+            let slot = (0..PALETTE.len()).map(|k| (start + k) % PALETTE.len()).find(|&k| !taken[k]).unwrap_or(start);
+            taken[slot] = true;
+            PALETTE[slot]
+        })
+        .collect()
 }
 
 /// One method's bars: its name and a value per group (`None`: no bar).
@@ -82,6 +106,20 @@ impl BarChart {
                 tick_gap: 6.0,
                 label_drop: 18.0,
             },
+            Size::Narrow => Layout {
+                width: 360.0,
+                height: 250.0,
+                top: 16.0,
+                bottom: 84.0,
+                left: 46.0,
+                max_bar: 16.0,
+                legend_columns: 2,
+                legend_step: 160.0,
+                swatch: 8.0,
+                swatch_lift: 8.0,
+                tick_gap: 4.0,
+                label_drop: 16.0,
+            },
             Size::Small => Layout {
                 width: 360.0,
                 height: 250.0,
@@ -107,38 +145,40 @@ impl BarChart {
         }
         let l = self.layout();
         let plot_h = l.height - l.top - l.bottom;
-        let extent = match self.axis {
-            Axis::Fraction => 1.0,
-            Axis::Symmetric => (shown.iter().flat_map(|s| s.values.iter().flatten()).fold(0.05f64, |m, v| m.max(v.abs())).min(1.0) * 20.0).ceil() / 20.0,
+        let (lo, hi) = match self.axis {
+            Axis::Fraction => (0.0, 1.0),
+            Axis::Change => {
+                let values = || shown.iter().flat_map(|s| s.values.iter().flatten().copied()).filter(|v| v.is_finite());
+                let round_out = |v: f64| (v.abs().min(1.0) * 20.0).ceil() / 20.0;
+                let (lo, hi) = (-round_out(values().fold(0.0f64, f64::min)), round_out(values().fold(0.0f64, f64::max)));
+                if lo == 0.0 && hi == 0.0 { (-0.05, 0.05) } else { (lo, hi) }
+            }
         };
-        // Where a value lands: y of the bar's top and its height.
-        let zero = match self.axis {
-            Axis::Fraction => l.top + plot_h,
-            Axis::Symmetric => l.top + plot_h / 2.0,
-        };
-        let span = match self.axis {
-            Axis::Fraction => plot_h,
-            Axis::Symmetric => plot_h / 2.0,
-        };
+        // Where a value lands: the zero line and the height of one unit.
+        let scale = plot_h / (hi - lo);
+        let zero = l.top + hi * scale;
         let (class, title) = match self.size {
-            Size::Wide => ("chart", format!("<title id=\"chart-title\">{}</title>", escape_xml(&self.title))),
+            Size::Wide => ("chart wide", format!("<title id=\"chart-title\">{}</title>", escape_xml(&self.title))),
+            Size::Narrow => ("chart narrow", format!("<title id=\"chart-title-narrow\">{}</title>", escape_xml(&self.title))),
             Size::Small => (
                 "chart small",
                 format!("<title>{0} accuracy per lighting</title><text x=\"{1}\" y=\"14\" class=\"legend\">{0} (%)</text>", escape_xml(&self.title), l.left),
             ),
         };
-        let labelled = if self.size == Size::Wide { " aria-labelledby=\"chart-title\"" } else { "" };
+        let labelled = match self.size {
+            Size::Wide => " aria-labelledby=\"chart-title\"",
+            Size::Narrow => " aria-labelledby=\"chart-title-narrow\"",
+            Size::Small => "",
+        };
         let mut svg =
             format!("<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {} {}\" role=\"img\"{labelled} class=\"{class}\">{title}", l.width, l.height);
-        let ticks: &[f64] = match self.axis {
-            Axis::Fraction => &[0.0, 0.5, 1.0],
-            Axis::Symmetric => &[-1.0, -0.5, 0.0, 0.5, 1.0],
-        };
-        for &tick in ticks {
-            let y = zero - tick * span;
+        let mut ticks = vec![lo, lo / 2.0, 0.0, hi / 2.0, hi];
+        ticks.dedup_by(|a, b| a == b);
+        for tick in ticks {
+            let y = zero - tick * scale;
             let label = match self.axis {
                 Axis::Fraction => format!("{:.0}", tick * 100.0),
-                Axis::Symmetric => format!("{:+.1}%", tick * extent * 100.0),
+                Axis::Change => format!("{:+.1}%", tick * 100.0),
             };
             svg.push_str(&format!(
                 "<line x1=\"{}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{label}</text>",
@@ -148,26 +188,31 @@ impl BarChart {
                 y + 4.0
             ));
         }
+        let palette = colours(&shown.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
         let group_w = (l.width - l.left - 10.0) / self.groups.len() as f64;
         let bar_w = (group_w * 0.8 / shown.len() as f64).min(l.max_bar);
         for (g, group) in self.groups.iter().enumerate() {
             let x0 = l.left + g as f64 * group_w + group_w * 0.1;
             for (i, series) in shown.iter().enumerate() {
                 let Some(v) = series.values.get(g).copied().flatten() else { continue };
-                let h = match self.axis {
-                    Axis::Fraction => v.clamp(0.0, 1.0),
-                    Axis::Symmetric => (v / extent).clamp(-1.0, 1.0),
-                } * span;
-                let (y, bar_h) = if h >= 0.0 { (zero - h, h) } else { (zero, -h) };
+                let h = v.clamp(lo, hi) * scale;
+                // A zero (or nearly zero) value is a 2-unit mark across the axis, not nothing.
+                let (y, bar_h) = if h.abs() < 2.0 {
+                    (zero - 1.0, 2.0)
+                } else if h >= 0.0 {
+                    (zero - h, h)
+                } else {
+                    (zero, -h)
+                };
                 let shown_value = match self.axis {
                     Axis::Fraction => format!("{:.1}%", v * 100.0),
-                    Axis::Symmetric => format!("{:+.1}%", v * 100.0),
+                    Axis::Change => format!("{:+.1}%", v * 100.0),
                 };
                 svg.push_str(&format!(
                     "<rect x=\"{:.1}\" y=\"{y:.1}\" width=\"{bar_w:.1}\" height=\"{:.1}\" fill=\"{}\"><title>{} — {}: {shown_value}</title></rect>",
                     x0 + i as f64 * bar_w,
-                    bar_h.max(0.5),
-                    PALETTE[i % PALETTE.len()],
+                    bar_h,
+                    palette[i],
                     escape_xml(&series.name),
                     escape_xml(self.group_titles.get(g).unwrap_or(group)),
                 ));
@@ -181,7 +226,7 @@ impl BarChart {
         }
         let legend_top = match self.size {
             Size::Wide => l.height - 22.0,
-            Size::Small => l.height - l.bottom + 34.0,
+            Size::Small | Size::Narrow => l.height - l.bottom + 34.0,
         };
         let row_h = l.swatch + 4.0;
         for (i, series) in shown.iter().enumerate() {
@@ -190,7 +235,7 @@ impl BarChart {
             svg.push_str(&format!(
                 "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"{s}\" height=\"{s}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{y:.1}\" class=\"legend\">{}</text>",
                 y - l.swatch_lift,
-                PALETTE[i % PALETTE.len()],
+                palette[i],
                 x + l.swatch + 4.0,
                 escape_xml(&series.name.chars().take(22).collect::<String>()),
                 s = l.swatch,
@@ -219,10 +264,29 @@ mod tests {
 
     #[test]
     fn a_bar_per_defined_value_with_escaped_names() {
-        let svg = chart(Axis::Symmetric, vec![Some(-0.2), None]);
+        let svg = chart(Axis::Change, vec![Some(-0.2), None]);
         assert_eq!(svg.matches("<rect").count(), 2, "one bar and one legend swatch");
         assert!(svg.contains("m&amp;m — Camera Light: -20.0%") && svg.contains("T &lt;1&gt;"), "tooltips name the group in full: {svg}");
-        assert!(svg.contains(">+20.0%</text>"), "the axis reaches the largest change: {svg}");
+        assert!(svg.contains(">-20.0%</text>"), "the axis reaches the largest drop: {svg}");
+        assert!(!svg.contains(">+20.0%</text>") && svg.contains(">+0.0%</text>"), "and stops at zero when nothing rose: {svg}");
+    }
+
+    #[test]
+    fn a_zero_change_still_draws_a_mark_on_the_axis() {
+        let svg = chart(Axis::Change, vec![Some(0.0), Some(-0.4)]);
+        let zero_bar = svg.split("<rect").nth(1).unwrap();
+        assert!(zero_bar.contains("height=\"2.0\""), "a 2-unit mark: {zero_bar}");
+    }
+
+    #[test]
+    fn a_method_keeps_its_colour_whatever_the_order_and_two_methods_never_share_one() {
+        let one = colours(&["alpha", "beta", "gamma"]);
+        let other = colours(&["gamma", "alpha", "beta"]);
+        assert_eq!((one[0], one[1], one[2]), (other[1], other[2], other[0]));
+        let many: Vec<String> = (0..8).map(|i| format!("method-{i}")).collect();
+        let picked = colours(&many.iter().map(String::as_str).collect::<Vec<_>>());
+        let distinct: std::collections::BTreeSet<_> = picked.iter().collect();
+        assert_eq!(distinct.len(), 8, "eight methods, eight colours: {picked:?}");
     }
 
     #[test]

@@ -11,6 +11,7 @@ use serde::Deserialize;
 
 use super::chart::{Axis, BarChart, Series, Size};
 use super::format::{self, percent, signed_percent};
+use super::manifest::PublishedManifest;
 use super::{MessagePage, vqa};
 use crate::leaderboard::{Entry, Leaderboard};
 use crate::routes::ApiQuery;
@@ -27,6 +28,8 @@ pub struct BoardQuery {
     subset: Option<String>,
     /// `<lighting>.<metric>`.
     sort: Option<String>,
+    /// `miou` (default: one metric a lighting) or `all` (mIoU, f-mIoU and mAcc).
+    metrics: Option<String>,
 }
 
 /// What the page shows: an aggregate, all scenes or a subset, sorted by one column.
@@ -35,6 +38,8 @@ pub struct View {
     pub aggregate: Aggregate,
     pub subset: Option<Regime>,
     pub sort: (Lighting, Metric),
+    /// Every metric a lighting, not mIoU alone (also when sorted by another metric).
+    pub all_metrics: bool,
 }
 
 impl View {
@@ -47,11 +52,18 @@ impl View {
             .and_then(|s| s.split_once('.'))
             .and_then(|(l, m)| Some((l.parse::<Lighting>().ok()?, m.parse::<Metric>().ok()?)))
             .filter(|(l, _)| board.lightings.contains(l));
+        let sort = sort.unwrap_or((first, Metric::Miou));
         View {
             aggregate: query.agg.as_deref().and_then(|a| a.parse().ok()).unwrap_or(Aggregate::Overall),
             subset: query.subset.as_deref().and_then(|s| s.parse().ok()),
-            sort: sort.unwrap_or((first, Metric::Miou)),
+            sort,
+            all_metrics: query.metrics.as_deref() == Some("all") || sort.1 != Metric::Miou,
         }
+    }
+
+    /// The metrics shown for each lighting.
+    fn metrics(&self) -> &'static [Metric] {
+        if self.all_metrics { &Metric::COLUMNS } else { &[Metric::Miou] }
     }
 
     fn subset_name(&self) -> &'static str {
@@ -60,22 +72,24 @@ impl View {
 
     /// The key the rendered page is cached under.
     fn key(&self) -> String {
-        format!("{}/{}/{}.{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
+        format!("{}/{}/{}.{}/{}", self.aggregate, self.subset_name(), self.sort.0, self.sort.1, self.all_metrics)
     }
 
     fn link(&self, board: &Leaderboard) -> String {
-        format!("/?{}&agg={}&subset={}&sort={}.{}", board_query(board), self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
+        let metrics = if self.all_metrics { "all" } else { "miou" };
+        format!("/?{}&agg={}&subset={}&sort={}.{}&metrics={metrics}", board_query(board), self.aggregate, self.subset_name(), self.sort.0, self.sort.1)
     }
 
     fn value(&self, e: &Entry, lighting: Lighting, metric: Metric) -> Option<f64> {
         e.metric(lighting, self.subset, self.aggregate, metric)
     }
 
-    /// The cell of a metric, with its interval where the aggregate is pooled.
-    fn cell(&self, e: &Entry, lighting: Lighting, metric: Metric) -> Cell {
+    /// The cell of a metric, with its interval where the aggregate is pooled and the board
+    /// has scenes enough for intervals.
+    fn cell(&self, e: &Entry, lighting: Lighting, metric: Metric, significance: bool) -> Cell {
         let interval = match self.aggregate {
-            Aggregate::Overall => e.interval(lighting, self.subset, metric),
-            Aggregate::OverallMean => None,
+            Aggregate::Overall if significance => e.interval(lighting, self.subset, metric),
+            _ => None,
         };
         Cell {
             value: percent(self.value(e, lighting, metric)),
@@ -148,7 +162,17 @@ pub struct LeaderboardPage {
     pub rows: Vec<Row>,
     pub aggregates: Vec<Choice>,
     pub subsets: Vec<Choice>,
+    /// mIoU alone or every metric.
+    pub metric_choices: Vec<Choice>,
+    /// The same frame under each lighting, to say what the lightings are.
+    pub lighting_frames: Vec<LightingFrame>,
+    /// Whether rank groups and intervals are shown (scenes enough for them).
+    pub significance: bool,
+    /// How many scenes the board pools.
+    pub scenes: usize,
     pub chart: String,
+    /// The same chart for a phone's width.
+    pub chart_narrow: String,
     pub csv_link: String,
     pub json_link: String,
     pub vqa: Option<vqa::VqaView>,
@@ -168,8 +192,41 @@ pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuer
         }
     };
     let view = View::of(&query, &rendered.board);
-    let page = rendered.page(&view.key(), || board_page(&rendered.board, view).render().unwrap_or_else(|e| format!("template error: {e}")));
+    let page = match rendered.cached_page(&view.key()) {
+        Some(page) => page,
+        None => {
+            let frames = lighting_frames(&state, &rendered.board).await;
+            rendered.page(&view.key(), || board_page(&rendered.board, view, frames).render().unwrap_or_else(|e| format!("template error: {e}")))
+        }
+    };
     ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
+}
+
+/// One frame of the release under one lighting, with what the lighting is.
+pub struct LightingFrame {
+    pub label: &'static str,
+    pub src: String,
+    pub explanation: &'static str,
+}
+
+/// The same frame of one scene under each of the board's lightings: the preview frame of
+/// the release's first open (val) scene, else of its first scene; none when the release
+/// lacks one of those frames.
+async fn lighting_frames(state: &AppState, board: &Leaderboard) -> Vec<LightingFrame> {
+    let Ok(record) = state.store.release(&board.release).await else { return Vec::new() };
+    let manifest = PublishedManifest::parse(&record.manifest);
+    let scene = manifest.scenes.iter().find(|s| s.split == Split::Val).or(manifest.scenes.first());
+    let Some(preview) = scene.and_then(|s| s.preview.as_deref()) else { return Vec::new() };
+    let Some(rest) = preview.strip_prefix("sequences/").and_then(|p| p.split_once('/')).map(|(_, rest)| rest) else { return Vec::new() };
+    let frames: Vec<LightingFrame> = board
+        .lightings
+        .iter()
+        .map(|&lighting| LightingFrame { label: lighting.label(), src: format!("sequences/{lighting}/{rest}"), explanation: lighting.explanation() })
+        .collect();
+    if !frames.iter().all(|f| manifest.has(&f.src)) {
+        return Vec::new();
+    }
+    frames.into_iter().map(|f| LightingFrame { src: format!("/api/v1/releases/{}/files/{}", board.release, f.src), ..f }).collect()
 }
 
 /// The query naming `board`: its release and split.
@@ -178,7 +235,7 @@ fn board_query(board: &Leaderboard) -> String {
 }
 
 /// The leaderboard page of `board` for one view.
-fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
+fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFrame>) -> LeaderboardPage {
     let (sort_lighting, sort_metric) = view.sort;
     let mut entries: Vec<&Entry> = board.entries.iter().collect();
     let key = |e: &Entry| view.value(e, sort_lighting, sort_metric).unwrap_or(f64::NEG_INFINITY);
@@ -187,7 +244,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
     let mut columns = Vec::new();
     let mut cells_of: Vec<(Lighting, Metric)> = Vec::new();
     for &lighting in &board.lightings {
-        for (k, metric) in Metric::COLUMNS.into_iter().enumerate() {
+        for (k, &metric) in view.metrics().iter().enumerate() {
             columns.push(Column {
                 label: lighting.label(),
                 metric_label: metric.label(),
@@ -212,7 +269,7 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
             complete: e.complete,
             flagged: e.flagged.clone(),
             rank_group: e.rank_group,
-            cells: cells_of.iter().map(|&(l, m)| view.cell(e, l, m)).collect(),
+            cells: cells_of.iter().map(|&(l, m)| view.cell(e, l, m, board.significance)).collect(),
             changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
             worst: e.robustness.worst_lighting.map_or("–", Lighting::short_label).to_string(),
             worst_miou: percent(e.robustness.worst_miou),
@@ -223,20 +280,31 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         .iter()
         .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
         .collect();
+    let metric_choices = [(false, "mIoU"), (true, "mIoU, f-mIoU, mAcc")]
+        .into_iter()
+        .map(|(all_metrics, label)| {
+            // mIoU alone also sorts by mIoU (a sort by another metric shows every metric).
+            let sort = if all_metrics { view.sort } else { (view.sort.0, Metric::Miou) };
+            Choice { label, link: View { all_metrics, sort, ..view }.link(board), active: all_metrics == view.all_metrics }
+        })
+        .collect();
     let subsets = std::iter::once(None)
         .chain(Regime::ALL.iter().copied().map(Some))
         .map(|subset| Choice { label: subset.map_or("All scenes", Regime::label), link: View { subset, ..view }.link(board), active: subset == view.subset })
         .collect();
     // The chart keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
-    let chart = BarChart {
-        title: "Relative change of pooled mIoU against the baseline lighting".into(),
-        groups: others.iter().map(|l| l.label().to_string()).collect(),
-        group_titles: others.iter().map(|l| l.label().to_string()).collect(),
-        series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
-        axis: Axis::Symmetric,
-        size: Size::Wide,
-    }
-    .to_svg();
+    let chart = |size, label: fn(Lighting) -> &'static str| {
+        BarChart {
+            title: "Relative change of pooled mIoU against the baseline lighting".into(),
+            groups: others.iter().map(|&l| label(l).to_string()).collect(),
+            group_titles: others.iter().map(|l| l.label().to_string()).collect(),
+            series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
+            axis: Axis::Change,
+            size,
+        }
+        .to_svg()
+    };
+    let (chart, chart_narrow) = (chart(Size::Wide, Lighting::label), chart(Size::Narrow, Lighting::short_label));
     let boards = match board.splits.len() {
         0 | 1 => Vec::new(),
         _ => board
@@ -258,13 +326,18 @@ fn board_page(board: &Leaderboard, view: View) -> LeaderboardPage {
         split: board.split,
         split_note,
         boards,
-        lighting_groups: board.lightings.iter().map(|l| (l.label(), Metric::COLUMNS.len())).collect(),
+        lighting_groups: board.lightings.iter().map(|l| (l.label(), view.metrics().len())).collect(),
+        metric_choices,
+        lighting_frames,
+        significance: board.significance,
+        scenes: board.scenes,
         columns,
         change_headers: others.iter().map(|l| l.short_label()).collect(),
         rows,
         aggregates,
         subsets,
         chart,
+        chart_narrow,
         csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
         json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
         vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split == Split::Test),

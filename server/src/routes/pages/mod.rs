@@ -7,6 +7,7 @@ pub mod admin;
 mod chart;
 mod format;
 mod leaderboard;
+mod manifest;
 mod release;
 mod submission;
 mod vqa;

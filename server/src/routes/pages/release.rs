@@ -6,17 +6,22 @@ use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::response::{IntoResponse, Response};
 use osmab_evaluator::scores::Lighting;
-use serde_json::Value;
 
 use super::format::human_size;
+use super::manifest::PublishedManifest;
 use crate::auth::Caller;
-use crate::problem::{ApiResult, Problem};
+use crate::problem::ApiResult;
 use crate::routes::ApiPath;
 use crate::state::AppState;
 
 /// A lighting as the paper names it (a name this server does not know, as written).
 fn lighting_label(name: &str) -> String {
     name.parse::<Lighting>().map(|l| l.label().to_string()).unwrap_or_else(|_| name.replace('_', " "))
+}
+
+/// The short label of a lighting, for links in a row.
+fn short_lighting_label(name: &str) -> String {
+    name.parse::<Lighting>().map(|l| l.short_label().to_string()).unwrap_or_else(|_| name.replace('_', " "))
 }
 
 pub struct SceneView {
@@ -27,6 +32,8 @@ pub struct SceneView {
     /// The prompt (none for a test scene, which publishes none).
     pub prompt: Option<String>,
     pub thumbnail: Option<String>,
+    /// Every frame of each lighting's sequence in one sheet: (lighting, link).
+    pub contact_sheets: Vec<(String, String)>,
 }
 
 pub struct ArchiveView {
@@ -43,13 +50,18 @@ pub struct ReleasePage {
     pub version: String,
     pub state: String,
     pub digest: String,
-    pub created: String,
+    /// The day the release was built (imported into this server).
+    pub built: String,
+    /// The date its configuration gives.
+    pub config_date: String,
     pub files: usize,
     pub total_size: String,
     pub manifest_link: String,
     pub lightings: Vec<String>,
     /// Every scene under every lighting in one picture, when the release has it.
     pub overview: Option<String>,
+    pub test_scenes: usize,
+    pub val_scenes: usize,
     pub scenes: Vec<SceneView>,
     pub archives: Vec<ArchiveView>,
 }
@@ -58,49 +70,58 @@ pub struct ReleasePage {
 pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<Response> {
     let version = crate::routes::releases::resolve(&state, &version).await?;
     let record = crate::routes::releases::visible_release(&state, &caller, &version).await?;
-    let manifest: Value = serde_json::from_str(&record.manifest).map_err(Problem::internal)?;
-    let files = manifest["files"].as_array().cloned().unwrap_or_default();
-    let has = |path: &str| files.iter().any(|f| f["path"] == path);
-    let thumbnail_lighting = manifest["lightings"].as_array().and_then(|l| l.first()).and_then(Value::as_str).unwrap_or("baseline").to_string();
-    let scenes = manifest["scenes"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let manifest = PublishedManifest::parse(&record.manifest);
+    let file_link = |path: &str| format!("/api/v1/releases/{version}/files/{path}");
+    let thumbnail_lighting = manifest.lightings.first().map_or("baseline", String::as_str);
+    let scenes = manifest
+        .scenes
+        .iter()
         .map(|s| {
-            let id = s["id"].as_str().unwrap_or("").to_string();
             // The frame that shows the most of the scene (releases name it), else the first.
-            let frame = s["preview"].as_str().map(str::to_string).unwrap_or_else(|| format!("sequences/{thumbnail_lighting}/{id}/results/frame000000.jpg"));
+            let frame = s.preview.clone().unwrap_or_else(|| format!("sequences/{thumbnail_lighting}/{}/results/frame000000.jpg", s.id));
+            let contact_sheets = manifest
+                .lightings
+                .iter()
+                .filter_map(|l| {
+                    let path = format!("quality/contact_sheets/{l}/{}.png", s.id);
+                    manifest.has(&path).then(|| (short_lighting_label(l), file_link(&path)))
+                })
+                .collect();
             SceneView {
-                subset: s["subset"].as_str().unwrap_or("").to_string(),
-                split: s["split"].as_str().unwrap_or("val").to_string(),
-                prompt: s["prompt"].as_str().map(str::to_string),
-                thumbnail: has(&frame).then(|| format!("/api/v1/releases/{version}/files/{frame}")),
-                id,
+                id: s.id.clone(),
+                subset: s.subset.clone(),
+                split: s.split.to_string(),
+                prompt: s.prompt.clone(),
+                thumbnail: manifest.has(&frame).then(|| file_link(&frame)),
+                contact_sheets,
             }
         })
         .collect();
-    let archives = manifest["archives"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let archives = manifest
+        .archives
+        .iter()
         .map(|a| ArchiveView {
-            lighting: lighting_label(a["lighting"].as_str().unwrap_or("")),
-            scene: a["scene"].as_str().unwrap_or("").to_string(),
-            link: format!("/api/v1/releases/{version}/files/{}", a["path"].as_str().unwrap_or("")),
-            size: human_size(a["size"].as_u64().unwrap_or(0)),
-            sha256: a["sha256"].as_str().unwrap_or("").to_string(),
+            lighting: lighting_label(&a.lighting),
+            scene: a.scene.clone(),
+            link: file_link(&a.path),
+            size: human_size(a.size),
+            sha256: a.sha256.clone(),
         })
         .collect();
+    let (test_scenes, val_scenes) = manifest.split_sizes();
     Ok(ReleasePage {
         version: record.version.clone(),
         state: record.state.to_string(),
         digest: record.digest.clone(),
-        created: manifest["created"].as_str().unwrap_or("").to_string(),
-        files: files.len(),
-        total_size: human_size(files.iter().filter_map(|f| f["size"].as_u64()).sum()),
+        built: crate::clock::rfc3339(record.created_at).chars().take(10).collect(),
+        config_date: manifest.created.clone(),
+        files: manifest.files.len(),
+        total_size: human_size(manifest.files.iter().map(|f| f.size).sum()),
         manifest_link: format!("/api/v1/releases/{version}/manifest.json"),
-        lightings: manifest["lightings"].as_array().into_iter().flatten().filter_map(Value::as_str).map(lighting_label).collect(),
-        overview: has(osmab_dataset::release::OVERVIEW).then(|| format!("/api/v1/releases/{version}/files/{}", osmab_dataset::release::OVERVIEW)),
+        lightings: manifest.lightings.iter().map(|l| lighting_label(l)).collect(),
+        overview: manifest.has(osmab_dataset::release::OVERVIEW).then(|| file_link(osmab_dataset::release::OVERVIEW)),
+        test_scenes,
+        val_scenes,
         scenes,
         archives,
     }

@@ -5,9 +5,10 @@ use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::response::{IntoResponse, Response};
-use osmab_evaluator::scores::{Lighting, Metric};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 
+use super::chart::{Axis, BarChart, Series, Size};
 use super::format::{interval, percent};
 use super::vqa::{VqaLighting, submission_vqa, vqa_sources};
 use crate::auth::Caller;
@@ -66,6 +67,23 @@ pub struct SubmissionPage {
     pub withheld: Option<String>,
     pub evaluator_version: String,
     pub refresh: bool,
+    /// The split it was made to, and the link to that board.
+    pub split: Split,
+    pub board_link: String,
+    /// Where it stands on that board, once there.
+    pub standing: Option<Standing>,
+    /// A line to paste into a paper or a README.
+    pub citation: String,
+    /// Pooled metrics per lighting as a chart (empty before scoring).
+    pub chart: String,
+}
+
+/// An entry's place on its board.
+pub struct Standing {
+    pub rank: usize,
+    pub entries: usize,
+    /// `None` where the board has too few scenes for significance groups.
+    pub group: Option<usize>,
 }
 
 fn cells(triple: &MetricTriple) -> Vec<String> {
@@ -99,7 +117,41 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         None => Vec::new(),
     };
     let vqa = scores.and_then(|s| s.vqa.as_ref());
+    let board_link = format!("/?release={}&split={}", view.release, view.split);
+    let standing = match crate::routes::leaderboard::rendered(&state, Some(&view.release), Some(view.split)).await {
+        Ok(board) => board.board.entries.iter().find(|e| e.submission_id == view.id).map(|e| Standing {
+            rank: e.rank,
+            entries: board.board.entries.len(),
+            group: board.board.significance.then_some(e.rank_group),
+        }),
+        Err(_) => None,
+    };
+    let origin = state.settings.public_url.clone().unwrap_or_default();
+    let citation = format!(
+        "{} ({}), OSMa-Bench++ release {}, {} split, submission {} — {origin}/submissions/{}",
+        view.method.name, view.team, view.release, view.split, view.id, view.id
+    );
+    let chart = scores.map_or_else(String::new, |scores| {
+        let lightings: Vec<Lighting> = order.iter().copied().filter(|l| scores.semseg.contains_key(l)).collect();
+        BarChart {
+            title: "Pooled segmentation metrics per lighting".into(),
+            groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
+            group_titles: lightings.iter().map(|l| l.label().to_string()).collect(),
+            series: Metric::COLUMNS
+                .iter()
+                .map(|&m| Series { name: m.label().to_string(), values: lightings.iter().map(|&l| scores.semseg(l, None, Aggregate::Overall, m)).collect() })
+                .collect(),
+            axis: Axis::Fraction,
+            size: Size::Small,
+        }
+        .to_svg()
+    });
     Ok(SubmissionPage {
+        split: view.split,
+        board_link,
+        standing,
+        citation,
+        chart,
         refresh: view.state.is_active(),
         state: view.state.to_string(),
         history: view.history.iter().map(|e| EventRow { state: e.state.to_string(), reason: e.reason.clone().unwrap_or_default(), at: e.at.clone() }).collect(),

@@ -196,6 +196,42 @@ pub async fn set_quota(State(state): State<AppState>, session: AdminSession, hea
     }
 }
 
+#[derive(Deserialize)]
+struct TeamForm {
+    form_token: String,
+    name: String,
+}
+
+impl FormWithToken for TeamForm {
+    fn form_token(&self) -> &str {
+        &self.form_token
+    }
+}
+
+/// `POST /admin/teams`: create a team; the answer shows its first token, once (it never
+/// travels in a URL, so no redirect).
+pub async fn create_team(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
+    let form: TeamForm = match checked(&session, &headers, &body) {
+        Ok(form) => form,
+        Err(refused) => return refused,
+    };
+    match admin::new_team(&state, &admin::NewTeam { name: form.name, daily_quota: None }).await {
+        Ok(team) => (
+            axum::http::StatusCode::CREATED,
+            [(axum::http::header::CACHE_CONTROL, "no-store")],
+            super::TeamCreatedPage {
+                name: team.name,
+                id: team.id,
+                token: team.token,
+                origin: state.settings.public_url.clone().unwrap_or_default(),
+                form_token: session.form_token(),
+            },
+        )
+            .into_response(),
+        Err(problem) => AdminMessage::problem(problem),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -72,6 +72,7 @@ pub struct ConsolePage {
     pub refresh: bool,
     /// Every split's submission limit.
     pub quotas: Vec<crate::routes::quota_policies::PolicyView>,
+    pub teams: Vec<TeamRow>,
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -176,8 +177,26 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
                 .collect(),
         ),
         quotas,
+        teams: teams
+            .iter()
+            .map(|t| TeamRow {
+                name: t.name.clone(),
+                id: t.id.clone(),
+                created_at: rfc3339(t.created_at),
+                daily_quota: t.daily_quota.map_or_else(|| "the split's".to_string(), |q| format!("{q} a day")),
+            })
+            .collect(),
     }
     .into_response()
+}
+
+/// A team as the console lists it.
+pub struct TeamRow {
+    pub name: String,
+    pub id: String,
+    pub created_at: String,
+    /// Its own limit, or that it follows the split's.
+    pub daily_quota: String,
 }
 
 pub struct StageStep {
@@ -202,11 +221,15 @@ pub struct JobPage {
     pub stages: Vec<StageStep>,
     pub log: Vec<String>,
     pub error: String,
-    pub attempts: i64,
-    pub max_attempts: i64,
     pub renders: Vec<RenderRow>,
     pub refresh: bool,
     pub draft_exists: bool,
+    /// What the build is doing, in words.
+    pub status: String,
+    /// Since the build was asked for (until it ended).
+    pub elapsed: String,
+    /// While rendering: the estimated time the render jobs left take.
+    pub remaining: Option<String>,
 }
 
 /// `GET /admin/jobs/{id}`: a release build's stages and render jobs.
@@ -252,25 +275,66 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
                 state: j.state.to_string(),
                 attempts: j.attempts,
                 worker: j.lease_owner.clone().unwrap_or_default(),
-                message: p.get("message").and_then(Value::as_str).unwrap_or("").to_string(),
+                // A finished job's last progress line ("rendering camera") is history.
+                message: match j.state {
+                    JobState::Succeeded => format!("rendered in {}", duration(j.updated_at - j.created_at)),
+                    _ => p.get("message").and_then(Value::as_str).unwrap_or("").to_string(),
+                },
                 error: j.error.clone().unwrap_or_default(),
             }
         })
         .collect();
     renders.sort_by(|a, b| a.subject.cmp(&b.subject));
     let draft_exists = matches!(state.store.release(&job.subject).await, Ok(r) if r.state == ReleaseState::Draft);
+    let build = build_row(&job, &jobs);
+    let active = matches!(job.state, JobState::Queued | JobState::Running);
+    let elapsed_ms = if active { crate::clock::now_ms() } else { job.updated_at } - job.created_at;
     JobPage {
+        status: build_status(&job, current, &build.renders),
+        elapsed: duration(elapsed_ms),
+        remaining: (active && current == "rendering").then(|| remaining(elapsed_ms, &build.renders)).flatten(),
         refresh: matches!(job.state, JobState::Queued | JobState::Running),
         stages,
         log,
         error: job.error.clone().unwrap_or_default(),
-        attempts: job.attempts,
-        max_attempts: job.max_attempts,
         renders,
         draft_exists,
-        build: build_row(&job, &jobs),
+        build,
     }
     .into_response()
+}
+
+/// What a build is doing, in words: a build waiting for its render jobs is queued between
+/// checks, which is not what an operator should read.
+fn build_status(job: &JobRecord, stage: &str, renders: &RenderCounts) -> String {
+    match (job.state, stage) {
+        (JobState::Queued | JobState::Running, "rendering") if renders.total > 0 => format!(
+            "rendering: {} of {} sequences done, {} rendering now{}",
+            renders.succeeded,
+            renders.total,
+            renders.running,
+            if renders.failed > 0 { format!(", {} failed", renders.failed) } else { String::new() }
+        ),
+        (JobState::Queued, "") => "queued: waiting for a worker".to_string(),
+        (JobState::Queued | JobState::Running, stage) => format!("{stage} (attempt {} of {})", job.attempts.max(1), job.max_attempts),
+        (state, _) => state.to_string(),
+    }
+}
+
+/// The time the render jobs left should take at the pace of those done since the build began.
+fn remaining(elapsed_ms: i64, renders: &RenderCounts) -> Option<String> {
+    let left = renders.total.checked_sub(renders.succeeded)?;
+    (renders.succeeded > 0 && left > 0).then(|| format!("about {}", duration(elapsed_ms / renders.succeeded as i64 * left as i64)))
+}
+
+/// A duration for people: `42 s`, `3 min 5 s`, `2 h 10 min`.
+fn duration(ms: i64) -> String {
+    let s = ms.max(0) / 1000;
+    match s {
+        0..60 => format!("{s} s"),
+        60..3600 => format!("{} min {} s", s / 60, s % 60),
+        _ => format!("{} h {} min", s / 3600, s % 3600 / 60),
+    }
 }
 
 /// `config` with its `version = "…"` line naming the first version no entry of `taken` has:
@@ -307,6 +371,18 @@ mod tests {
         assert_eq!(plain, "version = \"nightly-2\"\n");
         let demo = with_free_version(crate::jobs::release_build::DEMO_CONFIG, &taken(&["demo-2"]));
         assert!(demo.contains("\nversion = \"demo-3\"") && osmab_dataset::release::config::ReleaseConfig::parse(&demo, std::path::Path::new("x")).is_ok());
+    }
+
+    #[test]
+    fn durations_read_as_people_say_them() {
+        assert_eq!((super::duration(42_400), super::duration(185_000), super::duration(7_800_000)), ("42 s".into(), "3 min 5 s".into(), "2 h 10 min".into()));
+    }
+
+    #[test]
+    fn the_time_left_follows_the_pace_of_the_renders_done() {
+        let renders = super::RenderCounts { total: 28, succeeded: 7, running: 2, failed: 0 };
+        assert_eq!(super::remaining(70_000, &renders).as_deref(), Some("about 3 min 30 s"), "7 in 70 s: 21 more in 210 s");
+        assert_eq!(super::remaining(70_000, &super::RenderCounts { succeeded: 0, ..renders }), None, "no pace before the first");
     }
 
     #[test]

@@ -16,9 +16,9 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
 
-pub use actions::{flag, publish, refund, regenerate, set_quota, unflag};
+pub use actions::{create_team, flag, publish, refund, regenerate, set_quota, unflag};
 pub use console::{console, job};
-pub use quality::quality;
+pub use quality::{file as release_file, quality};
 pub use session::{AdminSession, login, login_form, logout};
 
 /// The sign-in page.
@@ -26,6 +26,18 @@ pub use session::{AdminSession, login, login_form, logout};
 #[template(path = "admin_login.html")]
 pub struct LoginPage {
     pub error: Option<String>,
+}
+
+/// A team just created, with its first token (shown this once).
+#[derive(Template, WebTemplate)]
+#[template(path = "admin_team_created.html")]
+pub struct TeamCreatedPage {
+    pub name: String,
+    pub id: String,
+    pub token: String,
+    /// The service's public origin, for the login command.
+    pub origin: String,
+    pub form_token: String,
 }
 
 /// A console page that only says something (a refused form, a missing record).

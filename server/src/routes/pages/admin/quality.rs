@@ -12,10 +12,16 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde_json::Value;
 
+use osmab_evaluator::scores::{Aggregate, Metric, Split};
+
+use super::super::format::percent;
 use super::{AdminMessage, AdminSession};
+use crate::auth::Caller;
+use crate::leaderboard::Leaderboard;
+use crate::problem::ApiResult;
 use crate::routes::ApiPath;
 use crate::state::AppState;
-use crate::store::{ReleaseState, StoreError};
+use crate::store::{ReleaseRecord, ReleaseState, StoreError};
 
 /// Where a release keeps its quality report.
 const REPORT: &str = "quality/quality_report.json";
@@ -50,6 +56,61 @@ pub struct QualityPage {
     pub measures: Vec<Measure>,
     pub problems: Vec<String>,
     pub scenes: Vec<SceneRow>,
+    /// Every scene under every lighting: this release's sheet and the current one's.
+    pub overview: Option<String>,
+    pub current_overview: Option<String>,
+    /// This release's boards of the entries scored on it (a draft's baselines), before
+    /// anyone else can see them.
+    pub boards: Vec<DraftBoard>,
+}
+
+/// A board of this release as the operator sees it before publishing.
+pub struct DraftBoard {
+    pub split: Split,
+    pub lightings: Vec<&'static str>,
+    pub rows: Vec<DraftRow>,
+}
+
+pub struct DraftRow {
+    pub method: String,
+    pub submission_id: String,
+    /// Pooled mIoU per lighting.
+    pub cells: Vec<String>,
+}
+
+/// The overview sheet of `record`, as the console serves it (a draft's files are the
+/// operator's only), when the release has one.
+fn overview_of(record: &ReleaseRecord) -> Option<String> {
+    let manifest = super::super::manifest::PublishedManifest::parse(&record.manifest);
+    let path = osmab_dataset::release::OVERVIEW;
+    manifest.has(path).then(|| format!("/admin/releases/{}/files/{path}", record.version))
+}
+
+/// The boards of every split of `record` from the store's scored entries of it.
+async fn boards_of(state: &AppState, record: &ReleaseRecord) -> Result<Vec<DraftBoard>, StoreError> {
+    let rows = state.store.leaderboard_rows(&record.version).await?;
+    let lightings = crate::leaderboard::cache::manifest_lightings(&record.manifest);
+    let splits = crate::releases::manifest_splits(&record.manifest);
+    Ok(splits
+        .iter()
+        .map(|&split| {
+            let board = Leaderboard::new(&record.version, lightings.clone(), split, splits.clone(), rows.clone());
+            DraftBoard {
+                split,
+                lightings: lightings.iter().map(|l| l.label()).collect(),
+                rows: board
+                    .entries
+                    .iter()
+                    .map(|e| DraftRow {
+                        method: e.method.clone(),
+                        submission_id: e.submission_id.clone(),
+                        cells: lightings.iter().map(|&l| percent(e.metric(l, None, Aggregate::Overall, Metric::Miou))).collect(),
+                    })
+                    .collect(),
+            }
+        })
+        .filter(|b| !b.rows.is_empty())
+        .collect())
 }
 
 /// The summary numbers of a report, by name; `None` where the report has no such measure.
@@ -172,15 +233,23 @@ pub async fn quality(State(state): State<AppState>, session: AdminSession, ApiPa
         Ok(report) => report,
         Err(message) => return AdminMessage::page(StatusCode::NOT_FOUND, "No quality report", &message),
     };
-    let current = match state.store.current_release().await {
-        Ok(current) if current.version != version => Some(current.version),
+    let current_record = match state.store.current_release().await {
+        Ok(current) if current.version != version => Some(current),
         _ => None,
+    };
+    let current = current_record.as_ref().map(|r| r.version.clone());
+    let boards = match boards_of(&state, &release).await {
+        Ok(boards) => boards,
+        Err(e) => return AdminMessage::problem(e.into()),
     };
     let current_report = match &current {
         Some(v) => report_of(&state, v).await.ok(),
         None => None,
     };
     QualityPage {
+        overview: overview_of(&release),
+        current_overview: current_record.as_ref().and_then(overview_of),
+        boards,
         measures: compare(&this, current_report.as_ref()),
         problems: this["problems"].as_array().into_iter().flatten().filter_map(|p| p.as_str().map(str::to_string)).collect(),
         scenes: scene_rows(&this),
@@ -190,6 +259,18 @@ pub async fn quality(State(state): State<AppState>, session: AdminSession, ApiPa
         version,
     }
     .into_response()
+}
+
+/// `GET /admin/releases/{version}/files/{path}`: a release's public file for the signed-in
+/// operator — a draft's too, which the public route does not show (the console's session
+/// cookie is scoped to `/admin`).
+pub async fn file(
+    State(state): State<AppState>,
+    _: AdminSession,
+    ApiPath((version, path)): ApiPath<(String, String)>,
+    headers: axum::http::HeaderMap,
+) -> ApiResult<Response> {
+    crate::routes::releases::file(State(state), Caller::Admin, ApiPath((version, path)), headers).await
 }
 
 #[cfg(test)]

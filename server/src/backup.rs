@@ -29,7 +29,7 @@ pub const FORMAT: &str = "osmab-backup/1";
 const SQLITE_FILE: &str = "database/osmab.db";
 const POSTGRES_FILE: &str = "database/osmab.pgdump";
 /// The data directory's folders and files a backup holds besides the database.
-const SECRETS: [&str; 3] = [crate::serve::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR, "admin-token"];
+const SECRETS: [&str; 3] = [crate::receipts::keys::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR, "admin-token"];
 const BLOBS: &str = "blobs";
 /// Scratch space inside the blob folder: uploads in flight, never part of a backup.
 const SCRATCH: &str = ".incoming";
@@ -88,7 +88,7 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
         let blobs = Blobs::object(&scratch.0, config.clone())?;
         objects = blobs.inventory().await.context("listing the bucket")?.unwrap_or_default();
         objects.retain(|o| !TRANSIENT.iter().any(|prefix| o.key.starts_with(prefix)));
-        for name in [crate::serve::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR] {
+        for name in [crate::receipts::keys::RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR] {
             blobs.pull_tree(name, &out.join(name)).await.with_context(|| format!("copying {name}/ from the bucket"))?;
         }
     }

@@ -19,6 +19,7 @@ mod rate_limit;
 mod receipts;
 mod release_allow;
 mod release_archives;
+mod release_names;
 mod releases;
 mod reserved_names;
 mod routes;

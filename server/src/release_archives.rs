@@ -14,7 +14,7 @@ use osmab_evaluator::submission::pack_files_into;
 use serde_json::Value;
 
 use crate::blobs::{Blobs, Scratch};
-use crate::releases::release_prefix;
+use crate::release_names::release_prefix;
 use crate::store::Store;
 
 /// One sequence's archive as a served manifest lists it.

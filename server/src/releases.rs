@@ -15,12 +15,8 @@ use serde_json::{Value, json};
 use crate::blobs::Blobs;
 use crate::clock::now_ms;
 use crate::release_archives;
+pub use crate::release_names::{check_version, release_prefix};
 use crate::store::{ReleaseFile, ReleaseRecord, Store, StoreError};
-
-/// Blob folder of release `version`.
-pub fn release_prefix(version: &str) -> String {
-    format!("releases/{version}")
-}
 
 /// The splits of a served manifest's scenes, test first (a scene without one is val).
 pub fn manifest_splits(manifest: &str) -> Vec<Split> {
@@ -44,12 +40,6 @@ fn scene_splits(manifest: &Value) -> BTreeMap<String, Split> {
 /// the release has a test split, else val.
 pub fn primary_split(manifest: &str) -> Split {
     if manifest_splits(manifest).contains(&Split::Test) { Split::Test } else { Split::Val }
-}
-
-/// A version string safe as a path component and URL segment.
-pub fn check_version(version: &str) -> Result<(), String> {
-    let ok = !version.is_empty() && version.len() <= 64 && version.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) && !version.starts_with('.');
-    if ok { Ok(()) } else { Err(format!("release version '{version}' must be 1-64 characters of letters, digits, '-', '_' and '.'")) }
 }
 
 /// A release copied into blob storage and ready to record.

@@ -6,8 +6,11 @@
 
 use osmab_evaluator::text::impersonates;
 
-use crate::jobs::release_build::BASELINE_TEAM;
-use crate::leaderboard::ANONYMOUS;
+/// Name of the team that owns the reference baselines.
+pub const BASELINE_TEAM: &str = "OSMa-Bench baselines";
+
+/// The team shown for an entry that stays anonymous.
+pub const ANONYMOUS: &str = "Anonymous";
 
 /// Method names of the baselines start with this.
 pub const BASELINE_METHOD_PREFIX: &str = "baseline";

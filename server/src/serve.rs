@@ -15,6 +15,7 @@ use crate::clock::now_ms;
 use crate::config::{Settings, redact_url};
 use crate::jobs::Job;
 use crate::jobs::release_build::{BuildRelease, DEMO_CONFIG};
+use crate::receipts::keys::RECEIPT_KEYS;
 use crate::state::AppState;
 use crate::store::{Store, TokenRecord};
 
@@ -41,9 +42,6 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), blobs = %blobs.describe(), "store opened");
     AppState::new(settings, store, blobs)
 }
-
-/// The folder (in the data directory) and blob prefix of the receipt-signing keys.
-pub const RECEIPT_KEYS: &str = "receipt-keys";
 
 /// Nodes that share only an object store share its receipt keys, so a receipt any server
 /// signed verifies against the keys every server publishes: this node's copy is brought
@@ -139,10 +137,11 @@ pub async fn shutdown_signal() {
 
 fn spawn_workers(state: &AppState, count: usize, shutdown: &watch::Receiver<bool>) -> Vec<tokio::task::JoinHandle<()>> {
     let host = std::env::var("HOSTNAME").unwrap_or_else(|_| "local".into());
+    let warmup = std::sync::Arc::new(tokio::sync::Mutex::new(crate::jobs::warmup::Warmup::default()));
     (0..count)
         .map(|i| {
             let owner = format!("{host}:{}:{i}:{}", std::process::id(), crate::clock::random_alphanumeric(6));
-            tokio::spawn(crate::jobs::run_worker(state.clone(), owner, shutdown.clone()))
+            tokio::spawn(crate::jobs::worker::run_worker(state.clone(), owner, warmup.clone(), shutdown.clone()))
         })
         .collect()
 }

@@ -26,8 +26,6 @@ pub struct AppState {
     pub receipts: Arc<ReceiptKeys>,
     /// The operator's secret that shapes the test scenes of the releases it builds.
     pub split_secret: SplitSecret,
-    /// How far idle workers are in making this node ready to score the current release.
-    pub warmup: Arc<tokio::sync::Mutex<crate::jobs::warmup::Warmup>>,
 }
 
 impl AppState {
@@ -35,7 +33,7 @@ impl AppState {
     /// directory (the first is generated on first start).
     pub fn new(settings: Settings, store: Store, blobs: Blobs) -> anyhow::Result<Self> {
         let limiter = RateLimiter::new(settings.rate_limit, settings.rate_burst);
-        let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join(crate::serve::RECEIPT_KEYS))?);
+        let receipts = Arc::new(ReceiptKeys::open(&settings.data_dir.join(crate::receipts::keys::RECEIPT_KEYS))?);
         let split_secret = crate::split_secret::open(&settings.data_dir.join(crate::split_secret::SPLIT_SECRET_DIR))?;
         Ok(Self {
             settings: Arc::new(settings),
@@ -47,7 +45,6 @@ impl AppState {
             validation: Arc::new(tokio::sync::Semaphore::new(2)),
             receipts,
             split_secret,
-            warmup: Arc::default(),
         })
     }
 }

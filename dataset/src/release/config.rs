@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::split::SplitsConfig;
 use crate::openai::ServiceConfig;
-use crate::render::sequence::SensorSettings;
+use crate::render::camera::SensorSettings;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -19,7 +19,6 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use osmab_evaluator::formats::classes::ClassList;
-use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
@@ -38,9 +37,7 @@ use split::SplitSecret;
 use stages::{Build, INSTANCES_JSON, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK, packed_sequence_archive};
 
-/// Ground truth: the val scenes' is public (listed in the manifest, so teams score val
-/// offline); the test scenes' stays with the server, with the full quality report.
-pub const GROUND_TRUTH: &str = "ground_truth";
+pub use publication::GROUND_TRUTH;
 /// The quality report with every measure of every scene (the public one leaves out what
 /// tells a test scene's ground truth), kept with the ground truth.
 pub const FULL_QUALITY_REPORT: &str = "quality_report.json";
@@ -351,49 +348,6 @@ fn refuse_leftovers(root: &Path, files: &[manifest::FileEntry], expected: &[Stri
             ),
         )),
     }
-}
-
-/// The summary of a sequence on disk (one rendered by an external tool): frames, class
-/// pixels and every frame's measures, read from its images (instances are unknown).
-pub fn summarize_sequence(dir: &Path) -> Result<SequenceSummary> {
-    use crate::render::sequence::FrameMeasures;
-    use crate::render::view::{digest64, exposure, visible_classes};
-    let sequence = Sequence::open(dir)?;
-    let mut summary = SequenceSummary { frames: sequence.len(), ..Default::default() };
-    let size = Some((sequence.camera.image_width, sequence.camera.image_height));
-    for i in 0..sequence.len() {
-        let semantic = osmab_evaluator::formats::image::read_png_gray16(&sequence.semantic_frames[i], size)?;
-        let depth = osmab_evaluator::formats::image::read_png_gray16(&sequence.depth_frames[i], size)?;
-        let colour = osmab_evaluator::formats::image::read_jpeg_rgb(&sequence.color_frames[i], size)?;
-        let n = semantic.pixels.len().max(1);
-        let mut per_class: BTreeMap<u16, u64> = BTreeMap::new();
-        let mut valid = 0usize;
-        let min_pixels = crate::render::coverage::CoverageGoals::default().viewpoint_rule(semantic.width, semantic.height).min_pixels;
-        for (&c, &d) in semantic.pixels.iter().zip(&depth.pixels) {
-            *summary.class_pixels.entry(c).or_default() += 1;
-            if d > 0 {
-                valid += 1;
-                *per_class.entry(c).or_default() += 1;
-            }
-        }
-        let (saturated, luma) = exposure(&colour.pixels);
-        let classes = visible_classes(&semantic.pixels, &depth.pixels, min_pixels);
-        let mut geometry: Vec<u8> = depth.pixels.iter().flat_map(|d| d.to_le_bytes()).collect();
-        geometry.extend(semantic.pixels.iter().flat_map(|c| c.to_le_bytes()));
-        summary.per_frame.push(FrameMeasures {
-            saturated: saturated as f32,
-            luma: luma as f32,
-            dominant: (per_class.values().copied().max().unwrap_or(0) as f64 / n as f64) as f32,
-            valid_depth: (valid as f64 / n as f64) as f32,
-            objects: classes,
-            classes,
-            colour_digest: digest64(&colour.pixels),
-            geometry_digest: digest64(&geometry),
-        });
-    }
-    let poses = &sequence.trajectory.poses;
-    summary.travelled = poses.windows(2).map(|w| ((w[1][(0, 3)] - w[0][(0, 3)]).powi(2) + (w[1][(2, 3)] - w[0][(2, 3)]).powi(2)).sqrt()).sum();
-    Ok(summary)
 }
 
 /// Check a built release: every manifest entry's size and SHA-256, and the digest.

@@ -13,6 +13,10 @@ use osmab_evaluator::Result;
 use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::archive::list_tree;
 
+/// Ground truth: the val scenes' is public (listed in the manifest, so teams score val
+/// offline); the test scenes' stays with the server, with the full quality report.
+pub const GROUND_TRUTH: &str = "ground_truth";
+
 /// Whether `relative` (a path inside a sequence folder, `results/frame000000.jpg`) of a
 /// scene of `split` is public. Of a test sequence's `results/`, an allow-list: only colour
 /// and depth frames, whatever else a renderer wrote beside them (semantic, instance or

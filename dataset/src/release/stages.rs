@@ -627,7 +627,7 @@ impl Build {
             let log = self.work.join("rendered").join(lighting).join(format!("{scene}.log"));
             crate::external::run_command(&config.render.command, &substitutions, &log, std::time::Duration::from_secs(config.render.timeout_secs))?;
             // Whatever rendered it, it must be a sequence the evaluator reads.
-            write_json(&summary_path, &super::summarize_sequence(&sequence_dir)?)
+            write_json(&summary_path, &crate::render::sequence::summarize_sequence(&sequence_dir)?)
         })?;
         read_json(&summary_path)
     }
@@ -674,7 +674,7 @@ impl Build {
     pub fn ground_truth(&self, index: usize, progress: &dyn Fn(&str)) -> Result<PathBuf> {
         let scene = scene_name(index);
         let inputs = self.settled_inputs(index)?;
-        let gt_dir = self.out.join(super::GROUND_TRUTH).join(&scene);
+        let gt_dir = self.out.join(super::publication::GROUND_TRUTH).join(&scene);
         let gt_source = self.out.join("sequences").join(self.ground_truth_lighting()).join(&scene);
         let habitat = self.habitat_dir(index);
         staged(&self.work.join("gt").join(format!("{scene}.done")), &inputs, &gt_dir, || {

@@ -25,10 +25,10 @@ use osmab_evaluator::synthetic::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::camera::{SensorSettings, camera_pose};
 use super::mesh::World;
 use super::navigation::NavGrid;
 use super::raster::{Frame, render_visibility};
-use super::sequence::{SensorSettings, camera_pose};
 use super::trajectory::{AgentState, MotionSettings, Walker, heading_towards, wrap};
 use super::view::{Observed, View, ViewpointRule};
 use osmab_evaluator::ground_truth::{FRAME_STRIDE, POINT_STRIDE};

@@ -2,6 +2,7 @@
 //! Habitat-style scene along a trajectory planned for coverage, with Habitat's
 //! lighting model.
 
+pub mod camera;
 pub mod coverage;
 mod edges;
 pub mod loaders;
@@ -21,13 +22,18 @@ use osmab_evaluator::{InputError, Result};
 
 use crate::convert::habitat::ConversionReport;
 use crate::convert::lexicon::{SHELL_CLASSES, normalise_name};
+use camera::SensorSettings;
 use coverage::{CoverageGoals, Plan, Target};
 use navigation::NavGrid;
-use sequence::{SensorSettings, SequenceSummary, render_sequence};
+use sequence::{SequenceSummary, render_sequence};
 use trajectory::{AgentState, MotionSettings};
 
-/// The four lighting conditions of OSMa-Bench++.
-pub const LIGHTINGS: [&str; 4] = ["baseline", "camera", "dynamic_lights", "no_lights"];
+/// The names of the four lighting conditions of OSMa-Bench++, as files and configs write
+/// them: [`osmab_evaluator::scores::Lighting::RELEASE`], the one list, by name.
+pub const LIGHTINGS: [&str; 4] = {
+    let release = osmab_evaluator::scores::Lighting::RELEASE;
+    [release[0].name(), release[1].name(), release[2].name(), release[3].name()]
+};
 
 /// The objects of a converted scene a trajectory must observe: everything but the
 /// room's shell, those of `prompted` categories (names or classes) marked first.

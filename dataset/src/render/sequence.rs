@@ -7,9 +7,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use nalgebra::Matrix4;
-use osmab_evaluator::formats::camera::CameraParams;
 use osmab_evaluator::formats::classes::ClassList;
 use osmab_evaluator::formats::image::{GrayImage16, RgbImage, write_jpeg_rgb, write_png_gray16};
+use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::{InputError, Result};
@@ -17,83 +17,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use super::camera::{SensorSettings, camera_pose};
 use super::coverage::CoverageGoals;
 use super::mesh::World;
-use super::raster::{Camera, Frame, Light, Shading, render};
+use super::raster::{Frame, Light, Shading, render};
 use super::trajectory::AgentState;
 use super::view::{Observed, View, digest64, exposure, visible_classes};
-
-/// Camera and image settings (HaDaGe / OSMa-Bench++ defaults).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct SensorSettings {
-    pub width: u32,
-    pub height: u32,
-    pub hfov: f64,
-    pub sensor_height: f64,
-    pub depth_scale: f64,
-    /// Pillow's default JPEG quality.
-    pub jpeg_quality: u8,
-    /// Camera tilt about its x axis, degrees; negative looks down (the OSMa-Bench++
-    /// HaDaGe patch's `camera_pitch_deg`, 0 by default).
-    #[serde(default)]
-    pub camera_pitch_deg: f64,
-}
-
-impl Default for SensorSettings {
-    fn default() -> Self {
-        Self { width: 1200, height: 680, hfov: 90.0, sensor_height: 1.0, depth_scale: 6553.5, jpeg_quality: 75, camera_pitch_deg: 0.0 }
-    }
-}
-
-impl SensorSettings {
-    /// The first setting a camera cannot have, as (field, expectation).
-    pub fn problem(&self) -> Option<(&'static str, &'static str)> {
-        if !(16..=8192).contains(&self.width) || !(16..=8192).contains(&self.height) {
-            Some(("width", "image sides must be 16..=8192"))
-        } else if !(self.hfov > 0.0 && self.hfov < 180.0) {
-            Some(("hfov", "a horizontal field of view in degrees, in (0, 180)"))
-        } else if !(self.sensor_height > 0.0 && self.sensor_height < 1.5) {
-            Some(("sensor_height", "metres above the floor, in (0, 1.5) (below the agent's height)"))
-        } else if !(self.camera_pitch_deg >= -60.0 && self.camera_pitch_deg <= 60.0) {
-            Some(("camera_pitch_deg", "degrees in [-60, 60] (negative looks down)"))
-        } else {
-            None
-        }
-    }
-
-    /// The intrinsics HaDaGe derives from the field of view.
-    pub fn intrinsics(&self) -> CameraParams {
-        CameraParams::from_hfov(self.width, self.height, self.hfov, self.depth_scale)
-    }
-
-    /// The camera at `pose` (camera-to-world, OpenCV axes).
-    pub fn camera(&self, pose: Matrix4<f64>) -> Camera {
-        let p = self.intrinsics();
-        Camera { width: self.width, height: self.height, fx: p.fx, fy: p.fy, cx: p.cx, cy: p.cy, pose }
-    }
-
-    /// The same camera with a smaller image `width` pixels wide (same field of view).
-    pub fn scaled_to(&self, width: u32) -> SensorSettings {
-        let width = width.min(self.width).max(8);
-        let height = ((self.height as f64 * width as f64 / self.width as f64).round() as u32).max(4);
-        SensorSettings { width, height, ..self.clone() }
-    }
-}
-
-/// The camera-to-world pose (OpenCV axes) of an agent state, as HaDaGe writes it:
-/// Habitat's camera rotation (yaw about +y, then the sensor's pitch about its x axis)
-/// with its y and z columns negated.
-pub fn camera_pose(state: &AgentState, floor_height: f64, sensor: &SensorSettings) -> Matrix4<f64> {
-    let (s, c) = state.yaw.sin_cos();
-    let (sp, cp) = sensor.camera_pitch_deg.to_radians().sin_cos();
-    // Habitat camera, level: x right = (cos, 0, −sin), y up, looks along −z = (−sin, 0, −cos).
-    // Pitched by p about x: y = (s·sin p, cos p, c·sin p), z = (s·cos p, −sin p, c·cos p).
-    let (x, y, z) = ([c, 0.0, -s], [s * sp, cp, c * sp], [s * cp, -sp, c * cp]);
-    let t = [state.x, floor_height + sensor.sensor_height, state.z];
-    // `+ 0.0` turns the −0.0 of negated zeros into 0.0, so traj.txt never prints "-0".
-    let m = Matrix4::new(x[0], -y[0], -z[0], t[0], x[1], -y[1], -z[1], t[1], x[2], -y[2], -z[2], t[2], 0.0, 0.0, 0.0, 1.0);
-    m.map(|v| v + 0.0)
-}
 
 /// A HaDaGe light-settings file as the renderer's lights for navigation segment `goal`
 /// (a light is on when one of its `life_intervals` [start, end) holds the segment).
@@ -286,4 +215,45 @@ pub fn render_sequence(
 /// Whether a light-settings file holds no light at all (the `no_lights` condition).
 pub fn has_no_lights(settings: &Value) -> bool {
     settings["lights"].as_object().is_none_or(|lights| lights.is_empty())
+}
+
+/// The summary of a sequence on disk (one rendered by an external tool): frames, class
+/// pixels and every frame's measures, read from its images (instances are unknown).
+pub fn summarize_sequence(dir: &Path) -> Result<SequenceSummary> {
+    let sequence = Sequence::open(dir)?;
+    let mut summary = SequenceSummary { frames: sequence.len(), ..Default::default() };
+    let size = Some((sequence.camera.image_width, sequence.camera.image_height));
+    for i in 0..sequence.len() {
+        let semantic = osmab_evaluator::formats::image::read_png_gray16(&sequence.semantic_frames[i], size)?;
+        let depth = osmab_evaluator::formats::image::read_png_gray16(&sequence.depth_frames[i], size)?;
+        let colour = osmab_evaluator::formats::image::read_jpeg_rgb(&sequence.color_frames[i], size)?;
+        let n = semantic.pixels.len().max(1);
+        let mut per_class: BTreeMap<u16, u64> = BTreeMap::new();
+        let mut valid = 0usize;
+        let min_pixels = CoverageGoals::default().viewpoint_rule(semantic.width, semantic.height).min_pixels;
+        for (&c, &d) in semantic.pixels.iter().zip(&depth.pixels) {
+            *summary.class_pixels.entry(c).or_default() += 1;
+            if d > 0 {
+                valid += 1;
+                *per_class.entry(c).or_default() += 1;
+            }
+        }
+        let (saturated, luma) = exposure(&colour.pixels);
+        let classes = visible_classes(&semantic.pixels, &depth.pixels, min_pixels);
+        let mut geometry: Vec<u8> = depth.pixels.iter().flat_map(|d| d.to_le_bytes()).collect();
+        geometry.extend(semantic.pixels.iter().flat_map(|c| c.to_le_bytes()));
+        summary.per_frame.push(FrameMeasures {
+            saturated: saturated as f32,
+            luma: luma as f32,
+            dominant: (per_class.values().copied().max().unwrap_or(0) as f64 / n as f64) as f32,
+            valid_depth: (valid as f64 / n as f64) as f32,
+            objects: classes,
+            classes,
+            colour_digest: digest64(&colour.pixels),
+            geometry_digest: digest64(&geometry),
+        });
+    }
+    let poses = &sequence.trajectory.poses;
+    summary.travelled = poses.windows(2).map(|w| ((w[1][(0, 3)] - w[0][(0, 3)]).powi(2) + (w[1][(2, 3)] - w[0][(2, 3)]).powi(2)).sqrt()).sum();
+    Ok(summary)
 }

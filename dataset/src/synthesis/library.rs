@@ -6,6 +6,8 @@
 //! One file, over 400 lines, on purpose: it is a catalogue, one short builder per category,
 //! read like a table.
 
+use std::path::PathBuf;
+
 use osmab_evaluator::synthetic::Rng;
 
 /// A material: a name and a base colour.
@@ -47,6 +49,20 @@ pub const FINISHES: [Material; 10] = [
     Material { name: "finish_grey", color: [0.48, 0.48, 0.49, 1.0] },
     Material { name: "finish_brown", color: [0.42, 0.27, 0.16, 1.0] },
 ];
+
+/// A pack mesh an asset is drawn with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PackMesh {
+    /// The mesh file (glTF/GLB) in the pack.
+    pub file: PathBuf,
+    /// The uniform scale from the pack's size to the instance's.
+    pub scale: f64,
+    /// The colour its texture is recoloured in; `None` keeps its own colours.
+    pub finish: Option<Material>,
+    /// Where the geometry comes from ("infinigen", "scan", …) and what made it.
+    pub source: String,
+    pub generator: String,
+}
 
 /// A shape of an asset.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,7 +109,7 @@ pub struct Asset {
     pub under: Option<([f64; 2], [f64; 2])>,
     pub description: String,
     /// The pack mesh it is drawn with (then `parts` is empty).
-    pub mesh: Option<super::source::PackMesh>,
+    pub mesh: Option<PackMesh>,
 }
 
 fn bx(center: [f64; 3], size: [f64; 3], material: Material) -> Part {

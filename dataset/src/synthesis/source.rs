@@ -11,7 +11,7 @@ use std::sync::Arc;
 use osmab_evaluator::Result;
 use osmab_evaluator::synthetic::Rng;
 
-use super::library::{Asset, Material, SupportSurface, finish_drawn, make_asset};
+use super::library::{Asset, Material, PackMesh, SupportSurface, finish_drawn, make_asset};
 use crate::assets::{AssetPack, ObjectEntry, ShellKind};
 
 /// The largest uniform change of a pack variant's size, either way: the forge brought it
@@ -22,20 +22,6 @@ const SIZE_JITTER: f64 = 0.06;
 /// Classes whose look is their colour's meaning (a screen, leaves, a clock face): they keep
 /// their texture's own colours, and the questions ask no colour of them.
 pub const OWN_COLOURS: [&str; 5] = ["television", "monitor", "laptop", "plant", "clock"];
-
-/// A pack mesh an asset is drawn with.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PackMesh {
-    /// The mesh file (glTF/GLB) in the pack.
-    pub file: PathBuf,
-    /// The uniform scale from the pack's size to the instance's.
-    pub scale: f64,
-    /// The colour its texture is recoloured in; `None` keeps its own colours.
-    pub finish: Option<Material>,
-    /// Where the geometry comes from ("infinigen", "scan", …) and what made it.
-    pub source: String,
-    pub generator: String,
-}
 
 /// A room-shell texture: the image and the side of the square it covers.
 #[derive(Debug, Clone, PartialEq)]

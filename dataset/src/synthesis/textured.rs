@@ -9,7 +9,8 @@ use osmab_evaluator::{InputError, Result};
 
 use super::export::to_gltf;
 use super::gltf_out::{OutMaterial, OutPrimitive, write_gltf};
-use super::source::{PackMesh, ShellTexture};
+use super::library::PackMesh;
+use super::source::ShellTexture;
 use crate::convert::gltf::{Texture, TriangleMesh, read_gltf};
 
 /// How much of a recoloured texel's brightness follows the original's pattern (grain,

@@ -7,7 +7,7 @@ use super::confusion::ConfusionMatrix;
 use super::metrics::SegmentationMetrics;
 use crate::csv_writer::{CsvWriter, LineEnd};
 use crate::numeric::{nan_skipping_mean, python_repr};
-use crate::scores::Metric;
+use crate::scores::axes::Metric;
 
 /// The three headline numbers. In JSON an undefined (NaN) metric is `null`, and `null`
 /// reads back as NaN; fields are in the order of their keys.

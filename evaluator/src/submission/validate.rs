@@ -285,210 +285,31 @@ fn check_frame(map: &PredictedMap, (lo, hi): Extent, name: &str) -> Result<(), I
 /// problem found (at most [`MAX_REPORTED_PROBLEMS`], then a count of the rest).
 pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimits) -> Result<ValidSubmission, Vec<InputError>> {
     let root = submission_root(unpacked);
+    let files = list_tree(&root).map_err(|e| vec![relative(&root, e)])?;
     let mut problems: Vec<InputError> = Vec::new();
-    let files = match list_tree(&root) {
-        Ok(files) => files,
-        Err(e) => return Err(vec![relative(&root, e)]),
-    };
-
-    let card = match read_json(&root.join("submission.json"), "submission.json", limits) {
-        Err(e) if !root.join("submission.json").is_file() => {
-            problems.push(InputError::new(
-                "submission.json",
-                "(file)",
-                format!("missing: every submission starts with submission.json ({{\"format\": \"{SUBMISSION_FORMAT}\", \"release\", \"method\"}})"),
-            ));
-            let _ = e;
-            None
-        }
-        Err(e) => {
-            problems.push(e);
-            None
-        }
-        Ok(value) => match serde_json::from_value::<SubmissionFile>(value) {
-            Err(e) => {
-                problems.push(InputError::new(
-                    "submission.json",
-                    "(json)",
-                    format!("expected {{\"format\", \"release\", \"method\": {{\"name\", \"description\", \"paper_url\"?, \"code_url\"?}}}}: {e}"),
-                ));
-                None
-            }
-            Ok(file) => {
-                if file.format != SUBMISSION_FORMAT {
-                    problems.push(InputError::new("submission.json", "format", format!("expected \"{SUBMISSION_FORMAT}\", found \"{}\"", file.format)));
-                }
-                if file.release != release.version {
-                    problems.push(InputError::new(
-                        "submission.json",
-                        "release",
-                        format!("this submission is for release '{}', but it is being checked against release '{}'", file.release, release.version),
-                    ));
-                }
-                if let Err(e) = file.method.check("submission.json") {
-                    problems.push(e);
-                }
-                Some(file)
-            }
-        },
-    };
-
-    let text_features = root.join("text_features.npz");
-    let text = if text_features.is_file() {
-        match TextFeatures::read(&text_features, limits.arrays) {
-            Ok(t) => {
-                if let Some(id) = t.class_ids.iter().find(|id| !release.classes.contains(**id)) {
-                    problems.push(InputError::new("text_features.npz", "class_ids", format!("class id {id} is not a class of the release (classes.json)")));
-                }
-                Some(t)
-            }
-            Err(e) => {
-                problems.push(relative(&root, e));
-                None
-            }
-        }
-    } else {
-        None
-    };
-
-    let mut entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry> = BTreeMap::new();
-    let mut extents: BTreeMap<String, Option<Extent>> = BTreeMap::new();
-    let mut points = 0u64;
-    let mut outside_split: Vec<String> = Vec::new();
+    let card = read_card(&root, release, limits, &mut problems);
+    let text = read_text_features(&root, release, limits, &mut problems);
+    let mut found = Found::default();
+    let against = Against { root: &root, release, text: text.as_ref(), limits };
     for name in &files {
         if is_archiver_noise(name) || name == "submission.json" || name == "text_features.npz" {
             continue;
         }
-        let parts: Vec<&str> = name.split('/').collect();
-        let (kind, extension) = match parts.first().copied() {
-            Some("maps") => ("maps", "npz"),
-            Some("graphs") => ("graphs", "json"),
-            Some("answers") => ("answers", "json"),
-            _ if parts.len() == 1 && (name.to_ascii_lowercase().starts_with("readme") || name.to_ascii_lowercase().starts_with("license")) => continue,
-            _ => {
-                problems.push(InputError::new(
-                    name.as_str(),
-                    "(file)",
-                    "unexpected file; a submission holds submission.json, text_features.npz, maps/, graphs/ and answers/",
-                ));
-                continue;
-            }
-        };
-        let Some(scene) = (parts.len() == 3).then(|| parts[2].strip_suffix(&format!(".{extension}"))).flatten() else {
-            problems.push(InputError::new(name.as_str(), "(path)", format!("expected {kind}/<lighting>/<scene>.{extension}")));
-            continue;
-        };
-        let Some(lighting) = release.lightings.iter().copied().find(|l| l.name() == parts[1]) else {
-            let known: Vec<&str> = release.lightings.iter().map(|l| l.name()).collect();
-            problems.push(InputError::new(
-                name.as_str(),
-                "(path)",
-                format!("unknown lighting '{}'; release {} has {}", parts[1], release.version, known.join(", ")),
-            ));
-            continue;
-        };
-        if release.outside_split.iter().any(|s| s == scene) {
-            outside_split.push(name.clone());
-            continue;
-        }
-        if release.scene(scene).is_none() {
-            let known: Vec<&str> = release.scenes.iter().map(|s| s.id.as_str()).collect();
-            let of = release.split.map_or(String::new(), |split| format!(" (split {split})"));
-            problems.push(InputError::new(
-                name.as_str(),
-                "(path)",
-                format!("unknown scene '{scene}'; release {}{of} has {}", release.version, known.join(", ")),
-            ));
-            continue;
-        }
-        let path = root.join(name);
-        let entry = entries.entry((lighting, scene.to_string())).or_insert_with(|| SceneEntry {
-            lighting,
-            scene: scene.to_string(),
-            map: None,
-            graph: None,
-            answers: None,
-        });
-        match kind {
-            "maps" => {
-                match PredictedMap::read(&path, limits.arrays) {
-                    Err(e) => problems.push(relative(&root, e)),
-                    Ok(map) => {
-                        points += map.points.len() as u64;
-                        if let Err(e) = check_semantics(&map, release, text.as_ref(), name) {
-                            problems.push(e);
-                        }
-                        let extent = *extents.entry(scene.to_string()).or_insert_with(|| ground_truth_extent(release, scene));
-                        if let Some(extent) = extent
-                            && let Err(e) = check_frame(&map, extent, name)
-                        {
-                            problems.push(e);
-                        }
-                    }
-                }
-                entry.map = Some(path);
-            }
-            "graphs" => {
-                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_graph(&v, name, text.as_ref())) {
-                    problems.push(e);
-                }
-                entry.graph = Some(path);
-            }
-            _ if release.scene(scene).is_some_and(|s| s.split == crate::scores::Split::Test) => {
-                problems.push(InputError::new(
-                    name.as_str(),
-                    "(file)",
-                    format!(
-                        "{scene} is a test scene: its questions are hidden and the server answers them from your scene graph (graphs/{}/{scene}.json); answers/ is for val scenes only",
-                        parts[1]
-                    ),
-                ));
-            }
-            _ => {
-                let known = release
-                    .public_questions(scene)
-                    .ok()
-                    .flatten()
-                    .or_else(|| release.answered_questions(scene).ok().flatten())
-                    .map(|questions| questions.questions.into_iter().map(|q| q.id).collect::<BTreeSet<String>>());
-                if let Err(e) = read_json(&path, name, limits).and_then(|v| check_answers(&v, name, scene, known.as_ref())) {
-                    problems.push(e);
-                }
-                entry.answers = Some(path);
-            }
+        match place(name, release) {
+            Placed::Ignored => {}
+            Placed::OtherSplit => found.outside_split.push(name.clone()),
+            Placed::Refused(problem) => problems.push(problem),
+            Placed::File { kind, lighting, scene } => problems.extend(found.check_file(&against, name, kind, lighting, scene)),
         }
     }
-    if entries.values().all(|e| e.map.is_none() && e.graph.is_none()) && problems.is_empty() {
-        let message = match (release.split, outside_split.first()) {
-            // Everything is for the other split's scenes: say so, and how to choose it.
-            (Some(split), Some(example)) => {
-                let other = if split == crate::scores::Split::Test { crate::scores::Split::Val } else { crate::scores::Split::Test };
-                format!(
-                    "the submission has no maps and no scene graphs for the {split} split: its {} files are for {other} scenes (e.g. {example}); \
-                     submit or validate them for the {other} split (`--split {other}`, or `?split={other}` in the API)",
-                    outside_split.len()
-                )
-            }
-            _ => "the submission has no maps and no scene graphs; expected maps/<lighting>/<scene>.npz".to_string(),
-        };
-        problems.push(InputError::new("maps/", "(folder)", message));
+    if found.entries.values().all(|e| e.map.is_none() && e.graph.is_none()) && problems.is_empty() {
+        problems.push(nothing_to_score(release, &found.outside_split));
     }
     if !problems.is_empty() {
-        if problems.len() > MAX_REPORTED_PROBLEMS {
-            let more = problems.len() - MAX_REPORTED_PROBLEMS;
-            problems.truncate(MAX_REPORTED_PROBLEMS);
-            problems.push(InputError::new("(submission)", "(problems)", format!("{more} more problems not listed")));
-        }
-        return Err(problems);
+        return Err(capped(problems));
     }
     let card = card.expect("no problems means submission.json was read");
-    let missing_maps: Vec<String> = release
-        .lightings
-        .iter()
-        .flat_map(|l| release.scenes.iter().map(move |s| (l, s)))
-        .filter(|(l, s)| !entries.get(&(**l, s.id.clone())).is_some_and(|e| e.map.is_some()))
-        .map(|(l, s)| format!("{l}/{}", s.id))
-        .collect();
+    let missing_maps = missing_maps(release, &found.entries);
     Ok(ValidSubmission {
         root: root.clone(),
         release: card.release,
@@ -496,10 +317,244 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         text_features: text.map(|t| t.source),
         complete: missing_maps.is_empty(),
         missing_maps,
-        outside_split,
-        entries: entries.into_values().collect(),
-        points,
+        outside_split: found.outside_split,
+        entries: found.entries.into_values().collect(),
+        points: found.points,
     })
+}
+
+/// `submission.json`, checked against the release it is validated for; its problems go to
+/// `problems`.
+fn read_card(root: &Path, release: &ReleaseIndex, limits: SubmissionLimits, problems: &mut Vec<InputError>) -> Option<SubmissionFile> {
+    let value = match read_json(&root.join("submission.json"), "submission.json", limits) {
+        Ok(value) => value,
+        Err(_) if !root.join("submission.json").is_file() => {
+            problems.push(InputError::new(
+                "submission.json",
+                "(file)",
+                format!("missing: every submission starts with submission.json ({{\"format\": \"{SUBMISSION_FORMAT}\", \"release\", \"method\"}})"),
+            ));
+            return None;
+        }
+        Err(e) => {
+            problems.push(e);
+            return None;
+        }
+    };
+    let file = match serde_json::from_value::<SubmissionFile>(value) {
+        Ok(file) => file,
+        Err(e) => {
+            problems.push(InputError::new(
+                "submission.json",
+                "(json)",
+                format!("expected {{\"format\", \"release\", \"method\": {{\"name\", \"description\", \"paper_url\"?, \"code_url\"?}}}}: {e}"),
+            ));
+            return None;
+        }
+    };
+    if file.format != SUBMISSION_FORMAT {
+        problems.push(InputError::new("submission.json", "format", format!("expected \"{SUBMISSION_FORMAT}\", found \"{}\"", file.format)));
+    }
+    if file.release != release.version {
+        problems.push(InputError::new(
+            "submission.json",
+            "release",
+            format!("this submission is for release '{}', but it is being checked against release '{}'", file.release, release.version),
+        ));
+    }
+    if let Err(e) = file.method.check("submission.json") {
+        problems.push(e);
+    }
+    Some(file)
+}
+
+/// `text_features.npz`, when there is one, with class ids of the release.
+fn read_text_features(root: &Path, release: &ReleaseIndex, limits: SubmissionLimits, problems: &mut Vec<InputError>) -> Option<TextFeatures> {
+    let path = root.join("text_features.npz");
+    if !path.is_file() {
+        return None;
+    }
+    match TextFeatures::read(&path, limits.arrays) {
+        Ok(t) => {
+            if let Some(id) = t.class_ids.iter().find(|id| !release.classes.contains(**id)) {
+                problems.push(InputError::new("text_features.npz", "class_ids", format!("class id {id} is not a class of the release (classes.json)")));
+            }
+            Some(t)
+        }
+        Err(e) => {
+            problems.push(relative(root, e));
+            None
+        }
+    }
+}
+
+/// The kinds of file a submission holds per (lighting, scene).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum FileKind {
+    Map,
+    Graph,
+    Answers,
+}
+
+/// Where a file of the submission belongs.
+enum Placed<'a> {
+    /// A README or LICENSE at the top.
+    Ignored,
+    /// A file for a scene of the release's other split.
+    OtherSplit,
+    Refused(InputError),
+    File {
+        kind: FileKind,
+        lighting: crate::scores::Lighting,
+        scene: &'a str,
+    },
+}
+
+/// Where `name` belongs: `maps/<lighting>/<scene>.npz`, `graphs/…​.json` or `answers/…​.json`
+/// of a lighting and scene of the release.
+fn place<'a>(name: &'a str, release: &ReleaseIndex) -> Placed<'a> {
+    let parts: Vec<&str> = name.split('/').collect();
+    let (kind, folder, extension) = match parts.first().copied() {
+        Some("maps") => (FileKind::Map, "maps", "npz"),
+        Some("graphs") => (FileKind::Graph, "graphs", "json"),
+        Some("answers") => (FileKind::Answers, "answers", "json"),
+        _ if parts.len() == 1 && (name.to_ascii_lowercase().starts_with("readme") || name.to_ascii_lowercase().starts_with("license")) => {
+            return Placed::Ignored;
+        }
+        _ => {
+            return Placed::Refused(InputError::new(
+                name,
+                "(file)",
+                "unexpected file; a submission holds submission.json, text_features.npz, maps/, graphs/ and answers/",
+            ));
+        }
+    };
+    let Some(scene) = (parts.len() == 3).then(|| parts[2].strip_suffix(&format!(".{extension}"))).flatten() else {
+        return Placed::Refused(InputError::new(name, "(path)", format!("expected {folder}/<lighting>/<scene>.{extension}")));
+    };
+    let Some(lighting) = release.lightings.iter().copied().find(|l| l.name() == parts[1]) else {
+        let known: Vec<&str> = release.lightings.iter().map(|l| l.name()).collect();
+        return Placed::Refused(InputError::new(
+            name,
+            "(path)",
+            format!("unknown lighting '{}'; release {} has {}", parts[1], release.version, known.join(", ")),
+        ));
+    };
+    if release.outside_split.iter().any(|s| s == scene) {
+        return Placed::OtherSplit;
+    }
+    if release.scene(scene).is_none() {
+        let known: Vec<&str> = release.scenes.iter().map(|s| s.id.as_str()).collect();
+        let of = release.split.map_or(String::new(), |split| format!(" (split {split})"));
+        return Placed::Refused(InputError::new(name, "(path)", format!("unknown scene '{scene}'; release {}{of} has {}", release.version, known.join(", "))));
+    }
+    Placed::File { kind, lighting, scene }
+}
+
+/// What a submission's files are checked against.
+struct Against<'a> {
+    root: &'a Path,
+    release: &'a ReleaseIndex,
+    text: Option<&'a TextFeatures>,
+    limits: SubmissionLimits,
+}
+
+/// What the files of a submission hold so far.
+#[derive(Default)]
+struct Found {
+    entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry>,
+    /// Each scene's ground-truth extent, read once.
+    extents: BTreeMap<String, Option<Extent>>,
+    points: u64,
+    outside_split: Vec<String>,
+}
+
+impl Found {
+    /// Check the file `name` of `kind` for (`lighting`, `scene`) and record it; its problems.
+    fn check_file(&mut self, against: &Against<'_>, name: &str, kind: FileKind, lighting: crate::scores::Lighting, scene: &str) -> Vec<InputError> {
+        let Against { root, release, text, limits } = *against;
+        let path = root.join(name);
+        let entry = self.entries.entry((lighting, scene.to_string())).or_insert_with(|| SceneEntry {
+            lighting,
+            scene: scene.to_string(),
+            map: None,
+            graph: None,
+            answers: None,
+        });
+        match kind {
+            FileKind::Map => {
+                entry.map = Some(path.clone());
+                let map = match PredictedMap::read(&path, limits.arrays) {
+                    Ok(map) => map,
+                    Err(e) => return vec![relative(root, e)],
+                };
+                self.points += map.points.len() as u64;
+                let extent = *self.extents.entry(scene.to_string()).or_insert_with(|| ground_truth_extent(release, scene));
+                let semantics = check_semantics(&map, release, text, name).err();
+                let frame = extent.and_then(|extent| check_frame(&map, extent, name).err());
+                semantics.into_iter().chain(frame).collect()
+            }
+            FileKind::Graph => {
+                entry.graph = Some(path.clone());
+                read_json(&path, name, limits).and_then(|v| check_graph(&v, name, text)).err().into_iter().collect()
+            }
+            FileKind::Answers if release.scene(scene).is_some_and(|s| s.split == crate::scores::Split::Test) => vec![InputError::new(
+                name,
+                "(file)",
+                format!(
+                    "{scene} is a test scene: its questions are hidden and the server answers them from your scene graph (graphs/{lighting}/{scene}.json); answers/ is for val scenes only"
+                ),
+            )],
+            FileKind::Answers => {
+                entry.answers = Some(path.clone());
+                let known = release
+                    .public_questions(scene)
+                    .ok()
+                    .flatten()
+                    .or_else(|| release.answered_questions(scene).ok().flatten())
+                    .map(|questions| questions.questions.into_iter().map(|q| q.id).collect::<BTreeSet<String>>());
+                read_json(&path, name, limits).and_then(|v| check_answers(&v, name, scene, known.as_ref())).err().into_iter().collect()
+            }
+        }
+    }
+}
+
+/// The problem of a submission with no map and no scene graph: when its files are all for
+/// the other split's scenes, which split they are for and how to choose it.
+fn nothing_to_score(release: &ReleaseIndex, outside_split: &[String]) -> InputError {
+    let message = match (release.split, outside_split.first()) {
+        (Some(split), Some(example)) => {
+            let other = if split == crate::scores::Split::Test { crate::scores::Split::Val } else { crate::scores::Split::Test };
+            format!(
+                "the submission has no maps and no scene graphs for the {split} split: its {} files are for {other} scenes (e.g. {example}); \
+                 submit or validate them for the {other} split (`--split {other}`, or `?split={other}` in the API)",
+                outside_split.len()
+            )
+        }
+        _ => "the submission has no maps and no scene graphs; expected maps/<lighting>/<scene>.npz".to_string(),
+    };
+    InputError::new("maps/", "(folder)", message)
+}
+
+/// At most [`MAX_REPORTED_PROBLEMS`] problems, and a last one saying how many more there were.
+fn capped(mut problems: Vec<InputError>) -> Vec<InputError> {
+    if problems.len() > MAX_REPORTED_PROBLEMS {
+        let more = problems.len() - MAX_REPORTED_PROBLEMS;
+        problems.truncate(MAX_REPORTED_PROBLEMS);
+        problems.push(InputError::new("(submission)", "(problems)", format!("{more} more problems not listed")));
+    }
+    problems
+}
+
+/// `<lighting>/<scene>` of every sequence of the release the submission has no map for.
+fn missing_maps(release: &ReleaseIndex, entries: &BTreeMap<(crate::scores::Lighting, String), SceneEntry>) -> Vec<String> {
+    release
+        .lightings
+        .iter()
+        .flat_map(|l| release.scenes.iter().map(move |s| (l, s)))
+        .filter(|(l, s)| !entries.get(&(**l, s.id.clone())).is_some_and(|e| e.map.is_some()))
+        .map(|(l, s)| format!("{l}/{}", s.id))
+        .collect()
 }
 
 /// Labels must be release classes; features need text features of the same dimension.

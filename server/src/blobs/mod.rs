@@ -19,7 +19,7 @@ use std::sync::Arc;
 use bytes::Bytes;
 use futures_util::stream::{BoxStream, StreamExt, TryStreamExt};
 
-pub use object::{ObjectConfig, Unavailable};
+pub use object::{ObjectConfig, StoredObject, Unavailable};
 pub use scratch::{Scratch, ScratchSpace};
 
 use local::LocalBlobs;
@@ -40,16 +40,6 @@ pub struct Blobs {
     cache: PathBuf,
     /// One release download into the cache at a time in this process.
     caching: Arc<tokio::sync::Mutex<()>>,
-}
-
-/// An object as the object store lists it: what a backup of a bucket deployment records.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct StoredObject {
-    pub key: String,
-    pub size: u64,
-    /// The store's entity tag (for single-part uploads to S3, the MD5 of the bytes).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub e_tag: Option<String>,
 }
 
 fn check_key(key: &str) -> io::Result<()> {
@@ -235,8 +225,8 @@ impl Blobs {
     /// there is no such release in the store. From the object store it is downloaded
     /// once per node and kept (a stored release never changes).
     pub async fn release(&self, version: &str) -> io::Result<Option<PathBuf>> {
-        crate::releases::check_version(version).map_err(|m| io::Error::new(io::ErrorKind::InvalidInput, m))?;
-        let prefix = crate::releases::release_prefix(version);
+        crate::release_names::check_version(version).map_err(|m| io::Error::new(io::ErrorKind::InvalidInput, m))?;
+        let prefix = crate::release_names::release_prefix(version);
         let object = match &self.backend {
             Backend::Local(local) => {
                 let dir = local.path(&prefix);

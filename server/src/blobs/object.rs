@@ -16,6 +16,16 @@ use object_store::path::Path as ObjectPath;
 use object_store::{ClientOptions, GetOptions, GetRange, ObjectStore, ObjectStoreExt, PutPayload, RetryConfig, WriteMultipart};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
+/// An object as the object store lists it: what a backup of a bucket deployment records.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct StoredObject {
+    pub key: String,
+    pub size: u64,
+    /// The store's entity tag (for single-part uploads to S3, the MD5 of the bytes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub e_tag: Option<String>,
+}
+
 /// Objects larger than this are uploaded in parts of this size.
 const PART_SIZE: usize = 8 * 1024 * 1024;
 /// Requests of one folder's transfer in flight at once. Against moto (the tests' store) 32
@@ -205,14 +215,14 @@ impl ObjectBlobs {
     }
 
     /// Every object of this deployment (under its key prefix), sorted by key.
-    pub async fn inventory(&self) -> io::Result<Vec<super::StoredObject>> {
+    pub async fn inventory(&self) -> io::Result<Vec<StoredObject>> {
         let base = (!self.prefix.is_empty()).then(|| ObjectPath::from(self.prefix.as_str()));
         let strip = if self.prefix.is_empty() { String::new() } else { format!("{}/", base.as_ref().expect("a prefix").as_ref()) };
-        let mut objects: Vec<super::StoredObject> = self
+        let mut objects: Vec<StoredObject> = self
             .store
             .list(base.as_ref())
             .map_err(io_error)
-            .map_ok(|meta| super::StoredObject {
+            .map_ok(|meta| StoredObject {
                 key: meta.location.as_ref().strip_prefix(&strip).unwrap_or(meta.location.as_ref()).to_string(),
                 size: meta.size,
                 e_tag: meta.e_tag,
@@ -224,9 +234,9 @@ impl ObjectBlobs {
     }
 
     /// `key` as stored (its size and ETag), if it is.
-    pub async fn stored(&self, key: &str) -> io::Result<Option<super::StoredObject>> {
+    pub async fn stored(&self, key: &str) -> io::Result<Option<StoredObject>> {
         match self.store.head(&self.location(key)).await {
-            Ok(meta) => Ok(Some(super::StoredObject { key: key.to_string(), size: meta.size, e_tag: meta.e_tag })),
+            Ok(meta) => Ok(Some(StoredObject { key: key.to_string(), size: meta.size, e_tag: meta.e_tag })),
             Err(object_store::Error::NotFound { .. }) => Ok(None),
             Err(e) => Err(io_error(e)),
         }

@@ -172,7 +172,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Convert { scene, out } => convert(&scene, &out),
         SceneCommand::Assets { pack } => check_assets(&pack),
         SceneCommand::Render { habitat, out, lightings, width, height, hfov, sensor_height, pitch, goals, prompted, seed, max_frames } => {
-            let sensor = osmab_dataset::render::sequence::SensorSettings { width, height, hfov, sensor_height, camera_pitch_deg: pitch, ..Default::default() };
+            let sensor = osmab_dataset::render::camera::SensorSettings { width, height, hfov, sensor_height, camera_pitch_deg: pitch, ..Default::default() };
             if let Some((field, expectation)) = sensor.problem() {
                 bail!("--{}: {expectation}", field.replace('_', "-"));
             }

@@ -92,7 +92,7 @@ pub fn worker(args: WorkerArgs) -> anyhow::Result<()> {
 /// `osmab rotate-receipt-key`: a new key in the data directory's `receipt-keys/`.
 pub fn rotate_receipt_key(args: ServiceArgs) -> anyhow::Result<()> {
     let settings = settings(&args)?;
-    let dir = settings.data_dir.join(crate::serve::RECEIPT_KEYS);
+    let dir = settings.data_dir.join(crate::receipts::keys::RECEIPT_KEYS);
     let path = crate::receipts::keys::generate(&dir)?;
     if let Some(config) = &settings.storage {
         // Shared with every node through the object store.

@@ -18,8 +18,6 @@ use crate::clock::{new_id, now_ms};
 use crate::state::AppState;
 use crate::store::{ClaimedJob, NewJob, StoreError};
 
-pub use worker::run_worker;
-
 /// A kind of background job: its payload is the job's parameters, stored as JSON.
 pub trait Job: Serialize + DeserializeOwned + Send + 'static {
     /// The kind as stored in the queue.
@@ -76,22 +74,6 @@ pub async fn enqueue<J: Job>(state: &AppState, job: &J) -> Result<String, StoreE
     let record = new_job(job, state);
     state.store.enqueue(&record).await?;
     Ok(record.id)
-}
-
-/// Run a claimed job of kind `J`: its payload parsed, then its work.
-async fn dispatch<J: Job>(ctx: JobContext) -> Result<(), JobError> {
-    let job: J = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("{} payload: {e}", J::KIND)))?;
-    job.run(ctx).await
-}
-
-/// Run a claimed job by its kind.
-async fn run_job(ctx: JobContext) -> Result<(), JobError> {
-    match ctx.job.kind.as_str() {
-        scoring::ScoreSubmission::KIND => dispatch::<scoring::ScoreSubmission>(ctx).await,
-        release_build::BuildRelease::KIND => dispatch::<release_build::BuildRelease>(ctx).await,
-        release_build::RenderSequence::KIND => dispatch::<release_build::RenderSequence>(ctx).await,
-        other => Err(JobError::Permanent(format!("unknown job kind '{other}'"))),
-    }
 }
 
 /// What a running job may do besides its work: report progress.

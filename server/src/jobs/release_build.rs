@@ -33,8 +33,7 @@ const WAIT_FOR_RENDERING: std::time::Duration = std::time::Duration::from_secs(2
 /// The configuration of the demo release built on an empty data directory.
 pub const DEMO_CONFIG: &str = include_str!("../../../configs/release-demo.toml");
 
-/// Name of the team that owns the reference baselines.
-pub const BASELINE_TEAM: &str = "OSMa-Bench baselines";
+pub use crate::reserved_names::BASELINE_TEAM;
 
 /// Build the release a config describes (its `version` is the job's subject).
 #[derive(Debug, Clone, Serialize, Deserialize)]

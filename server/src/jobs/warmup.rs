@@ -56,9 +56,9 @@ struct Tally {
 /// Make one more scene of the current release ready if any is left; whether this did any
 /// work (then the caller looks for a job again at once instead of sleeping). Only one
 /// worker of a process does this at a time, and none when the cache is turned off.
-pub async fn warm_next_scene(state: &AppState) -> bool {
+pub async fn warm_next_scene(state: &AppState, warmup: &tokio::sync::Mutex<Warmup>) -> bool {
     let Some(cache) = ground_truth_cache(&state.settings) else { return false };
-    let Ok(mut warmup) = state.warmup.try_lock() else { return false };
+    let Ok(mut warmup) = warmup.try_lock() else { return false };
     follow_the_current_release(state, &mut warmup).await;
     let (Some(scene), Some(index)) = (warmup.pending.pop(), warmup.index.clone()) else { return false };
     let warmed = tokio::task::spawn_blocking({

@@ -3,13 +3,15 @@
 //! job whose worker died is claimed again once its lease expires; after
 //! `job_max_attempts` it fails with an explanation instead of looping.
 
+use std::sync::Arc;
 use std::time::Duration;
 
-use tokio::sync::watch;
+use tokio::sync::{Mutex, watch};
 use tracing::Instrument;
 
 use super::scoring::ScoreSubmission;
-use super::{Job, JobContext, JobError, run_job};
+use super::warmup::Warmup;
+use super::{Job, JobContext, JobError, release_build, scoring};
 use crate::clock::now_ms;
 use crate::state::AppState;
 use crate::store::{ClaimedJob, JobState, SubmissionState};
@@ -132,8 +134,25 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
     }
 }
 
-/// Claim and run jobs until `shutdown` turns true.
-pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Receiver<bool>) {
+/// Run a claimed job of kind `J`: its payload parsed, then its work.
+async fn dispatch<J: Job>(ctx: JobContext) -> Result<(), JobError> {
+    let job: J = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("{} payload: {e}", J::KIND)))?;
+    job.run(ctx).await
+}
+
+/// Run a claimed job by its kind.
+async fn run_job(ctx: JobContext) -> Result<(), JobError> {
+    match ctx.job.kind.as_str() {
+        scoring::ScoreSubmission::KIND => dispatch::<scoring::ScoreSubmission>(ctx).await,
+        release_build::BuildRelease::KIND => dispatch::<release_build::BuildRelease>(ctx).await,
+        release_build::RenderSequence::KIND => dispatch::<release_build::RenderSequence>(ctx).await,
+        other => Err(JobError::Permanent(format!("unknown job kind '{other}'"))),
+    }
+}
+
+/// Claim and run jobs until `shutdown` turns true; while idle, make the current release
+/// ready to score (`warmup`, shared by the process's workers so one at a time does it).
+pub async fn run_worker(state: AppState, owner: String, warmup: Arc<Mutex<Warmup>>, mut shutdown: watch::Receiver<bool>) {
     tracing::info!(worker = %owner, "worker started");
     let poll = Duration::from_millis(state.settings.poll_ms);
     let lease_ms = (state.settings.job_lease_secs * 1000) as i64;
@@ -145,7 +164,7 @@ pub async fn run_worker(state: AppState, owner: String, mut shutdown: watch::Rec
                 process(&state, &owner, job, shutdown.clone()).instrument(span).await
             }
             Ok(None) => {
-                if super::warmup::warm_next_scene(&state).await {
+                if super::warmup::warm_next_scene(&state, &warmup).await {
                     continue;
                 }
                 tokio::select! {

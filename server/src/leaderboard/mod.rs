@@ -21,8 +21,7 @@ use ranking::{MIN_SCENES_FOR_GROUPS, Standing, rank_groups};
 
 use crate::store::LeaderboardRow;
 
-/// The team shown for an entry that stays anonymous.
-pub const ANONYMOUS: &str = "Anonymous";
+pub use crate::reserved_names::ANONYMOUS;
 
 /// One row of the leaderboard.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]

@@ -11,6 +11,9 @@ use ed25519_dalek::SigningKey;
 
 use super::jws::{Jwk, Jwks, thumbprint};
 
+/// The folder (in the data directory) and blob prefix of the receipt-signing keys.
+pub const RECEIPT_KEYS: &str = "receipt-keys";
+
 /// The keys of this service: the newest signs, all verify.
 pub struct ReceiptKeys {
     signing: SigningKey,

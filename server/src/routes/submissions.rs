@@ -152,149 +152,43 @@ pub async fn create(
     headers: HeaderMap,
     body: Body,
 ) -> ApiResult<Response> {
-    let max = state.settings.max_upload_bytes;
     let declared_length = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok());
     // Refusals before the upload is read still read (and drop) a modest body first:
     // a client answered while it is still sending sees a broken pipe, not the answer.
-    let TeamCaller(team) = match caller {
-        Ok(caller) => caller,
+    let (team, query, declared) = match read_request(caller, query, &headers) {
+        Ok(read) => read,
         Err(problem) => return Err(drain_then(body, declared_length, problem).await),
-    };
-    let ApiQuery(query) = match query {
-        Ok(query) => query,
-        Err(problem) => return Err(drain_then(body, declared_length, problem).await),
-    };
-    let key = match idempotency_key(&headers) {
-        Ok(key) => key,
-        Err(problem) => return Err(drain_then(body, declared_length, problem).await),
-    };
-    let declared_digest = match headers.get("content-digest").and_then(|v| v.to_str().ok()).map(declared_sha256) {
-        Some(Ok(digest)) => digest,
-        Some(Err(problem)) => return Err(drain_then(body, declared_length, problem).await),
-        None => None,
     };
     // A completed resumable upload instead of a body: joined from its parts, then taken
     // exactly as a direct upload.
     let assembled = match query.upload.as_deref() {
         Some(upload_id) => match uploads::assemble(&state, &team, upload_id).await {
-            Ok(Assembled::Finished(id)) => {
-                let (status, id, body) = repeat_answer(&state, &team, id).await?;
-                return Ok((status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response());
-            }
+            Ok(Assembled::Finished(id)) => return Ok(located(repeat_answer(&state, &team, id).await?)),
             Ok(Assembled::Ready(upload, scratch)) => Some((upload, scratch)),
             Err(problem) => return Err(drain_then(body, declared_length, problem).await),
         },
         None => None,
     };
-    if !query.dry_run {
-        let default = intake::default_split(&state).await?;
-        let refusal = Quota::refusal_before_upload(&state, &team, query.split, default).await?;
-        if let Some(quota) = refusal {
-            // A repeat costs no quota: with the quota used up, an upload that names an earlier
-            // submission (its key, or its declared digest) is still read and answered.
-            let may_repeat = match (&key, declared_digest) {
-                (None, None) => false,
-                _ => {
-                    let digest = declared_digest.map(|d| hex(&d)).unwrap_or_default();
-                    state.store.repeated_submission(&team.id, &digest, quota.split, key.as_deref()).await?.is_some()
-                }
-            };
-            if !may_repeat {
-                return Err(drain_then(body, declared_length, quota_exceeded(quota)).await);
-            }
-        }
+    if !query.dry_run
+        && let Some(problem) = quota_refusal(&state, &team, &query, &declared).await?
+    {
+        return Err(drain_then(body, declared_length, problem).await);
     }
     let (upload, _upload_scratch) = match assembled {
         Some(assembled) => assembled,
-        None => {
-            if declared_length.is_some_and(|n| n > max) {
-                return Err(too_large(max));
-            }
-            let (upload, scratch) = receive(&state, body, max).await?;
-            if let Some(length) = declared_length
-                && length != upload.size
-            {
-                return Err(Problem::bad_request(
-                    "upload_incomplete",
-                    format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size),
-                ));
-            }
-            (upload, scratch)
-        }
+        None => read_body(&state, body, declared_length).await?,
     };
-    if let Some(expected) = declared_digest
-        && expected != upload.sha256
-    {
-        return Err(Problem::new(
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "digest_mismatch",
-            "Checksum mismatch",
-            format!(
-                "The upload's SHA-256 is {} but Content-Digest declared another; the file changed or was corrupted on the way. Nothing was stored; upload again.",
-                upload.sha256_hex()
-            ),
-        ));
-    }
-    let request = intake::Request {
-        dry_run: query.dry_run,
-        public: query.public.unwrap_or(true),
-        baseline: false,
-        idempotency_key: key,
-        enforce_quota: true,
-        release: None,
-        split: query.split,
-    };
-    let accepted = match intake::accept(&state, &team, &upload, &request).await {
-        Ok(accepted) => accepted,
-        Err(e) => {
-            let problem = Problem::from(e);
-            // The bytes of a resumable upload that are not a valid submission never will be:
-            // it is removed, so it does not hold the team's open-upload room for a day.
-            if let Some(upload_id) = query.upload.as_deref()
-                && ["invalid_archive", "invalid_submission", "digest_mismatch"].contains(&problem.code)
-                && let Err(e) = uploads::terminate(&state, &team, upload_id).await
-            {
-                tracing::warn!(upload = %upload_id, error = %e.detail, "a refused upload could not be removed; it expires on its own");
-            }
-            return Err(problem);
-        }
-    };
-    let (status, id, body) = match accepted {
-        Accepted::Valid { submission: valid, split } => {
-            let entries = valid
-                .entries
-                .iter()
-                .map(|e| CoveredEntry {
-                    answers: e.answers.is_some(),
-                    graph: e.graph.is_some(),
-                    lighting: e.lighting,
-                    map: e.map.is_some(),
-                    scene: e.scene.clone(),
-                })
-                .collect();
-            let report = DryRun {
-                complete: valid.complete,
-                entries,
-                method: valid.method,
-                missing_maps: valid.missing_maps,
-                outside_split: valid.outside_split,
-                points: valid.points,
-                release: valid.release,
-                sha256: upload.sha256_hex(),
-                size: upload.size,
-                split,
-                valid: true,
-            };
-            return Ok(axum::Json(report).into_response());
-        }
+    declared.check(&upload)?;
+    let accepted = accept(&state, &team, &upload, &query, declared.key).await?;
+    let answer = match accepted {
+        Accepted::Valid { submission, split } => return Ok(axum::Json(dry_run_report(submission, split, &upload)).into_response()),
         Accepted::Repeat { id } => repeat_answer(&state, &team, id).await?,
         Accepted::New { id, submission, split, quota } => {
             tracing::info!(submission = %id, team = %team.name, size = upload.size, "submission accepted");
-            let quota = quota.expect("the quota is enforced").view();
             let body = Created {
                 complete: submission.complete,
                 missing_maps: Some(submission.missing_maps),
-                quota,
+                quota: quota.expect("the quota is enforced").view(),
                 repeat: false,
                 split,
                 state: SubmissionState::Queued,
@@ -305,9 +199,131 @@ pub async fn create(
         }
     };
     if let Some(upload_id) = query.upload.as_deref() {
-        uploads::finish(&state, upload_id, &id).await;
+        uploads::finish(&state, upload_id, &answer.1).await;
     }
-    Ok((status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response())
+    Ok(located(answer))
+}
+
+/// What an upload's headers declare of it: the idempotency key, the SHA-256.
+struct Declared {
+    key: Option<String>,
+    sha256: Option<[u8; 32]>,
+}
+
+impl Declared {
+    /// A refusal when the upload's SHA-256 is not the one declared.
+    fn check(&self, upload: &intake::Upload) -> ApiResult<()> {
+        match self.sha256 {
+            Some(expected) if expected != upload.sha256 => Err(Problem::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "digest_mismatch",
+                "Checksum mismatch",
+                format!(
+                    "The upload's SHA-256 is {} but Content-Digest declared another; the file changed or was corrupted on the way. Nothing was stored; upload again.",
+                    upload.sha256_hex()
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The caller, the query and what the headers declare, or the first refusal.
+fn read_request(
+    caller: Result<TeamCaller, Problem>,
+    query: Result<ApiQuery<UploadQuery>, Problem>,
+    headers: &HeaderMap,
+) -> Result<(crate::store::Team, UploadQuery, Declared), Problem> {
+    let TeamCaller(team) = caller?;
+    let ApiQuery(query) = query?;
+    let key = idempotency_key(headers)?;
+    let sha256 = headers.get("content-digest").and_then(|v| v.to_str().ok()).map(declared_sha256).transpose()?.flatten();
+    Ok((team, query, Declared { key, sha256 }))
+}
+
+/// The quota refusal of a new upload, if the team has none left. A repeat costs no quota:
+/// with the quota used up, an upload that names an earlier submission (its key, or its
+/// declared digest) is still read and answered.
+async fn quota_refusal(state: &AppState, team: &crate::store::Team, query: &UploadQuery, declared: &Declared) -> ApiResult<Option<Problem>> {
+    let default = intake::default_split(state).await?;
+    let Some(quota) = Quota::refusal_before_upload(state, team, query.split, default).await? else { return Ok(None) };
+    let may_repeat = match (&declared.key, declared.sha256) {
+        (None, None) => false,
+        _ => {
+            let digest = declared.sha256.map(|d| hex(&d)).unwrap_or_default();
+            state.store.repeated_submission(&team.id, &digest, quota.split, declared.key.as_deref()).await?.is_some()
+        }
+    };
+    Ok((!may_repeat).then(|| quota_exceeded(quota)))
+}
+
+/// The request body as an upload in scratch space: no more than the service takes, and
+/// exactly as long as declared.
+async fn read_body(state: &AppState, body: Body, declared_length: Option<u64>) -> ApiResult<(intake::Upload, crate::blobs::Scratch)> {
+    let max = state.settings.max_upload_bytes;
+    if declared_length.is_some_and(|n| n > max) {
+        return Err(too_large(max));
+    }
+    let (upload, scratch) = receive(state, body, max).await?;
+    match declared_length {
+        Some(length) if length != upload.size => {
+            Err(Problem::bad_request("upload_incomplete", format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size)))
+        }
+        _ => Ok((upload, scratch)),
+    }
+}
+
+/// `intake::accept` of a team's upload. The bytes of a resumable upload that are not a
+/// valid submission never will be: it is removed, so it does not hold the team's
+/// open-upload room for a day.
+async fn accept(state: &AppState, team: &crate::store::Team, upload: &intake::Upload, query: &UploadQuery, key: Option<String>) -> ApiResult<Accepted> {
+    let request = intake::Request {
+        dry_run: query.dry_run,
+        public: query.public.unwrap_or(true),
+        baseline: false,
+        idempotency_key: key,
+        enforce_quota: true,
+        release: None,
+        split: query.split,
+    };
+    let problem = match intake::accept(state, team, upload, &request).await {
+        Ok(accepted) => return Ok(accepted),
+        Err(e) => Problem::from(e),
+    };
+    if let Some(upload_id) = query.upload.as_deref()
+        && ["invalid_archive", "invalid_submission", "digest_mismatch"].contains(&problem.code)
+        && let Err(e) = uploads::terminate(state, team, upload_id).await
+    {
+        tracing::warn!(upload = %upload_id, error = %e.detail, "a refused upload could not be removed; it expires on its own");
+    }
+    Err(problem)
+}
+
+/// A dry run's answer: what the valid upload covers.
+fn dry_run_report(valid: osmab_evaluator::submission::ValidSubmission, split: Split, upload: &intake::Upload) -> DryRun {
+    let entries = valid
+        .entries
+        .iter()
+        .map(|e| CoveredEntry { answers: e.answers.is_some(), graph: e.graph.is_some(), lighting: e.lighting, map: e.map.is_some(), scene: e.scene.clone() })
+        .collect();
+    DryRun {
+        complete: valid.complete,
+        entries,
+        method: valid.method,
+        missing_maps: valid.missing_maps,
+        outside_split: valid.outside_split,
+        points: valid.points,
+        release: valid.release,
+        sha256: upload.sha256_hex(),
+        size: upload.size,
+        split,
+        valid: true,
+    }
+}
+
+/// A submission's answer with its `Location`.
+fn located((status, id, body): (StatusCode, String, Created)) -> Response {
+    (status, [(header::LOCATION, format!("/api/v1/submissions/{id}"))], axum::Json(body)).into_response()
 }
 
 /// The 200 of an upload that repeats the team's earlier submission `id`.

@@ -1,6 +1,7 @@
 //! Admin regeneration: a release built through the API, its rendering fanned out as one
 //! job per scene and lighting over the workers, ends bit-identical to the same config
-//! built in one go by `osmab release build`, and is published.
+//! built in one go by `osmab release build` (but for the front matter naming its version),
+//! and is published.
 
 use std::time::{Duration, Instant};
 
@@ -54,7 +55,19 @@ fn a_release_built_through_the_api_fans_out_its_rendering(backend: Backend) {
     // The result is the release `osmab release build` makes of the same config, published.
     let built: Value = serde_json::from_slice(&std::fs::read(test_release().join("manifest.json")).unwrap()).unwrap();
     let release: Value = server.get("/api/v1/releases/regen-1").send().unwrap().json().unwrap();
-    assert_eq!(release["digest"], built["digest"], "{release}");
+    // Every file is the same but the front matter (README.md, LICENSE, CITATION.cff), which
+    // names each release's own version.
+    let served: Value = server.get("/api/v1/releases/regen-1/manifest.json").send().unwrap().json().unwrap();
+    let front_matter = osmab_dataset::release::front_matter::FILES;
+    let files = |manifest: &Value| -> Vec<Value> {
+        manifest["files"].as_array().unwrap().iter().filter(|f| !front_matter.contains(&f["path"].as_str().unwrap())).cloned().collect()
+    };
+    assert_eq!(files(&served), files(&built), "the same files, byte for byte");
+    assert_ne!(release["digest"], built["digest"], "another version, another front matter: {release}");
+    for name in front_matter {
+        let text = server.get(&format!("/api/v1/releases/regen-1/files/{name}")).send().unwrap().text().unwrap();
+        assert!(text.contains("regen-1") && !text.contains("e2e-1"), "{name} names its own release: {text}");
+    }
     assert_eq!(release["state"], "published", "{release}");
     assert_eq!(release["current"], true, "{release}");
 

@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+"""Circles of imports between the modules of each crate: a module A "imports" B when a
+file of A names `crate::B…`, `super::…`, `self::…` or a child module's path resolving to B,
+in a `use` or inline. Re-exports (`pub use`) do not count: they are a module's interface,
+not what its code needs. Prints every strongly connected set of more than one module and
+exits 1 when there is one (a parent module using its child's items while the child uses
+the parent's is a circle too).
+
+    python3 tests/house/import_cycles.py [--crate server] [--verbose]
+
+Standard library only. A module is a file (`a/b.rs` or `a/b/mod.rs` is module `a::b`);
+`#[cfg(test)] mod tests` blocks inside a file are skipped (tests may look anywhere).
+"""
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+CRATES = {"cpu": "cpu/src", "dataset": "dataset/src", "evaluator": "evaluator/src", "server": "server/src", "xtask": "xtask/src"}
+
+
+def modules_of(src: Path) -> dict[str, Path]:
+    mods = {}
+    for path in src.rglob("*.rs"):
+        rel = path.relative_to(src).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "mod" or (len(parts) == 1 and parts[0] in ("lib", "main")):
+            parts = parts[:-1]
+        mods["::".join(parts)] = path
+    return mods
+
+
+def strip_tests(text: str) -> str:
+    """Drop `#[cfg(test)] mod name { … }` blocks (brace-matched) and comments."""
+    text = re.sub(r"//[^\n]*", "", text)
+    out, i = [], 0
+    for m in re.finditer(r"#\[cfg\(test\)\]\s*(pub\s+)?mod\s+\w+\s*\{", text):
+        if m.start() < i:
+            continue
+        out.append(text[i : m.start()])
+        depth, j = 1, m.end()
+        while j < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+        i = j
+    out.append(text[i:])
+    return "".join(out)
+
+
+def resolve(path: list[str], mods: dict[str, Path]) -> str | None:
+    """The longest module prefix of `path`."""
+    for n in range(len(path), 0, -1):
+        name = "::".join(path[:n])
+        if name in mods:
+            return name
+    return None
+
+
+def expand_use(body: str) -> list[str]:
+    """`a::{b, c::{d, e}}` → ["a::b", "a::c::d", "a::c::e"] (roughly; enough for module paths)."""
+    body = re.sub(r"\s+", "", body)
+    m = re.match(r"^(.*?)\{(.*)\}$", body)
+    if not m:
+        return [body]
+    prefix, inner = m.group(1), m.group(2)
+    items, depth, cur = [], 0, ""
+    for ch in inner:
+        if ch == "," and depth == 0:
+            items.append(cur)
+            cur = ""
+            continue
+        depth += {"{": 1, "}": -1}.get(ch, 0)
+        cur += ch
+    if cur:
+        items.append(cur)
+    return [p for item in items for p in expand_use(prefix + item)]
+
+
+def edges_of(name: str, path: Path, mods: dict[str, Path]) -> dict[str, str]:
+    text = strip_tests(path.read_text())
+    here = name.split("::") if name else []
+    found: dict[str, str] = {}
+    paths = []
+    # A re-export (`pub use`) is the module's interface, not a dependency of its code.
+    for m in re.finditer(r"(\bpub(?:\([^)]*\))?\s+)?\buse\s+([^;]+);", text):
+        if not m.group(1):
+            paths.extend(expand_use(m.group(2)))
+    without_uses = re.sub(r"\buse\s+[^;]+;", "", text)
+    paths.extend(m.group(0) for m in re.finditer(r"\b(?:crate|super)(?:::\w+)+", without_uses))
+    for p in paths:
+        parts = [x for x in p.split(" as ")[0].split("::") if x]
+        if not parts:
+            continue
+        if parts[0] == "crate":
+            target = parts[1:]
+        elif parts[0] == "super":
+            base = list(here)
+            while parts and parts[0] == "super":
+                base = base[:-1]
+                parts = parts[1:]
+            target = base + parts
+        elif parts[0] == "self":
+            target = here + parts[1:]
+        elif "::".join(here + parts[:1]) in mods:
+            target = here + parts  # `use child::Item`
+        else:
+            continue
+        to = resolve(target, mods)
+        if to is None or to == name:
+            continue
+        found.setdefault(to, p)
+    return found
+
+
+def sccs(graph: dict[str, set[str]]) -> list[list[str]]:
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    sys.setrecursionlimit(10000)
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in list(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--crate", choices=sorted(CRATES), action="append")
+    ap.add_argument("--verbose", action="store_true", help="print the import behind each edge of a circle")
+    args = ap.parse_args()
+    bad = 0
+    for crate in args.crate or sorted(CRATES):
+        mods = modules_of(ROOT / CRATES[crate])
+        edges = {name: edges_of(name, path, mods) for name, path in mods.items()}
+        graph = {name: set(e) for name, e in edges.items()}
+        for comp in sccs(graph):
+            bad += 1
+            print(f"{crate}: a circle of {len(comp)} modules: {', '.join(m or '(root)' for m in comp)}")
+            if args.verbose:
+                for a in comp:
+                    for b in comp:
+                        if b in edges[a]:
+                            print(f"    {a or '(root)'} -> {b or '(root)'}   ({edges[a][b]})")
+    if not bad:
+        print("no circle of imports in " + ", ".join(args.crate or sorted(CRATES)))
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -3,6 +3,7 @@
 mod admin;
 mod baseline;
 mod bench;
+mod bench_dataset;
 mod bench_questions;
 mod bench_submission;
 mod bench_vqa;

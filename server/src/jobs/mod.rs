@@ -2,6 +2,7 @@
 //! [`enqueue`] and run by [`worker`]s that hold a lease on it while it runs. A run ends
 //! in success, a [`JobError`] that says whether retrying can help, or a wait.
 
+pub mod progress;
 pub mod release_build;
 pub mod scoring;
 pub mod warmup;
@@ -12,11 +13,11 @@ use std::time::Duration;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-use serde_json::Value;
 
 use crate::clock::{new_id, now_ms};
 use crate::state::AppState;
 use crate::store::{ClaimedJob, NewJob, StoreError};
+use progress::Progress;
 
 /// A kind of background job: its payload is the job's parameters, stored as JSON.
 pub trait Job: Serialize + DeserializeOwned + Send + 'static {
@@ -86,14 +87,15 @@ pub struct JobContext {
 
 impl JobContext {
     /// Record `progress` on the job (visible in `GET /api/v1/jobs/{id}`).
-    pub async fn progress(&self, progress: &Value) {
-        if let Err(e) = self.state.store.set_job_progress(&self.job.id, &self.owner, &progress.to_string(), now_ms()).await {
+    pub async fn progress(&self, progress: &Progress) {
+        let text = serde_json::to_string(progress).expect("progress serialises");
+        if let Err(e) = self.state.store.set_job_progress(&self.job.id, &self.owner, &text, now_ms()).await {
             tracing::warn!(job = %self.job.id, error = %e, "could not record progress");
         }
     }
 
     /// As [`JobContext::progress`], from blocking code.
-    pub fn progress_blocking(&self, progress: &Value) {
+    pub fn progress_blocking(&self, progress: &Progress) {
         tokio::runtime::Handle::current().block_on(self.progress(progress));
     }
 }

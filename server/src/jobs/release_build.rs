@@ -16,9 +16,9 @@ use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, rende
 use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::pack_directory;
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 use sha2::{Digest, Sha256};
 
+use super::progress::{Progress, Stage};
 use super::{Job, JobContext, JobError};
 use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms};
@@ -124,7 +124,7 @@ async fn push_build(state: &AppState, version: &str) -> Result<(), JobError> {
 /// Run `stage` of the build off the runtime, its progress lines shown on the job.
 async fn blocking_stage<T: Send + 'static>(
     ctx: &JobContext,
-    stage: &'static str,
+    stage: Stage,
     work: impl FnOnce(&dyn Fn(&str)) -> osmab_evaluator::Result<T> + Send + 'static,
 ) -> Result<T, JobError> {
     let blocking_ctx = ctx.clone();
@@ -133,13 +133,13 @@ async fn blocking_stage<T: Send + 'static>(
         let progress = |message: &str| {
             let mut log = log.borrow_mut();
             log.push(message.to_string());
-            let tail: Vec<&String> = log.iter().rev().take(20).rev().collect();
-            blocking_ctx.progress_blocking(&json!({"stage": stage, "message": message, "log": tail}));
+            let tail: Vec<String> = log.iter().rev().take(20).rev().cloned().collect();
+            blocking_ctx.progress_blocking(&Progress { log: Some(tail), ..Progress::at(stage, message) });
         };
         work(&progress).map_err(|e| JobError::Permanent(format!("release build: {e}")))
     })
     .await
-    .map_err(|e| JobError::Retryable(format!("the {stage} stage ended: {e}")))?
+    .map_err(|e| JobError::Retryable(format!("the {} stage ended: {e}", stage.name())))?
 }
 
 /// Where the rendering of a build stands.
@@ -152,8 +152,7 @@ enum Rendering {
 
 /// The sequences a build job fanned out, as recorded in its progress.
 fn fanned_out(progress: &str) -> Option<Vec<String>> {
-    let value: serde_json::Value = serde_json::from_str(progress).ok()?;
-    serde_json::from_value(value.get("fanned_out")?.clone()).ok()
+    Progress::read(progress).fanned_out
 }
 
 /// Prepare the build (stages 1–4) and queue a render job for every sequence not rendered
@@ -161,7 +160,7 @@ fn fanned_out(progress: &str) -> Option<Vec<String>> {
 async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
     let (config, out_dir, secret) = (config_path.to_path_buf(), out.to_path_buf(), ctx.state.split_secret.clone());
     pull_build(&ctx.state, version).await?;
-    let units = blocking_stage(ctx, "prepare", move |progress| prepare_release(&config, &out_dir, Some(&secret), progress)).await?;
+    let units = blocking_stage(ctx, Stage::Prepare, move |progress| prepare_release(&config, &out_dir, Some(&secret), progress)).await?;
     push_build(&ctx.state, version).await?;
     let mut subjects = Vec::new();
     for (unit, rendered) in units {
@@ -202,13 +201,12 @@ async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Resu
         return Ok(Rendering::Done);
     }
     let total = subjects.len();
-    ctx.progress(&json!({
-        "stage": "rendering",
-        "message": format!("{done} of {total} sequences rendered"),
-        "fanned_out": subjects,
-        "rendered": done,
-        "waiting_for": running,
-    }))
+    ctx.progress(&Progress {
+        fanned_out: Some(subjects.to_vec()),
+        rendered: Some(done),
+        waiting_for: Some(running.iter().map(|s| s.to_string()).collect()),
+        ..Progress::at(Stage::Rendering, format!("{done} of {total} sequences rendered"))
+    })
     .await;
     Ok(Rendering::Running { done, total })
 }
@@ -227,7 +225,7 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
             None => {
                 let subjects = fan_out(&ctx, &version, &config_path, &out).await?;
                 let message = format!("{} sequences queued for rendering", subjects.len());
-                ctx.progress(&json!({"stage": "rendering", "message": message, "fanned_out": subjects, "rendered": 0})).await;
+                ctx.progress(&Progress { fanned_out: Some(subjects.clone()), rendered: Some(0), ..Progress::at(Stage::Rendering, message) }).await;
                 subjects
             }
         };
@@ -237,8 +235,8 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
         }
         pull_build(state, &version).await?;
         let (config_for_build, out_for_build, secret) = (config_path.clone(), out.clone(), state.split_secret.clone());
-        blocking_stage(&ctx, "assemble", move |progress| build_release(&config_for_build, &out_for_build, Some(&secret), progress)).await?;
-        ctx.progress(&json!({"stage": "import", "message": format!("importing release {version}")})).await;
+        blocking_stage(&ctx, Stage::Assemble, move |progress| build_release(&config_for_build, &out_for_build, Some(&secret), progress)).await?;
+        ctx.progress(&Progress::at(Stage::Import, format!("importing release {version}"))).await;
         let now = now_ms();
         if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
             return Err(JobError::Retryable("the lease was lost during the build; another worker took the job over".into()));
@@ -258,9 +256,9 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
             return Err(JobError::Retryable(format!("release {version} is missing from the blob store")));
         };
         let queued = queue_baselines(state, &version, &release).await?;
-        ctx.progress(&json!({"stage": "baselines", "message": format!("{queued} baseline submissions queued for scoring")})).await;
+        ctx.progress(&Progress::at(Stage::Baselines, format!("{queued} baseline submissions queued for scoring"))).await;
     }
-    ctx.progress(&json!({"stage": "done", "message": format!("release {version} ready")})).await;
+    ctx.progress(&Progress::at(Stage::Done, format!("release {version} ready"))).await;
     if request.publish {
         let board = format!("{}/", state.settings.public_url.as_deref().unwrap_or(""));
         tracing::info!(release = %version, "release {version} is published: the leaderboard is ready at {board}");
@@ -275,7 +273,7 @@ async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError
     let blocking_ctx = ctx.clone();
     let (unit, secret) = (request.unit.clone(), ctx.state.split_secret.clone());
     tokio::task::spawn_blocking(move || {
-        let progress = |message: &str| blocking_ctx.progress_blocking(&json!({"stage": "render", "message": message}));
+        let progress = |message: &str| blocking_ctx.progress_blocking(&Progress::at(Stage::Render, message));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
         render_release_sequence(&config_path, &out, Some(&secret), &unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })

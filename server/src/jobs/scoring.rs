@@ -10,8 +10,8 @@ use osmab_evaluator::semseg::prepared_cache::PreparedCache;
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission_timed, unpack, validate};
 use osmab_evaluator::vqa::score::OpenBackends;
 use serde::{Deserialize, Serialize};
-use serde_json::json;
 
+use super::progress::{Progress, Stage};
 use super::{Job, JobContext, JobError};
 use crate::blobs::Scratch;
 use crate::clock::now_ms;
@@ -91,7 +91,11 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
         let valid =
             validate(&root, &index, limits).map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;
         let progress = |done: usize, total: usize| {
-            blocking_ctx.progress_blocking(&json!({"stage": "scoring", "done": done, "total": total, "message": format!("scored {done} of {total} maps")}));
+            blocking_ctx.progress_blocking(&Progress {
+                done: Some(done),
+                total: Some(total),
+                ..Progress::at(Stage::Scoring, format!("scored {done} of {total} maps"))
+            });
         };
         let open = match &llm {
             Some((answerer, judge)) => OpenBackends { answerer: Some(answerer), judge: Some(judge) },

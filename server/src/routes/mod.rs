@@ -2,6 +2,7 @@
 //! Each module owns the routes, handlers and response shapes of one area.
 
 pub mod admin;
+mod admin_teams;
 mod api_docs;
 mod files;
 mod headers;

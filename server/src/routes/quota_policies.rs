@@ -2,7 +2,6 @@
 //! limit per split (submissions per rolling window), shown to teams by `GET /api/v1/quota`.
 
 use axum::extract::State;
-use axum::http::StatusCode;
 use osmab_evaluator::scores::Split;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -68,7 +67,7 @@ pub async fn list(State(state): State<AppState>, _: AdminCaller) -> ApiResult<ax
 
 /// Set the limit of the split named `split` (the API's and the console's action).
 pub async fn apply(state: &AppState, split: &str, body: &PolicyBody) -> ApiResult<PolicyView> {
-    let invalid = |detail: String| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid request", detail);
+    let invalid = |detail: String| Problem::invalid_request(detail);
     let split: Split = split.parse().map_err(|e: String| Problem::not_found(format!("{e}; see GET /api/v1/admin/quotas")))?;
     if body.limit < 0 {
         return Err(invalid(format!("limit: expected 0 or more submissions per window, found {}", body.limit)));

@@ -8,16 +8,13 @@ use axum::extract::State;
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
-use serde_json::Value;
 
 use super::{AdminMessage, AdminSession};
 use crate::clock::rfc3339;
+use crate::jobs::progress::{Progress, Stage};
 use crate::routes::{ApiPath, ApiQuery};
 use crate::state::AppState;
 use crate::store::{JobRecord, JobState, ReleaseState, StoreError};
-
-/// The stages of a release build, in order, as its job reports them.
-pub const BUILD_STAGES: [&str; 6] = ["prepare", "rendering", "assemble", "import", "baselines", "done"];
 
 pub struct ReleaseRow {
     pub version: String,
@@ -86,8 +83,8 @@ fn subject_version(subject: &str) -> &str {
     subject.split('/').next().unwrap_or(subject)
 }
 
-fn progress_of(job: &JobRecord) -> Value {
-    serde_json::from_str(&job.progress).unwrap_or(Value::Null)
+fn progress_of(job: &JobRecord) -> Progress {
+    Progress::read(&job.progress)
 }
 
 /// How far the render jobs of `version` among `jobs` are.
@@ -107,13 +104,12 @@ fn renders_of(jobs: &[JobRecord], version: &str) -> RenderCounts {
 
 fn build_row(job: &JobRecord, jobs: &[JobRecord]) -> BuildRow {
     let progress = progress_of(job);
-    let text = |k: &str| progress.get(k).and_then(Value::as_str).unwrap_or("").to_string();
     BuildRow {
         job: job.id.clone(),
         version: job.subject.clone(),
         state: job.state.to_string(),
-        stage: text("stage"),
-        message: text("message"),
+        stage: progress.stage.map_or("", Stage::name).to_string(),
+        message: progress.message,
         renders: renders_of(jobs, &job.subject),
         created_at: rfc3339(job.created_at),
     }
@@ -246,42 +242,35 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
         Err(e) => return AdminMessage::problem(e.into()),
     };
     let progress = progress_of(&job);
-    let current = progress.get("stage").and_then(Value::as_str).unwrap_or("");
-    let at = BUILD_STAGES.iter().position(|s| *s == current);
-    let stages = BUILD_STAGES
+    let current = progress.stage.map_or("", Stage::name);
+    let at = Stage::BUILD.iter().position(|s| Some(*s) == progress.stage);
+    let stages = Stage::BUILD
         .iter()
         .enumerate()
-        .map(|(i, &name)| StageStep {
-            name,
+        .map(|(i, &stage)| StageStep {
+            name: stage.name(),
             status: match at {
-                Some(k) if i < k || (i == k && name == "done") => "done",
+                Some(k) if i < k || (i == k && stage == Stage::Done) => "done",
                 Some(k) if i == k => "current",
                 _ => "todo",
             },
         })
         .collect();
-    let log = match progress.get("log") {
-        Some(Value::Array(lines)) => lines.iter().filter_map(Value::as_str).map(str::to_string).collect(),
-        Some(Value::String(text)) => text.lines().map(str::to_string).collect(),
-        _ => Vec::new(),
-    };
+    let log = progress.log.clone().unwrap_or_default();
     let mut renders: Vec<RenderRow> = jobs
         .iter()
         .filter(|j| j.kind == "render_sequence" && subject_version(&j.subject) == job.subject)
-        .map(|j| {
-            let p = progress_of(j);
-            RenderRow {
-                subject: j.subject.clone(),
-                state: j.state.to_string(),
-                attempts: j.attempts,
-                worker: j.lease_owner.clone().unwrap_or_default(),
-                // A finished job's last progress line ("rendering camera") is history.
-                message: match j.state {
-                    JobState::Succeeded => format!("rendered in {}", duration(j.updated_at - j.created_at)),
-                    _ => p.get("message").and_then(Value::as_str).unwrap_or("").to_string(),
-                },
-                error: j.error.clone().unwrap_or_default(),
-            }
+        .map(|j| RenderRow {
+            subject: j.subject.clone(),
+            state: j.state.to_string(),
+            attempts: j.attempts,
+            worker: j.lease_owner.clone().unwrap_or_default(),
+            // A finished job's last progress line ("rendering camera") is history.
+            message: match j.state {
+                JobState::Succeeded => format!("rendered in {}", duration(j.updated_at - j.created_at)),
+                _ => progress_of(j).message,
+            },
+            error: j.error.clone().unwrap_or_default(),
         })
         .collect();
     renders.sort_by(|a, b| a.subject.cmp(&b.subject));

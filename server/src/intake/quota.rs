@@ -54,16 +54,16 @@ pub struct Quota {
 }
 
 /// The quota as the API shows it (fields in the order of their keys).
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct QuotaView {
     pub limit: i64,
     /// When the next submission is possible again, while none is left.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub next_at: Option<String>,
     pub remaining: i64,
     /// When the oldest counted submission leaves the window (one more remains then);
     /// absent while none is counted.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resets_at: Option<String>,
     pub split: Split,
     pub used: i64,

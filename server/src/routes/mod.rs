@@ -15,7 +15,7 @@ pub mod quota_policies;
 mod receipts;
 mod releases;
 pub mod submission_view;
-mod submissions;
+pub mod submissions;
 mod uploads;
 
 use std::time::{Duration, Instant};

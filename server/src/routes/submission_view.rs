@@ -1,11 +1,12 @@
 //! A submission as the API shows it and its page renders it: the record, its history,
 //! its jobs, its scores (the latest document in full, and the list of earlier ones).
-//! Built from the store's records once; the page reads these fields, not the JSON.
+//! Built from the store's records once; the page reads these fields, not the JSON, and the
+//! client (`osmab client status|results`) reads the JSON back into them.
 //!
 //! Fields are declared in the order of their JSON keys.
 
 use osmab_evaluator::scores::{Scores, Split};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::auth::Caller;
 use crate::clock::{now_ms, rfc3339};
@@ -17,14 +18,14 @@ use crate::state::AppState;
 use crate::store::{JobRecord, JobState, SubmissionRecord, SubmissionState};
 
 /// The uploaded archive.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ArchiveView {
     pub sha256: String,
     pub size: i64,
 }
 
 /// One state change.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct EventView {
     pub at: String,
     pub reason: Option<String>,
@@ -32,7 +33,7 @@ pub struct EventView {
 }
 
 /// A job of the submission.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct JobLink {
     pub attempts: i64,
     pub id: String,
@@ -42,23 +43,23 @@ pub struct JobLink {
 }
 
 /// The method card.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MethodView {
     /// Shown as "Anonymous" (no team, no links) to everyone but its team and the organisers.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub anonymous: bool,
     pub code_url: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compute: Option<String>,
     pub description: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub external_data: Option<String>,
     pub name: String,
     pub paper_url: Option<String>,
 }
 
 /// One recorded score (the latest is in full under `scores`).
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ScoreLink {
     pub at: String,
     pub evaluator_version: String,
@@ -67,14 +68,14 @@ pub struct ScoreLink {
 }
 
 /// `GET /api/v1/submissions/{id}`.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubmissionView {
     pub archive: ArchiveView,
     pub baseline: bool,
     pub complete: bool,
     pub created_at: String,
     /// Why the organisers flagged the entry, if they did.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flagged: Option<String>,
     pub history: Vec<EventView>,
     pub id: String,
@@ -82,17 +83,17 @@ pub struct SubmissionView {
     pub method: MethodView,
     pub public: bool,
     /// Where it stands while queued or being scored, with an estimated end.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub queue: Option<QueueView>,
     /// It failed through no fault of the team and does not count against its quota.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub quota_refunded: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     pub release: String,
     pub score_history: Vec<ScoreLink>,
     /// The latest score, when scored.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scores: Option<Scores>,
     /// The split it was made to (its board).
     pub split: Split,
@@ -173,7 +174,7 @@ async fn queue_of(state: &AppState, s: &SubmissionRecord, jobs: &[JobRecord]) ->
 }
 
 /// One of a team's submissions in `GET /api/v1/submissions`.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubmissionItem {
     pub complete: bool,
     pub created_at: String,
@@ -206,7 +207,7 @@ impl From<&SubmissionRecord> for SubmissionItem {
 }
 
 /// `GET /api/v1/submissions`.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubmissionList {
     pub submissions: Vec<SubmissionItem>,
 }

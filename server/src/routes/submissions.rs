@@ -36,7 +36,7 @@ pub struct UploadQuery {
 }
 
 /// The calling team.
-#[derive(Debug, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TeamRef {
     pub id: String,
     pub name: String,
@@ -58,7 +58,7 @@ pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> 
 }
 
 /// `GET /api/v1/quota`.
-#[derive(Debug, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Quotas {
     /// The split an upload that names none goes to.
     pub default_split: Split,

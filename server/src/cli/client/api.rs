@@ -129,8 +129,13 @@ impl Api {
 
     /// GET the team's `path` as JSON, with its token.
     pub fn get_team_json(&self, path: &str) -> anyhow::Result<Value> {
+        self.get_team_as(path)
+    }
+
+    /// GET the team's `path`, with its token, as the server's own answer type `T`.
+    pub fn get_team_as<T: serde::de::DeserializeOwned>(&self, path: &str) -> anyhow::Result<T> {
         let response = self.send(self.get_as_team(path)?)?;
-        response.json().map_err(|e| anyhow!("{path}: the server's answer is not JSON: {e}"))
+        response.json().map_err(|e| anyhow!("{path}: the server's answer does not read as expected: {e}"))
     }
 }
 

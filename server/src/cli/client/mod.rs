@@ -245,14 +245,14 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
                     answer["quota"]["limit"]
                 );
             }
-            if watch && view::status(&api, &id, true)? != "scored" {
+            if watch && view::status(&api, &id, true)? != crate::store::SubmissionState::Scored {
                 std::process::exit(1);
             }
             Ok(())
         }
         ClientCommand::Status { id, watch, url } => {
             let state = view::status(&api(url.as_deref())?, &id, watch)?;
-            if watch && state != "scored" {
+            if watch && state != crate::store::SubmissionState::Scored {
                 std::process::exit(1);
             }
             Ok(())

@@ -5,11 +5,14 @@ use std::time::Duration;
 
 use anyhow::bail;
 
-use osmab_evaluator::scores::{Accuracy, Aggregate, Lighting, Metric, QuestionSet, Scores, Split};
+use osmab_evaluator::scores::{Accuracy, Aggregate, Lighting, Metric, QuestionSet, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
 use crate::leaderboard::Leaderboard;
+use crate::routes::submission_view::SubmissionView;
+use crate::routes::submissions::Quotas;
+use crate::store::SubmissionState;
 
 fn pct(v: Option<f64>) -> String {
     v.map(|x| format!("{:.1}", x * 100.0)).unwrap_or_else(|| "-".into())
@@ -42,40 +45,32 @@ pub fn table_text(header: &[String], rows: &[Vec<String>]) -> String {
 /// `osmab client status ID [--watch]`: the state with its history; with `watch`, every
 /// change as it happens until the submission is scored, failed or cancelled. Returns
 /// the final state.
-pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
+pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<SubmissionState> {
     let mut shown = 0;
     let mut standing_shown = String::new();
     loop {
-        let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
-        let history = view["history"].as_array().cloned().unwrap_or_default();
+        let view: SubmissionView = api.get_team_as(&format!("/api/v1/submissions/{id}"))?;
         if shown == 0 {
-            println!(
-                "{} — {} ({}), release {}",
-                view["id"].as_str().unwrap_or(id),
-                view["method"]["name"].as_str().unwrap_or("?"),
-                view["team"].as_str().unwrap_or("?"),
-                view["release"].as_str().unwrap_or("?")
-            );
+            println!("{} — {} ({}), release {}", view.id, view.method.name, view.team, view.release);
         }
-        for event in history.iter().skip(shown) {
-            let reason = event["reason"].as_str().filter(|r| !r.is_empty()).map(|r| format!(" — {r}")).unwrap_or_default();
-            println!("{}  {}{reason}", event["at"].as_str().unwrap_or(""), event["state"].as_str().unwrap_or("?"));
+        for event in view.history.iter().skip(shown) {
+            let reason = event.reason.as_deref().filter(|r| !r.is_empty()).map(|r| format!(" — {r}")).unwrap_or_default();
+            println!("{}  {}{reason}", event.at, event.state);
         }
-        shown = history.len();
+        shown = view.history.len();
         // Where it stands in the queue, when that changed (position or estimate).
-        if let Some(queue) = view.get("queue").and_then(|q| serde_json::from_value::<crate::queue::QueueView>(q.clone()).ok()) {
+        if let Some(queue) = &view.queue {
             let standing = queue.sentence();
             if standing != standing_shown {
                 println!("  {standing}");
                 standing_shown = standing;
             }
         }
-        let state = view["state"].as_str().unwrap_or("").to_string();
-        if !watch || ["scored", "failed", "cancelled"].contains(&state.as_str()) {
-            if state == "failed" {
-                println!("The submission failed: {}", view["reason"].as_str().unwrap_or("no reason recorded"));
+        if !watch || !view.state.is_active() {
+            if view.state == SubmissionState::Failed {
+                println!("The submission failed: {}", view.reason.as_deref().unwrap_or("no reason recorded"));
             }
-            return Ok(state);
+            return Ok(view.state);
         }
         std::thread::sleep(Duration::from_secs(2));
     }
@@ -84,12 +79,11 @@ pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<String> {
 /// `osmab client results ID`: segmentation per lighting (per scene, mean, pooled) and the
 /// VQA groups per lighting.
 pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
-    let view = api.get_team_json(&format!("/api/v1/submissions/{id}"))?;
-    let Some(scores) = view.get("scores").filter(|s| s.is_object()) else {
-        bail!("{id} has no score yet (state: {}); follow it with `osmab client status {id} --watch`", view["state"].as_str().unwrap_or("?"));
+    let view: SubmissionView = api.get_team_as(&format!("/api/v1/submissions/{id}"))?;
+    let Some(scores) = view.scores else {
+        bail!("{id} has no score yet (state: {}); follow it with `osmab client status {id} --watch`", view.state);
     };
-    let scores: Scores = serde_json::from_value(scores.clone()).map_err(|e| anyhow::anyhow!("the server's score of {id} does not read as scores: {e}"))?;
-    println!("{} — release {}, evaluator {}", view["method"]["name"].as_str().unwrap_or("?"), scores.release, scores.evaluator_version);
+    println!("{} — release {}, evaluator {}", view.method.name, scores.release, scores.evaluator_version);
     let header: Vec<String> = std::iter::once("scene".to_string()).chain(Metric::COLUMNS.iter().map(|m| m.label().to_string())).collect();
     let cells = |t: &MetricTriple| Metric::COLUMNS.iter().map(|&m| pct(t.defined(m))).collect::<Vec<_>>();
     for (lighting, table) in &scores.semseg {
@@ -200,26 +194,23 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
 
 /// Print the team's quota of every split (`GET /api/v1/quota`).
 pub fn quota(api: &Api) -> anyhow::Result<()> {
-    let answer = api.get_team_json("/api/v1/quota")?;
+    let answer: Quotas = api.get_team_as("/api/v1/quota")?;
     let header: Vec<String> = ["split", "used", "limit", "remaining", "window (h)", "next possible", "default split"].iter().map(|s| s.to_string()).collect();
-    let default = answer["default_split"].as_str().unwrap_or_default();
-    let rows: Vec<Vec<String>> = answer["splits"]
-        .as_array()
-        .into_iter()
-        .flatten()
+    let rows: Vec<Vec<String>> = answer
+        .splits
+        .iter()
         .map(|q| {
-            let split = q["split"].as_str().unwrap_or("?");
             vec![
-                split.to_string(),
-                q["used"].to_string(),
-                q["limit"].to_string(),
-                q["remaining"].to_string(),
-                q["window_hours"].to_string(),
-                q["next_at"].as_str().unwrap_or("now").to_string(),
-                if split == default { "yes".into() } else { String::new() },
+                q.split.to_string(),
+                q.used.to_string(),
+                q.limit.to_string(),
+                q.remaining.to_string(),
+                q.window_hours.to_string(),
+                q.next_at.clone().unwrap_or_else(|| "now".into()),
+                if q.split == answer.default_split { "yes".into() } else { String::new() },
             ]
         })
         .collect();
-    println!("Quota of team {}\n{}", answer["team"]["name"].as_str().unwrap_or("?"), table_text(&header, &rows));
+    println!("Quota of team {}\n{}", answer.team.name, table_text(&header, &rows));
     Ok(())
 }

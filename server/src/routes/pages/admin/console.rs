@@ -29,7 +29,7 @@ pub struct ReleaseRow {
 pub struct BuildRow {
     pub job: String,
     pub version: String,
-    pub state: String,
+    pub state: JobState,
     pub stage: String,
     pub message: String,
     pub renders: RenderCounts,
@@ -107,7 +107,7 @@ fn build_row(job: &JobRecord, jobs: &[JobRecord]) -> BuildRow {
     BuildRow {
         job: job.id.clone(),
         version: job.subject.clone(),
-        state: job.state.to_string(),
+        state: job.state,
         stage: progress.stage.map_or("", Stage::name).to_string(),
         message: progress.message,
         renders: renders_of(jobs, &job.subject),
@@ -138,7 +138,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
         // Only notices this server wrote for this session (see `AdminSession::seal`).
         notice: query.notice.filter(|n| query.seal.as_deref() == Some(session.seal(n).as_str())),
         form_token: session.form_token(),
-        refresh: builds.iter().any(|b| b.state == "queued" || b.state == "running"),
+        refresh: builds.iter().any(|b| matches!(b.state, JobState::Queued | JobState::Running)),
         releases: releases
             .iter()
             .map(|r| ReleaseRow {

@@ -23,6 +23,7 @@ mod release_names;
 mod releases;
 mod reserved_names;
 mod routes;
+mod secret_files;
 mod serve;
 mod split_secret;
 mod state;

@@ -48,19 +48,9 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
 /// up to date; the first node to start generates the first key and shares it (two
 /// starting at once each share one, and both then sign with the newer).
 pub async fn share_receipt_keys(blobs: &Blobs, dir: &std::path::Path) -> anyhow::Result<()> {
-    blobs.pull_tree(RECEIPT_KEYS, dir).await.context("cannot read the receipt keys from the object storage")?;
-    let has_key = std::fs::read_dir(dir).map(|d| d.flatten().any(|e| e.path().extension().is_some_and(|x| x == "seed"))).unwrap_or(false);
-    if !has_key {
-        crate::receipts::keys::generate(dir)?;
-    }
-    blobs.push_tree(RECEIPT_KEYS, dir).await.context("cannot share the receipt keys through the object storage")?;
-    blobs.pull_tree(RECEIPT_KEYS, dir).await.context("cannot read the receipt keys from the object storage")?;
-    #[cfg(unix)]
-    for entry in std::fs::read_dir(dir)?.flatten() {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(entry.path(), std::fs::Permissions::from_mode(0o600))?;
-    }
-    Ok(())
+    let has_key =
+        |dir: &std::path::Path| Ok(std::fs::read_dir(dir).map(|d| d.flatten().any(|e| e.path().extension().is_some_and(|x| x == "seed"))).unwrap_or(false));
+    crate::secret_files::share_folder(blobs, RECEIPT_KEYS, dir, "receipt keys", has_key, crate::receipts::keys::generate).await
 }
 
 /// Record id of the admin token given by `OSMAB_ADMIN_TOKEN`.
@@ -96,13 +86,8 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
         return Ok(());
     }
     let (token, record) = issue_token("admin", None, None);
-    let mut options = std::fs::OpenOptions::new();
-    options.write(true).create_new(true);
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
-    let mut file = options.open(&path).with_context(|| format!("cannot write the admin token to {} (remove a stale file)", path.display()))?;
-    file.write_all(format!("{token}\n").as_bytes())?;
-    file.sync_all()?;
+    crate::secret_files::write_new_owner_only(&path, format!("{token}\n").as_bytes())
+        .with_context(|| format!("cannot write the admin token to {} (remove a stale file)", path.display()))?;
     state.store.insert_token(&record).await?;
     tracing::warn!(file = %path.display(), "generated an admin token; it is in this owner-only file");
     Ok(())

@@ -37,14 +37,7 @@ fn generate(dir: &Path) -> anyhow::Result<PathBuf> {
     let text: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
     let secret = SplitSecret::new(&text, "generated").map_err(|e| anyhow::anyhow!("{e}"))?;
     let path = dir.join(format!("{}.{}.secret", crate::clock::now_ms(), secret.id()));
-    let mut options = std::fs::OpenOptions::new();
-    options.write(true).create_new(true);
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
-    let mut file = options.open(&path).with_context(|| format!("{}: cannot write", path.display()))?;
-    use std::io::Write;
-    file.write_all(text.as_bytes())?;
-    file.sync_all()?;
+    crate::secret_files::write_new_owner_only(&path, text.as_bytes()).with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(path)
 }
 
@@ -71,18 +64,7 @@ pub async fn share(blobs: &Blobs, dir: &Path) -> anyhow::Result<()> {
     if std::env::var(SPLIT_SECRET_VARIABLE).is_ok_and(|v| !v.trim().is_empty()) {
         return Ok(());
     }
-    blobs.pull_tree(SPLIT_SECRET_DIR, dir).await.context("cannot read the split secret from the object storage")?;
-    if secrets_in(dir)?.is_empty() {
-        generate(dir)?;
-    }
-    blobs.push_tree(SPLIT_SECRET_DIR, dir).await.context("cannot share the split secret through the object storage")?;
-    blobs.pull_tree(SPLIT_SECRET_DIR, dir).await.context("cannot read the split secret from the object storage")?;
-    #[cfg(unix)]
-    for file in secrets_in(dir)? {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o600))?;
-    }
-    Ok(())
+    crate::secret_files::share_folder(blobs, SPLIT_SECRET_DIR, dir, "split secret", |dir| Ok(!secrets_in(dir)?.is_empty()), generate).await
 }
 
 #[cfg(test)]

@@ -39,14 +39,8 @@ pub fn generate(dir: &Path) -> anyhow::Result<PathBuf> {
     getrandom::fill(&mut seed).map_err(|e| anyhow::anyhow!("the operating system's random generator failed: {e}"))?;
     let key = SigningKey::from_bytes(&seed);
     let path = dir.join(format!("{}.{}.seed", crate::clock::now_ms(), thumbprint(&key.verifying_key())));
-    let mut options = std::fs::OpenOptions::new();
-    options.write(true).create_new(true);
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
-    let mut file = options.open(&path).with_context(|| format!("{}: cannot write", path.display()))?;
-    use std::io::Write;
-    file.write_all(seed.iter().map(|b| format!("{b:02x}")).collect::<String>().as_bytes())?;
-    file.sync_all()?;
+    let hex: String = seed.iter().map(|b| format!("{b:02x}")).collect();
+    crate::secret_files::write_new_owner_only(&path, hex.as_bytes()).with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(path)
 }
 

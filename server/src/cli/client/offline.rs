@@ -101,8 +101,7 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Op
         let scores = score_submission(&valid, &index, limits, Default::default(), &|_, _| {}).map_err(|e| anyhow!("{e}"))?;
         println!("Scored the {other} split against the local ground truth ({} scenes; what the server will compute):", index.scenes.len());
         for (lighting, table) in &scores.semseg {
-            let m = &table.overall;
-            println!("  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}", m.miou * 100.0, m.fmiou * 100.0, m.macc * 100.0);
+            println!("  {lighting}: {}", super::view::pooled_line(&table.overall));
         }
         for (lighting, v) in scores.vqa.iter().flat_map(|v| &v.lightings) {
             println!("  {lighting}: VQA accuracy {:.1} % ({} of {} questions)", v.overall.accuracy.unwrap_or(0.0) * 100.0, v.overall.correct, v.overall.total);

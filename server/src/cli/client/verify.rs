@@ -184,7 +184,7 @@ pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> S
         out.push_str("The issuer was not checked: the keys came from a file (give --issuer ORIGIN, or --keys as the service's URL).\n");
     }
     for (lighting, t) in &receipt.summary.semseg {
-        out.push_str(&format!("  {lighting}: pooled mIoU {:.1}, f-mIoU {:.1}, mAcc {:.1}\n", t.miou * 100.0, t.fmiou * 100.0, t.macc * 100.0));
+        out.push_str(&format!("  {lighting}: {}\n", super::view::pooled_line(t)));
     }
     out
 }

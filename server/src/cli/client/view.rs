@@ -14,6 +14,13 @@ use crate::routes::submission_view::SubmissionView;
 use crate::routes::submissions::Quotas;
 use crate::store::SubmissionState;
 
+/// "pooled mIoU 81.2, f-mIoU 95.1, mAcc 85.0": a lighting's pooled metrics in one line,
+/// labelled by the axes ([`Metric::label`]).
+pub fn pooled_line(triple: &MetricTriple) -> String {
+    let values: Vec<String> = Metric::COLUMNS.iter().map(|&m| format!("{} {:.1}", m.label(), triple.get(m) * 100.0)).collect();
+    format!("pooled {}", values.join(", "))
+}
+
 fn pct(v: Option<f64>) -> String {
     v.map(|x| format!("{:.1}", x * 100.0)).unwrap_or_else(|| "-".into())
 }
@@ -147,7 +154,10 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
         None => board.lightings.first().copied().unwrap_or(Lighting::BASELINE),
     };
     let header: Vec<String> =
-        ["#", "group", "method", "team", "mIoU", "±", "f-mIoU", "mAcc", "PromptGT", "Standard", ""].iter().map(|s| s.to_string()).collect();
+        ["#", "group", "method", "team", Metric::Miou.label(), "±", Metric::Fmiou.label(), Metric::Macc.label(), "PromptGT", "Standard", ""]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
     let rows: Vec<Vec<String>> = board
         .entries
         .iter()

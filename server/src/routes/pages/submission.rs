@@ -76,6 +76,8 @@ pub struct SubmissionPage {
     pub citation: String,
     /// Pooled metrics per lighting as a chart (empty before scoring).
     pub chart: String,
+    /// The metrics' labels, in column order.
+    pub metric_labels: Vec<&'static str>,
 }
 
 /// An entry's place on its board.
@@ -147,6 +149,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         .to_svg()
     });
     Ok(SubmissionPage {
+        metric_labels: Metric::COLUMNS.iter().map(|m| m.label()).collect(),
         split: view.split,
         board_link,
         standing,

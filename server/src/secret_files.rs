@@ -1,0 +1,69 @@
+//! The service's secrets on disk — receipt-signing keys, the split secret, a generated
+//! admin token — as owner-only files, and, in a multi-node deployment, one folder of them
+//! shared through the object store: the one way each is written and shared.
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::Context;
+
+use crate::blobs::Blobs;
+
+/// Write `bytes` to a new file at `path` that only its owner may read (mode 0600 on Unix),
+/// synced; an existing file is an error, never overwritten.
+pub fn write_new_owner_only(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    let mut file = options.open(path)?;
+    file.write_all(bytes)?;
+    file.sync_all()
+}
+
+/// Bring the shared folder `prefix` of the object store into `dir`; when it holds no secret
+/// yet (`has_one`), `generate` one here (the first start of the first node) and share it;
+/// then read the folder back, so every node ends with the same files, each owner-only.
+/// `what` names the secret in errors.
+pub async fn share_folder(
+    blobs: &Blobs,
+    prefix: &str,
+    dir: &Path,
+    what: &str,
+    has_one: impl Fn(&Path) -> anyhow::Result<bool>,
+    generate: impl FnOnce(&Path) -> anyhow::Result<std::path::PathBuf>,
+) -> anyhow::Result<()> {
+    blobs.pull_tree(prefix, dir).await.with_context(|| format!("cannot read the {what} from the object storage"))?;
+    if !has_one(dir)? {
+        generate(dir)?;
+    }
+    blobs.push_tree(prefix, dir).await.with_context(|| format!("cannot share the {what} through the object storage"))?;
+    blobs.pull_tree(prefix, dir).await.with_context(|| format!("cannot read the {what} from the object storage"))?;
+    #[cfg(unix)]
+    for entry in std::fs::read_dir(dir)?.flatten() {
+        use std::os::unix::fs::PermissionsExt;
+        if entry.path().is_file() {
+            std::fs::set_permissions(entry.path(), std::fs::Permissions::from_mode(0o600))?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_secret_file_is_new_and_owner_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.secret");
+        super::write_new_owner_only(&path, b"x").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"x");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(std::fs::metadata(&path).unwrap().permissions().mode() & 0o777, 0o600);
+        }
+        let again = super::write_new_owner_only(&path, b"y").unwrap_err();
+        assert_eq!(again.kind(), std::io::ErrorKind::AlreadyExists, "never overwritten");
+        assert_eq!(std::fs::read(&path).unwrap(), b"x");
+    }
+}

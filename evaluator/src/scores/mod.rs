@@ -125,12 +125,25 @@ impl Scores {
     /// A segmentation metric under `lighting`, over every scene (`subset` `None`) or one
     /// subset; `None` where absent or undefined.
     pub fn semseg(&self, lighting: Lighting, subset: Option<Regime>, aggregate: Aggregate, metric: Metric) -> Option<f64> {
+        self.semseg_triple(lighting, subset, aggregate)?.defined(metric)
+    }
+
+    /// The metrics of `lighting` over every scene (`subset` `None`) or one subset.
+    fn semseg_triple(&self, lighting: Lighting, subset: Option<Regime>, aggregate: Aggregate) -> Option<&MetricTriple> {
         let at = self.semseg.get(&lighting)?;
-        let triple = match subset {
+        Some(match subset {
             None => at.aggregate(aggregate),
             Some(subset) => at.subsets.get(&subset)?.aggregate(aggregate),
-        };
-        triple.defined(metric)
+        })
+    }
+
+    /// The relative change of `metric` under `lighting` against the baseline lighting, for
+    /// any aggregate over every scene or one subset, by the rule the stored
+    /// `relative_change` is made with ([`MetricTriple::relative_change`]); none where a
+    /// value is undefined or the baseline is zero.
+    pub fn change_against_baseline(&self, lighting: Lighting, subset: Option<Regime>, aggregate: Aggregate, metric: Metric) -> Option<f64> {
+        let baseline = self.semseg_triple(Lighting::BASELINE, subset, aggregate)?;
+        self.semseg_triple(lighting, subset, aggregate)?.relative_change(baseline).defined(metric)
     }
 
     /// The 95 % bootstrap interval of a pooled metric under `lighting`, over every scene or

@@ -27,6 +27,31 @@ fn metrics_are_read_by_axis_and_undefined_ones_are_none() {
 }
 
 #[test]
+fn the_change_against_baseline_of_any_view_is_the_stored_rule() {
+    let scores: Scores = serde_json::from_str(STORED).unwrap();
+    for aggregate in Aggregate::ALL {
+        for metric in Metric::COLUMNS {
+            // The scorer's rule, (value − baseline) / baseline, to the bit.
+            let rule = match (scores.semseg(Lighting::Camera, None, aggregate, metric), scores.semseg(Lighting::Baseline, None, aggregate, metric)) {
+                (Some(v), Some(b)) => Some((v - b) / b),
+                _ => None,
+            };
+            assert_eq!(scores.change_against_baseline(Lighting::Camera, None, aggregate, metric), rule, "{aggregate} {metric}");
+        }
+    }
+    assert_eq!(
+        scores.change_against_baseline(Lighting::Camera, None, Aggregate::Overall, Metric::Miou),
+        scores.relative_change(Lighting::Camera, Aggregate::Overall, Metric::Miou)
+    );
+    assert_eq!(scores.change_against_baseline(Lighting::Camera, Some(Regime::Furniture), Aggregate::Overall, Metric::Miou), Some(-0.5), "a subset too");
+    assert_eq!(scores.change_against_baseline(Lighting::Camera, None, Aggregate::Overall, Metric::Macc), None, "an undefined value has no change");
+    assert_eq!(scores.change_against_baseline(Lighting::NoLights, None, Aggregate::Overall, Metric::Miou), None, "nor an absent lighting");
+    let mut zero = scores.clone();
+    zero.semseg.get_mut(&Lighting::Baseline).unwrap().overall.miou = 0.0;
+    assert_eq!(zero.change_against_baseline(Lighting::Camera, None, Aggregate::Overall, Metric::Miou), None, "nor a change from zero");
+}
+
+#[test]
 fn a_summary_drops_per_scene_tables_and_keeps_scene_counts() {
     let summary: Scores = serde_json::from_str::<Scores>(STORED).unwrap().summary();
     let json = serde_json::to_value(&summary).unwrap();

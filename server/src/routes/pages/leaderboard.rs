@@ -99,10 +99,7 @@ impl View {
 
     /// The change of mIoU against the baseline lighting, for the aggregate and scenes shown.
     fn change(&self, e: &Entry, lighting: Lighting) -> Option<f64> {
-        match (self.value(e, lighting, Metric::Miou), self.value(e, Lighting::BASELINE, Metric::Miou)) {
-            (Some(v), Some(b)) if b != 0.0 => Some((v - b) / b),
-            _ => None,
-        }
+        e.scores.change_against_baseline(lighting, self.subset, self.aggregate, Metric::Miou)
     }
 }
 

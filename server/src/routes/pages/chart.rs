@@ -89,6 +89,22 @@ struct Layout {
     label_drop: f64,
 }
 
+/// One of a row of small charts.
+const SMALL: Layout = Layout {
+    width: 360.0,
+    height: 250.0,
+    top: 24.0,
+    bottom: 84.0,
+    left: 40.0,
+    max_bar: 18.0,
+    legend_columns: 2,
+    legend_step: 160.0,
+    swatch: 8.0,
+    swatch_lift: 8.0,
+    tick_gap: 4.0,
+    label_drop: 16.0,
+};
+
 impl BarChart {
     fn layout(&self) -> Layout {
         match self.size {
@@ -106,34 +122,9 @@ impl BarChart {
                 tick_gap: 6.0,
                 label_drop: 18.0,
             },
-            Size::Narrow => Layout {
-                width: 360.0,
-                height: 250.0,
-                top: 16.0,
-                bottom: 84.0,
-                left: 46.0,
-                max_bar: 16.0,
-                legend_columns: 2,
-                legend_step: 160.0,
-                swatch: 8.0,
-                swatch_lift: 8.0,
-                tick_gap: 4.0,
-                label_drop: 16.0,
-            },
-            Size::Small => Layout {
-                width: 360.0,
-                height: 250.0,
-                top: 24.0,
-                bottom: 84.0,
-                left: 40.0,
-                max_bar: 18.0,
-                legend_columns: 2,
-                legend_step: 160.0,
-                swatch: 8.0,
-                swatch_lift: 8.0,
-                tick_gap: 4.0,
-                label_drop: 16.0,
-            },
+            // The small layout with room for the wide chart's longer tick labels.
+            Size::Narrow => Layout { top: 16.0, left: 46.0, max_bar: 16.0, ..SMALL },
+            Size::Small => SMALL,
         }
     }
 

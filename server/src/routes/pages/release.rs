@@ -14,14 +14,10 @@ use crate::problem::ApiResult;
 use crate::routes::ApiPath;
 use crate::state::AppState;
 
-/// A lighting as the paper names it (a name this server does not know, as written).
-fn lighting_label(name: &str) -> String {
-    name.parse::<Lighting>().map(|l| l.label().to_string()).unwrap_or_else(|_| name.replace('_', " "))
-}
-
-/// The short label of a lighting, for links in a row.
-fn short_lighting_label(name: &str) -> String {
-    name.parse::<Lighting>().map(|l| l.short_label().to_string()).unwrap_or_else(|_| name.replace('_', " "))
+/// A lighting as `label` names it (the paper's label, or the short one for links in a
+/// row); a name this server does not know, as written.
+fn lighting_label(name: &str, label: fn(Lighting) -> &'static str) -> String {
+    name.parse::<Lighting>().map(|l| label(l).to_string()).unwrap_or_else(|_| name.replace('_', " "))
 }
 
 pub struct SceneView {
@@ -84,7 +80,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
                 .iter()
                 .filter_map(|l| {
                     let path = format!("quality/contact_sheets/{l}/{}.png", s.id);
-                    manifest.has(&path).then(|| (short_lighting_label(l), file_link(&path)))
+                    manifest.has(&path).then(|| (lighting_label(l, Lighting::short_label), file_link(&path)))
                 })
                 .collect();
             SceneView {
@@ -101,7 +97,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
         .archives
         .iter()
         .map(|a| ArchiveView {
-            lighting: lighting_label(&a.lighting),
+            lighting: lighting_label(&a.lighting, Lighting::label),
             scene: a.scene.clone(),
             link: file_link(&a.path),
             size: human_size(a.size),
@@ -118,7 +114,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
         files: manifest.files.len(),
         total_size: human_size(manifest.files.iter().map(|f| f.size).sum()),
         manifest_link: format!("/api/v1/releases/{version}/manifest.json"),
-        lightings: manifest.lightings.iter().map(|l| lighting_label(l)).collect(),
+        lightings: manifest.lightings.iter().map(|l| lighting_label(l, Lighting::label)).collect(),
         overview: manifest.has(osmab_dataset::release::OVERVIEW).then(|| file_link(osmab_dataset::release::OVERVIEW)),
         test_scenes,
         val_scenes,

@@ -36,14 +36,14 @@ fn readme(c: &Contents<'_>) -> String {
     let version = &c.config.version;
     format!(
         "# OSMa-Bench++ release {version}\n\n\
-Synthetic indoor scenes rendered as RGB-D + semantic sequences for evaluating open semantic mapping (built {created} by osmab).\n\n\
+Synthetic indoor scenes rendered as RGB-D + semantic sequences for evaluating open semantic mapping (release dated {created}, built by osmab).\n\n\
 - {scenes} scenes: {test} in the hidden **test** split (colour, depth and camera paths only: their semantics, prompts and \
 questions stay with the server, which scores submissions on them) and {val} in the open **val** split (everything, \
 ground truth included, so methods can be scored offline with `osmab client validate`).\n\
 - Lightings: {lightings}.\n\
 - Resolution {w}×{h}, horizontal field of view {hfov}°.\n\n\
 ## Layout\n\n\
-- `sequences/<lighting>/<scene>/`: `results/frameNNNNNN.jpg` (colour), `depthNNNNNN.png` (16-bit, metres × 6553.5), \
+- `sequences/<lighting>/<scene>/`: `results/frameNNNNNN.jpg` (colour), `results/depthNNNNNN.png` (16-bit, metres × 6553.5), \
 `traj.txt` (camera-to-world poses), `camera_params.*`, and ConceptGraphs' and BBQ's dataset configs; a val scene also \
 has its semantic frames.\n\
 - `scenes/<scene>/prompt.json`, `questions/<scene>.json`: a val scene's generating prompt and its questions (without answers).\n\

@@ -21,15 +21,11 @@ import hashlib
 import io
 import json
 import os
-import secrets
 import shutil
-import signal
-import socket
 import statistics
 import subprocess
 import sys
 import tarfile
-import tempfile
 import threading
 import time
 import urllib.error
@@ -41,43 +37,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(ROOT, "target", "release", "osmab")
 XTASK = os.path.join(ROOT, "target", "release", "xtask")
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cluster import Cluster, free_port, wait_listening  # noqa: E402
 from service import ADMIN, add_large_file, parse_http, request, run_bench  # noqa: E402  (the single-node benchmark's helpers)
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_listening(port, process, log, seconds=60):
-    started = time.time()
-    while time.time() - started < seconds:
-        if process.poll() is not None:
-            sys.exit(f"a process exited early; see {log}")
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1).close()
-            return
-        except OSError:
-            time.sleep(0.1)
-    sys.exit(f"nothing listened on {port} after {seconds} s; see {log}")
-
-
-def psql(url, sql):
-    subprocess.run(["psql", url, "-v", "ON_ERROR_STOP=1", "-q", "-c", sql], check=True, capture_output=True)
-
-
-class Deployment:
+class Deployment(Cluster):
     """moto, a database, two servers and two workers; every process logs into `root`."""
 
     def __init__(self, args):
-        self.root = tempfile.mkdtemp(prefix="osmab-multinode-")
-        self.processes = []
-        self.admin_url = args.database_url
-        self.database = "osmab_bench_" + secrets.token_hex(4)
-        psql(self.admin_url, f"CREATE DATABASE {self.database}")
-        parsed = urllib.parse.urlsplit(self.admin_url)
-        self.database_url = urllib.parse.urlunsplit(parsed._replace(path="/" + self.database))
+        super().__init__(args.database_url, "osmab-multinode-")
         self.moto_port = free_port()
         self.moto = self.spawn("moto", [args.moto, "-H", "127.0.0.1", "-p", str(self.moto_port)], os.environ.copy())
         wait_listening(self.moto_port, self.moto, self.log("moto"))
@@ -91,14 +59,6 @@ class Deployment:
         }
         self.servers = []
         self.workers = []
-
-    def log(self, name):
-        return os.path.join(self.root, name + ".log")
-
-    def spawn(self, name, argv, env):
-        process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=open(self.log(name), "w"))
-        self.processes.append(process)
-        return process
 
     def node(self, name, argv, extra):
         data = os.path.join(self.root, name)
@@ -116,23 +76,6 @@ class Deployment:
         process, data = self.node(name, ["worker"], {"RUST_LOG": "info"})
         self.workers.append((name, process, data))
 
-    def close(self, keep):
-        for process in reversed(self.processes):
-            if process.poll() is None:
-                process.send_signal(signal.SIGTERM)
-        for process in self.processes:
-            try:
-                process.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        try:
-            psql(self.admin_url, f"DROP DATABASE IF EXISTS {self.database} WITH (FORCE)")
-        except subprocess.CalledProcessError as e:
-            print("could not drop", self.database, e.stderr, file=sys.stderr)
-        if keep:
-            print("logs kept in", self.root)
-        else:
-            shutil.rmtree(self.root, ignore_errors=True)
 
 
 def get_json(url, token=ADMIN):

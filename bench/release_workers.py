@@ -22,17 +22,11 @@ import json
 import os
 import platform
 import re
-import secrets
-import shutil
-import signal
-import subprocess
 import sys
-import tempfile
 import time
-import urllib.parse
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from multinode import free_port, psql, wait_listening  # noqa: E402
+from cluster import Cluster, free_port, wait_listening  # noqa: E402
 from service import ADMIN, request  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -52,21 +46,16 @@ def sample_config(furniture, manipuland, version):
     return text
 
 
-class Deployment:
+class Deployment(Cluster):
     """A database, one server and `workers` pinned workers sharing one data directory."""
 
     def __init__(self, args, workers):
-        self.root = tempfile.mkdtemp(prefix="osmab-release-workers-")
-        self.processes = []
-        self.admin_url = args.database_url
-        self.database = "osmab_bench_" + secrets.token_hex(4)
-        psql(self.admin_url, f"CREATE DATABASE {self.database}")
-        parsed = urllib.parse.urlsplit(self.admin_url)
+        super().__init__(args.database_url, "osmab-release-workers-")
         data = os.path.join(self.root, "data")
         os.makedirs(data)
         self.env = {
             "PATH": os.environ.get("PATH", ""), "RUST_LOG": "warn",
-            "DATABASE_URL": urllib.parse.urlunsplit(parsed._replace(path="/" + self.database)),
+            "DATABASE_URL": self.database_url,
             "OSMAB_DATA_DIR": data, "OSMAB_ADMIN_TOKEN": ADMIN, "OSMAB_DEMO": "false", "OSMAB_POLL_MS": "100",
             # One secret for every run: the test scenes it shapes are the same whatever the worker count.
             "OSMAB_SPLIT_SECRET": "ab" * 32,
@@ -78,28 +67,8 @@ class Deployment:
         for core in range(workers):
             self.spawn(f"worker-{core}", ["taskset", "-c", str(core), BIN, "worker", "--concurrency", "1"], {"RAYON_NUM_THREADS": "1"})
 
-    def log(self, name):
-        return os.path.join(self.root, name + ".log")
-
     def spawn(self, name, argv, extra):
-        process = subprocess.Popen(argv, env=dict(self.env, **extra), stdout=subprocess.DEVNULL, stderr=open(self.log(name), "w"))
-        self.processes.append(process)
-        return process
-
-    def close(self):
-        for process in reversed(self.processes):
-            if process.poll() is None:
-                process.send_signal(signal.SIGTERM)
-        for process in self.processes:
-            try:
-                process.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        try:
-            psql(self.admin_url, f"DROP DATABASE IF EXISTS {self.database} WITH (FORCE)")
-        except subprocess.CalledProcessError as e:
-            print("could not drop", self.database, e.stderr, file=sys.stderr)
-        shutil.rmtree(self.root, ignore_errors=True)
+        return super().spawn(name, argv, dict(self.env, **extra))
 
 
 def build(deployment, config):

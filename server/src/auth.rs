@@ -3,21 +3,21 @@
 //! [`Caller`], [`TeamCaller`] or [`AdminCaller`] and never see the token itself.
 
 use crate::clock::{new_id, now_ms, random_alphanumeric};
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use crate::state::AppState;
-use crate::store::{StoreError, Team, TokenRecord};
+use crate::store::{StoreError, Team, TokenRecord, TokenScope};
 use crate::token;
 use axum::extract::FromRequestParts;
 use axum::http::StatusCode;
 use axum::http::request::Parts;
 
 /// A new token (shown once) and its record.
-pub fn issue_token(scope: &str, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {
+pub fn issue_token(scope: TokenScope, team_id: Option<&str>, expires_at: Option<i64>) -> (String, TokenRecord) {
     let token = token::with_prefix(&random_alphanumeric(token::ISSUED_LENGTH));
     let record = TokenRecord {
         id: new_id("tok"),
         team_id: team_id.map(str::to_string),
-        scope: scope.to_string(),
+        scope,
         sha256: token::hash(&token),
         hint: token::hint(&token),
         created_at: now_ms(),
@@ -52,14 +52,16 @@ impl Caller {
     /// itself or an admin; anyone else is refused, 401 without a token, 403 with another.
     pub fn may_change(&self, team_id: &str, action: &str) -> Result<(), Problem> {
         match self {
-            Caller::Anonymous => Err(unauthenticated("unauthenticated", &format!("To {action}, send the team's token: 'Authorization: Bearer osmab_…'."))),
+            Caller::Anonymous => {
+                Err(unauthenticated(ProblemCode::Unauthenticated, &format!("To {action}, send the team's token: 'Authorization: Bearer osmab_…'.")))
+            }
             _ if self.can_see_team(team_id) => Ok(()),
             _ => Err(Problem::forbidden(format!("Only the submitting team (or an admin) can {action}."))),
         }
     }
 }
 
-fn unauthenticated(code: &'static str, detail: &str) -> Problem {
+fn unauthenticated(code: ProblemCode, detail: &str) -> Problem {
     Problem::new(StatusCode::UNAUTHORIZED, code, "Authentication required", detail)
 }
 
@@ -69,13 +71,13 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
         return Ok(Caller::Anonymous);
     };
     if values.next().is_some() {
-        return Err(unauthenticated("token_invalid", "Send one Authorization header, not several."));
+        return Err(unauthenticated(ProblemCode::TokenInvalid, "Send one Authorization header, not several."));
     }
     let text = value.to_str().unwrap_or("").trim();
     // The scheme is case-insensitive (RFC 9110 §11.1).
     let token = match text.split_once(' ') {
         Some((scheme, token)) if scheme.eq_ignore_ascii_case("bearer") => token.trim(),
-        _ => return Err(unauthenticated("token_invalid", "Send the token as 'Authorization: Bearer osmab_…'.")),
+        _ => return Err(unauthenticated(ProblemCode::TokenInvalid, "Send the token as 'Authorization: Bearer osmab_…'.")),
     };
     Ok(caller_with_token(state, token).await?.0)
 }
@@ -84,13 +86,13 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
 /// refused with a problem that says which.
 pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller, TokenRecord), Problem> {
     if !token::has_prefix(token) {
-        return Err(unauthenticated("token_invalid", "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));
+        return Err(unauthenticated(ProblemCode::TokenInvalid, "This is not an osmab token (they start with 'osmab_'). Copy the whole token you were given."));
     }
     let record = match state.store.token_by_hash(&token::hash(token)).await {
         Ok(record) => record,
         Err(StoreError::NotFound) => {
             return Err(unauthenticated(
-                "token_invalid",
+                ProblemCode::TokenInvalid,
                 "The token is not known to this server. Check that it was copied whole, or ask the organisers for a new one.",
             ));
         }
@@ -98,7 +100,7 @@ pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller,
     };
     if let Some(at) = record.revoked_at {
         return Err(unauthenticated(
-            "token_revoked",
+            ProblemCode::TokenRevoked,
             &format!("This token was revoked at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
         ));
     }
@@ -106,12 +108,12 @@ pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller,
         && at <= now_ms()
     {
         return Err(unauthenticated(
-            "token_expired",
+            ProblemCode::TokenExpired,
             &format!("This token expired at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
         ));
     }
-    let caller = match (record.scope.as_str(), &record.team_id) {
-        ("admin", _) => Caller::Admin,
+    let caller = match (record.scope, &record.team_id) {
+        (TokenScope::Admin, _) => Caller::Admin,
         (_, Some(team_id)) => Caller::Team(state.store.team(team_id).await?),
         _ => return Err(Problem::internal(format!("token {} has no team", record.id))),
     };
@@ -153,7 +155,7 @@ impl FromRequestParts<AppState> for TeamCaller {
         match caller_of(parts, state).await? {
             Caller::Team(team) => Ok(TeamCaller(team)),
             Caller::Admin => Err(Problem::forbidden("This needs a team token; admin tokens act for no team.")),
-            Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs a team token: send 'Authorization: Bearer osmab_…'.")),
+            Caller::Anonymous => Err(unauthenticated(ProblemCode::Unauthenticated, "This needs a team token: send 'Authorization: Bearer osmab_…'.")),
         }
     }
 }
@@ -169,7 +171,7 @@ impl FromRequestParts<AppState> for AdminCaller {
         match caller_of(parts, state).await? {
             Caller::Admin => Ok(AdminCaller),
             Caller::Team(_) => Err(Problem::forbidden("This needs an admin token; team tokens cannot manage the service.")),
-            Caller::Anonymous => Err(unauthenticated("unauthenticated", "This needs an admin token: send 'Authorization: Bearer osmab_…'.")),
+            Caller::Anonymous => Err(unauthenticated(ProblemCode::Unauthenticated, "This needs an admin token: send 'Authorization: Bearer osmab_…'.")),
         }
     }
 }
@@ -180,7 +182,7 @@ mod tests {
 
     #[test]
     fn only_the_hash_of_an_issued_token_is_kept() {
-        let (token, record) = issue_token("team", Some("team_x"), None);
+        let (token, record) = issue_token(TokenScope::Team, Some("team_x"), None);
         assert!(token.starts_with(token::PREFIX));
         assert_eq!(token.len(), token::PREFIX.len() + 32);
         assert_eq!(record.sha256, token::hash(&token));

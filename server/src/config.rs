@@ -171,6 +171,23 @@ pub fn public_origin(url: &str) -> anyhow::Result<String> {
     Ok(parsed.origin().ascii_serialization())
 }
 
+/// The value of setting `name` from its text.
+fn parse<T: std::str::FromStr>(name: &str, text: &str) -> anyhow::Result<T>
+where
+    T::Err: std::fmt::Display,
+{
+    text.trim().parse().map_err(|e| anyhow::anyhow!("{name}: cannot read '{text}': {e}"))
+}
+
+impl FileSettings {
+    /// The settings of `file`; none without one.
+    fn read(file: Option<&Path>) -> anyhow::Result<FileSettings> {
+        let Some(path) = file else { return Ok(FileSettings::default()) };
+        let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read the configuration: {e}", path.display()))?;
+        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+}
+
 impl Settings {
     /// Defaults, then `file` (if given), then the environment.
     pub fn load(file: Option<&Path>) -> anyhow::Result<Self> {
@@ -179,19 +196,7 @@ impl Settings {
 
     /// As [`Settings::load`] with the environment given as a lookup (for tests).
     pub fn load_from(file: Option<&Path>, env: &dyn Fn(&str) -> Option<String>) -> anyhow::Result<Self> {
-        let from_file: FileSettings = match file {
-            Some(path) => {
-                let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: cannot read the configuration: {e}", path.display()))?;
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-            }
-            None => FileSettings::default(),
-        };
-        fn parse<T: std::str::FromStr>(name: &str, text: &str) -> anyhow::Result<T>
-        where
-            T::Err: std::fmt::Display,
-        {
-            text.trim().parse().map_err(|e| anyhow::anyhow!("{name}: cannot read '{text}': {e}"))
-        }
+        let from_file = FileSettings::read(file)?;
         macro_rules! layer {
             ($env:literal, $file:expr, $default:expr) => {
                 match env($env) {

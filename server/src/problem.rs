@@ -5,6 +5,7 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Map, Value, json};
 
+pub use crate::problem_code::ProblemCode;
 use crate::store::StoreError;
 
 /// An error response.
@@ -12,7 +13,7 @@ use crate::store::StoreError;
 pub struct Problem {
     pub status: StatusCode,
     /// Stable machine-readable code (`quota_exceeded`).
-    pub code: &'static str,
+    pub code: ProblemCode,
     pub title: String,
     pub detail: String,
     /// Extension members (`errors`, `retry_after`, ...).
@@ -23,7 +24,7 @@ pub struct Problem {
 
 impl Problem {
     /// A problem with `status`, stable `code`, short `title` and a `detail` that says what to do.
-    pub fn new(status: StatusCode, code: &'static str, title: impl Into<String>, detail: impl Into<String>) -> Self {
+    pub fn new(status: StatusCode, code: ProblemCode, title: impl Into<String>, detail: impl Into<String>) -> Self {
         Self { status, code, title: title.into(), detail: displayable(&detail.into()), extra: Map::new(), retry_after: None }
     }
 
@@ -41,30 +42,35 @@ impl Problem {
     }
 
     pub fn not_found(what: impl Into<String>) -> Self {
-        Self::new(StatusCode::NOT_FOUND, "not_found", "Not found", what)
+        Self::new(StatusCode::NOT_FOUND, ProblemCode::NotFound, "Not found", what)
     }
 
-    pub fn bad_request(code: &'static str, detail: impl Into<String>) -> Self {
+    pub fn bad_request(code: ProblemCode, detail: impl Into<String>) -> Self {
         Self::new(StatusCode::BAD_REQUEST, code, "Bad request", detail)
     }
 
     pub fn forbidden(detail: impl Into<String>) -> Self {
-        Self::new(StatusCode::FORBIDDEN, "forbidden", "Forbidden", detail)
+        Self::new(StatusCode::FORBIDDEN, ProblemCode::Forbidden, "Forbidden", detail)
     }
 
     /// A request whose body or fields do not hold what the route needs (422 `invalid_request`).
     pub fn invalid_request(detail: impl Into<String>) -> Self {
-        Self::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid request", detail)
+        Self::new(StatusCode::UNPROCESSABLE_ENTITY, ProblemCode::InvalidRequest, "Invalid request", detail)
     }
 
     pub fn conflict(detail: impl Into<String>) -> Self {
-        Self::new(StatusCode::CONFLICT, "conflict", "Conflict", detail)
+        Self::new(StatusCode::CONFLICT, ProblemCode::Conflict, "Conflict", detail)
     }
 
     /// An unexpected failure: logged in full, shown as a generic message.
     pub fn internal(cause: impl std::fmt::Display) -> Self {
         tracing::error!(error = %cause, "internal error");
-        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", "Internal error", "The server failed to handle the request; it has been logged. Retry later.")
+        Self::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            ProblemCode::Internal,
+            "Internal error",
+            "The server failed to handle the request; it has been logged. Retry later.",
+        )
     }
 
     /// A failed blob operation: the object store being away is a 503 the client may retry
@@ -81,7 +87,7 @@ impl Problem {
     pub fn storage_unavailable() -> Self {
         Self::new(
             StatusCode::SERVICE_UNAVAILABLE,
-            "storage_unavailable",
+            ProblemCode::StorageUnavailable,
             "Storage unavailable",
             "The server cannot reach its object storage right now; nothing was stored and no quota was used. Retry in a little while.",
         )
@@ -95,7 +101,7 @@ impl Problem {
         body.insert("title".into(), json!(self.title));
         body.insert("status".into(), json!(self.status.as_u16()));
         body.insert("detail".into(), json!(self.detail));
-        body.insert("code".into(), json!(self.code));
+        body.insert("code".into(), json!(self.code.as_str()));
         body.extend(self.extra.clone());
         Value::Object(body)
     }

@@ -16,7 +16,7 @@ use crate::blobs::Blobs;
 use crate::clock::now_ms;
 use crate::release_archives;
 pub use crate::release_names::{check_version, release_prefix};
-use crate::store::{ReleaseFile, ReleaseRecord, Store, StoreError};
+use crate::store::{ReleaseFile, ReleaseFileKind, ReleaseRecord, Store, StoreError};
 
 /// The splits of a served manifest's scenes, test first (a scene without one is val).
 pub fn manifest_splits(manifest: &str) -> Vec<Split> {
@@ -120,7 +120,7 @@ impl Provenance {
 pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyhow::Result<(PreparedRelease, std::path::PathBuf)> {
     provenance.check(dir)?;
     let manifest_path = dir.join("manifest.json");
-    let mut manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path)?)?;
+    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path)?)?;
     let version = manifest["version"].as_str().unwrap_or_default().to_string();
     check_version(&version).map_err(|m| anyhow::anyhow!("{}: version: {m}", manifest_path.display()))?;
     let entries: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone())?;
@@ -129,78 +129,117 @@ pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyho
 
     let staging = blobs.scratch("release");
     std::fs::create_dir_all(&staging)?;
-    let result = (|| -> anyhow::Result<PreparedRelease> {
-        for entry in &entries {
-            let target = staging.join(&entry.path);
-            std::fs::create_dir_all(target.parent().expect("files sit in folders"))?;
-            provenance.take(&dir.join(&entry.path), &target)?;
-        }
-        std::fs::copy(&manifest_path, staging.join("manifest.json.original"))?;
-        copy_tree(&dir.join(GROUND_TRUTH_DIR), &staging.join(GROUND_TRUTH_DIR), provenance)?;
-        // What was staged is what the manifest lists, by size (a cheap guard against a
-        // copy gone wrong; the content was checked before, as the provenance asks).
-        for entry in &entries {
-            let staged = std::fs::metadata(staging.join(&entry.path))?.len();
-            anyhow::ensure!(staged == entry.size, "{}: staged with {staged} bytes, the manifest lists {}", entry.path, entry.size);
-        }
-
-        let mut files: Vec<ReleaseFile> = entries
-            .iter()
-            .map(|e| ReleaseFile { version: version.clone(), path: e.path.clone(), size: e.size as i64, sha256: e.sha256.clone(), kind: "file".into() })
-            .collect();
-        let mut sequences: BTreeMap<(String, String), ()> = BTreeMap::new();
-        for entry in &entries {
-            let parts: Vec<&str> = entry.path.split('/').collect();
-            if parts.len() > 3 && parts[0] == "sequences" {
-                sequences.insert((parts[1].to_string(), parts[2].to_string()), ());
-            }
-        }
-        let splits = scene_splits(&manifest);
-        let mut archives = Vec::new();
-        for (lighting, scene) in sequences.keys() {
-            let path = format!("archives/sequences/{lighting}/{scene}.tar");
-            let target = staging.join(&path);
-            std::fs::create_dir_all(target.parent().expect("nested"))?;
-            // An archive holds exactly the manifest's files of its sequence. A just-built
-            // release brings the archives its render jobs packed of the scene's public files;
-            // one that is not the size those files pack to is packed again here.
-            let members = release_archives::members(&entries, lighting, scene);
-            let split = splits.get(scene.as_str()).copied().unwrap_or(Split::Test);
-            let packed = (provenance == Provenance::JustBuilt)
-                .then(|| packed_sequence_archive(dir, lighting, scene, split))
-                .flatten()
-                .filter(|(_, size, _)| *size == release_archives::expected_size(&members));
-            let (size, sha256) = match packed {
-                Some((archive, size, sha256)) => {
-                    provenance.take(&archive, &target)?;
-                    (size, sha256)
-                }
-                None => release_archives::pack_members(&staging, &members, lighting, scene, &target)?,
-            };
-            archives.push(json!({"path": path, "lighting": lighting, "scene": scene, "size": size, "sha256": sha256}));
-            files.push(ReleaseFile { version: version.clone(), path, size: size as i64, sha256, kind: "archive".into() });
-        }
-        manifest["archives"] = Value::Array(archives);
-        let served = serde_json::to_string_pretty(&manifest)? + "\n";
-        std::fs::write(staging.join("manifest.json"), &served)?;
-        let digest = manifest["digest"].as_str().unwrap_or_default().to_string();
-        let record = ReleaseRecord {
-            version: version.clone(),
-            state: crate::store::ReleaseState::Draft,
-            is_current: false,
-            digest,
-            manifest: served,
-            created_at: now_ms(),
-            published_at: None,
-        };
-        Ok(PreparedRelease { record, files })
-    })();
+    let stage = Staging { dir, staging: &staging, provenance, version: &version, entries: &entries };
+    let result = stage.files(&manifest_path).and_then(|()| stage.archives(&manifest)).and_then(|(manifest, archives)| stage.record(manifest, archives));
     match result {
         Ok(prepared) => Ok((prepared, staging)),
         Err(e) => {
             let _ = std::fs::remove_dir_all(&staging);
             Err(e)
         }
+    }
+}
+
+/// A release being copied from `dir` into the blob store's `staging` folder.
+struct Staging<'a> {
+    dir: &'a Path,
+    staging: &'a Path,
+    provenance: Provenance,
+    version: &'a str,
+    /// The manifest's files.
+    entries: &'a [FileEntry],
+}
+
+impl Staging<'_> {
+    /// Copy the manifest's files, the original manifest and the ground truth, and check
+    /// that what was staged is what the manifest lists, by size (a cheap guard against a
+    /// copy gone wrong; the content was checked before, as the provenance asks).
+    fn files(&self, manifest_path: &Path) -> anyhow::Result<()> {
+        for entry in self.entries {
+            let target = self.staging.join(&entry.path);
+            std::fs::create_dir_all(target.parent().expect("files sit in folders"))?;
+            self.provenance.take(&self.dir.join(&entry.path), &target)?;
+        }
+        std::fs::copy(manifest_path, self.staging.join("manifest.json.original"))?;
+        copy_tree(&self.dir.join(GROUND_TRUTH_DIR), &self.staging.join(GROUND_TRUTH_DIR), self.provenance)?;
+        for entry in self.entries {
+            let staged = std::fs::metadata(self.staging.join(&entry.path))?.len();
+            anyhow::ensure!(staged == entry.size, "{}: staged with {staged} bytes, the manifest lists {}", entry.path, entry.size);
+        }
+        Ok(())
+    }
+
+    /// One archive per sequence (lighting, scene), holding exactly the manifest's files
+    /// of the sequence: the manifest listing them, and their records.
+    fn archives(&self, manifest: &Value) -> anyhow::Result<(Value, Vec<ReleaseFile>)> {
+        let mut sequences: BTreeMap<(String, String), ()> = BTreeMap::new();
+        for entry in self.entries {
+            let parts: Vec<&str> = entry.path.split('/').collect();
+            if parts.len() > 3 && parts[0] == "sequences" {
+                sequences.insert((parts[1].to_string(), parts[2].to_string()), ());
+            }
+        }
+        let splits = scene_splits(manifest);
+        let mut listed = Vec::new();
+        let mut files = Vec::new();
+        for (lighting, scene) in sequences.keys() {
+            let path = format!("archives/sequences/{lighting}/{scene}.tar");
+            let target = self.staging.join(&path);
+            std::fs::create_dir_all(target.parent().expect("nested"))?;
+            let split = splits.get(scene.as_str()).copied().unwrap_or(Split::Test);
+            let (size, sha256) = self.archive(lighting, scene, split, &target)?;
+            listed.push(json!({"path": path, "lighting": lighting, "scene": scene, "size": size, "sha256": sha256}));
+            files.push(ReleaseFile { version: self.version.to_string(), path, size: size as i64, sha256, kind: ReleaseFileKind::Archive });
+        }
+        let mut manifest = manifest.clone();
+        manifest["archives"] = Value::Array(listed);
+        Ok((manifest, files))
+    }
+
+    /// The archive of one sequence at `target`: its size and SHA-256. A just-built release
+    /// brings the archives its render jobs packed of the scene's public files; one that is
+    /// not the size those files pack to is packed again here.
+    fn archive(&self, lighting: &str, scene: &str, split: Split, target: &Path) -> anyhow::Result<(u64, String)> {
+        let members = release_archives::members(self.entries, lighting, scene);
+        let packed = (self.provenance == Provenance::JustBuilt)
+            .then(|| packed_sequence_archive(self.dir, lighting, scene, split))
+            .flatten()
+            .filter(|(_, size, _)| *size == release_archives::expected_size(&members));
+        match packed {
+            Some((archive, size, sha256)) => {
+                self.provenance.take(&archive, target)?;
+                Ok((size, sha256))
+            }
+            None => release_archives::pack_members(self.staging, &members, lighting, scene, target),
+        }
+    }
+
+    /// The served manifest written, and the release's record with every file's.
+    fn record(&self, manifest: Value, archives: Vec<ReleaseFile>) -> anyhow::Result<PreparedRelease> {
+        let mut files: Vec<ReleaseFile> = self
+            .entries
+            .iter()
+            .map(|e| ReleaseFile {
+                version: self.version.to_string(),
+                path: e.path.clone(),
+                size: e.size as i64,
+                sha256: e.sha256.clone(),
+                kind: ReleaseFileKind::File,
+            })
+            .collect();
+        files.extend(archives);
+        let served = serde_json::to_string_pretty(&manifest)? + "\n";
+        std::fs::write(self.staging.join("manifest.json"), &served)?;
+        let record = ReleaseRecord {
+            version: self.version.to_string(),
+            state: crate::store::ReleaseState::Draft,
+            is_current: false,
+            digest: manifest["digest"].as_str().unwrap_or_default().to_string(),
+            manifest: served,
+            created_at: now_ms(),
+            published_at: None,
+        };
+        Ok(PreparedRelease { record, files })
     }
 }
 

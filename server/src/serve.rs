@@ -68,7 +68,7 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
             let record = TokenRecord {
                 id: CONFIGURED_ADMIN_TOKEN.into(),
                 team_id: None,
-                scope: "admin".into(),
+                scope: crate::store::TokenScope::Admin,
                 sha256: hash,
                 hint: crate::token::PREFIX.into(),
                 created_at: now_ms(),
@@ -85,7 +85,7 @@ pub async fn ensure_admin_token(state: &AppState) -> anyhow::Result<()> {
         tracing::info!(file = %path.display(), "admin token exists (written at first start)");
         return Ok(());
     }
-    let (token, record) = issue_token("admin", None, None);
+    let (token, record) = issue_token(crate::store::TokenScope::Admin, None, None);
     crate::secret_files::write_new_owner_only(&path, format!("{token}\n").as_bytes())
         .with_context(|| format!("cannot write the admin token to {} (remove a stale file)", path.display()))?;
     state.store.insert_token(&record).await?;

@@ -15,7 +15,7 @@ use tokio::io::AsyncWriteExt;
 use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms, rfc3339};
 use crate::intake::{Upload, receive};
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use crate::state::AppState;
 use crate::store::{OpenUploadLimits, OpenUploads, StoreError, Team, UploadPart, UploadRecord};
 
@@ -42,7 +42,7 @@ async fn owned(state: &AppState, team: &Team, id: &str) -> Result<UploadRecord, 
         Ok(upload) if upload.team_id != team.id => Err(not_found(id)),
         Ok(upload) if upload.expires_at < now_ms() && upload.submission_id.is_none() => Err(Problem::new(
             StatusCode::GONE,
-            "upload_expired",
+            ProblemCode::UploadExpired,
             "Upload expired",
             format!("Upload '{id}' expired at {} before it was complete; start a new one.", rfc3339(upload.expires_at)),
         )),
@@ -59,14 +59,20 @@ pub async fn create(state: &AppState, team: &Team, length: u64, metadata: &str) 
         return Err(crate::intake::too_large(max));
     }
     if metadata.len() > MAX_METADATA {
-        return Err(Problem::bad_request("invalid_metadata", format!("Upload-Metadata has {} bytes; at most {MAX_METADATA} are kept.", metadata.len())));
+        return Err(Problem::bad_request(
+            ProblemCode::InvalidMetadata,
+            format!("Upload-Metadata has {} bytes; at most {MAX_METADATA} are kept.", metadata.len()),
+        ));
     }
     for pair in metadata.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let mut fields = pair.split(' ');
         let (key, value) = (fields.next().unwrap_or(""), fields.next());
         let value_ok = value.is_none_or(|v| base64::Engine::decode(&base64::engine::general_purpose::STANDARD, v).is_ok());
         if key.is_empty() || fields.next().is_some() || !value_ok {
-            return Err(Problem::bad_request("invalid_metadata", format!("Upload-Metadata: '{pair}' is not 'KEY BASE64-VALUE' (tus 1.0.0 creation).")));
+            return Err(Problem::bad_request(
+                ProblemCode::InvalidMetadata,
+                format!("Upload-Metadata: '{pair}' is not 'KEY BASE64-VALUE' (tus 1.0.0 creation)."),
+            ));
         }
     }
     let now = now_ms();
@@ -96,7 +102,7 @@ fn open_uploads_refused(open: OpenUploads, limits: OpenUploadLimits, length: u64
     if open.uploads >= limits.uploads {
         return Problem::new(
             StatusCode::TOO_MANY_REQUESTS,
-            "too_many_uploads",
+            ProblemCode::TooManyUploads,
             "Too many open uploads",
             format!("Your team has {} resumable uploads open, the most it may (OSMAB_MAX_OPEN_UPLOADS = {}). {frees}", open.uploads, limits.uploads),
         )
@@ -104,7 +110,7 @@ fn open_uploads_refused(open: OpenUploads, limits: OpenUploadLimits, length: u64
     }
     Problem::new(
         StatusCode::PAYLOAD_TOO_LARGE,
-        "open_uploads_too_large",
+        ProblemCode::OpenUploadsTooLarge,
         "Open uploads too large",
         format!(
             "Your team's open resumable uploads declare {} bytes; {length} more would pass {} (OSMAB_MAX_OPEN_UPLOAD_BYTES). {frees}",
@@ -134,7 +140,7 @@ pub async fn append(state: &AppState, team: &Team, id: &str, offset: u64, body: 
         if problem.status == StatusCode::PAYLOAD_TOO_LARGE {
             Problem::new(
                 StatusCode::PAYLOAD_TOO_LARGE,
-                "upload_overrun",
+                ProblemCode::UploadOverrun,
                 "More than the upload's length",
                 format!("The upload is {} bytes long and {} have arrived: at most {room} more fit.", upload.length, upload.upload_offset),
             )
@@ -147,7 +153,7 @@ pub async fn append(state: &AppState, team: &Team, id: &str, offset: u64, body: 
     {
         return Err(Problem::new(
             StatusCode::from_u16(460).expect("460 is a status code"),
-            "checksum_mismatch",
+            ProblemCode::ChecksumMismatch,
             "Checksum mismatch",
             format!("The {} bytes sent for offset {offset} do not have the SHA-256 Upload-Checksum declared; nothing was kept. Send them again.", part.size),
         ));
@@ -170,7 +176,7 @@ pub async fn append(state: &AppState, team: &Team, id: &str, offset: u64, body: 
 fn offset_conflict(upload: &UploadRecord, offset: u64) -> Problem {
     Problem::new(
         StatusCode::CONFLICT,
-        "offset_mismatch",
+        ProblemCode::OffsetMismatch,
         "Upload-Offset mismatch",
         format!("Upload-Offset is {offset} but the upload has {} bytes; ask with HEAD and continue from there.", upload.upload_offset),
     )
@@ -203,7 +209,7 @@ pub async fn assemble(state: &AppState, team: &Team, id: &str) -> Result<Assembl
     if upload.upload_offset < upload.length {
         return Err(Problem::new(
             StatusCode::CONFLICT,
-            "upload_incomplete",
+            ProblemCode::UploadIncomplete,
             "Upload incomplete",
             format!("Upload '{id}' has {} of its {} bytes; send the rest with PATCH first.", upload.upload_offset, upload.length),
         ));

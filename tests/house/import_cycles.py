@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Circles of imports between the modules of each crate: a module A "imports" B when a
 file of A names `crate::B…`, `super::…`, `self::…` or a child module's path resolving to B,
-in a `use` or inline. Re-exports (`pub use`) do not count: they are a module's interface,
+in a `use` or inline (a child named inline, `child::item(…)`, too). Re-exports (`pub use`) do not count: they are a module's interface,
 not what its code needs. Prints every strongly connected set of more than one module and
 exits 1 when there is one (a parent module using its child's items while the child uses
 the parent's is a circle too).
@@ -90,6 +90,8 @@ def edges_of(name: str, path: Path, mods: dict[str, Path]) -> dict[str, str]:
             paths.extend(expand_use(m.group(2)))
     without_uses = re.sub(r"\buse\s+[^;]+;", "", text)
     paths.extend(m.group(0) for m in re.finditer(r"\b(?:crate|super)(?:::\w+)+", without_uses))
+    # A child module named inline (`child::item(…)`), as a parent that assembles its children does.
+    paths.extend(m.group(0) for m in re.finditer(r"(?<![:\w])(?!crate::|super::|self::)[a-z_]\w*(?:::\w+)+", without_uses))
     for p in paths:
         parts = [x for x in p.split(" as ")[0].split("::") if x]
         if not parts:

@@ -12,6 +12,7 @@ pub mod instances;
 pub mod manifest;
 pub mod publication;
 pub mod quality;
+pub mod quality_report;
 pub mod split;
 pub mod stages;
 

@@ -11,7 +11,7 @@ use reqwest::blocking::{Client, RequestBuilder};
 use serde::de::DeserializeOwned;
 
 use crate::config::Settings;
-use crate::routes::admin::{CreatedTeam, IssuedToken, TeamList, TeamView, TokenList};
+use crate::routes::admin_teams::{CreatedTeam, IssuedToken, TeamList, TeamView, TokenList};
 
 #[derive(Debug, Args)]
 pub struct AdminArgs {

@@ -1,7 +1,7 @@
 //! `osmab bench`: synthetic data of the published sizes and timings of the scorer.
 //! The comparison with the SciPy reference is driven by bench/semseg_vs_scipy.py.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Subcommand;
@@ -180,23 +180,7 @@ pub enum BenchCommand {
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
         BenchCommand::Synth { gt_points, map_points, objects, feature_dim, seed, map_covers_room, shuffle: random_order, out } => {
-            let mut scene = generate(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room });
-            if random_order {
-                // One permutation for the points, their labels and colours.
-                let gt = &mut scene.ground_truth;
-                let mut permutation: Vec<usize> = (0..gt.points.len()).collect();
-                shuffle(&mut permutation, seed);
-                gt.points = permutation.iter().map(|&i| gt.points[i]).collect();
-                gt.labels = permutation.iter().map(|&i| gt.labels[i]).collect();
-                gt.colors = gt.colors.take().map(|colors| permutation.iter().map(|&i| colors[i]).collect());
-            }
-            let gt_dir = out.join("gt");
-            scene.ground_truth.write(&gt_dir)?;
-            scene.classes.write(&gt_dir.join("embed_semseg_classes.json"))?;
-            scene.map.write(&out.join("map.npz"), false)?;
-            scene.text.write(&out.join("text_features.npz"))?;
-            println!("{}: {gt_points} ground-truth points, {map_points} map points", out.display());
-            Ok(())
+            synth(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room }, random_order, &out)
         }
         BenchCommand::ReleaseEstimate { config, sample, timed_frames } => super::bench_dataset::release_estimate(&config, sample, timed_frames),
         BenchCommand::Render { scenesmith, frames, lit, save } => super::bench_dataset::render_frames(&scenesmith, frames, lit, save.as_deref()),
@@ -218,45 +202,73 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             super::bench_submission::run(&size, &data, node, repeat)
         }
         BenchCommand::Nearest { gt_points, map_points, repeat, map_covers_room, shuffle: random_order } => {
-            let mut scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
-            if random_order {
-                shuffle(&mut scene.ground_truth.points, 7);
-            }
-            println!("threads {}, queries {}", rayon::current_num_threads(), if random_order { "in random order" } else { "frame by frame" });
-            for run in 0..repeat {
-                let clock = Instant::now();
-                let index = NearestIndex::build(&scene.map.points);
-                let built = clock.elapsed();
-                let clock = Instant::now();
-                let nearest = index.nearest_all(&scene.ground_truth.points);
-                let queried = clock.elapsed();
-                println!(
-                    "run {run}: build {:.3} s, {} queries {:.3} s ({:.0} ns/query/thread), checksum {}",
-                    built.as_secs_f64(),
-                    nearest.len(),
-                    queried.as_secs_f64(),
-                    queried.as_secs_f64() * 1e9 * rayon::current_num_threads() as f64 / nearest.len() as f64,
-                    nearest.iter().map(|&i| i as u64).sum::<u64>()
-                );
-                // As a whole submission's scoring does: the cloud put in Z-order once (for
-                // all the maps of its scene), then answered in that order.
-                let clock = Instant::now();
-                let order = osmab_evaluator::semseg::z_order::z_order(&scene.ground_truth.points);
-                let ordered: Vec<[f32; 3]> = order.par_iter().map(|&i| scene.ground_truth.points[i as usize]).collect();
-                let ordering = clock.elapsed();
-                let clock = Instant::now();
-                let in_order = index.nearest_all_in_order(&ordered);
-                let queried = clock.elapsed();
-                println!(
-                    "       in Z-order once: ordering {:.3} s, queries {:.3} s, checksum {}",
-                    ordering.as_secs_f64(),
-                    queried.as_secs_f64(),
-                    in_order.iter().map(|&i| i as u64).sum::<u64>()
-                );
-            }
-            Ok(())
+            nearest(gt_points, map_points, repeat, map_covers_room, random_order)
         }
     }
+}
+
+/// `osmab bench synth`: write a synthetic scene (ground truth, map, text features) to `out`.
+fn synth(spec: SceneSpec, random_order: bool, out: &Path) -> anyhow::Result<()> {
+    let (gt_points, map_points, seed) = (spec.gt_points, spec.map_points, spec.seed);
+    let mut scene = generate(spec);
+    if random_order {
+        // One permutation for the points, their labels and colours.
+        let gt = &mut scene.ground_truth;
+        let mut permutation: Vec<usize> = (0..gt.points.len()).collect();
+        shuffle(&mut permutation, seed);
+        gt.points = permutation.iter().map(|&i| gt.points[i]).collect();
+        gt.labels = permutation.iter().map(|&i| gt.labels[i]).collect();
+        gt.colors = gt.colors.take().map(|colors| permutation.iter().map(|&i| colors[i]).collect());
+    }
+    let gt_dir = out.join("gt");
+    scene.ground_truth.write(&gt_dir)?;
+    scene.classes.write(&gt_dir.join("embed_semseg_classes.json"))?;
+    scene.map.write(&out.join("map.npz"), false)?;
+    scene.text.write(&out.join("text_features.npz"))?;
+    println!("{}: {gt_points} ground-truth points, {map_points} map points", out.display());
+    Ok(())
+}
+
+/// `osmab bench nearest`: time building the nearest-neighbour index of a map and querying
+/// every ground-truth point, frame by frame (or shuffled) and in Z-order.
+fn nearest(gt_points: usize, map_points: usize, repeat: usize, map_covers_room: bool, random_order: bool) -> anyhow::Result<()> {
+    let mut scene = generate(SceneSpec { gt_points, map_points, objects: 60, feature_dim: 8, seed: 7, map_covers_room });
+    if random_order {
+        shuffle(&mut scene.ground_truth.points, 7);
+    }
+    println!("threads {}, queries {}", rayon::current_num_threads(), if random_order { "in random order" } else { "frame by frame" });
+    for run in 0..repeat {
+        let clock = Instant::now();
+        let index = NearestIndex::build(&scene.map.points);
+        let built = clock.elapsed();
+        let clock = Instant::now();
+        let nearest = index.nearest_all(&scene.ground_truth.points);
+        let queried = clock.elapsed();
+        println!(
+            "run {run}: build {:.3} s, {} queries {:.3} s ({:.0} ns/query/thread), checksum {}",
+            built.as_secs_f64(),
+            nearest.len(),
+            queried.as_secs_f64(),
+            queried.as_secs_f64() * 1e9 * rayon::current_num_threads() as f64 / nearest.len() as f64,
+            nearest.iter().map(|&i| i as u64).sum::<u64>()
+        );
+        // As a whole submission's scoring does: the cloud put in Z-order once (for
+        // all the maps of its scene), then answered in that order.
+        let clock = Instant::now();
+        let order = osmab_evaluator::semseg::z_order::z_order(&scene.ground_truth.points);
+        let ordered: Vec<[f32; 3]> = order.par_iter().map(|&i| scene.ground_truth.points[i as usize]).collect();
+        let ordering = clock.elapsed();
+        let clock = Instant::now();
+        let in_order = index.nearest_all_in_order(&ordered);
+        let queried = clock.elapsed();
+        println!(
+            "       in Z-order once: ordering {:.3} s, queries {:.3} s, checksum {}",
+            ordering.as_secs_f64(),
+            queried.as_secs_f64(),
+            in_order.iter().map(|&i| i as u64).sum::<u64>()
+        );
+    }
+    Ok(())
 }
 
 /// `osmab bench ranking`: `entries` synthetic entries, evenly spread in mIoU, each with

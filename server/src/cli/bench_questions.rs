@@ -100,20 +100,7 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
     let assets = osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref())?;
     let layouts = PoolLayouts::place(&pools, seed, &assets);
     let priors = QuestionPriors::new(&layouts, &lexicon);
-    // How many of a class a prompt of each room states, when it states the class.
-    let mut stated: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();
-    for prompt in pools.iter().flat_map(|p| &p.accepted) {
-        let mut per_class: BTreeMap<&str, u32> = BTreeMap::new();
-        for o in &prompt.spec.objects {
-            if let Some(class) = osmab_dataset::questions::prompt::class_of(&o.category) {
-                *per_class.entry(class).or_default() += o.count;
-            }
-        }
-        for (class, n) in per_class {
-            stated.entry((prompt.spec.room.clone(), class.to_string())).or_default().push(n.to_string());
-            stated.entry((String::new(), class.to_string())).or_default().push(n.to_string());
-        }
-    }
+    let stated = stated_counts(&pools);
 
     let questions_of = |scene: &str, draw: u64| -> anyhow::Result<SceneQuestions> {
         if regenerate_questions {
@@ -127,66 +114,107 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
     anyhow::ensure!(!test.is_empty(), "{}: the release has no test scenes to measure", release.display());
     let val_questions: Vec<Question> =
         val.iter().map(|s| questions_of(&s.id, 0)).collect::<anyhow::Result<Vec<_>>>()?.into_iter().flat_map(|q| q.questions).collect();
-    let answer = |q: &Question| q.answer.clone().unwrap_or_default();
-    let val_majority = |t: &str| mode(val_questions.iter().filter(|q| template(q) == t).map(|q| q.answer.as_deref().unwrap_or("")));
-    let val_lookup = |q: &Question| {
-        let same_form = mode(val_questions.iter().filter(|v| v.form == q.form && v.category == q.category).map(|v| v.answer.as_deref().unwrap_or("")));
-        let form = q.form.as_ref();
-        let same_class = || {
-            mode(
-                val_questions
-                    .iter()
-                    .filter(|v| template(v) == template(q) && v.form.as_ref().map(first_class) == form.map(first_class))
-                    .map(|v| v.answer.as_deref().unwrap_or("")),
-            )
-        };
-        same_form.or_else(same_class).or_else(|| val_majority(&template(q)))
-    };
-
     let mut test_questions: Vec<(Regime, Question)> = Vec::new();
     for draw in 0..draws.max(1) {
         for scene in &test {
             test_questions.extend(questions_of(&scene.id, draw)?.questions.into_iter().map(|q| (scene.subset, q)));
         }
     }
-    let pool_odds = |regime: Regime, q: &Question| -> Option<String> {
+    let predictors = Predictors { val: &val_questions, priors: &priors, stated: &stated };
+    Ok(predictors.tally(&test_questions))
+}
+
+/// How many of a class a prompt of each room states, when it states the class (by room
+/// and class; the empty room for any room).
+fn stated_counts(pools: &[PromptPool]) -> BTreeMap<(String, String), Vec<String>> {
+    let mut stated: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();
+    for prompt in pools.iter().flat_map(|p| &p.accepted) {
+        let mut per_class: BTreeMap<&str, u32> = BTreeMap::new();
+        for o in &prompt.spec.objects {
+            if let Some(class) = osmab_dataset::questions::prompt::class_of(&o.category) {
+                *per_class.entry(class).or_default() += o.count;
+            }
+        }
+        for (class, n) in per_class {
+            stated.entry((prompt.spec.room.clone(), class.to_string())).or_default().push(n.to_string());
+            stated.entry((String::new(), class.to_string())).or_default().push(n.to_string());
+        }
+    }
+    stated
+}
+
+/// What a participant could guess a test answer from without the test scenes: the open
+/// (val) questions and answers, and the public prompt pools (their priors and stated counts).
+struct Predictors<'a> {
+    val: &'a [Question],
+    priors: &'a QuestionPriors<'a>,
+    stated: &'a BTreeMap<(String, String), Vec<String>>,
+}
+
+impl Predictors<'_> {
+    /// The commonest val answer of template `t`.
+    fn val_majority(&self, t: &str) -> Option<String> {
+        mode(self.val.iter().filter(|q| template(q) == t).map(|q| q.answer.as_deref().unwrap_or("")))
+    }
+
+    /// The commonest val answer of the same form, else of the same template and class,
+    /// else of the template.
+    fn val_lookup(&self, q: &Question) -> Option<String> {
+        let same_form = mode(self.val.iter().filter(|v| v.form == q.form && v.category == q.category).map(|v| v.answer.as_deref().unwrap_or("")));
+        let form = q.form.as_ref();
+        let same_class = || {
+            mode(
+                self.val
+                    .iter()
+                    .filter(|v| template(v) == template(q) && v.form.as_ref().map(first_class) == form.map(first_class))
+                    .map(|v| v.answer.as_deref().unwrap_or("")),
+            )
+        };
+        same_form.or_else(same_class).or_else(|| self.val_majority(&template(q)))
+    }
+
+    /// The answer the pool's odds favour (none for colours).
+    fn pool_odds(&self, regime: Regime, q: &Question) -> Option<String> {
         let form = q.form.as_ref()?;
         let room = room_of(&q.question).unwrap_or_default();
         match form {
             QuestionForm::Count { class } => {
-                if priors.presence_odds(&room, regime, class) < 0.5 {
+                if self.priors.presence_odds(&room, regime, class) < 0.5 {
                     return Some("0".into());
                 }
                 let key = (room.clone(), class.clone());
-                let counts = stated.get(&key).or_else(|| stated.get(&(String::new(), class.clone())))?;
+                let counts = self.stated.get(&key).or_else(|| self.stated.get(&(String::new(), class.clone())))?;
                 mode(counts.iter().map(String::as_str))
             }
             QuestionForm::Colour { .. } => None,
-            other => Some(if priors.yes_odds(&room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
+            other => Some(if self.priors.yes_odds(&room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
         }
-    };
-
-    let mut tallies: BTreeMap<String, TemplateTally> = BTreeMap::new();
-    let majorities: BTreeMap<String, Option<String>> = test_questions
-        .iter()
-        .map(|(_, q)| template(q))
-        .map(|t| {
-            let majority = mode(test_questions.iter().filter(|(_, q)| template(q) == t).map(|(_, q)| q.answer.as_deref().unwrap_or("")));
-            (t, majority)
-        })
-        .collect();
-    for (regime, q) in &test_questions {
-        let t = template(q);
-        let truth = answer(q);
-        let hit = |guess: Option<String>| usize::from(guess.is_some_and(|g| g.eq_ignore_ascii_case(&truth)));
-        let tally = tallies.entry(t.clone()).or_default();
-        tally.questions += 1;
-        tally.majority += hit(majorities[&t].clone());
-        tally.val_majority += hit(val_majority(&t));
-        tally.val_lookup += hit(val_lookup(q));
-        tally.pool_odds += hit(pool_odds(*regime, q).or_else(|| val_majority(&t)));
     }
-    Ok(tallies)
+
+    /// How often each predictor hits the test answers, per template.
+    fn tally(&self, test_questions: &[(Regime, Question)]) -> BTreeMap<String, TemplateTally> {
+        let mut tallies: BTreeMap<String, TemplateTally> = BTreeMap::new();
+        let majorities: BTreeMap<String, Option<String>> = test_questions
+            .iter()
+            .map(|(_, q)| template(q))
+            .map(|t| {
+                let majority = mode(test_questions.iter().filter(|(_, q)| template(q) == t).map(|(_, q)| q.answer.as_deref().unwrap_or("")));
+                (t, majority)
+            })
+            .collect();
+        for (regime, q) in test_questions {
+            let t = template(q);
+            let truth = q.answer.clone().unwrap_or_default();
+            let hit = |guess: Option<String>| usize::from(guess.is_some_and(|g| g.eq_ignore_ascii_case(&truth)));
+            let tally = tallies.entry(t.clone()).or_default();
+            tally.questions += 1;
+            tally.majority += hit(majorities[&t].clone());
+            tally.val_majority += hit(self.val_majority(&t));
+            tally.val_lookup += hit(self.val_lookup(q));
+            tally.pool_odds += hit(self.pool_odds(*regime, q).or_else(|| self.val_majority(&t)));
+        }
+        tallies
+    }
 }
 
 /// `osmab bench questions --release DIR…`: the table over every build given, summed.

@@ -17,6 +17,7 @@ use osmab_dataset::spec::SceneSpec as PromptSpec;
 use osmab_evaluator::formats::map::TextFeatures;
 use osmab_evaluator::scores::{Lighting, Regime};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
+use osmab_evaluator::submission::score::ScoringTimings;
 use osmab_evaluator::submission::warm::{Warmed, warm_release};
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, pack_directory, score_submission_timed, unpack, validate};
 use osmab_evaluator::synthetic::{SceneSpec, SyntheticScene, generate};
@@ -124,27 +125,32 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, node: Node, repeat: usize) -
         if let Some(why) = t.cache_misses.iter().find(|why| !why.ends_with("not cached yet")).or(t.not_kept.first()) {
             println!("  (cache: {why})");
         }
-        let rows: [(&str, Duration); 14] = [
-            ("unpack the archive", unpack_time),
-            ("read the release, validate every file", validate_time),
-            ("read ground truth (once a scene; cached: prepared)", t.read_ground_truth),
-            ("put ground truth in Z-order (once a scene, uncached)", t.prepare_ground_truth),
-            ("  keep it in the node's cache (beside the rest, not in the sum)", t.keep_ground_truth),
-            ("  wait for the cache's writer", t.wait_for_cache),
-            ("read maps", t.read_maps),
-            ("label map points", t.scenes.labels),
-            ("build nearest-neighbour indexes", t.scenes.index),
-            ("associate ground-truth points", t.scenes.query),
-            ("confusion matrices", t.scenes.confusion),
-            ("tables, subsets, bootstrap intervals", t.tables),
-            ("VQA: answer and judge", t.vqa),
-            ("whole submission", total),
-        ];
-        for (stage, time) in rows {
-            println!("  {stage:<54} {:>8.2} s", time.as_secs_f64());
-        }
+        print_stages(unpack_time, validate_time, &t, total);
     }
     Ok(())
+}
+
+/// The time of every stage of one scoring, one line each.
+fn print_stages(unpack_time: Duration, validate_time: Duration, t: &ScoringTimings, total: Duration) {
+    let rows: [(&str, Duration); 14] = [
+        ("unpack the archive", unpack_time),
+        ("read the release, validate every file", validate_time),
+        ("read ground truth (once a scene; cached: prepared)", t.read_ground_truth),
+        ("put ground truth in Z-order (once a scene, uncached)", t.prepare_ground_truth),
+        ("  keep it in the node's cache (beside the rest, not in the sum)", t.keep_ground_truth),
+        ("  wait for the cache's writer", t.wait_for_cache),
+        ("read maps", t.read_maps),
+        ("label map points", t.scenes.labels),
+        ("build nearest-neighbour indexes", t.scenes.index),
+        ("associate ground-truth points", t.scenes.query),
+        ("confusion matrices", t.scenes.confusion),
+        ("tables, subsets, bootstrap intervals", t.tables),
+        ("VQA: answer and judge", t.vqa),
+        ("whole submission", total),
+    ];
+    for (stage, time) in rows {
+        println!("  {stage:<54} {:>8.2} s", time.as_secs_f64());
+    }
 }
 
 /// The submission archive in `data`, generated with the release beside it first if

@@ -6,7 +6,7 @@ use serde_json::{Value, json};
 
 use super::Quota;
 use crate::clock::{now_ms, rfc3339};
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use crate::store::StoreError;
 
 /// A refused upload. Nothing is stored and no quota is used for any of them.
@@ -59,7 +59,7 @@ fn invalid(problems: &[InputError]) -> Problem {
         )
     };
     let errors: Vec<Value> = problems.iter().map(|p| json!({"file": p.file, "field": p.field, "message": p.message})).collect();
-    Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_submission", "Invalid submission", detail).with("errors", Value::Array(errors))
+    Problem::new(StatusCode::UNPROCESSABLE_ENTITY, ProblemCode::InvalidSubmission, "Invalid submission", detail).with("errors", Value::Array(errors))
 }
 
 /// The 429 of a used-up quota, with `Retry-After` when the next submission is possible.
@@ -74,7 +74,7 @@ pub fn quota_exceeded(quota: Quota) -> Problem {
     };
     Problem::new(
         StatusCode::TOO_MANY_REQUESTS,
-        "quota_exceeded",
+        ProblemCode::QuotaExceeded,
         "Submission quota used",
         format!(
             "Your team has used {} of its {} submissions to the {} split in the last {hours} hours; {when}. Dry runs (?dry_run=true) are free, and `osmab client validate` scores the val split offline.",
@@ -88,18 +88,18 @@ pub fn quota_exceeded(quota: Quota) -> Problem {
 impl From<Error> for Problem {
     fn from(e: Error) -> Problem {
         match e {
-            Error::InvalidArchive(problem) => Problem { code: "invalid_archive", title: "Invalid archive".into(), ..invalid(&[problem]) },
+            Error::InvalidArchive(problem) => Problem { code: ProblemCode::InvalidArchive, title: "Invalid archive".into(), ..invalid(&[problem]) },
             Error::Invalid(problems) => invalid(&problems),
             Error::ReleaseNotOpen(version) => Problem::new(
                 StatusCode::CONFLICT,
-                "release_not_open",
+                ProblemCode::ReleaseNotOpen,
                 "Release not open",
                 format!("Release '{version}' is not published, so it takes no submissions; see GET /api/v1/releases."),
             ),
             Error::QuotaExceeded(quota) => quota_exceeded(quota),
             Error::KeyReused(id) => Problem::new(
                 StatusCode::UNPROCESSABLE_ENTITY,
-                "idempotency_key_reused",
+                ProblemCode::IdempotencyKeyReused,
                 "Idempotency key reused",
                 format!(
                     "This Idempotency-Key was used for submission {id} of another archive. Send a new key for a new upload; nothing was stored and no quota was used."
@@ -125,15 +125,15 @@ mod tests {
         let file = || InputError::new("maps/baseline/scene_000.npz", "points", "NaN in row 3");
         let now = now_ms();
         let quota = Quota { split: osmab_evaluator::scores::Split::Test, limit: 5, window_secs: 86_400, counted: vec![now - 3_600_000; 5], at: now };
-        let cases: Vec<(Error, u16, &str)> = vec![
-            (Error::InvalidArchive(file()), 422, "invalid_archive"),
-            (Error::Invalid(vec![file(), file()]), 422, "invalid_submission"),
-            (Error::ReleaseNotOpen("2026.2".into()), 409, "release_not_open"),
-            (Error::QuotaExceeded(quota.clone()), 429, "quota_exceeded"),
-            (Error::KeyReused("sub_1".into()), 422, "idempotency_key_reused"),
-            (Error::Store(StoreError::NotFound), 404, "not_found"),
-            (Error::StorageUnavailable("connection refused".into()), 503, "storage_unavailable"),
-            (Error::Internal("disk full".into()), 500, "internal"),
+        let cases: Vec<(Error, u16, ProblemCode)> = vec![
+            (Error::InvalidArchive(file()), 422, ProblemCode::InvalidArchive),
+            (Error::Invalid(vec![file(), file()]), 422, ProblemCode::InvalidSubmission),
+            (Error::ReleaseNotOpen("2026.2".into()), 409, ProblemCode::ReleaseNotOpen),
+            (Error::QuotaExceeded(quota.clone()), 429, ProblemCode::QuotaExceeded),
+            (Error::KeyReused("sub_1".into()), 422, ProblemCode::IdempotencyKeyReused),
+            (Error::Store(StoreError::NotFound), 404, ProblemCode::NotFound),
+            (Error::StorageUnavailable("connection refused".into()), 503, ProblemCode::StorageUnavailable),
+            (Error::Internal("disk full".into()), 500, ProblemCode::Internal),
         ];
         for (error, status, code) in cases {
             let problem = Problem::from(error);

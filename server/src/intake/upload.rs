@@ -12,7 +12,7 @@ use tokio::io::AsyncWriteExt;
 
 use crate::blobs::Scratch;
 use crate::clock::now_ms;
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use crate::state::AppState;
 
 /// An upload on disk with what was counted while it arrived.
@@ -51,12 +51,15 @@ pub async fn receive(state: &AppState, body: Body, max_bytes: u64) -> Result<(Up
             if crate::http::is_body_timeout(&e) {
                 Problem::new(
                     StatusCode::REQUEST_TIMEOUT,
-                    "request_timeout",
+                    ProblemCode::RequestTimeout,
                     "Request timeout",
                     format!("The upload stalled after {size} bytes: nothing arrived for too long. Check the connection and upload again."),
                 )
             } else {
-                Problem::bad_request("upload_incomplete", format!("The upload ended early after {size} bytes ({e}). Check the connection and upload again."))
+                Problem::bad_request(
+                    ProblemCode::UploadIncomplete,
+                    format!("The upload ended early after {size} bytes ({e}). Check the connection and upload again."),
+                )
             }
         })?;
         size += chunk.len() as u64;
@@ -75,7 +78,7 @@ pub async fn receive(state: &AppState, body: Body, max_bytes: u64) -> Result<(Up
 pub fn too_large(max_bytes: u64) -> Problem {
     Problem::new(
         StatusCode::PAYLOAD_TOO_LARGE,
-        "payload_too_large",
+        ProblemCode::PayloadTooLarge,
         "Upload too large",
         format!("Uploads are limited to {max_bytes} bytes. Store features as float32, drop background points, or ask the organisers about larger submissions."),
     )
@@ -89,10 +92,11 @@ pub fn declared_sha256(header: &str) -> Result<Option<[u8; 32]>, Problem> {
         let item = item.trim();
         if let Some(value) = item.strip_prefix("sha-256=") {
             let encoded = value.trim().trim_start_matches(':').trim_end_matches(':');
-            let bytes = base64::engine::general_purpose::STANDARD
-                .decode(encoded)
-                .map_err(|_| Problem::bad_request("invalid_digest", "Content-Digest: the sha-256 value must be base64 between colons (sha-256=:…:)."))?;
-            let digest: [u8; 32] = bytes.try_into().map_err(|_| Problem::bad_request("invalid_digest", "Content-Digest: a sha-256 digest has 32 bytes."))?;
+            let bytes = base64::engine::general_purpose::STANDARD.decode(encoded).map_err(|_| {
+                Problem::bad_request(ProblemCode::InvalidDigest, "Content-Digest: the sha-256 value must be base64 between colons (sha-256=:…:).")
+            })?;
+            let digest: [u8; 32] =
+                bytes.try_into().map_err(|_| Problem::bad_request(ProblemCode::InvalidDigest, "Content-Digest: a sha-256 digest has 32 bytes."))?;
             return Ok(Some(digest));
         }
     }
@@ -108,6 +112,6 @@ pub fn idempotency_key(headers: &axum::http::HeaderMap) -> Result<Option<String>
     let key = value.to_str().ok().map(|k| k.trim().trim_matches('"')).filter(|k| (1..=255).contains(&k.len()) && k.bytes().all(|b| b.is_ascii_graphic()));
     match key {
         Some(key) => Ok(Some(key.to_string())),
-        None => Err(Problem::bad_request("invalid_idempotency_key", "Idempotency-Key: expected 1 to 255 visible ASCII characters (a UUID, say).")),
+        None => Err(Problem::bad_request(ProblemCode::InvalidIdempotencyKey, "Idempotency-Key: expected 1 to 255 visible ASCII characters (a UUID, say).")),
     }
 }

@@ -16,13 +16,13 @@ use serde::de::DeserializeOwned;
 
 use crate::clock::{new_id, now_ms};
 use crate::state::AppState;
-use crate::store::{ClaimedJob, NewJob, StoreError};
+use crate::store::{ClaimedJob, JobKind, NewJob, StoreError};
 use progress::Progress;
 
 /// A kind of background job: its payload is the job's parameters, stored as JSON.
 pub trait Job: Serialize + DeserializeOwned + Send + 'static {
     /// The kind as stored in the queue.
-    const KIND: &'static str;
+    const KIND: JobKind;
 
     /// What the job is about (a submission id, a release version): the queue holds at
     /// most one live job per kind and subject.
@@ -62,7 +62,7 @@ impl From<StoreError> for JobError {
 pub fn new_job<J: Job>(job: &J, state: &AppState) -> NewJob {
     NewJob {
         id: new_id("job"),
-        kind: J::KIND.into(),
+        kind: J::KIND,
         subject: job.subject(),
         payload: serde_json::to_string(job).expect("a job payload serialises"),
         max_attempts: state.settings.job_max_attempts,

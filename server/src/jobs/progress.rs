@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// The stage a job is in. A release build goes prepare → rendering → assemble → import →
 /// baselines → done; a render job is in `render`, a scoring job in `scoring`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Stage {
     Prepare,
@@ -39,7 +39,7 @@ impl Stage {
 
 /// A job's progress. Fields in the order of their JSON keys (as the untyped progress was
 /// written), so the stored text is what it was.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Progress {
     /// A scoring job's maps scored so far, of `total`.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -25,7 +25,7 @@ use crate::clock::{new_id, now_ms};
 use crate::intake::Upload;
 use crate::releases::{Imported, Provenance, import_release};
 use crate::state::AppState;
-use crate::store::{JobRecord, JobState, StoreError, SubmissionState, Team};
+use crate::store::{JobKind, JobRecord, JobState, StoreError, SubmissionState, Team};
 
 /// How long a build job waits between looks at its render jobs.
 const WAIT_FOR_RENDERING: std::time::Duration = std::time::Duration::from_secs(2);
@@ -57,7 +57,7 @@ pub fn config_version(config: &str) -> Result<String, String> {
 }
 
 impl Job for BuildRelease {
-    const KIND: &'static str = "build_release";
+    const KIND: JobKind = JobKind::BuildRelease;
 
     fn subject(&self) -> String {
         config_version(&self.config).unwrap_or_else(|_| "(invalid config)".into())
@@ -76,7 +76,7 @@ pub struct RenderSequence {
 }
 
 impl Job for RenderSequence {
-    const KIND: &'static str = "render_sequence";
+    const KIND: JobKind = JobKind::RenderSequence;
 
     fn subject(&self) -> String {
         format!("{}/{}/{}", self.version, self.unit.scene, self.unit.lighting)

@@ -2,20 +2,22 @@
 //! code that accepted it, score every map, and record the score (a new row each time, so
 //! re-scoring never overwrites) together with the job's success, fenced on its lease.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use osmab_evaluator::InputError;
-use osmab_evaluator::scores::Scores;
+use osmab_evaluator::scores::{Scores, Split};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
+use osmab_evaluator::submission::score::ScoringTimings;
 use osmab_evaluator::submission::{ArchiveLimits, ReleaseIndex, SubmissionLimits, score_submission_timed, unpack, validate};
 use osmab_evaluator::vqa::score::OpenBackends;
 use serde::{Deserialize, Serialize};
 
 use super::progress::{Progress, Stage};
 use super::{Job, JobContext, JobError};
-use crate::blobs::Scratch;
+use crate::blobs::{Fetched, Scratch};
 use crate::clock::now_ms;
-use crate::store::SubmissionState;
+use crate::llm::{LlmAnswerer, LlmJudge};
+use crate::store::{JobKind, SubmissionRecord, SubmissionState};
 
 /// Score submission `submission_id` (again, with `rescore`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -27,7 +29,7 @@ pub struct ScoreSubmission {
 }
 
 impl Job for ScoreSubmission {
-    const KIND: &'static str = "score_submission";
+    const KIND: JobKind = JobKind::ScoreSubmission;
 
     fn subject(&self) -> String {
         self.submission_id.clone()
@@ -52,8 +54,43 @@ fn classify(e: InputError, unpacked: &Path) -> JobError {
 async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
     let state = &ctx.state;
     let submission = state.store.submission(submission_id).await?;
-    // A later attempt says why: a failed one put the submission back in the queue with
-    // its failure as the reason; one that left no reason was lost with its worker.
+    if !start_scoring(&ctx, &submission).await? {
+        return Ok(());
+    }
+    let stored = state.blobs.fetch(&format!("submissions/{}/upload", submission.id)).await.map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => JobError::Retryable(format!("the stored upload of {} is missing", submission.id)),
+        _ => JobError::Retryable(format!("the stored upload of {}: {e}", submission.id)),
+    })?;
+    let release = match state.blobs.release(&submission.release).await.map_err(JobError::retryable)? {
+        Some(release) => release,
+        None => return Err(JobError::Retryable(format!("release {} is missing from the blob store", submission.release))),
+    };
+    let work = Scoring {
+        stored,
+        release,
+        split: submission.split,
+        unpack_to: Scratch(state.blobs.scratch("score")),
+        max_unpacked: state.settings.max_unpacked_bytes,
+        llm: crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?,
+        cache: ground_truth_cache(&state.settings),
+        ctx: ctx.clone(),
+    };
+    let scores = tokio::task::spawn_blocking(move || work.run()).await.map_err(|e| JobError::Retryable(format!("the scoring thread ended: {e}")))??;
+    let recorded = state.store.complete_scoring(&ctx.job.id, &ctx.owner, &submission.id, &scores, now_ms()).await?;
+    if recorded {
+        state.leaderboard.invalidate();
+    } else {
+        tracing::warn!("the score was not recorded: the lease was lost or the submission was cancelled meanwhile");
+    }
+    Ok(())
+}
+
+/// Mark the submission as being scored; `false` when it left the queue meanwhile
+/// (cancelled), so there is nothing to score. A later attempt says why: a failed one put
+/// the submission back in the queue with its failure as the reason; one that left no
+/// reason was lost with its worker.
+async fn start_scoring(ctx: &JobContext, submission: &SubmissionRecord) -> Result<bool, JobError> {
+    let state = &ctx.state;
     let (attempt, of) = (ctx.job.attempts, ctx.job.max_attempts);
     let reason = match (attempt, submission.state, &submission.reason) {
         (1, _, _) => None,
@@ -65,78 +102,79 @@ async fn score(ctx: JobContext, submission_id: &str) -> Result<(), JobError> {
         let now = state.store.submission(&submission.id).await?;
         if now.state != SubmissionState::Scoring {
             tracing::info!(state = %now.state, "nothing to score: the submission left the queue");
-            return Ok(());
+            return Ok(false);
         }
     }
-    let stored = state.blobs.fetch(&format!("submissions/{}/upload", submission.id)).await.map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => JobError::Retryable(format!("the stored upload of {} is missing", submission.id)),
-        _ => JobError::Retryable(format!("the stored upload of {}: {e}", submission.id)),
-    })?;
-    let release = match state.blobs.release(&submission.release).await.map_err(JobError::retryable)? {
-        Some(release) => release,
-        None => return Err(JobError::Retryable(format!("release {} is missing from the blob store", submission.release))),
-    };
-    let unpack_to = Scratch(state.blobs.scratch("score"));
-    let max_unpacked = state.settings.max_unpacked_bytes;
-    let llm = crate::llm::from_settings(&state.settings).map_err(|e| JobError::Retryable(format!("LLM settings: {e}")))?;
-    let (blocking_ctx, split) = (ctx.clone(), submission.split);
-    let cache = ground_truth_cache(&state.settings);
-    let scores = tokio::task::spawn_blocking(move || -> Result<Scores, JobError> {
-        let root = unpack_to.0.clone();
+    Ok(true)
+}
+
+/// The blocking part of scoring a submission: its stored upload unpacked, validated
+/// against its release's split and scored.
+struct Scoring {
+    stored: Fetched,
+    release: PathBuf,
+    split: Split,
+    /// Where the upload is unpacked (removed when scored).
+    unpack_to: Scratch,
+    max_unpacked: u64,
+    llm: Option<(LlmAnswerer, LlmJudge)>,
+    cache: Option<PreparedCache>,
+    ctx: JobContext,
+}
+
+impl Scoring {
+    fn run(self) -> Result<Scores, JobError> {
+        let root = self.unpack_to.0.clone();
         // The upload passed these checks when it arrived: failing now is the server's problem.
-        unpack(stored.path(), &root, ArchiveLimits { max_entries: 20_000, max_total_bytes: max_unpacked, max_expansion_ratio: None })
-            .map_err(|e| JobError::Retryable(e.to_string()))?;
-        let index = ReleaseIndex::read(&release).and_then(|index| index.for_split(split)).map_err(|e| JobError::Retryable(e.to_string()))?;
-        let limits = SubmissionLimits::for_release(&index, max_unpacked);
+        let limits = ArchiveLimits { max_entries: 20_000, max_total_bytes: self.max_unpacked, max_expansion_ratio: None };
+        unpack(self.stored.path(), &root, limits).map_err(|e| JobError::Retryable(e.to_string()))?;
+        let index = ReleaseIndex::read(&self.release).and_then(|index| index.for_split(self.split)).map_err(|e| JobError::Retryable(e.to_string()))?;
+        let limits = SubmissionLimits::for_release(&index, self.max_unpacked);
         let valid =
             validate(&root, &index, limits).map_err(|problems| JobError::Permanent(problems.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")))?;
         let progress = |done: usize, total: usize| {
-            blocking_ctx.progress_blocking(&Progress {
+            self.ctx.progress_blocking(&Progress {
                 done: Some(done),
                 total: Some(total),
                 ..Progress::at(Stage::Scoring, format!("scored {done} of {total} maps"))
             });
         };
-        let open = match &llm {
+        let open = match &self.llm {
             Some((answerer, judge)) => OpenBackends { answerer: Some(answerer), judge: Some(judge) },
             None => OpenBackends::default(),
         };
-        let scored = score_submission_timed(&valid, &index, limits, open, cache.as_ref(), &progress).map_err(|e| classify(e, &valid.root));
-        drop(unpack_to);
+        let scored = score_submission_timed(&valid, &index, limits, open, self.cache.as_ref(), &progress).map_err(|e| classify(e, &valid.root));
+        drop(self.unpack_to);
         let (scores, timings) = scored?;
-        for why in &timings.cache_misses {
-            // A first preparation is the cache filling, not news; anything else says why
-            // prepared ground truth could not be reused.
-            if why.ends_with("not cached yet") {
-                tracing::debug!(%why, "ground truth prepared for the first time on this node");
-            } else {
-                tracing::info!(%why, "ground truth prepared again (the cached copy could not be used)");
-            }
-        }
-        for why in &timings.not_kept {
-            tracing::warn!(%why, "prepared ground truth not kept in this node's cache");
-        }
-        tracing::info!(
-            maps = timings.maps,
-            ground_truth_cached = timings.ground_truth_cached,
-            read_ground_truth_s = timings.read_ground_truth.as_secs_f64(),
-            prepare_ground_truth_s = timings.prepare_ground_truth.as_secs_f64(),
-            keep_ground_truth_s = timings.keep_ground_truth.as_secs_f64(),
-            wait_for_cache_s = timings.wait_for_cache.as_secs_f64(),
-            associate_s = timings.scenes.query.as_secs_f64(),
-            "scored"
-        );
+        log_timings(&timings);
         Ok(scores)
-    })
-    .await
-    .map_err(|e| JobError::Retryable(format!("the scoring thread ended: {e}")))??;
-    let recorded = state.store.complete_scoring(&ctx.job.id, &ctx.owner, &submission.id, &scores, now_ms()).await?;
-    if recorded {
-        state.leaderboard.invalidate();
-    } else {
-        tracing::warn!("the score was not recorded: the lease was lost or the submission was cancelled meanwhile");
     }
-    Ok(())
+}
+
+/// Where the time of a scoring went, and why prepared ground truth was not reused.
+fn log_timings(timings: &ScoringTimings) {
+    for why in &timings.cache_misses {
+        // A first preparation is the cache filling, not news; anything else says why
+        // prepared ground truth could not be reused.
+        if why.ends_with("not cached yet") {
+            tracing::debug!(%why, "ground truth prepared for the first time on this node");
+        } else {
+            tracing::info!(%why, "ground truth prepared again (the cached copy could not be used)");
+        }
+    }
+    for why in &timings.not_kept {
+        tracing::warn!(%why, "prepared ground truth not kept in this node's cache");
+    }
+    tracing::info!(
+        maps = timings.maps,
+        ground_truth_cached = timings.ground_truth_cached,
+        read_ground_truth_s = timings.read_ground_truth.as_secs_f64(),
+        prepare_ground_truth_s = timings.prepare_ground_truth.as_secs_f64(),
+        keep_ground_truth_s = timings.keep_ground_truth.as_secs_f64(),
+        wait_for_cache_s = timings.wait_for_cache.as_secs_f64(),
+        associate_s = timings.scenes.query.as_secs_f64(),
+        "scored"
+    );
 }
 
 /// This node's cache of ground truth prepared for scoring, unless it is turned off.

@@ -14,7 +14,7 @@ use super::warmup::Warmup;
 use super::{Job, JobContext, JobError, release_build, scoring};
 use crate::clock::now_ms;
 use crate::state::AppState;
-use crate::store::{ClaimedJob, JobState, SubmissionState};
+use crate::store::{ClaimedJob, JobKind, JobState, SubmissionState};
 
 /// Delay before attempt `attempts + 1`: 5 s doubling, at most 5 minutes.
 pub fn backoff(attempts: i64) -> Duration {
@@ -44,8 +44,7 @@ async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str, fa
 }
 
 /// Run one claimed job to its end (or until shutdown releases it).
-async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: watch::Receiver<bool>) {
-    let lease = Duration::from_secs(state.settings.job_lease_secs);
+async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch::Receiver<bool>) {
     if job.attempts > job.max_attempts {
         let message = format!(
             "Stopped after {} attempts: the worker running it stopped responding each time (its lease expired). The organisers have been alerted by the logs.",
@@ -57,17 +56,31 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
     }
     // One line per job, at INFO for the jobs a person follows (a build fans out into many
     // render jobs, which say so at DEBUG).
-    if job.kind == "render_sequence" {
+    if job.kind == JobKind::RenderSequence {
         tracing::debug!(attempt = job.attempts, "render job started");
     } else {
         tracing::info!("{} job started (attempt {} of {})", job.kind, job.attempts, job.max_attempts);
     }
+    let Some(result) = run_leased(state, owner, &job, shutdown).await else {
+        let now = now_ms();
+        match state.store.release_job(&job.id, owner, now, now).await {
+            Ok(_) => tracing::warn!("released the unfinished job for another worker"),
+            Err(e) => tracing::error!(error = %e, "could not release the job; it is taken up again when its lease expires"),
+        }
+        return;
+    };
+    record_outcome(state, owner, &job, result).await;
+}
+
+/// Run `job`, renewing its lease meanwhile; `None` when shutdown's grace period ended
+/// before the job did. Until shutdown there is no deadline; then the running job has the
+/// grace period, and the lease is still renewed so no other worker takes the job over.
+async fn run_leased(state: &AppState, owner: &str, job: &ClaimedJob, mut shutdown: watch::Receiver<bool>) -> Option<Result<(), JobError>> {
+    let lease = Duration::from_secs(state.settings.job_lease_secs);
     let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string() };
     let mut work = tokio::spawn(run_job(ctx));
     let mut heartbeat = tokio::time::interval(lease / 3);
     heartbeat.tick().await;
-    // Until shutdown there is no deadline; then the running job has the grace period,
-    // and the lease is renewed meanwhile so no other worker takes the job over.
     let mut deadline: Option<tokio::time::Instant> = None;
     let outcome = loop {
         let grace_over = async {
@@ -94,15 +107,13 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
             _ = grace_over => break None,
         }
     };
+    outcome.map(|result| result.unwrap_or_else(|panic| Err(JobError::Retryable(format!("the job panicked: {panic}")))))
+}
+
+/// Record how a run of `job` ended: succeeded, back in the queue (waiting, or to retry
+/// with backoff), or failed for good.
+async fn record_outcome(state: &AppState, owner: &str, job: &ClaimedJob, result: Result<(), JobError>) {
     let now = now_ms();
-    let Some(result) = outcome else {
-        match state.store.release_job(&job.id, owner, now, now).await {
-            Ok(_) => tracing::warn!("released the unfinished job for another worker"),
-            Err(e) => tracing::error!(error = %e, "could not release the job; it is taken up again when its lease expires"),
-        }
-        return;
-    };
-    let result = result.unwrap_or_else(|panic| Err(JobError::Retryable(format!("the job panicked: {panic}"))));
     match result {
         Ok(()) => {
             tracing::info!("job succeeded");
@@ -115,12 +126,12 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, mut shutdown: w
         }
         Err(JobError::Permanent(message)) => {
             tracing::warn!(%message, "job failed");
-            fail(state, owner, &job, &message, Fault::Input).await;
+            fail(state, owner, job, &message, Fault::Input).await;
         }
         Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
             let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
             tracing::error!(%message, "job failed for good");
-            fail(state, owner, &job, &message, Fault::Service).await;
+            fail(state, owner, job, &message, Fault::Service).await;
         }
         Err(JobError::Retryable(cause)) => {
             let retry_at = now + backoff(job.attempts).as_millis() as i64;
@@ -142,11 +153,10 @@ async fn dispatch<J: Job>(ctx: JobContext) -> Result<(), JobError> {
 
 /// Run a claimed job by its kind.
 async fn run_job(ctx: JobContext) -> Result<(), JobError> {
-    match ctx.job.kind.as_str() {
-        scoring::ScoreSubmission::KIND => dispatch::<scoring::ScoreSubmission>(ctx).await,
-        release_build::BuildRelease::KIND => dispatch::<release_build::BuildRelease>(ctx).await,
-        release_build::RenderSequence::KIND => dispatch::<release_build::RenderSequence>(ctx).await,
-        other => Err(JobError::Permanent(format!("unknown job kind '{other}'"))),
+    match ctx.job.kind {
+        JobKind::ScoreSubmission => dispatch::<scoring::ScoreSubmission>(ctx).await,
+        JobKind::BuildRelease => dispatch::<release_build::BuildRelease>(ctx).await,
+        JobKind::RenderSequence => dispatch::<release_build::RenderSequence>(ctx).await,
     }
 }
 

@@ -8,12 +8,9 @@ use axum::response::{IntoResponse, Response};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use super::admin_teams::{
-    CreatedTeam, IssuedToken, NewTeam, NewToken, TeamList, TeamUpdate, TeamView, TokenList, create_team, issue_team_token, list_team_tokens, list_teams,
-    new_team, revoke_token, update_team,
-};
+use super::extract::{ApiJson, ApiPath};
 use super::jobs::JobView;
-use super::{ApiJson, ApiPath};
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::AdminCaller;
 use crate::clock::{now_ms, rfc3339};
 use crate::jobs::release_build::{BuildRelease, config_version};
@@ -323,4 +320,78 @@ pub struct JobList {
 /// `GET /api/v1/admin/jobs`: recent jobs.
 pub async fn list_jobs(State(state): State<AppState>, _: AdminCaller) -> ApiResult<axum::Json<JobList>> {
     Ok(axum::Json(JobList { jobs: state.store.jobs(200).await?.iter().map(|j| JobView::of(j, true)).collect() }))
+}
+
+/// Releases, submissions and jobs as the organisers manage them.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/admin/releases",
+                Auth::Admin,
+                "Build a release from a config (`{\"config\"?: TOML, \"publish\"?, \"baselines\"?}`) as a job.",
+                202,
+            )
+            .takes::<BuildBody>()
+            .returns::<QueuedJob>(),
+            build_release,
+        )
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/admin/releases/import",
+                Auth::Admin,
+                "Register a release built on the server's filesystem (`{\"path\", \"publish\"?}`), verifying its manifest.",
+                201,
+            )
+            .takes::<ImportBody>()
+            .returns::<super::releases::ReleaseSummary>(),
+            import_release,
+        )
+        .operation(
+            Operation::new(Verb::Post, "/api/v1/admin/releases/{version}/publish", Auth::Admin, "Freeze a draft into the current release.", 200)
+                .returns::<super::releases::ReleaseSummary>(),
+            publish_release,
+        )
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/admin/submissions", Auth::Admin, "Every submission.", 200).returns::<AdminSubmissionList>(),
+            list_submissions,
+        )
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/admin/submissions/{id}/rescore",
+                Auth::Admin,
+                "Score a submission again; a new score is added, old ones stay.",
+                202,
+            )
+            .returns::<QueuedJob>(),
+            rescore,
+        )
+        .operation(Operation::new(Verb::Get, "/api/v1/admin/jobs", Auth::Admin, "Recent jobs.", 200).returns::<JobList>(), list_jobs)
+        .operation(
+            Operation::new(
+                Verb::Put,
+                "/api/v1/admin/submissions/{id}/flag",
+                Auth::Admin,
+                "Flag an entry (`{\"reason\"}`): the reason shows on the leaderboard and the submission's page.",
+                200,
+            )
+            .takes::<FlagBody>()
+            .returns::<super::submission_view::SubmissionView>(),
+            flag,
+        )
+        .operation(Operation::new(Verb::Delete, "/api/v1/admin/submissions/{id}/flag", Auth::Admin, "Clear an entry's flag.", 204), unflag)
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/admin/submissions/{id}/refund",
+                Auth::Admin,
+                "Give back the quota unit a submission used (failures that were not the team's are refunded automatically).",
+                200,
+            )
+            .returns::<Refunded>(),
+            refund_quota,
+        )
 }

@@ -8,12 +8,13 @@ use axum::response::{IntoResponse, Response};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{ApiJson, ApiPath};
+use super::extract::{ApiJson, ApiPath};
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::{AdminCaller, issue_token};
 use crate::clock::{new_id, now_ms, rfc3339};
-use crate::problem::{ApiResult, Problem};
+use crate::problem::{ApiResult, Problem, ProblemCode};
 use crate::state::AppState;
-use crate::store::{StoreError, Team};
+use crate::store::{StoreError, Team, TokenScope};
 
 /// A team to create.
 #[derive(Debug, Deserialize, JsonSchema)]
@@ -44,7 +45,7 @@ pub async fn new_team(state: &AppState, body: &NewTeam) -> ApiResult<CreatedTeam
         Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("A team named '{name}' exists."))),
         Err(e) => return Err(e.into()),
     }
-    let (token, record) = issue_token("team", Some(&team.id), None);
+    let (token, record) = issue_token(TokenScope::Team, Some(&team.id), None);
     state.store.insert_token(&record).await?;
     tracing::info!(team = %team.name, token = %record.hint, "team created");
     Ok(CreatedTeam { daily_quota: team.daily_quota, id: team.id, name: team.name, token, token_id: record.id })
@@ -125,13 +126,13 @@ pub async fn issue_team_token(State(state): State<AppState>, _: AdminCaller, Api
     let request: NewToken = if body.iter().all(u8::is_ascii_whitespace) {
         NewToken::default()
     } else {
-        serde_json::from_slice(&body).map_err(|e| Problem::bad_request("invalid_request", format!("expected {{\"expires_in_days\"?: int}}: {e}")))?
+        serde_json::from_slice(&body).map_err(|e| Problem::bad_request(ProblemCode::InvalidRequest, format!("expected {{\"expires_in_days\"?: int}}: {e}")))?
     };
     if request.expires_in_days.is_some_and(|d| !(1..=3650).contains(&d)) {
         return Err(Problem::invalid_request("expires_in_days: expected 1 to 3650"));
     }
     let expires = request.expires_in_days.map(|d| now_ms() + d * 86_400_000);
-    let (token, record) = issue_token("team", Some(&team.id), expires);
+    let (token, record) = issue_token(TokenScope::Team, Some(&team.id), expires);
     state.store.insert_token(&record).await?;
     let body = IssuedToken { expires_at: expires.map(rfc3339), id: record.id, team: team.name, token };
     Ok((StatusCode::CREATED, axum::Json(body)).into_response())
@@ -188,4 +189,40 @@ pub async fn revoke_token(State(state): State<AppState>, _: AdminCaller, ApiPath
     state.store.revoke_token(&id, now_ms()).await?;
     tracing::info!(token = %id, "token revoked");
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// Teams and their tokens.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/admin/teams",
+                Auth::Admin,
+                "Create a team: `{\"name\"}` → `{\"id\", \"name\", \"token\"}` (the token is shown once).",
+                201,
+            )
+            .takes::<NewTeam>()
+            .returns::<CreatedTeam>(),
+            create_team,
+        )
+        .operation(Operation::new(Verb::Get, "/api/v1/admin/teams", Auth::Admin, "Every team.", 200).returns::<TeamList>(), list_teams)
+        .operation(
+            Operation::new(Verb::Patch, "/api/v1/admin/teams/{id}", Auth::Admin, "Set a team's daily quota (`{\"daily_quota\"}`; null for the default).", 200)
+                .takes::<TeamUpdate>()
+                .returns::<TeamView>(),
+            update_team,
+        )
+        .operation(
+            Operation::new(Verb::Post, "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "Issue another token for a team (optional `expires_in_days`).", 201)
+                .takes::<NewToken>()
+                .returns::<IssuedToken>(),
+            issue_team_token,
+        )
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/admin/teams/{id}/tokens", Auth::Admin, "A team's tokens (hints and states, never the tokens).", 200)
+                .returns::<TokenList>(),
+            list_team_tokens,
+        )
+        .operation(Operation::new(Verb::Delete, "/api/v1/admin/tokens/{id}", Auth::Admin, "Revoke a token.", 204), revoke_token)
 }

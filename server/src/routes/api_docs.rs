@@ -6,11 +6,15 @@ use askama::Template;
 use askama_web::WebTemplate;
 use serde_json::Value;
 
-use super::openapi::{Auth, OPERATIONS, Operation, PROBLEMS, document_value};
+use axum::Extension;
+
+use super::openapi::{Served, document_value};
+use super::operation::Operation;
+use crate::problem::ProblemCode;
 
 pub struct OperationView {
     pub method: String,
-    pub path: &'static str,
+    pub path: String,
     pub auth: &'static str,
     /// The summary as HTML: escaped, with `code` spans.
     pub summary_html: String,
@@ -133,10 +137,10 @@ pub struct DocsPage {
 
 /// `GET /api/docs`: the API reference, rendered on the server (no external assets) from
 /// the same document `/api/v1/openapi.json` serves.
-pub async fn docs_page() -> DocsPage {
-    let document = document_value();
+pub async fn docs_page(Extension(Served(operations)): Extension<Served>) -> DocsPage {
+    let document = document_value(&operations);
     let body_of = |o: &Operation, part: &str| -> String {
-        let operation = &document["paths"][o.path][o.method];
+        let operation = &document["paths"][o.path()][o.verb.as_str()];
         let content = match part {
             "takes" => &operation["requestBody"]["content"],
             _ => &operation["responses"][o.success.to_string()]["content"],
@@ -157,23 +161,18 @@ pub async fn docs_page() -> DocsPage {
         title: "osmab API",
         version: env!("CARGO_PKG_VERSION"),
         description: "Download the frozen release, upload maps and scene graphs, follow their evaluation, read the leaderboard.",
-        operations: OPERATIONS
+        operations: operations
             .iter()
             .map(|o| OperationView {
-                method: o.method.to_uppercase(),
-                path: o.path,
-                auth: match o.auth {
-                    Auth::Public => "none",
-                    Auth::Team => "team token",
-                    Auth::Admin => "admin token",
-                    Auth::Optional => "optional",
-                },
+                method: o.verb.as_str().to_uppercase(),
+                path: o.path(),
+                auth: o.auth.label(),
                 summary_html: inline_code(o.summary),
                 takes_html: body_of(o, "takes"),
                 answers_html: body_of(o, "answers"),
             })
             .collect(),
-        problems: PROBLEMS.iter().map(|(code, text)| (*code, inline_code(text))).collect(),
+        problems: ProblemCode::ALL.iter().map(|code| (code.as_str(), inline_code(code.meaning()))).collect(),
         schemas: schema_views(&document),
     }
 }

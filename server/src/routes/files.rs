@@ -4,7 +4,7 @@
 //! one contract — see docs/deploy.md).
 
 use crate::blobs::Blobs;
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use axum::body::Body;
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -85,7 +85,7 @@ pub async fn serve_blob(blobs: &Blobs, key: &str, name: &str, size: u64, sha256:
                 // Not cacheable: only the size, so the client can ask again.
                 let problem = Problem::new(
                     StatusCode::RANGE_NOT_SATISFIABLE,
-                    "range_not_satisfiable",
+                    ProblemCode::RangeNotSatisfiable,
                     "Range not satisfiable",
                     format!("The file has {size} bytes; ask for a range inside it (bytes=START-END)."),
                 );

@@ -4,11 +4,14 @@
 //! short token.
 
 use axum::extract::Request;
-use axum::http::{HeaderValue, header};
+use axum::http::{HeaderName, HeaderValue, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
+
+/// The header that carries a request's id (accepted from the client, else made up).
+pub static REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
 
 /// The pages need no script, no inline style and nothing from another origin: their
 /// stylesheet and images are the service's own, and forms post back to it.
@@ -26,9 +29,9 @@ pub fn is_acceptable_request_id(value: &[u8]) -> bool {
 /// Drop a client's `x-request-id` that is not a short token (the server then makes one).
 pub async fn accept_request_id(mut request: Request, next: Next) -> Response {
     let headers = request.headers_mut();
-    let values: Vec<&HeaderValue> = headers.get_all(super::REQUEST_ID.clone()).iter().collect();
+    let values: Vec<&HeaderValue> = headers.get_all(REQUEST_ID.clone()).iter().collect();
     if !(values.len() == 1 && is_acceptable_request_id(values[0].as_bytes())) {
-        headers.remove(super::REQUEST_ID.clone());
+        headers.remove(REQUEST_ID.clone());
     }
     next.run(request).await
 }
@@ -43,7 +46,7 @@ pub async fn require_host(request: Request, next: Next) -> Response {
         } else {
             "A request may carry one Host header, not several (RFC 9112 §3.2)."
         };
-        return Problem::bad_request("invalid_request", detail).into_response();
+        return Problem::bad_request(ProblemCode::InvalidRequest, detail).into_response();
     }
     next.run(request).await
 }

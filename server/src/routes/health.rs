@@ -6,7 +6,8 @@ use axum::response::{IntoResponse, Response};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::problem::Problem;
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
+use crate::problem::{Problem, ProblemCode};
 use crate::state::AppState;
 
 /// `GET /livez`.
@@ -41,7 +42,7 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
             let what = [database.err().map(|e| format!("database: {e}")), blobs.err().map(|e| format!("storage: {e}"))];
             let detail = what.into_iter().flatten().collect::<Vec<_>>().join("; ");
             tracing::warn!(%detail, "not ready");
-            Problem::new(StatusCode::SERVICE_UNAVAILABLE, "not_ready", "Not ready", "The database or the storage is not reachable.").into_response()
+            Problem::new(StatusCode::SERVICE_UNAVAILABLE, ProblemCode::NotReady, "Not ready", "The database or the storage is not reachable.").into_response()
         }
     }
 }
@@ -54,4 +55,22 @@ pub async fn metrics(_: crate::auth::AdminCaller, State(state): State<AppState>)
     let submissions = state.store.submission_state_counts().await.unwrap_or_default();
     let text = state.metrics.render(&[("osmab_jobs", "Jobs by state.", jobs), ("osmab_submissions", "Submissions by state.", submissions)]);
     ([(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")], text).into_response()
+}
+
+/// Liveness, readiness and metrics.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(Operation::new(Verb::Get, "/livez", Auth::Public, "Liveness: the process answers.", 200).returns::<Live>(), livez)
+        .operation(Operation::new(Verb::Get, "/readyz", Auth::Public, "Readiness: the database and the storage are reachable.", 200).returns::<Ready>(), readyz)
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/metrics",
+                Auth::Admin,
+                "Prometheus metrics (requests, latency, jobs and submissions by state); the admin token only.",
+                200,
+            )
+            .returns_other("text/plain"),
+            metrics,
+        )
 }

@@ -3,14 +3,15 @@
 use axum::extract::State;
 use schemars::JsonSchema;
 use serde::Serialize;
-use serde_json::Value;
 
-use super::ApiPath;
+use super::extract::ApiPath;
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::Caller;
 use crate::clock::rfc3339;
+use crate::jobs::progress::Progress;
 use crate::problem::{ApiResult, Problem};
 use crate::state::AppState;
-use crate::store::{JobRecord, JobState, StoreError};
+use crate::store::{JobKind, JobRecord, JobState, StoreError};
 
 /// Who holds a running job, and until when.
 #[derive(Debug, Clone, Serialize, JsonSchema)]
@@ -29,12 +30,12 @@ pub struct JobView {
     pub error: Option<Option<String>>,
     pub id: String,
     /// `score_submission`, `build_release` or `render_sequence`.
-    pub kind: String,
+    pub kind: JobKind,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lease: Option<Option<Lease>>,
     pub max_attempts: i64,
     /// The job's last progress report (stage, message, counts), as the job wrote it.
-    pub progress: Value,
+    pub progress: Progress,
     pub run_after: String,
     pub state: JobState,
     /// What the job is about: a submission id, a release version, `version/scene/lighting`.
@@ -51,10 +52,10 @@ impl JobView {
             created_at: rfc3339(j.created_at),
             error: admin.then(|| j.error.clone()),
             id: j.id.clone(),
-            kind: j.kind.clone(),
+            kind: j.kind,
             lease: admin.then_some(lease),
             max_attempts: j.max_attempts,
-            progress: serde_json::from_str::<Value>(&j.progress).unwrap_or(Value::Null),
+            progress: Progress::read(&j.progress),
             run_after: rfc3339(j.run_after),
             state: j.state,
             subject: j.subject.clone(),
@@ -82,4 +83,12 @@ pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): Ap
         return Err(missing());
     }
     Ok(axum::Json(JobView::of(&job, matches!(caller, Caller::Admin))))
+}
+
+/// One job, for whoever may see what it works on.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new().operation(
+        Operation::new(Verb::Get, "/api/v1/jobs/{id}", Auth::Optional, "A job: state, attempts, lease and stage progress.", 200).returns::<JobView>(),
+        show,
+    )
 }

@@ -8,11 +8,12 @@ use axum::response::{IntoResponse, Response};
 use osmab_evaluator::scores::{Lighting, Split};
 use serde::{Deserialize, Serialize};
 
-use super::ApiQuery;
+use super::extract::ApiQuery;
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::leaderboard::Rendered;
 use crate::leaderboard::cache::BoardError;
 use crate::leaderboard::vqa::{TableThreeRow, TableTwoRow, table_three, table_three_csv, table_two, table_two_csv};
-use crate::problem::{ApiResult, Problem};
+use crate::problem::{ApiResult, Problem, ProblemCode};
 use crate::state::AppState;
 
 #[derive(Debug, Deserialize, schemars::JsonSchema)]
@@ -99,7 +100,7 @@ pub async fn vqa_tables(State(state): State<AppState>, ApiQuery(query): ApiQuery
         None => (true, true),
         Some(2) => (true, false),
         Some(3) => (false, true),
-        Some(other) => return Err(Problem::bad_request("invalid_query", format!("table: expected 2 or 3, found {other}"))),
+        Some(other) => return Err(Problem::bad_request(ProblemCode::InvalidQuery, format!("table: expected 2 or 3, found {other}"))),
     };
     Ok(axum::Json(VqaTables {
         lightings: two.then(|| board.lightings.clone()),
@@ -118,11 +119,44 @@ pub async fn vqa_table_csv(State(state): State<AppState>, ApiQuery(query): ApiQu
         Some(3) => table_three_csv(&table_three(board)),
         _ => {
             return Err(Problem::bad_request(
-                "invalid_query",
+                ProblemCode::InvalidQuery,
                 "table: expected ?table=2 (prompt-grounded per lighting) or ?table=3 (standard against prompt-grounded)",
             ));
         }
     };
     let disposition = format!("inline; filename=\"vqa-table{}-{}.csv\"", query.table.unwrap_or(0), board.release);
     Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()), (header::CONTENT_DISPOSITION, disposition)], text).into_response())
+}
+
+/// The leaderboard and the VQA tables, as JSON and CSV.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/leaderboard", Auth::Public, "The leaderboard (`?release=V`); CSV with `Accept: text/csv`.", 200)
+                .query::<LeaderboardQuery>()
+                .returns::<crate::leaderboard::Leaderboard>(),
+            json_or_csv,
+        )
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/leaderboard.csv", Auth::Public, "The leaderboard as CSV.", 200).query::<LeaderboardQuery>().returns_other("text/csv"),
+            csv,
+        )
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/leaderboard/vqa",
+                Auth::Public,
+                "VQA accuracies in the paper's shapes: `table2` (subset × group × method × lighting, prompt-grounded) and `table3` (standard against prompt-grounded, over all lightings, with 95 % bootstrap intervals); `?table=2|3` for one.",
+                200,
+            )
+            .query::<VqaQuery>()
+            .returns::<VqaTables>(),
+            vqa_tables,
+        )
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/leaderboard/vqa.csv", Auth::Public, "One VQA table (`?table=2` or `?table=3`) as CSV.", 200)
+                .query::<VqaQuery>()
+                .returns_other("text/csv"),
+            vqa_table_csv,
+        )
 }

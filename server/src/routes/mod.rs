@@ -2,14 +2,17 @@
 //! Each module owns the routes, handlers and response shapes of one area.
 
 pub mod admin;
-mod admin_teams;
+pub mod admin_teams;
 mod api_docs;
+mod extract;
 mod files;
 mod headers;
 mod health;
 mod jobs;
 mod leaderboard;
+pub mod me;
 mod openapi;
+pub mod operation;
 mod pages;
 pub mod quota_policies;
 mod receipts;
@@ -18,26 +21,26 @@ pub mod submission_view;
 pub mod submissions;
 mod uploads;
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use axum::Router;
-use axum::extract::{DefaultBodyLimit, FromRequest, FromRequestParts, MatchedPath, Request, State};
-use axum::http::request::Parts;
-use axum::http::{HeaderName, Method, StatusCode};
+use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
+use axum::http::{Method, StatusCode};
 use axum::middleware::{Next, from_fn_with_state};
 use axum::response::{IntoResponse, Response};
-use axum::routing::{get, post, put};
-use serde::de::DeserializeOwned;
+use axum::routing::get;
+use axum::{Extension, Router};
 use tower_http::request_id::{MakeRequestId, PropagateRequestIdLayer, RequestId, SetRequestIdLayer};
 use tower_http::trace::TraceLayer;
 
-use crate::problem::Problem;
+use crate::problem::{Problem, ProblemCode};
 use crate::state::AppState;
+use headers::REQUEST_ID;
+use openapi::Served;
+use operation::ApiRoutes;
 
 /// Largest JSON request body (everything but uploads, which stream).
 const JSON_BODY_LIMIT: usize = 1 << 20;
-
-static REQUEST_ID: HeaderName = HeaderName::from_static("x-request-id");
 
 #[derive(Clone, Default)]
 struct RandomRequestId;
@@ -45,53 +48,6 @@ struct RandomRequestId;
 impl MakeRequestId for RandomRequestId {
     fn make_request_id<B>(&mut self, _: &axum::http::Request<B>) -> Option<RequestId> {
         axum::http::HeaderValue::from_str(&crate::clock::random_alphanumeric(16)).ok().map(RequestId::new)
-    }
-}
-
-/// A JSON body whose rejections are problem+json like every other error.
-pub struct ApiJson<T>(pub T);
-
-impl<T: DeserializeOwned, S: Send + Sync> FromRequest<S> for ApiJson<T> {
-    type Rejection = Problem;
-
-    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
-        match axum::Json::<T>::from_request(req, state).await {
-            Ok(axum::Json(value)) => Ok(ApiJson(value)),
-            Err(rejection) => Err(Problem::new(rejection.status(), "invalid_request", "Invalid request body", rejection.body_text())),
-        }
-    }
-}
-
-/// Query parameters whose rejections are problem+json (`invalid_query`).
-pub struct ApiQuery<T>(pub T);
-
-impl<T: DeserializeOwned, S: Send + Sync> FromRequestParts<S> for ApiQuery<T> {
-    type Rejection = Problem;
-
-    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
-        match axum::extract::Query::<T>::from_request_parts(parts, state).await {
-            Ok(axum::extract::Query(value)) => Ok(ApiQuery(value)),
-            Err(rejection) => Err(Problem::new(
-                StatusCode::BAD_REQUEST,
-                "invalid_query",
-                "Invalid query parameters",
-                format!("{}; see /api/docs for this route's parameters.", rejection.body_text()),
-            )),
-        }
-    }
-}
-
-/// Path parameters whose rejections are problem+json (`invalid_path`).
-pub struct ApiPath<T>(pub T);
-
-impl<T: DeserializeOwned + Send, S: Send + Sync> FromRequestParts<S> for ApiPath<T> {
-    type Rejection = Problem;
-
-    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
-        match axum::extract::Path::<T>::from_request_parts(parts, state).await {
-            Ok(axum::extract::Path(value)) => Ok(ApiPath(value)),
-            Err(rejection) => Err(Problem::new(StatusCode::BAD_REQUEST, "invalid_path", "Invalid path", rejection.body_text())),
-        }
     }
 }
 
@@ -126,7 +82,7 @@ async fn limit_requests(State(state): State<AppState>, request: Request, next: N
     if let Some(client) = client
         && let Err(seconds) = state.limiter.admit(client, Instant::now())
     {
-        return Problem::new(StatusCode::TOO_MANY_REQUESTS, "rate_limited", "Too many requests", format!("Slow down: retry in {seconds} s."))
+        return Problem::new(StatusCode::TOO_MANY_REQUESTS, ProblemCode::RateLimited, "Too many requests", format!("Slow down: retry in {seconds} s."))
             .retry_after(seconds)
             .into_response();
     }
@@ -147,83 +103,49 @@ async fn close_after_refused_body(request: Request, next: Next) -> Response {
 }
 
 async fn route_not_found(request: Request) -> Problem {
-    Problem::new(StatusCode::NOT_FOUND, "route_not_found", "Not found", format!("There is no {} {}; see /api/docs.", request.method(), request.uri().path()))
+    Problem::new(
+        StatusCode::NOT_FOUND,
+        ProblemCode::RouteNotFound,
+        "Not found",
+        format!("There is no {} {}; see /api/docs.", request.method(), request.uri().path()),
+    )
 }
 
 async fn method_not_allowed(request: Request) -> Problem {
     Problem::new(
         StatusCode::METHOD_NOT_ALLOWED,
-        "method_not_allowed",
+        ProblemCode::MethodNotAllowed,
         "Method not allowed",
         format!("{} is not allowed on {}; see /api/docs.", request.method(), request.uri().path()),
     )
 }
 
+/// Every operation of the API, area by area: what the router serves and the OpenAPI
+/// document and `/api/docs` describe.
+fn api() -> ApiRoutes {
+    ApiRoutes::new()
+        .merge(health::routes())
+        .merge(openapi::routes())
+        .merge(releases::routes())
+        .merge(me::routes())
+        .merge(submissions::routes())
+        .merge(uploads::routes())
+        .merge(receipts::routes())
+        .merge(leaderboard::routes())
+        .merge(jobs::routes())
+        .merge(admin_teams::routes())
+        .merge(admin::routes())
+        .merge(quota_policies::routes())
+}
+
 /// The whole service.
 pub fn router(state: AppState) -> Router {
-    let api = Router::new()
-        .route("/api/v1/openapi.json", get(openapi::document))
-        .route("/api/v1/releases", get(releases::list))
-        .route("/api/v1/releases/{version}", get(releases::show))
-        .route("/api/v1/releases/{version}/manifest.json", get(releases::manifest))
-        .route("/api/v1/releases/{version}/files/{*path}", get(releases::file))
-        .route("/api/v1/me", get(submissions::me))
-        .route("/api/v1/quota", get(submissions::quotas))
-        .route("/api/v1/submissions", post(submissions::create).get(submissions::list))
-        .route("/api/v1/submissions/{id}", get(submissions::show).patch(submissions::update))
-        .route("/api/v1/submissions/{id}/receipt", get(receipts::receipt))
-        .route("/api/v1/submissions/{id}/results.json", get(receipts::results))
-        .route("/api/v1/keys", get(receipts::keys))
-        .route("/api/v1/submissions/{id}/cancel", post(submissions::cancel))
-        .route("/api/v1/leaderboard", get(leaderboard::json_or_csv))
-        .route("/api/v1/leaderboard.csv", get(leaderboard::csv))
-        .route("/api/v1/leaderboard/vqa", get(leaderboard::vqa_tables))
-        .route("/api/v1/leaderboard/vqa.csv", get(leaderboard::vqa_table_csv))
-        .route("/api/v1/jobs/{id}", get(jobs::show))
-        .route("/api/v1/admin/teams", post(admin::create_team).get(admin::list_teams))
-        .route("/api/v1/admin/teams/{id}", axum::routing::patch(admin::update_team))
-        .route("/api/v1/admin/teams/{id}/tokens", post(admin::issue_team_token).get(admin::list_team_tokens))
-        .route("/api/v1/admin/tokens/{id}", axum::routing::delete(admin::revoke_token))
-        .route("/api/v1/admin/releases", post(admin::build_release))
-        .route("/api/v1/admin/releases/import", post(admin::import_release))
-        .route("/api/v1/admin/releases/{version}/publish", post(admin::publish_release))
-        .route("/api/v1/admin/submissions", get(admin::list_submissions))
-        .route("/api/v1/admin/submissions/{id}/rescore", post(admin::rescore))
-        .route("/api/v1/admin/submissions/{id}/flag", put(admin::flag).delete(admin::unflag))
-        .route("/api/v1/admin/submissions/{id}/refund", post(admin::refund_quota))
-        .route("/api/v1/admin/jobs", get(admin::list_jobs))
-        .route("/api/v1/admin/quotas", get(quota_policies::list))
-        .route("/api/v1/admin/quotas/{split}", put(quota_policies::set));
-    let resumable = Router::new()
-        .route("/api/v1/uploads", post(uploads::create).options(uploads::options))
-        .route("/api/v1/uploads/{id}", axum::routing::head(uploads::head).patch(uploads::patch).delete(uploads::delete))
-        .layer(axum::middleware::from_fn(uploads::tus_headers));
-    let pages = Router::new()
-        .route("/", get(pages::leaderboard))
-        .route("/releases/{version}", get(pages::release))
-        .route("/submissions/{id}", get(pages::submission))
-        .route("/admin", get(pages::admin::console))
-        .route("/admin/login", get(pages::admin::login_form).post(pages::admin::login))
-        .route("/admin/logout", post(pages::admin::logout))
-        .route("/admin/regenerate", post(pages::admin::regenerate))
-        .route("/admin/jobs/{id}", get(pages::admin::job))
-        .route("/admin/releases/{version}/quality", get(pages::admin::quality))
-        .route("/admin/releases/{version}/files/{*path}", get(pages::admin::release_file))
-        .route("/admin/releases/{version}/publish", post(pages::admin::publish))
-        .route("/admin/submissions/{id}/flag", post(pages::admin::flag))
-        .route("/admin/submissions/{id}/unflag", post(pages::admin::unflag))
-        .route("/admin/submissions/{id}/refund", post(pages::admin::refund))
-        .route("/admin/quotas", post(pages::admin::set_quota))
-        .route("/admin/teams", post(pages::admin::create_team))
-        .route("/api/docs", get(api_docs::docs_page))
-        .route("/about", get(pages::about))
-        .route("/static/{file}", get(pages::static_file));
-    let health = Router::new().route("/livez", get(health::livez)).route("/readyz", get(health::readyz)).route("/metrics", get(health::metrics));
+    let (api, operations) = api().into_parts();
     Router::new()
         .merge(api)
-        .merge(resumable)
-        .merge(pages)
-        .merge(health)
+        .merge(pages::routes())
+        .route("/api/docs", get(api_docs::docs_page))
+        .layer(Extension(Served(Arc::new(operations))))
         .fallback(route_not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(JSON_BODY_LIMIT))

@@ -6,7 +6,8 @@ use osmab_evaluator::scores::Split;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{ApiJson, ApiPath};
+use super::extract::{ApiJson, ApiPath};
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::AdminCaller;
 use crate::clock::now_ms;
 use crate::intake::Policy;
@@ -89,4 +90,20 @@ pub async fn set(
     ApiJson(body): ApiJson<PolicyBody>,
 ) -> ApiResult<axum::Json<PolicyView>> {
     Ok(axum::Json(apply(&state, &split, &body).await?))
+}
+
+/// The submission limits of the splits.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/admin/quotas", Auth::Admin, "The limit of every split (submissions per rolling window), set or default.", 200)
+                .returns::<PolicyList>(),
+            list,
+        )
+        .operation(
+            Operation::new(Verb::Put, "/api/v1/admin/quotas/{split}", Auth::Admin, "Set a split's limit: `{\"limit\", \"window_hours\"}`.", 200)
+                .takes::<PolicyBody>()
+                .returns::<PolicyView>(),
+            set,
+        )
 }

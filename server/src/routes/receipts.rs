@@ -10,7 +10,8 @@ use axum::response::{IntoResponse, Response};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use super::ApiPath;
+use super::extract::ApiPath;
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::Caller;
 use crate::problem::{ApiResult, Problem};
 use crate::receipts::{Facts, Receipt, results_document};
@@ -78,4 +79,42 @@ pub async fn results(State(state): State<AppState>, caller: Caller, ApiPath(id):
     let document = results_document(&scores);
     let disposition = format!("inline; filename=\"{id}-results.json\"");
     Ok((StatusCode::OK, [(header::CONTENT_TYPE, "application/json".to_string()), (header::CONTENT_DISPOSITION, disposition)], document).into_response())
+}
+
+/// Receipts, results documents and the keys that verify them.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/submissions/{id}/receipt",
+                Auth::Optional,
+                "The signed receipt of the latest score: a compact JWS (EdDSA, Ed25519, `kid` in the header) of the upload's SHA-256, the release and its digest, the evaluator version, the SHA-256 of the full results document and the headline numbers; the JWS alone with `Accept: application/jose`. Verify with `osmab client verify` or any JOSE library against `/api/v1/keys`.",
+                200,
+            )
+            .returns::<SignedReceipt>(),
+            receipt,
+        )
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/submissions/{id}/results.json",
+                Auth::Optional,
+                "The full results document of the latest score (every lighting and scene), byte for byte what the receipt's `results_sha256` names.",
+                200,
+            )
+            .returns_free_json(),
+            results,
+        )
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/keys",
+                Auth::Public,
+                "The public keys of receipts as a JWKS (RFC 7517; `kty` OKP, `crv` Ed25519), the signing key first; retired keys stay listed.",
+                200,
+            )
+            .returns::<crate::receipts::jws::Jwks>(),
+            keys,
+        )
 }

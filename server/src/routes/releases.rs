@@ -7,8 +7,9 @@ use axum::response::{IntoResponse, Response};
 use osmab_evaluator::scores::Lighting;
 use serde::Serialize;
 
-use super::ApiPath;
+use super::extract::ApiPath;
 use super::files::serve_blob;
+use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::Caller;
 use crate::problem::{ApiResult, Problem};
 use crate::releases::release_prefix;
@@ -121,4 +122,40 @@ pub async fn file(
     };
     let key = format!("{}/{}", release_prefix(&version), entry.path);
     serve_blob(&state.blobs, &key, &entry.path, entry.size as u64, &entry.sha256, &headers, release.state == ReleaseState::Published).await
+}
+
+/// The releases and their files.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/releases", Auth::Optional, "Published releases (drafts too for admins).", 200).returns::<ReleaseList>(),
+            list,
+        )
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/releases/{version}", Auth::Optional, "One release; `current` names the current release.", 200)
+                .returns::<ReleaseSummary>(),
+            show,
+        )
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/releases/{version}/manifest.json",
+                Auth::Optional,
+                "The manifest: every file with size and SHA-256, the digest, and one archive per sequence.",
+                200,
+            )
+            .returns_free_json(),
+            manifest,
+        )
+        .operation(
+            Operation::new(
+                Verb::Get,
+                "/api/v1/releases/{version}/files/{*path}",
+                Auth::Optional,
+                "A public file or sequence archive, with Range, ETag (its SHA-256), If-None-Match and Repr-Digest.",
+                200,
+            )
+            .returns_other("application/octet-stream"),
+            file,
+        )
 }

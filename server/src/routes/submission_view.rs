@@ -3,19 +3,22 @@
 //! Built from the store's records once; the page reads these fields, not the JSON, and the
 //! client (`osmab client status|results`) reads the JSON back into them.
 //!
+//! The answers to an upload (the submission created, or a dry run's report) are here too.
+//!
 //! Fields are declared in the order of their JSON keys.
 
-use osmab_evaluator::scores::{Scores, Split};
+use osmab_evaluator::scores::{Lighting, Scores, Split};
 use serde::{Deserialize, Serialize};
 
 use crate::auth::Caller;
 use crate::clock::{now_ms, rfc3339};
+use crate::intake::QuotaView;
 use crate::jobs::Job;
 use crate::jobs::scoring::ScoreSubmission;
 use crate::problem::ApiResult;
 use crate::queue::{self, QueueView};
 use crate::state::AppState;
-use crate::store::{JobRecord, JobState, SubmissionRecord, SubmissionState};
+use crate::store::{JobKind, JobRecord, JobState, SubmissionRecord, SubmissionState};
 
 /// The uploaded archive.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
@@ -37,7 +40,7 @@ pub struct EventView {
 pub struct JobLink {
     pub attempts: i64,
     pub id: String,
-    pub kind: String,
+    pub kind: JobKind,
     pub state: JobState,
     pub url: String,
 }
@@ -210,4 +213,58 @@ impl From<&SubmissionRecord> for SubmissionItem {
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SubmissionList {
     pub submissions: Vec<SubmissionItem>,
+}
+
+/// The answer to an accepted upload (202) or to one that repeats an earlier submission
+/// (200, `repeat: true`, no quota used).
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct Created {
+    pub complete: bool,
+    pub id: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub missing_maps: Option<Vec<String>>,
+    pub quota: QuotaView,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub repeat: bool,
+    pub split: Split,
+    pub state: SubmissionState,
+    pub url: String,
+}
+
+/// One (lighting, scene) a valid upload covers.
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct CoveredEntry {
+    pub answers: bool,
+    pub graph: bool,
+    pub lighting: Lighting,
+    pub map: bool,
+    pub scene: String,
+}
+
+/// The answer to a dry run of a valid upload.
+#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct DryRun {
+    pub complete: bool,
+    pub entries: Vec<CoveredEntry>,
+    pub method: osmab_evaluator::submission::MethodCard,
+    pub missing_maps: Vec<String>,
+    /// Files for scenes of the release's other split, which this split ignores.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub outside_split: Vec<String>,
+    pub points: u64,
+    pub release: String,
+    pub sha256: String,
+    pub size: u64,
+    pub split: Split,
+    pub valid: bool,
+}
+
+/// The answer to an upload: a submission (new, or the earlier one repeated) or, for a
+/// dry run, the validation report.
+#[derive(schemars::JsonSchema)]
+#[serde(untagged)]
+#[allow(dead_code)] // described in the OpenAPI document, never built
+pub enum UploadAnswer {
+    Submission(Created),
+    DryRun(DryRun),
 }

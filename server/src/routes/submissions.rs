@@ -6,15 +6,16 @@ use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use futures_util::StreamExt;
-use osmab_evaluator::scores::{Lighting, Split};
-use serde::{Deserialize, Serialize};
+use osmab_evaluator::scores::Split;
+use serde::Deserialize;
 
-use super::submission_view::{SubmissionItem, SubmissionList, SubmissionView};
-use super::{ApiJson, ApiPath, ApiQuery};
+use super::extract::{ApiJson, ApiPath, ApiQuery};
+use super::operation::{ApiRoutes, Auth, Input, Operation, Verb};
+use super::submission_view::{CoveredEntry, Created, DryRun, SubmissionItem, SubmissionList, SubmissionView, UploadAnswer};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::now_ms;
-use crate::intake::{self, Accepted, Quota, QuotaView, declared_sha256, hex, idempotency_key, quota_exceeded, receive, too_large};
-use crate::problem::{ApiResult, Problem};
+use crate::intake::{self, Accepted, Quota, declared_sha256, hex, idempotency_key, quota_exceeded, receive, too_large};
+use crate::problem::{ApiResult, Problem, ProblemCode};
 use crate::state::AppState;
 use crate::store::{JobState, StoreError, SubmissionRecord, SubmissionState};
 use crate::uploads::{self, Assembled};
@@ -33,93 +34,6 @@ pub struct UploadQuery {
     /// Submit the completed resumable upload with this id (`/api/v1/uploads`) instead of
     /// a request body.
     upload: Option<String>,
-}
-
-/// The calling team.
-#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct TeamRef {
-    pub id: String,
-    pub name: String,
-}
-
-/// `GET /api/v1/me`.
-#[derive(Debug, Serialize, schemars::JsonSchema)]
-pub struct Me {
-    /// The quota of the split uploads go to by default (the current release's test split
-    /// when it has one).
-    pub quota: QuotaView,
-    pub team: TeamRef,
-}
-
-/// `GET /api/v1/me`: the calling team and its quota.
-pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Me>> {
-    let quota = Quota::of(&state, &team, intake::default_split(&state).await?).await?;
-    Ok(axum::Json(Me { quota: quota.view(), team: TeamRef { id: team.id, name: team.name } }))
-}
-
-/// `GET /api/v1/quota`.
-#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Quotas {
-    /// The split an upload that names none goes to.
-    pub default_split: Split,
-    /// The team's quota of every split, test first.
-    pub splits: Vec<QuotaView>,
-    pub team: TeamRef,
-}
-
-/// `GET /api/v1/quota`: before uploading, what the calling team may still submit to each
-/// split, and when more becomes possible.
-pub async fn quotas(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Quotas>> {
-    let mut splits = Vec::new();
-    for split in Split::ALL {
-        splits.push(Quota::of(&state, &team, split).await?.view());
-    }
-    let default_split = intake::default_split(&state).await?;
-    Ok(axum::Json(Quotas { default_split, splits, team: TeamRef { id: team.id, name: team.name } }))
-}
-
-/// The answer to an accepted upload (202) or to one that repeats an earlier submission
-/// (200, `repeat: true`, no quota used).
-#[derive(Debug, Serialize, schemars::JsonSchema)]
-pub struct Created {
-    pub complete: bool,
-    pub id: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub missing_maps: Option<Vec<String>>,
-    pub quota: QuotaView,
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub repeat: bool,
-    pub split: Split,
-    pub state: SubmissionState,
-    pub url: String,
-}
-
-/// One (lighting, scene) a valid upload covers.
-#[derive(Debug, Serialize, schemars::JsonSchema)]
-pub struct CoveredEntry {
-    pub answers: bool,
-    pub graph: bool,
-    pub lighting: Lighting,
-    pub map: bool,
-    pub scene: String,
-}
-
-/// The answer to a dry run of a valid upload.
-#[derive(Debug, Serialize, schemars::JsonSchema)]
-pub struct DryRun {
-    pub complete: bool,
-    pub entries: Vec<CoveredEntry>,
-    pub method: osmab_evaluator::submission::MethodCard,
-    pub missing_maps: Vec<String>,
-    /// Files for scenes of the release's other split, which this split ignores.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub outside_split: Vec<String>,
-    pub points: u64,
-    pub release: String,
-    pub sha256: String,
-    pub size: u64,
-    pub split: Split,
-    pub valid: bool,
 }
 
 /// `POST /api/v1/submissions[?dry_run=true]`: the body is the archive.
@@ -216,7 +130,7 @@ impl Declared {
         match self.sha256 {
             Some(expected) if expected != upload.sha256 => Err(Problem::new(
                 StatusCode::UNPROCESSABLE_ENTITY,
-                "digest_mismatch",
+                ProblemCode::DigestMismatch,
                 "Checksum mismatch",
                 format!(
                     "The upload's SHA-256 is {} but Content-Digest declared another; the file changed or was corrupted on the way. Nothing was stored; upload again.",
@@ -267,7 +181,7 @@ async fn read_body(state: &AppState, body: Body, declared_length: Option<u64>) -
     let (upload, scratch) = receive(state, body, max).await?;
     match declared_length {
         Some(length) if length != upload.size => {
-            Err(Problem::bad_request("upload_incomplete", format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size)))
+            Err(Problem::bad_request(ProblemCode::UploadIncomplete, format!("Content-Length said {length} bytes but {} arrived. Upload again.", upload.size)))
         }
         _ => Ok((upload, scratch)),
     }
@@ -291,7 +205,7 @@ async fn accept(state: &AppState, team: &crate::store::Team, upload: &intake::Up
         Err(e) => Problem::from(e),
     };
     if let Some(upload_id) = query.upload.as_deref()
-        && ["invalid_archive", "invalid_submission", "digest_mismatch"].contains(&problem.code)
+        && [ProblemCode::InvalidArchive, ProblemCode::InvalidSubmission, ProblemCode::DigestMismatch].contains(&problem.code)
         && let Err(e) = uploads::terminate(state, team, upload_id).await
     {
         tracing::warn!(upload = %upload_id, error = %e.detail, "a refused upload could not be removed; it expires on its own");
@@ -423,11 +337,12 @@ pub async fn update(
         compute: s.compute.clone(),
         anonymous: s.anonymous,
     };
-    card.check("request body")
-        .map_err(|e| Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("{}: {}", e.field, e.message)))?;
+    card.check("request body").map_err(|e| {
+        Problem::new(StatusCode::UNPROCESSABLE_ENTITY, ProblemCode::InvalidRequest, "Invalid method card", format!("{}: {}", e.field, e.message))
+    })?;
     let baselines = state.store.team(&s.team_id).await?.name == crate::jobs::release_build::BASELINE_TEAM;
     if !baselines && let Some(problem) = crate::reserved_names::method_name_problem(card.name.trim()) {
-        return Err(Problem::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_request", "Invalid method card", format!("name: {problem}")));
+        return Err(Problem::new(StatusCode::UNPROCESSABLE_ENTITY, ProblemCode::InvalidRequest, "Invalid method card", format!("name: {problem}")));
     }
     state.store.update_method_card(&id, &s, now_ms()).await?;
     state.leaderboard.invalidate();
@@ -448,4 +363,38 @@ pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): 
         }
     }
     Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))
+}
+
+/// Uploading, listing, editing and cancelling submissions.
+pub fn routes() -> ApiRoutes {
+    ApiRoutes::new()
+        .operation(
+            Operation::new(
+                Verb::Post,
+                "/api/v1/submissions",
+                Auth::Team,
+                "Upload a submission archive (tar, tar.gz or zip; optional Content-Digest and Idempotency-Key). `?dry_run=true` validates only, free of quota; `?public=false` keeps it off the leaderboard; `?upload=ID` submits a completed resumable upload instead of a body, answered exactly as a direct upload. A repeat — the team's active submission of the same archive, or the same Idempotency-Key — answers 200 with that submission (`repeat: true`) and uses no quota.",
+                202,
+            )
+            .takes_body(Input::Archive)
+            .query::<UploadQuery>()
+            .returns::<UploadAnswer>(),
+            create,
+        )
+        .operation(Operation::new(Verb::Get, "/api/v1/submissions", Auth::Team, "The calling team's submissions.", 200).returns::<SubmissionList>(), list)
+        .operation(
+            Operation::new(Verb::Get, "/api/v1/submissions/{id}", Auth::Optional, "A submission: state, reason, history, jobs and its latest scores.", 200)
+                .returns::<SubmissionView>(),
+            show,
+        )
+        .operation(
+            Operation::new(Verb::Patch, "/api/v1/submissions/{id}", Auth::Team, "Edit the method card (name, description, paper_url, code_url) or `public`.", 200)
+                .takes::<MethodCardUpdate>()
+                .returns::<SubmissionView>(),
+            update,
+        )
+        .operation(
+            Operation::new(Verb::Post, "/api/v1/submissions/{id}/cancel", Auth::Team, "Cancel a queued submission.", 200).returns::<SubmissionView>(),
+            cancel,
+        )
 }

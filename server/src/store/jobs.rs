@@ -3,7 +3,7 @@
 //! the lease holder may finish it. Claiming is one statement: PostgreSQL skips rows
 //! other workers have locked (`FOR UPDATE SKIP LOCKED`), SQLite serialises writers.
 
-use super::{JobRecord, JobState, Store, StoreError, StoreResult, on_pool};
+use super::{JobKind, JobRecord, JobState, Store, StoreError, StoreResult, on_pool};
 
 pub(super) const JOB_COLUMNS: &str =
     "id, kind, subject, payload, state, attempts, max_attempts, run_after, lease_owner, lease_expires, progress, error, created_at, updated_at";
@@ -13,7 +13,7 @@ pub(super) const JOB_COLUMNS: &str =
 pub struct NewJob {
     pub id: String,
     /// What to do (`score_submission`, `build_release`).
-    pub kind: String,
+    pub kind: JobKind,
     /// What it is about (a submission id or release version).
     pub subject: String,
     /// JSON parameters.
@@ -26,7 +26,7 @@ pub struct NewJob {
 #[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
 pub struct ClaimedJob {
     pub id: String,
-    pub kind: String,
+    pub kind: JobKind,
     pub subject: String,
     pub payload: String,
     /// Attempts including this one.
@@ -43,7 +43,7 @@ macro_rules! insert_job_query {
              VALUES ($1, $2, $3, $4, 'queued', 0, $5, $6, '{}', $6, $6)",
         )
         .bind(&$job.id)
-        .bind(&$job.kind)
+        .bind($job.kind)
         .bind(&$job.subject)
         .bind(&$job.payload)
         .bind($job.max_attempts)
@@ -148,7 +148,7 @@ impl Store {
 
     /// Jobs of `kind` whose subject starts with `subject_prefix`, created at or after
     /// `since` (the parts a coordinator fanned out), in subject order.
-    pub async fn jobs_of(&self, kind: &str, subject_prefix: &str, since: i64) -> StoreResult<Vec<JobRecord>> {
+    pub async fn jobs_of(&self, kind: JobKind, subject_prefix: &str, since: i64) -> StoreResult<Vec<JobRecord>> {
         let sql = format!(
             "SELECT {JOB_COLUMNS} FROM jobs WHERE kind = $1 AND substr(subject, 1, CAST($2 AS INTEGER)) = $3 AND created_at >= $4 ORDER BY subject, created_at"
         );

@@ -3,6 +3,7 @@
 //! drivers accept; where the dialects differ (claiming a job) each backend has its own
 //! statement. Every query is runtime-checked, so building never needs a database.
 
+mod error;
 mod jobs;
 mod models;
 mod postgres;
@@ -19,11 +20,12 @@ pub mod tests;
 mod tokens;
 mod uploads;
 
+pub use error::{StoreError, StoreResult};
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
 pub use queue::Standing;
 pub use quotas::QuotaPolicyRecord;
-pub use states::{JobState, ReleaseState, SubmissionState};
+pub use states::{JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
 pub use uploads::{OpenUploadLimits, OpenUploads, UploadPart, UploadRecord};
 
 use sqlx::{PgPool, SqlitePool};
@@ -39,36 +41,6 @@ macro_rules! on_pool {
     };
 }
 pub(crate) use on_pool;
-
-/// A failure of the record store.
-#[derive(Debug, thiserror::Error)]
-pub enum StoreError {
-    /// The record does not exist.
-    #[error("not found")]
-    NotFound,
-    /// A unique constraint refused the write (a name or version already taken).
-    #[error("already exists: {0}")]
-    Conflict(String),
-    /// Anything else from the database.
-    #[error("database error: {0}")]
-    Database(sqlx::Error),
-    /// Migrations could not be applied.
-    #[error("migration failed: {0}")]
-    Migration(#[from] sqlx::migrate::MigrateError),
-}
-
-impl From<sqlx::Error> for StoreError {
-    fn from(e: sqlx::Error) -> Self {
-        match &e {
-            sqlx::Error::RowNotFound => StoreError::NotFound,
-            sqlx::Error::Database(db) if db.is_unique_violation() => StoreError::Conflict(db.message().to_string()),
-            _ => StoreError::Database(e),
-        }
-    }
-}
-
-/// Result of a store operation.
-pub type StoreResult<T> = Result<T, StoreError>;
 
 /// The record store: one of the two backends.
 #[derive(Clone)]

@@ -3,7 +3,7 @@
 use osmab_evaluator::scores::{Scores, Split};
 use serde::Serialize;
 
-use super::{JobState, ReleaseState, SubmissionState};
+use super::{JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
 
 /// A participating team.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, sqlx::FromRow)]
@@ -20,8 +20,7 @@ pub struct Team {
 pub struct TokenRecord {
     pub id: String,
     pub team_id: Option<String>,
-    /// `admin` or `team`.
-    pub scope: String,
+    pub scope: TokenScope,
     #[serde(skip)]
     pub sha256: String,
     /// The first characters of the token, to tell tokens apart in lists.
@@ -51,8 +50,7 @@ pub struct ReleaseFile {
     pub path: String,
     pub size: i64,
     pub sha256: String,
-    /// `file` or `archive`.
-    pub kind: String,
+    pub kind: ReleaseFileKind,
 }
 
 /// A submission.
@@ -113,7 +111,7 @@ pub struct ScoreRecord {
 #[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
 pub struct JobRecord {
     pub id: String,
-    pub kind: String,
+    pub kind: JobKind,
     pub subject: String,
     pub payload: String,
     pub state: JobState,

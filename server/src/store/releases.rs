@@ -26,7 +26,7 @@ impl Store {
             for chunk in files.chunks(FILES_PER_INSERT) {
                 let mut insert = sqlx::QueryBuilder::new("INSERT INTO release_files (version, path, size, sha256, kind) ");
                 insert.push_values(chunk, |mut row, file| {
-                    row.push_bind(&file.version).push_bind(&file.path).push_bind(file.size).push_bind(&file.sha256).push_bind(&file.kind);
+                    row.push_bind(&file.version).push_bind(&file.path).push_bind(file.size).push_bind(&file.sha256).push_bind(file.kind);
                 });
                 insert.build().execute(&mut *tx).await?;
             }

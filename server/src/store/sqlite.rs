@@ -7,7 +7,7 @@ use std::time::Duration;
 use sqlx::SqlitePool;
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
 
-use super::StoreResult;
+use super::error::StoreResult;
 
 pub(super) async fn connect(url: &str) -> StoreResult<SqlitePool> {
     let options = SqliteConnectOptions::from_str(url)?

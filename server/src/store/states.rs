@@ -1,5 +1,5 @@
-//! The lifecycles the store records, as closed sets: a submission's, a job's and a
-//! release's state. Each is a TEXT column (with a CHECK constraint) in both databases,
+//! The closed sets the store records: a submission's, a job's and a release's state;
+//! a job's kind, a token's scope and a release file's kind. Each is a TEXT column (with a CHECK constraint) in both databases,
 //! snake_case in JSON, and its name in problem details and logs.
 
 use serde::{Deserialize, Serialize};
@@ -77,5 +77,37 @@ state!(
         Draft = "draft",
         /// Public; the current release is the newest published one.
         Published = "published",
+    }
+);
+
+state!(
+    /// What a token may do.
+    TokenScope {
+        /// Everything, the organisers' console included.
+        Admin = "admin",
+        /// What its team may do.
+        Team = "team",
+    }
+);
+
+state!(
+    /// What a background job does (see `jobs::Job`).
+    JobKind {
+        /// Score a submission.
+        ScoreSubmission = "score_submission",
+        /// Build a release: fan out its sequences, then assemble and register it.
+        BuildRelease = "build_release",
+        /// Render one sequence of a release being built.
+        RenderSequence = "render_sequence",
+    }
+);
+
+state!(
+    /// What a public file of a release is.
+    ReleaseFileKind {
+        /// A file of the manifest.
+        File = "file",
+        /// A sequence archive (the sequence's files in one download).
+        Archive = "archive",
     }
 );

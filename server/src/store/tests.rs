@@ -76,7 +76,7 @@ fn submission(id: &str, team_id: &str, t: i64) -> NewSubmission {
 }
 
 fn job(id: &str, at: i64) -> NewJob {
-    NewJob { id: id.into(), kind: "score_submission".into(), subject: format!("sub_{id}"), payload: "{}".into(), max_attempts: 3, created_at: at }
+    NewJob { id: id.into(), kind: JobKind::ScoreSubmission, subject: format!("sub_{id}"), payload: "{}".into(), max_attempts: 3, created_at: at }
 }
 
 #[tokio::test]
@@ -197,7 +197,10 @@ async fn submissions_scores_and_releases_keep_their_history() {
         store.create_team(&team).await.unwrap();
         assert!(matches!(store.create_team(&Team { id: "team_b".into(), ..team.clone() }).await, Err(StoreError::Conflict(_))), "names are unique");
         store
-            .insert_release(&release("r1"), &[ReleaseFile { version: "r1".into(), path: "a.txt".into(), size: 1, sha256: "00".into(), kind: "file".into() }])
+            .insert_release(
+                &release("r1"),
+                &[ReleaseFile { version: "r1".into(), path: "a.txt".into(), size: 1, sha256: "00".into(), kind: ReleaseFileKind::File }],
+            )
             .await
             .unwrap();
         store.insert_release(&release("r2"), &[]).await.unwrap();
@@ -321,7 +324,7 @@ async fn an_administrators_quota_policy_replaces_the_one_before() {
 async fn tokens_are_found_by_hash_and_revocation_is_kept() {
     let stores = TestStores::new().await;
     for store in &stores.stores {
-        let (token, record) = crate::auth::issue_token("admin", None, None);
+        let (token, record) = crate::auth::issue_token(crate::store::TokenScope::Admin, None, None);
         store.insert_token(&record).await.unwrap();
         let found = store.token_by_hash(&crate::token::hash(&token)).await.unwrap();
         assert_eq!(found.id, record.id);
@@ -388,7 +391,7 @@ async fn a_coordinator_finds_the_parts_it_fanned_out_by_kind_prefix_and_time() {
         let t0 = now_ms();
         let part = |id: &str, subject: &str, at: i64| NewJob {
             id: id.into(),
-            kind: "render_sequence".into(),
+            kind: JobKind::RenderSequence,
             subject: subject.into(),
             payload: "{}".into(),
             max_attempts: 3,
@@ -402,9 +405,9 @@ async fn a_coordinator_finds_the_parts_it_fanned_out_by_kind_prefix_and_time() {
         store.enqueue(&part("other", "v_10/scene_000/baseline", t0)).await.unwrap();
         store.enqueue(&part("another", "v21/scene_000/baseline", t0)).await.unwrap();
         store.enqueue(&job("score", t0)).await.unwrap();
-        let found: Vec<String> = store.jobs_of("render_sequence", "v_1/", t0).await.unwrap().into_iter().map(|j| j.id).collect();
+        let found: Vec<String> = store.jobs_of(JobKind::RenderSequence, "v_1/", t0).await.unwrap().into_iter().map(|j| j.id).collect();
         assert_eq!(found, ["p1", "p2"], "{}", store.backend());
-        assert_eq!(store.jobs_of("render_sequence", "v_1/", t0 - 10).await.unwrap().len(), 3, "{}", store.backend());
+        assert_eq!(store.jobs_of(JobKind::RenderSequence, "v_1/", t0 - 10).await.unwrap().len(), 3, "{}", store.backend());
     }
     stores.drop_all().await;
 }
@@ -538,7 +541,7 @@ async fn a_release_records_every_file_or_none() {
             path: format!("sequences/s/{i:05}.jpg"),
             size: i as i64,
             sha256: format!("{i:064x}"),
-            kind: "file".into(),
+            kind: ReleaseFileKind::File,
         };
         let files: Vec<ReleaseFile> = (0..2_345).map(file).collect();
         store.insert_release(&release("big"), &files).await.unwrap();

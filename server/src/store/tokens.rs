@@ -8,7 +8,7 @@ macro_rules! insert_token_query {
         sqlx::query("INSERT INTO tokens (id, team_id, scope, sha256, hint, created_at, expires_at, revoked_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)")
             .bind(&$token.id)
             .bind(&$token.team_id)
-            .bind(&$token.scope)
+            .bind($token.scope)
             .bind(&$token.sha256)
             .bind(&$token.hint)
             .bind($token.created_at)

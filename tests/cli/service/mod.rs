@@ -54,51 +54,12 @@ macro_rules! on_both_backends {
 }
 pub(crate) use on_both_backends;
 
+#[path = "../../support/postgres.rs"]
+mod test_database;
+use test_database::{PgDatabase, rand_suffix};
+
 fn block_on<F: std::future::Future>(f: F) -> F::Output {
     tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap().block_on(f)
-}
-
-fn postgres_base() -> String {
-    std::env::var("OSMAB_TEST_DATABASE_URL").unwrap_or_else(|_| "postgres://postgres@127.0.0.1:5432/test".into())
-}
-
-/// A fresh PostgreSQL database, dropped with the guard.
-pub struct PgDatabase {
-    pub url: String,
-    name: String,
-}
-
-impl PgDatabase {
-    fn create() -> Self {
-        let base = postgres_base();
-        let name = format!("osmab_e2e_{}_{}", std::process::id(), rand_suffix());
-        block_on(async {
-            let admin = sqlx::PgPool::connect(&base).await.unwrap_or_else(|e| panic!("PostgreSQL at {base} is needed (.ci/run starts it): {e}"));
-            sqlx::query(sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}"))).execute(&admin).await.unwrap();
-            admin.close().await;
-        });
-        let url = format!("{}/{name}", &base[..base.rfind('/').unwrap()]);
-        Self { url, name }
-    }
-}
-
-impl Drop for PgDatabase {
-    fn drop(&mut self) {
-        let (base, name) = (postgres_base(), self.name.clone());
-        block_on(async move {
-            if let Ok(admin) = sqlx::PgPool::connect(&base).await {
-                let _ = sqlx::query(sqlx::AssertSqlSafe(format!("DROP DATABASE IF EXISTS {name} WITH (FORCE)"))).execute(&admin).await;
-                admin.close().await;
-            }
-        });
-    }
-}
-
-fn rand_suffix() -> String {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static N: AtomicU64 = AtomicU64::new(0);
-    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().subsec_nanos();
-    format!("{nanos:x}{}", N.fetch_add(1, Ordering::SeqCst))
 }
 
 /// What every server of a test shares: its data directory and database.

@@ -6,10 +6,8 @@
 //! and correct is skipped, so running the command again finishes an interrupted run.
 
 use std::collections::BTreeSet;
-use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::time::Duration;
 
 use anyhow::{Context, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,7 +16,8 @@ use serde::Deserialize;
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 
-use super::api::{Api, checked, describe};
+use super::api::Api;
+use super::fetch_file::{RemoteFile, fetch, is_correct};
 
 #[derive(Debug, Clone, Deserialize)]
 struct FileEntry {
@@ -46,9 +45,7 @@ pub struct Selection {
 
 /// One thing to download: a release file, or a sequence archive with the files it holds.
 struct Task {
-    remote: String,
-    size: u64,
-    sha256: String,
+    file: RemoteFile,
     /// For an archive: the manifest files it unpacks to.
     unpacks_to: Option<Vec<FileEntry>>,
 }
@@ -66,11 +63,6 @@ fn pick_release(api: &Api, wanted: Option<&str>) -> anyhow::Result<String> {
         .find(|r| r["current"] == true)
         .and_then(|r| r["version"].as_str().map(str::to_string))
         .ok_or_else(|| anyhow!("the server has no current release yet; name one with --release"))
-}
-
-/// Whether `path` holds exactly the manifest's bytes.
-fn is_correct(path: &Path, size: u64, sha256: &str) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| m.len() == size) && osmab_dataset::release::manifest::hash_file(path).is_ok_and(|(_, h)| h == sha256)
 }
 
 /// A path of the manifest, checked to stay inside the output folder.
@@ -91,106 +83,6 @@ fn selected(path: &str, lightings: &BTreeSet<String>, scenes: &BTreeSet<String>,
         let scene_ok = !scenes.contains(stem) || selection.scenes.is_empty() || selection.scenes.iter().any(|s| s == stem);
         lighting_ok && scene_ok
     })
-}
-
-/// Fetch `task.remote` into `target` (through `target.part`, resumed), verified.
-fn fetch(api: &Api, version: &str, task: &Task, target: &Path, bar: &ProgressBar, log: &dyn Fn(String)) -> anyhow::Result<()> {
-    let part = PathBuf::from(format!("{}.part", target.display()));
-    if let Some(dir) = target.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-    }
-    let url = format!("/api/v1/releases/{version}/files/{}", task.remote);
-    // Bytes of `part` the progress bar counts already (it started from every .part's size).
-    let discard = |part: &Path| {
-        let have = std::fs::metadata(part).map(|m| m.len()).unwrap_or(0);
-        bar.set_position(bar.position().saturating_sub(have));
-        let _ = std::fs::remove_file(part);
-    };
-    let mut last_error = None;
-    let mut wait = Duration::ZERO;
-    for attempt in 0..5 {
-        if attempt > 0 {
-            std::thread::sleep(wait.max(Duration::from_secs(1 << attempt.min(4))));
-            wait = Duration::ZERO;
-        }
-        let have = std::fs::metadata(&part).map(|m| m.len()).unwrap_or(0);
-        // A complete .part (the rename was interrupted) needs no byte from the server.
-        if have == task.size && is_correct(&part, task.size, &task.sha256) {
-            std::fs::rename(&part, target)?;
-            return Ok(());
-        }
-        if have >= task.size && have > 0 {
-            log(format!("{}: the partial download is not a prefix of the file; fetching it again from the start", task.remote));
-            discard(&part);
-        }
-        let have = std::fs::metadata(&part).map(|m| m.len()).unwrap_or(0);
-        let mut request = api.get(&url).timeout(Duration::from_secs(3600));
-        if have > 0 {
-            request = request.header("Range", format!("bytes={have}-")).header("If-Range", format!("\"{}\"", task.sha256));
-        }
-        let response = match request.send() {
-            Ok(r) => r,
-            Err(e) => {
-                last_error = Some(anyhow!("{}: {}", task.remote, describe(&e)));
-                continue;
-            }
-        };
-        let status = response.status();
-        if status == reqwest::StatusCode::RANGE_NOT_SATISFIABLE {
-            log(format!("{}: the server cannot resume at byte {have}; fetching it again from the start", task.remote));
-            discard(&part);
-            last_error = Some(anyhow!("{}: range not satisfiable", task.remote));
-            continue;
-        }
-        if status.is_server_error() || status == reqwest::StatusCode::TOO_MANY_REQUESTS {
-            // Passing trouble: wait as the server asks (at most a minute), then try again.
-            wait = response
-                .headers()
-                .get("retry-after")
-                .and_then(|v| v.to_str().ok())
-                .and_then(|v| v.parse::<u64>().ok())
-                .map_or(Duration::ZERO, |s| Duration::from_secs(s.min(60)));
-            last_error = Some(checked(response).err().unwrap_or_else(|| anyhow!("server error")).context(format!("downloading {}", task.remote)));
-            continue;
-        }
-        let resumed = status == reqwest::StatusCode::PARTIAL_CONTENT;
-        let mut response = match checked(response) {
-            Ok(r) => r,
-            Err(e) => return Err(e.context(format!("downloading {}", task.remote))),
-        };
-        let mut file = if resumed {
-            log(format!("{}: resuming at byte {have} of {}", task.remote, task.size));
-            std::fs::OpenOptions::new().append(true).open(&part)?
-        } else {
-            // The whole file comes again: what the bar counted of the old part goes.
-            discard(&part);
-            std::fs::File::create(&part)?
-        };
-        let mut buf = vec![0u8; 256 * 1024];
-        let copied = loop {
-            match response.read(&mut buf) {
-                Ok(0) => break Ok(()),
-                Ok(n) => {
-                    file.write_all(&buf[..n])?;
-                    bar.inc(n as u64);
-                }
-                Err(e) => break Err(e),
-            }
-        };
-        file.sync_all()?;
-        if let Err(e) = copied {
-            last_error = Some(anyhow!("{}: the connection broke: {e}", task.remote));
-            continue;
-        }
-        if is_correct(&part, task.size, &task.sha256) {
-            std::fs::rename(&part, target)?;
-            return Ok(());
-        }
-        log(format!("{}: the bytes do not match the manifest's SHA-256; fetching it again from the start", task.remote));
-        discard(&part);
-        last_error = Some(anyhow!("{}: SHA-256 mismatch", task.remote));
-    }
-    Err(last_error.unwrap_or_else(|| anyhow!("{}: download failed", task.remote)).context("the partial download is kept; run the command again to resume"))
 }
 
 /// Where sequence archives and their partial downloads wait (inside the output folder).
@@ -246,90 +138,130 @@ fn unpack_sequence(archive: &Path, out: &Path, files: &[FileEntry]) -> anyhow::R
 pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<(usize, usize)> {
     let version = pick_release(api, selection.release.as_deref())?;
     let manifest_text = api.get_retrying(&format!("/api/v1/releases/{version}/manifest.json"))?.text()?;
-    let manifest: Value = serde_json::from_str(&manifest_text).context("the manifest is not JSON")?;
-    let files: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone()).context("manifest: files")?;
-    let archives: Vec<ArchiveEntry> =
-        serde_json::from_value(manifest.get("archives").cloned().unwrap_or(Value::Array(vec![]))).context("manifest: archives")?;
-    // One path, one file: a manifest that lists a path twice (with two checksums) is refused.
-    let mut listed = BTreeSet::new();
-    if let Some(twice) = files.iter().map(|f| f.path.as_str()).chain(archives.iter().map(|a| a.path.as_str())).find(|p| !listed.insert(*p)) {
-        bail!("the manifest of {version} lists '{twice}' twice; refusing to download from it (ask the organisers)");
-    }
-    // The digest ties the file list to the release: a truncated or edited manifest fails here.
-    let mut lines: Vec<String> = files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
-    lines.sort();
-    let digest: String = Sha256::digest(lines.concat().as_bytes()).iter().map(|b| format!("{b:02x}")).collect();
-    if manifest["digest"].as_str() != Some(digest.as_str()) {
-        bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
-    }
+    let manifest = Listing::verified(&manifest_text, &version)?;
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     std::fs::write(out.join("manifest.json"), &manifest_text)?;
+    manifest.check(selection, &version)?;
+    let (tasks, skipped) = manifest.tasks(selection, out)?;
+    let fetched = tasks.len();
+    fetch_all(api, &version, tasks, selection.jobs, out)?;
+    Ok((fetched, skipped))
+}
 
-    let lightings: BTreeSet<String> = manifest["lightings"].as_array().into_iter().flatten().filter_map(|v| v.as_str().map(str::to_string)).collect();
-    let scenes: BTreeSet<String> = manifest["scenes"].as_array().into_iter().flatten().filter_map(|v| v["id"].as_str().map(str::to_string)).collect();
-    for wanted in &selection.lightings {
-        anyhow::ensure!(
-            lightings.contains(wanted),
-            "release {version} has no lighting '{wanted}' (it has {})",
-            lightings.iter().cloned().collect::<Vec<_>>().join(", ")
-        );
-    }
-    for wanted in &selection.scenes {
-        anyhow::ensure!(scenes.contains(wanted), "release {version} has no scene '{wanted}'");
+/// What a manifest lists, as the download reads it.
+struct Listing {
+    files: Vec<FileEntry>,
+    archives: Vec<ArchiveEntry>,
+    digest: Option<String>,
+    lightings: BTreeSet<String>,
+    scenes: BTreeSet<String>,
+}
+
+impl Listing {
+    /// The manifest of `version`, checked: one file per path, and the file list matching
+    /// the digest that ties it to the release (a truncated or edited manifest fails here).
+    fn verified(text: &str, version: &str) -> anyhow::Result<Listing> {
+        let value: Value = serde_json::from_str(text).context("the manifest is not JSON")?;
+        let files: Vec<FileEntry> = serde_json::from_value(value["files"].clone()).context("manifest: files")?;
+        let archives: Vec<ArchiveEntry> =
+            serde_json::from_value(value.get("archives").cloned().unwrap_or(Value::Array(vec![]))).context("manifest: archives")?;
+        let listing = Listing {
+            files,
+            archives,
+            digest: value["digest"].as_str().map(str::to_string),
+            lightings: value["lightings"].as_array().into_iter().flatten().filter_map(|v| v.as_str().map(str::to_string)).collect(),
+            scenes: value["scenes"].as_array().into_iter().flatten().filter_map(|v| v["id"].as_str().map(str::to_string)).collect(),
+        };
+        let mut listed = BTreeSet::new();
+        let paths = listing.files.iter().map(|f| f.path.as_str()).chain(listing.archives.iter().map(|a| a.path.as_str()));
+        if let Some(twice) = paths.into_iter().find(|p| !listed.insert(*p)) {
+            bail!("the manifest of {version} lists '{twice}' twice; refusing to download from it (ask the organisers)");
+        }
+        let mut lines: Vec<String> = listing.files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
+        lines.sort();
+        let digest: String = Sha256::digest(lines.concat().as_bytes()).iter().map(|b| format!("{b:02x}")).collect();
+        if listing.digest.as_deref() != Some(digest.as_str()) {
+            bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
+        }
+        Ok(listing)
     }
 
-    let mut tasks: Vec<(Task, PathBuf)> = Vec::new();
-    let mut skipped = 0;
-    let mut in_archives = BTreeSet::new();
-    for a in &archives {
-        if !selected(&format!("sequences/{}/{}", a.lighting, a.scene), &lightings, &scenes, selection) {
-            continue;
+    /// Every lighting and scene asked for is in the release.
+    fn check(&self, selection: &Selection, version: &str) -> anyhow::Result<()> {
+        for wanted in &selection.lightings {
+            anyhow::ensure!(
+                self.lightings.contains(wanted),
+                "release {version} has no lighting '{wanted}' (it has {})",
+                self.lightings.iter().cloned().collect::<Vec<_>>().join(", ")
+            );
         }
-        let prefix = format!("sequences/{}/{}/", a.lighting, a.scene);
-        let members: Vec<FileEntry> = files.iter().filter(|f| f.path.starts_with(&prefix)).cloned().collect();
-        in_archives.extend(members.iter().map(|f| f.path.clone()));
-        let missing = members.iter().any(|f| local(out, &f.path).map_or(true, |p| !is_correct(&p, f.size, &f.sha256)));
-        if !missing {
-            skipped += members.len();
-            continue;
+        for wanted in &selection.scenes {
+            anyhow::ensure!(self.scenes.contains(wanted), "release {version} has no scene '{wanted}'");
         }
-        // Archives land in a hidden folder and are removed once unpacked and verified.
-        let target = local(&out.join(DOWNLOADS), &a.path)?;
-        tasks.push((Task { remote: a.path.clone(), size: a.size, sha256: a.sha256.clone(), unpacks_to: Some(members) }, target));
-    }
-    for f in files.iter().filter(|f| !in_archives.contains(&f.path) && selected(&f.path, &lightings, &scenes, selection)) {
-        let target = local(out, &f.path)?;
-        if is_correct(&target, f.size, &f.sha256) {
-            skipped += 1;
-            continue;
-        }
-        if target.exists() {
-            eprintln!("{}: present but not the manifest's bytes; fetching it again", f.path);
-            std::fs::remove_file(&target)?;
-        }
-        tasks.push((Task { remote: f.path.clone(), size: f.size, sha256: f.sha256.clone(), unpacks_to: None }, target));
+        Ok(())
     }
 
-    let total: u64 = tasks.iter().map(|(t, _)| t.size).sum();
+    /// What to download into `out` (sequences as archives, the rest file by file), with
+    /// where each goes; and how many selected files are there already, verified.
+    fn tasks(&self, selection: &Selection, out: &Path) -> anyhow::Result<(Vec<(Task, PathBuf)>, usize)> {
+        let mut tasks: Vec<(Task, PathBuf)> = Vec::new();
+        let mut skipped = 0;
+        let mut in_archives = BTreeSet::new();
+        for a in &self.archives {
+            if !selected(&format!("sequences/{}/{}", a.lighting, a.scene), &self.lightings, &self.scenes, selection) {
+                continue;
+            }
+            let prefix = format!("sequences/{}/{}/", a.lighting, a.scene);
+            let members: Vec<FileEntry> = self.files.iter().filter(|f| f.path.starts_with(&prefix)).cloned().collect();
+            in_archives.extend(members.iter().map(|f| f.path.clone()));
+            let missing = members.iter().any(|f| local(out, &f.path).map_or(true, |p| !is_correct(&p, f.size, &f.sha256)));
+            if !missing {
+                skipped += members.len();
+                continue;
+            }
+            // Archives land in a hidden folder and are removed once unpacked and verified.
+            let target = local(&out.join(DOWNLOADS), &a.path)?;
+            tasks.push((Task { file: RemoteFile { path: a.path.clone(), size: a.size, sha256: a.sha256.clone() }, unpacks_to: Some(members) }, target));
+        }
+        for f in self.files.iter().filter(|f| !in_archives.contains(&f.path) && selected(&f.path, &self.lightings, &self.scenes, selection)) {
+            let target = local(out, &f.path)?;
+            if is_correct(&target, f.size, &f.sha256) {
+                skipped += 1;
+                continue;
+            }
+            if target.exists() {
+                eprintln!("{}: present but not the manifest's bytes; fetching it again", f.path);
+                std::fs::remove_file(&target)?;
+            }
+            tasks.push((Task { file: RemoteFile { path: f.path.clone(), size: f.size, sha256: f.sha256.clone() }, unpacks_to: None }, target));
+        }
+        Ok((tasks, skipped))
+    }
+}
+
+/// Download `tasks` with `jobs` threads behind one progress bar (archives unpacked as they
+/// arrive); every failure is reported together at the end.
+fn fetch_all(api: &Api, version: &str, tasks: Vec<(Task, PathBuf)>, jobs: usize, out: &Path) -> anyhow::Result<()> {
+    let total: u64 = tasks.iter().map(|(t, _)| t.file.size).sum();
     let already: u64 = tasks.iter().map(|(_, p)| std::fs::metadata(PathBuf::from(format!("{}.part", p.display()))).map(|m| m.len()).unwrap_or(0)).sum();
     let bar = ProgressBar::new(total);
     bar.set_style(ProgressStyle::with_template("{bar:40} {bytes}/{total_bytes} {binary_bytes_per_sec} eta {eta} {msg}").expect("template"));
     bar.set_position(already.min(total));
-    let fetched = tasks.len();
+    let count = tasks.len();
     let queue = Mutex::new(tasks);
     let errors = Mutex::new(Vec::new());
     let log = |line: String| bar.suspend(|| eprintln!("{line}"));
     std::thread::scope(|scope| {
-        for _ in 0..selection.jobs.max(1) {
+        for _ in 0..jobs.max(1) {
             scope.spawn(|| {
                 loop {
                     let Some((task, target)) = queue.lock().expect("queue").pop() else { break };
-                    let result = fetch(api, &version, &task, &target, &bar, &log)
+                    let result = fetch(api, version, &task.file, &target, &bar, &log)
                         .and_then(|()| match &task.unpacks_to {
                             Some(members) => unpack_sequence(&target, out, members),
                             None => Ok(()),
                         })
-                        .with_context(|| format!("{} (into {})", task.remote, target.display()));
+                        .with_context(|| format!("{} (into {})", task.file.path, target.display()));
                     if let Err(e) = result {
                         errors.lock().expect("errors").push(format!("{e:#}"));
                     }
@@ -341,9 +273,9 @@ pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<
     remove_empty_folders(&out.join(DOWNLOADS));
     let errors = errors.into_inner().expect("errors");
     if !errors.is_empty() {
-        bail!("{} of {fetched} downloads failed:\n  {}", errors.len(), errors.join("\n  "));
+        bail!("{} of {count} downloads failed:\n  {}", errors.len(), errors.join("\n  "));
     }
-    Ok((fetched, skipped))
+    Ok(())
 }
 
 #[cfg(test)]

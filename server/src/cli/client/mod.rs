@@ -5,6 +5,7 @@
 
 mod api;
 mod download;
+mod fetch_file;
 mod offline;
 mod resumable;
 mod session;
@@ -18,9 +19,12 @@ pub use view::table_text;
 use osmab_evaluator::scores::Split;
 use std::path::PathBuf;
 
-use anyhow::bail;
+use anyhow::{Context, bail};
 use clap::Subcommand;
 
+use crate::routes::me::Me;
+use crate::routes::submission_view::{Created, DryRun};
+use crate::store::SubmissionState;
 use api::Api;
 use session::Session;
 
@@ -173,33 +177,7 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
     let allow_http = args.allow_http;
     let api = |url: Option<&str>| Api::new(Session::load(url, allow_http)?);
     match args.command {
-        ClientCommand::Login { url, token } => {
-            // The token given, else OSMAB_TOKEN, else the one stored for this very server.
-            let mut session = Session::load(url.as_deref(), allow_http)?;
-            if let Some(token) = token {
-                session.token = Some(token);
-            }
-            let Some(token) = session.token.clone() else { bail!("give --token osmab_… (or set OSMAB_TOKEN)") };
-            if !token.starts_with("osmab_") {
-                bail!("that is not an osmab token: team tokens start with 'osmab_'; copy the whole token you were given");
-            }
-            let api = Api::new(session.clone())?;
-            let me = api.get_team_json("/api/v1/me")?;
-            let path = session.save()?;
-            let quota = &me["quota"];
-            println!(
-                "Logged in to {} as team {} (token {}); {} of {} {} submissions left in this {}-hour window. Saved to {} (owner-only).",
-                session.url,
-                me["team"]["name"].as_str().unwrap_or("?"),
-                session::hint(&token),
-                quota["remaining"],
-                quota["limit"],
-                quota["split"].as_str().unwrap_or("daily"),
-                quota["window_hours"].as_f64().unwrap_or(24.0),
-                path.display()
-            );
-            Ok(())
-        }
+        ClientCommand::Login { url, token } => login(url.as_deref(), token, allow_http),
         ClientCommand::Download { release, lighting, scene, out, jobs, url } => {
             let api = api(url.as_deref())?;
             let selection = download::Selection { release, lightings: lighting, scenes: scene, jobs };
@@ -216,46 +194,18 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let api = api(url.as_deref())?;
             let packed = submit::pack(&submission)?;
             eprintln!("{}: {} bytes, SHA-256 {}", submission.display(), packed.size, packed.sha256_hex());
-            // A dry run sends the archive once, stores nothing; a submission goes resumably.
-            let answer = if dry_run { submit::upload(&api, &packed, true, !private, split)? } else { resumable::submit(&api, &packed, !private, split)? };
             if dry_run {
-                let covered = answer["entries"].as_array().map_or(0, Vec::len);
-                println!(
-                    "Valid on the server for the {} split (dry run, no quota used): {covered} scene-lighting pairs, {}, {} points",
-                    answer["split"].as_str().unwrap_or("?"),
-                    if answer["complete"] == true { "complete" } else { "incomplete" },
-                    answer["points"]
-                );
-                return Ok(());
+                // A dry run sends the archive once and stores nothing.
+                let answer = submit::upload(&api, &packed, true, !private, split)?;
+                return report_dry_run(&serde_json::from_value(answer).context("the server's dry-run answer")?);
             }
-            let id = answer["id"].as_str().unwrap_or_default().to_string();
-            // The id alone on stdout for scripts (`ID=$(osmab client submit …)`); in a
-            // terminal the sentence below says it once.
-            if !std::io::IsTerminal::is_terminal(&std::io::stdout()) {
-                println!("{id}");
-            }
-            if answer["repeat"] == true {
-                eprintln!("The server already had this archive as {id} ({}); no quota was used.", answer["state"].as_str().unwrap_or("?"));
-            } else {
-                eprintln!(
-                    "Submitted to the {} split as {id} ({}); {} of {} left in the window; follow it with `osmab client status {id} --watch`.",
-                    answer["split"].as_str().unwrap_or("?"),
-                    answer["state"].as_str().unwrap_or("?"),
-                    answer["quota"]["remaining"],
-                    answer["quota"]["limit"]
-                );
-            }
-            if watch && view::status(&api, &id, true)? != crate::store::SubmissionState::Scored {
-                std::process::exit(1);
-            }
-            Ok(())
+            // A submission goes resumably.
+            let id = report_submitted(resumable::submit(&api, &packed, !private, split)?);
+            exit_unless_scored(watch, || view::status(&api, &id, true))
         }
         ClientCommand::Status { id, watch, url } => {
             let state = view::status(&api(url.as_deref())?, &id, watch)?;
-            if watch && state != crate::store::SubmissionState::Scored {
-                std::process::exit(1);
-            }
-            Ok(())
+            exit_unless_scored(watch, || Ok(state))
         }
         ClientCommand::Results { id, url } => view::results(&api(url.as_deref())?, &id),
         ClientCommand::Verify { receipt, keys, issuer, results } => {
@@ -272,4 +222,72 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             view::leaderboard(&api(url.as_deref())?, release.as_deref(), split, lighting.as_deref())
         }
     }
+}
+
+/// `osmab client login`: check the token against the server (the token given, else
+/// `OSMAB_TOKEN`, else the one stored for this very server) and store it.
+fn login(url: Option<&str>, token: Option<String>, allow_http: bool) -> anyhow::Result<()> {
+    let mut session = Session::load(url, allow_http)?;
+    if let Some(token) = token {
+        session.token = Some(token);
+    }
+    let Some(token) = session.token.clone() else { bail!("give --token osmab_… (or set OSMAB_TOKEN)") };
+    if !token.starts_with("osmab_") {
+        bail!("that is not an osmab token: team tokens start with 'osmab_'; copy the whole token you were given");
+    }
+    let api = Api::new(session.clone())?;
+    let me: Me = serde_json::from_value(api.get_team_json("/api/v1/me")?).context("the server's /api/v1/me answer")?;
+    let path = session.save()?;
+    let quota = &me.quota;
+    println!(
+        "Logged in to {} as team {} (token {}); {} of {} {} submissions left in this {}-hour window. Saved to {} (owner-only).",
+        session.url,
+        me.team.name,
+        session::hint(&token),
+        quota.remaining,
+        quota.limit,
+        quota.split,
+        quota.window_hours,
+        path.display()
+    );
+    Ok(())
+}
+
+/// What a dry run found valid.
+fn report_dry_run(report: &DryRun) -> anyhow::Result<()> {
+    println!(
+        "Valid on the server for the {} split (dry run, no quota used): {} scene-lighting pairs, {}, {} points",
+        report.split,
+        report.entries.len(),
+        if report.complete { "complete" } else { "incomplete" },
+        report.points
+    );
+    Ok(())
+}
+
+/// Say what became of an upload; its submission's id.
+fn report_submitted(created: Created) -> String {
+    let id = created.id;
+    // The id alone on stdout for scripts (`ID=$(osmab client submit …)`); in a terminal
+    // the sentence below says it once.
+    if !std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+        println!("{id}");
+    }
+    if created.repeat {
+        eprintln!("The server already had this archive as {id} ({}); no quota was used.", created.state);
+    } else {
+        eprintln!(
+            "Submitted to the {} split as {id} ({}); {} of {} left in the window; follow it with `osmab client status {id} --watch`.",
+            created.split, created.state, created.quota.remaining, created.quota.limit
+        );
+    }
+    id
+}
+
+/// With `--watch`, exit 1 unless the submission ends scored (`finally` waits for it).
+fn exit_unless_scored(watch: bool, finally: impl FnOnce() -> anyhow::Result<SubmissionState>) -> anyhow::Result<()> {
+    if watch && finally()? != SubmissionState::Scored {
+        std::process::exit(1);
+    }
+    Ok(())
 }

@@ -9,18 +9,18 @@
 
 use osmab_evaluator::scores::Split;
 use std::io::{Read, Seek, SeekFrom};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, anyhow, bail};
 use base64::Engine;
 use indicatif::{ProgressBar, ProgressStyle};
 use reqwest::StatusCode;
-use serde_json::Value;
 use sha2::{Digest, Sha256};
 
 use super::api::{Api, checked, describe};
 use super::submit::Packed;
+use crate::routes::submission_view::Created;
 
 const TUS: &str = "1.0.0";
 /// Bytes per PATCH unless `OSMAB_UPLOAD_CHUNK_BYTES` says otherwise.
@@ -86,38 +86,49 @@ fn kept_upload(api: &Api, token: &str, state: &PathBuf, size: u64) -> anyhow::Re
 }
 
 /// Send `packed` as a resumable upload and submit it; returns the server's answer.
-pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) -> anyhow::Result<Value> {
+pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) -> anyhow::Result<Created> {
     let token = api.session.token()?.to_string();
-    let sha256 = packed.sha256_hex();
     // One kept upload per archive and split: a submit to another split starts its own.
     let state = state_file(&match split {
-        Some(split) => format!("{sha256}-{split}"),
-        None => sha256.clone(),
+        Some(split) => format!("{}-{split}", packed.sha256_hex()),
+        None => packed.sha256_hex(),
     })?;
-    let (path, mut offset) = match kept_upload(api, &token, &state, packed.size)? {
+    let (path, offset) = match kept_upload(api, &token, &state, packed.size)? {
         Some((path, offset)) => {
             eprintln!("resuming the upload at byte {offset} of {}", packed.size);
             (path, offset)
         }
-        None => {
-            let encode = |text: &str| base64::engine::general_purpose::STANDARD.encode(text);
-            let metadata = format!("filename {},sha256 {}", encode(&packed.path.file_name().unwrap_or_default().to_string_lossy()), encode(&sha256));
-            let response = with_retries("creating the upload", || {
-                api.client
-                    .post(api.url("/api/v1/uploads"))
-                    .bearer_auth(&token)
-                    .header("tus-resumable", TUS)
-                    .header("upload-length", packed.size)
-                    .header("upload-metadata", &metadata)
-                    .send()
-            })?;
-            let response = checked(response)?;
-            let location = response.headers().get("location").and_then(|v| v.to_str().ok()).context("the server's answer has no Location")?.to_string();
-            std::fs::create_dir_all(state.parent().expect("in the uploads folder"))?;
-            std::fs::write(&state, &location).with_context(|| format!("{}: cannot keep the upload's address", state.display()))?;
-            (location, 0)
-        }
+        None => (create_upload(api, &token, packed, &state)?, 0),
     };
+    send_rest(api, &token, packed, &path, offset, &state)?;
+    let answer = submit_upload(api, &token, packed, &path, public, split)?;
+    let _ = std::fs::remove_file(&state);
+    Ok(answer)
+}
+
+/// Start a resumable upload of `packed` and keep its address in `state`; its path.
+fn create_upload(api: &Api, token: &str, packed: &Packed, state: &Path) -> anyhow::Result<String> {
+    let encode = |text: &str| base64::engine::general_purpose::STANDARD.encode(text);
+    let name = packed.path.file_name().unwrap_or_default().to_string_lossy();
+    let metadata = format!("filename {},sha256 {}", encode(&name), encode(&packed.sha256_hex()));
+    let response = with_retries("creating the upload", || {
+        api.client
+            .post(api.url("/api/v1/uploads"))
+            .bearer_auth(token)
+            .header("tus-resumable", TUS)
+            .header("upload-length", packed.size)
+            .header("upload-metadata", &metadata)
+            .send()
+    })?;
+    let response = checked(response)?;
+    let location = response.headers().get("location").and_then(|v| v.to_str().ok()).context("the server's answer has no Location")?.to_string();
+    std::fs::create_dir_all(state.parent().expect("in the uploads folder"))?;
+    std::fs::write(state, &location).with_context(|| format!("{}: cannot keep the upload's address", state.display()))?;
+    Ok(location)
+}
+
+/// Send the bytes of `packed` from `offset` on, chunk by chunk, with a progress bar.
+fn send_rest(api: &Api, token: &str, packed: &Packed, path: &str, mut offset: u64, state: &Path) -> anyhow::Result<()> {
     let chunk = chunk_bytes()?;
     let bar = ProgressBar::new(packed.size);
     bar.set_style(ProgressStyle::with_template("upload {bar:40} {bytes}/{total_bytes} {binary_bytes_per_sec} eta {eta}").expect("template"));
@@ -129,35 +140,8 @@ pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) ->
         file.seek(SeekFrom::Start(offset))?;
         buffer.resize(length as usize, 0);
         file.read_exact(&mut buffer).with_context(|| format!("{}: changed while uploading", packed.path.display()))?;
-        let checksum = format!("sha256 {}", base64::engine::general_purpose::STANDARD.encode(Sha256::digest(&buffer)));
-        let response = with_retries("sending", || {
-            api.client
-                .patch(api.url(&path))
-                .bearer_auth(&token)
-                .header("tus-resumable", TUS)
-                .header("content-type", "application/offset+octet-stream")
-                .header("upload-offset", offset)
-                .header("upload-checksum", &checksum)
-                .timeout(Duration::from_secs(600))
-                .body(buffer.clone())
-                .send()
-        });
-        match response {
-            Ok(response) if response.status().is_success() => offset = offset_of(&response)?,
-            // Another attempt got there first, or this one's reply was lost: ask where it stands.
-            Ok(response) if response.status() == StatusCode::CONFLICT => {
-                let head = with_retries("HEAD", || api.client.head(api.url(&path)).bearer_auth(&token).header("tus-resumable", TUS).send())?;
-                offset = offset_of(&checked(head)?)?;
-            }
-            Ok(response) if matches!(response.status().as_u16(), 404 | 410) => {
-                let _ = std::fs::remove_file(&state);
-                bar.abandon();
-                bail!("the server no longer has this upload ({}); run the same command again to start anew", response.status());
-            }
-            Ok(response) => {
-                bar.abandon();
-                return Err(checked(response).err().unwrap_or_else(|| anyhow!("unexpected answer")));
-            }
+        match send_chunk(api, token, path, offset, &buffer, state) {
+            Ok(next) => offset = next,
             Err(e) => {
                 bar.abandon();
                 return Err(e);
@@ -166,6 +150,41 @@ pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) ->
         bar.set_position(offset);
     }
     bar.finish_and_clear();
+    Ok(())
+}
+
+/// Send `chunk` at `offset`; where the upload then stands.
+fn send_chunk(api: &Api, token: &str, path: &str, offset: u64, chunk: &[u8], state: &Path) -> anyhow::Result<u64> {
+    let checksum = format!("sha256 {}", base64::engine::general_purpose::STANDARD.encode(Sha256::digest(chunk)));
+    let response = with_retries("sending", || {
+        api.client
+            .patch(api.url(path))
+            .bearer_auth(token)
+            .header("tus-resumable", TUS)
+            .header("content-type", "application/offset+octet-stream")
+            .header("upload-offset", offset)
+            .header("upload-checksum", &checksum)
+            .timeout(Duration::from_secs(600))
+            .body(chunk.to_vec())
+            .send()
+    })?;
+    match response.status() {
+        status if status.is_success() => offset_of(&response),
+        // Another attempt got there first, or this one's reply was lost: ask where it stands.
+        StatusCode::CONFLICT => {
+            let head = with_retries("HEAD", || api.client.head(api.url(path)).bearer_auth(token).header("tus-resumable", TUS).send())?;
+            offset_of(&checked(head)?)
+        }
+        status if matches!(status.as_u16(), 404 | 410) => {
+            let _ = std::fs::remove_file(state);
+            bail!("the server no longer has this upload ({status}); run the same command again to start anew")
+        }
+        _ => Err(checked(response).err().unwrap_or_else(|| anyhow!("unexpected answer"))),
+    }
+}
+
+/// Submit the completed upload at `path` (answered exactly as a direct upload).
+fn submit_upload(api: &Api, token: &str, packed: &Packed, path: &str, public: bool, split: Option<Split>) -> anyhow::Result<Created> {
     let id = path.rsplit('/').next().unwrap_or_default().to_string();
     let digest = format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(packed.sha256));
     let mut url = format!("{}?upload={id}", api.url("/api/v1/submissions"));
@@ -178,13 +197,11 @@ pub fn submit(api: &Api, packed: &Packed, public: bool, split: Option<Split>) ->
     let response = with_retries("submitting the upload", || {
         api.client
             .post(&url)
-            .bearer_auth(&token)
+            .bearer_auth(token)
             .header("content-digest", &digest)
             .header("idempotency-key", format!("osmab-upload-{id}"))
             .timeout(Duration::from_secs(3600))
             .send()
     })?;
-    let answer: Value = checked(response)?.json().map_err(|e| anyhow!("the server's answer is not JSON: {e}"))?;
-    let _ = std::fs::remove_file(&state);
-    Ok(answer)
+    checked(response)?.json().map_err(|e| anyhow!("the server's answer to the upload does not read as a submission: {e}"))
 }

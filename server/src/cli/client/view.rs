@@ -10,8 +10,8 @@ use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
 use crate::leaderboard::Leaderboard;
+use crate::routes::me::Quotas;
 use crate::routes::submission_view::SubmissionView;
-use crate::routes::submissions::Quotas;
 use crate::store::SubmissionState;
 
 /// "pooled mIoU 81.2, f-mIoU 95.1, mAcc 85.0": a lighting's pooled metrics in one line,

@@ -135,7 +135,18 @@ impl BarChart {
             return String::new();
         }
         let l = self.layout();
-        let plot_h = l.height - l.top - l.bottom;
+        let plot = self.plot(&l, shown);
+        let palette = colours(&shown.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
+        let mut svg = self.opening(&l);
+        svg.push_str(&self.grid(&l, &plot));
+        svg.push_str(&self.bars(&l, &plot, shown, &palette));
+        svg.push_str(&self.legend(&l, shown, &palette));
+        svg.push_str("</svg>");
+        svg
+    }
+
+    /// The value range of the axis and where values land.
+    fn plot(&self, l: &Layout, shown: &[Series]) -> Plot {
         let (lo, hi) = match self.axis {
             Axis::Fraction => (0.0, 1.0),
             Axis::Change => {
@@ -145,9 +156,12 @@ impl BarChart {
                 if lo == 0.0 && hi == 0.0 { (-0.05, 0.05) } else { (lo, hi) }
             }
         };
-        // Where a value lands: the zero line and the height of one unit.
-        let scale = plot_h / (hi - lo);
-        let zero = l.top + hi * scale;
+        let scale = (l.height - l.top - l.bottom) / (hi - lo);
+        Plot { lo, hi, scale, zero: l.top + hi * scale }
+    }
+
+    /// The `<svg>` tag with its title (and, small, its heading).
+    fn opening(&self, l: &Layout) -> String {
         let (class, title) = match self.size {
             Size::Wide => ("chart wide", format!("<title id=\"chart-title\">{}</title>", escape_xml(&self.title))),
             Size::Narrow => ("chart narrow", format!("<title id=\"chart-title-narrow\">{}</title>", escape_xml(&self.title))),
@@ -161,43 +175,50 @@ impl BarChart {
             Size::Narrow => " aria-labelledby=\"chart-title-narrow\"",
             Size::Small => "",
         };
-        let mut svg =
-            format!("<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {} {}\" role=\"img\"{labelled} class=\"{class}\">{title}", l.width, l.height);
-        let mut ticks = vec![lo, lo / 2.0, 0.0, hi / 2.0, hi];
-        ticks.dedup_by(|a, b| a == b);
-        for tick in ticks {
-            let y = zero - tick * scale;
-            let label = match self.axis {
-                Axis::Fraction => format!("{:.0}", tick * 100.0),
-                Axis::Change => format!("{:+.1}%", tick * 100.0),
-            };
-            svg.push_str(&format!(
-                "<line x1=\"{}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{label}</text>",
-                l.left,
-                l.width - 10.0,
-                l.left - l.tick_gap,
-                y + 4.0
-            ));
+        format!("<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {} {}\" role=\"img\"{labelled} class=\"{class}\">{title}", l.width, l.height)
+    }
+
+    /// A value as the axis and the bars' titles write it.
+    fn label(&self, value: f64, decimals: usize) -> String {
+        match self.axis {
+            Axis::Fraction => format!("{:.*}", decimals, value * 100.0),
+            Axis::Change => format!("{:+.1}%", value * 100.0),
         }
-        let palette = colours(&shown.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
+    }
+
+    /// The grid lines with their tick labels.
+    fn grid(&self, l: &Layout, plot: &Plot) -> String {
+        let mut ticks = vec![plot.lo, plot.lo / 2.0, 0.0, plot.hi / 2.0, plot.hi];
+        ticks.dedup_by(|a, b| a == b);
+        ticks
+            .into_iter()
+            .map(|tick| {
+                let y = plot.zero - tick * plot.scale;
+                format!(
+                    "<line x1=\"{}\" x2=\"{}\" y1=\"{y:.1}\" y2=\"{y:.1}\" class=\"grid\"/><text x=\"{}\" y=\"{:.1}\" class=\"axis\" text-anchor=\"end\">{}</text>",
+                    l.left,
+                    l.width - 10.0,
+                    l.left - l.tick_gap,
+                    y + 4.0,
+                    self.label(tick, 0)
+                )
+            })
+            .collect()
+    }
+
+    /// Every group's bars, one per series, and the group's label.
+    fn bars(&self, l: &Layout, plot: &Plot, shown: &[Series], palette: &[&str]) -> String {
+        let mut svg = String::new();
         let group_w = (l.width - l.left - 10.0) / self.groups.len() as f64;
         let bar_w = (group_w * 0.8 / shown.len() as f64).min(l.max_bar);
         for (g, group) in self.groups.iter().enumerate() {
             let x0 = l.left + g as f64 * group_w + group_w * 0.1;
             for (i, series) in shown.iter().enumerate() {
                 let Some(v) = series.values.get(g).copied().flatten() else { continue };
-                let h = v.clamp(lo, hi) * scale;
-                // A zero (or nearly zero) value is a 2-unit mark across the axis, not nothing.
-                let (y, bar_h) = if h.abs() < 2.0 {
-                    (zero - 1.0, 2.0)
-                } else if h >= 0.0 {
-                    (zero - h, h)
-                } else {
-                    (zero, -h)
-                };
+                let (y, bar_h) = plot.bar(v);
                 let shown_value = match self.axis {
-                    Axis::Fraction => format!("{:.1}%", v * 100.0),
-                    Axis::Change => format!("{:+.1}%", v * 100.0),
+                    Axis::Fraction => format!("{}%", self.label(v, 1)),
+                    Axis::Change => self.label(v, 1),
                 };
                 svg.push_str(&format!(
                     "<rect x=\"{:.1}\" y=\"{y:.1}\" width=\"{bar_w:.1}\" height=\"{:.1}\" fill=\"{}\"><title>{} — {}: {shown_value}</title></rect>",
@@ -215,25 +236,55 @@ impl BarChart {
                 escape_xml(group)
             ));
         }
+        svg
+    }
+
+    /// A swatch and the (shortened) name of every series.
+    fn legend(&self, l: &Layout, shown: &[Series], palette: &[&str]) -> String {
         let legend_top = match self.size {
             Size::Wide => l.height - 22.0,
             Size::Small | Size::Narrow => l.height - l.bottom + 34.0,
         };
         let row_h = l.swatch + 4.0;
-        for (i, series) in shown.iter().enumerate() {
-            let x = l.left + (i % l.legend_columns) as f64 * l.legend_step;
-            let y = legend_top + (i / l.legend_columns) as f64 * row_h;
-            svg.push_str(&format!(
-                "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"{s}\" height=\"{s}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{y:.1}\" class=\"legend\">{}</text>",
-                y - l.swatch_lift,
-                palette[i],
-                x + l.swatch + 4.0,
-                escape_xml(&series.name.chars().take(22).collect::<String>()),
-                s = l.swatch,
-            ));
+        shown
+            .iter()
+            .enumerate()
+            .map(|(i, series)| {
+                let x = l.left + (i % l.legend_columns) as f64 * l.legend_step;
+                let y = legend_top + (i / l.legend_columns) as f64 * row_h;
+                format!(
+                    "<rect x=\"{x:.1}\" y=\"{:.1}\" width=\"{s}\" height=\"{s}\" fill=\"{}\"/><text x=\"{:.1}\" y=\"{y:.1}\" class=\"legend\">{}</text>",
+                    y - l.swatch_lift,
+                    palette[i],
+                    x + l.swatch + 4.0,
+                    escape_xml(&series.name.chars().take(22).collect::<String>()),
+                    s = l.swatch,
+                )
+            })
+            .collect()
+    }
+}
+
+/// The axis's range and where a value lands: the zero line and the height of one unit.
+struct Plot {
+    lo: f64,
+    hi: f64,
+    scale: f64,
+    zero: f64,
+}
+
+impl Plot {
+    /// The top and height of the bar of `value` (clamped to the range). A zero (or nearly
+    /// zero) value is a 2-unit mark across the axis, not nothing.
+    fn bar(&self, value: f64) -> (f64, f64) {
+        let h = value.clamp(self.lo, self.hi) * self.scale;
+        if h.abs() < 2.0 {
+            (self.zero - 1.0, 2.0)
+        } else if h >= 0.0 {
+            (self.zero - h, h)
+        } else {
+            (self.zero, -h)
         }
-        svg.push_str("</svg>");
-        svg
     }
 }
 

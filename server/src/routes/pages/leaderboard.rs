@@ -14,7 +14,7 @@ use super::format::{self, percent, signed_percent};
 use super::manifest::PublishedManifest;
 use super::{MessagePage, vqa};
 use crate::leaderboard::{Entry, Leaderboard};
-use crate::routes::ApiQuery;
+use crate::routes::extract::ApiQuery;
 use crate::state::AppState;
 
 #[derive(Debug, Deserialize, Default)]
@@ -237,9 +237,54 @@ fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFram
     let mut entries: Vec<&Entry> = board.entries.iter().collect();
     let key = |e: &Entry| view.value(e, sort_lighting, sort_metric).unwrap_or(f64::NEG_INFINITY);
     entries.sort_by(|a, b| key(b).total_cmp(&key(a)));
-    let release = &board.release;
+    let (columns, cells_of) = columns(board, view);
+    let others: Vec<Lighting> = board.lightings.iter().copied().filter(|&l| l != Lighting::BASELINE).collect();
+    let rows = entries.iter().enumerate().map(|(i, e)| row(i + 1, e, board, view, &cells_of, &others)).collect();
+    let (chart, chart_narrow) =
+        (change_chart(board, view, &others, Size::Wide, Lighting::label), change_chart(board, view, &others, Size::Narrow, Lighting::short_label));
+    let split_note = match board.split {
+        Split::Test => "Test split: scenes whose semantics and answers are hidden; scored by the server only, a few submissions per team and window.",
+        Split::Val => "Validation split: open scenes whose ground truth is public; osmab client validate scores them offline.",
+    };
+    LeaderboardPage {
+        release: board.release.clone(),
+        split: board.split,
+        split_note,
+        boards: split_choices(board, view),
+        lighting_groups: board.lightings.iter().map(|l| (l.label(), view.metrics().len())).collect(),
+        metric_choices: metric_choices(board, view),
+        lighting_frames,
+        significance: board.significance,
+        scenes: board.scenes,
+        columns,
+        change_headers: others.iter().map(|l| l.short_label()).collect(),
+        rows,
+        aggregates: Aggregate::ALL
+            .iter()
+            .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
+            .collect(),
+        subsets: std::iter::once(None)
+            .chain(Regime::ALL.iter().copied().map(Some))
+            .map(|subset| Choice {
+                label: subset.map_or("All scenes", Regime::label),
+                link: View { subset, ..view }.link(board),
+                active: subset == view.subset,
+            })
+            .collect(),
+        chart,
+        chart_narrow,
+        csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
+        json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
+        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split == Split::Test),
+        ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
+    }
+}
+
+/// The metric columns of the view (each lighting's metrics, each a link sorting by it),
+/// and the (lighting, metric) each stands for.
+fn columns(board: &Leaderboard, view: View) -> (Vec<Column>, Vec<(Lighting, Metric)>) {
     let mut columns = Vec::new();
-    let mut cells_of: Vec<(Lighting, Metric)> = Vec::new();
+    let mut cells_of = Vec::new();
     for &lighting in &board.lightings {
         for (k, &metric) in view.metrics().iter().enumerate() {
             columns.push(Column {
@@ -252,92 +297,67 @@ fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFram
             cells_of.push((lighting, metric));
         }
     }
-    let others: Vec<Lighting> = board.lightings.iter().copied().filter(|&l| l != Lighting::BASELINE).collect();
-    let rows = entries
-        .iter()
-        .enumerate()
-        .map(|(i, e)| Row {
-            rank: i + 1,
-            submission_id: e.submission_id.clone(),
-            team: e.team.clone(),
-            method: e.method.clone(),
-            paper_url: e.paper_url.clone(),
-            baseline: e.baseline,
-            complete: e.complete,
-            flagged: e.flagged.clone(),
-            rank_group: e.rank_group,
-            cells: cells_of.iter().map(|&(l, m)| view.cell(e, l, m, board.significance)).collect(),
-            changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
-            worst: e.robustness.worst_lighting.map_or("–", Lighting::short_label).to_string(),
-            worst_miou: percent(e.robustness.worst_miou),
-            largest_drop: percent(e.robustness.largest_drop),
-        })
-        .collect();
-    let aggregates = Aggregate::ALL
-        .iter()
-        .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
-        .collect();
-    let metric_choices = [(false, "mIoU"), (true, "mIoU, f-mIoU, mAcc")]
+    (columns, cells_of)
+}
+
+/// The row of `e` at `rank`: its cells, its change under the `others` lightings and its robustness.
+fn row(rank: usize, e: &Entry, board: &Leaderboard, view: View, cells_of: &[(Lighting, Metric)], others: &[Lighting]) -> Row {
+    Row {
+        rank,
+        submission_id: e.submission_id.clone(),
+        team: e.team.clone(),
+        method: e.method.clone(),
+        paper_url: e.paper_url.clone(),
+        baseline: e.baseline,
+        complete: e.complete,
+        flagged: e.flagged.clone(),
+        rank_group: e.rank_group,
+        cells: cells_of.iter().map(|&(l, m)| view.cell(e, l, m, board.significance)).collect(),
+        changes: others.iter().map(|&l| signed_percent(view.change(e, l))).collect(),
+        worst: e.robustness.worst_lighting.map_or("–", Lighting::short_label).to_string(),
+        worst_miou: percent(e.robustness.worst_miou),
+        largest_drop: percent(e.robustness.largest_drop),
+    }
+}
+
+/// mIoU alone, or every metric.
+fn metric_choices(board: &Leaderboard, view: View) -> Vec<Choice> {
+    [(false, "mIoU"), (true, "mIoU, f-mIoU, mAcc")]
         .into_iter()
         .map(|(all_metrics, label)| {
             // mIoU alone also sorts by mIoU (a sort by another metric shows every metric).
             let sort = if all_metrics { view.sort } else { (view.sort.0, Metric::Miou) };
             Choice { label, link: View { all_metrics, sort, ..view }.link(board), active: all_metrics == view.all_metrics }
         })
-        .collect();
-    let subsets = std::iter::once(None)
-        .chain(Regime::ALL.iter().copied().map(Some))
-        .map(|subset| Choice { label: subset.map_or("All scenes", Regime::label), link: View { subset, ..view }.link(board), active: subset == view.subset })
-        .collect();
-    // The chart keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
-    let chart = |size, label: fn(Lighting) -> &'static str| {
-        BarChart {
-            title: "Relative change of pooled mIoU against the baseline lighting".into(),
-            groups: others.iter().map(|&l| label(l).to_string()).collect(),
-            group_titles: others.iter().map(|l| l.label().to_string()).collect(),
-            series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
-            axis: Axis::Change,
-            size,
-        }
-        .to_svg()
-    };
-    let (chart, chart_narrow) = (chart(Size::Wide, Lighting::label), chart(Size::Narrow, Lighting::short_label));
-    let boards = match board.splits.len() {
-        0 | 1 => Vec::new(),
-        _ => board
-            .splits
-            .iter()
-            .map(|&split| Choice {
-                label: split.label(),
-                link: format!("/?release={release}&split={split}&agg={}&subset={}", view.aggregate, view.subset_name()),
-                active: split == board.split,
-            })
-            .collect(),
-    };
-    let split_note = match board.split {
-        Split::Test => "Test split: scenes whose semantics and answers are hidden; scored by the server only, a few submissions per team and window.",
-        Split::Val => "Validation split: open scenes whose ground truth is public; osmab client validate scores them offline.",
-    };
-    LeaderboardPage {
-        release: release.clone(),
-        split: board.split,
-        split_note,
-        boards,
-        lighting_groups: board.lightings.iter().map(|l| (l.label(), view.metrics().len())).collect(),
-        metric_choices,
-        lighting_frames,
-        significance: board.significance,
-        scenes: board.scenes,
-        columns,
-        change_headers: others.iter().map(|l| l.short_label()).collect(),
-        rows,
-        aggregates,
-        subsets,
-        chart,
-        chart_narrow,
-        csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
-        json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
-        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split == Split::Test),
-        ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
+        .collect()
+}
+
+/// The boards of the release's splits, when it has more than one.
+fn split_choices(board: &Leaderboard, view: View) -> Vec<Choice> {
+    if board.splits.len() < 2 {
+        return Vec::new();
     }
+    board
+        .splits
+        .iter()
+        .map(|&split| Choice {
+            label: split.label(),
+            link: format!("/?release={}&split={split}&agg={}&subset={}", board.release, view.aggregate, view.subset_name()),
+            active: split == board.split,
+        })
+        .collect()
+}
+
+/// The chart of every entry's relative change under the `others` lightings, labelled with
+/// `label`. It keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
+fn change_chart(board: &Leaderboard, view: View, others: &[Lighting], size: Size, label: fn(Lighting) -> &'static str) -> String {
+    BarChart {
+        title: "Relative change of pooled mIoU against the baseline lighting".into(),
+        groups: others.iter().map(|&l| label(l).to_string()).collect(),
+        group_titles: others.iter().map(|l| l.label().to_string()).collect(),
+        series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
+        axis: Axis::Change,
+        size,
+    }
+    .to_svg()
 }

@@ -14,16 +14,19 @@ mod vqa;
 
 use askama::Template;
 use askama_web::WebTemplate;
+use axum::Router;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
 
 pub use about::about;
 pub use leaderboard::leaderboard;
 pub use release::release;
 pub use submission::submission;
 
-use super::ApiPath;
+use super::extract::ApiPath;
 use crate::problem::Problem;
+use crate::state::AppState;
 
 /// A page that only says something (no leaderboard yet).
 #[derive(Template, WebTemplate)]
@@ -41,4 +44,27 @@ pub async fn static_file(ApiPath(file): ApiPath<String>) -> Response {
         "style.css" => ([(header::CONTENT_TYPE, "text/css; charset=utf-8"), (header::CACHE_CONTROL, "public, max-age=3600")], STYLE).into_response(),
         _ => Problem::not_found(format!("There is no static file '{file}'.")).into_response(),
     }
+}
+
+/// The public pages and the organisers' console (`/admin`, signed in with a cookie).
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/", get(leaderboard))
+        .route("/releases/{version}", get(release))
+        .route("/submissions/{id}", get(submission))
+        .route("/about", get(about))
+        .route("/static/{file}", get(static_file))
+        .route("/admin", get(admin::console))
+        .route("/admin/login", get(admin::login_form).post(admin::login))
+        .route("/admin/logout", post(admin::logout))
+        .route("/admin/regenerate", post(admin::regenerate))
+        .route("/admin/jobs/{id}", get(admin::job))
+        .route("/admin/releases/{version}/quality", get(admin::quality))
+        .route("/admin/releases/{version}/files/{*path}", get(admin::release_file))
+        .route("/admin/releases/{version}/publish", post(admin::publish))
+        .route("/admin/submissions/{id}/flag", post(admin::flag))
+        .route("/admin/submissions/{id}/unflag", post(admin::unflag))
+        .route("/admin/submissions/{id}/refund", post(admin::refund))
+        .route("/admin/quotas", post(admin::set_quota))
+        .route("/admin/teams", post(admin::create_team))
 }

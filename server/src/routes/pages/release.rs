@@ -11,7 +11,7 @@ use super::format::human_size;
 use super::manifest::PublishedManifest;
 use crate::auth::Caller;
 use crate::problem::ApiResult;
-use crate::routes::ApiPath;
+use crate::routes::extract::ApiPath;
 use crate::state::AppState;
 
 /// A lighting as `label` names it (the paper's label, or the short one for links in a

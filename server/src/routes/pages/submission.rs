@@ -5,7 +5,7 @@ use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::response::{IntoResponse, Response};
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Split};
+use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores, Split};
 use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::chart::{Axis, BarChart, Series, Size};
@@ -13,7 +13,7 @@ use super::format::{interval, percent};
 use super::vqa::{VqaLighting, submission_vqa, vqa_sources};
 use crate::auth::Caller;
 use crate::problem::ApiResult;
-use crate::routes::ApiPath;
+use crate::routes::extract::ApiPath;
 use crate::routes::submission_view::SubmissionView;
 use crate::state::AppState;
 
@@ -92,6 +92,54 @@ fn cells(triple: &MetricTriple) -> Vec<String> {
     Metric::COLUMNS.iter().map(|&m| percent(triple.defined(m))).collect()
 }
 
+/// Every lighting's results in the release's `order`: pooled (with intervals when
+/// scored with them), mean over scenes, and scene by scene.
+fn lighting_results(scores: &Scores, order: &[Lighting]) -> Vec<LightingResult> {
+    order
+        .iter()
+        .filter_map(|l| Some((l, scores.semseg.get(l)?)))
+        .map(|(l, table)| LightingResult {
+            label: l.label(),
+            pooled: cells(&table.overall),
+            pooled_ci: match table.overall.ci95 {
+                Some(_) => Metric::COLUMNS.iter().map(|&m| interval(table.overall.interval(m))).collect(),
+                None => Vec::new(),
+            },
+            mean: cells(&table.overall_mean),
+            scenes: table.scenes.iter().map(|(scene, t)| SceneResult { scene: scene.clone(), cells: cells(t) }).collect(),
+            pooled_scenes: table.pooled,
+        })
+        .collect()
+}
+
+/// Where the submission stands on its board, when it is on it.
+async fn standing(state: &AppState, view: &SubmissionView) -> Option<Standing> {
+    let board = crate::routes::leaderboard::rendered(state, Some(&view.release), Some(view.split)).await.ok()?;
+    let entries = &board.board.entries;
+    entries.iter().find(|e| e.submission_id == view.id).map(|e| Standing {
+        rank: e.rank,
+        entries: entries.len(),
+        group: board.board.significance.then_some(e.rank_group),
+    })
+}
+
+/// The pooled metrics per lighting as a small chart.
+fn metrics_chart(scores: &Scores, order: &[Lighting]) -> String {
+    let lightings: Vec<Lighting> = order.iter().copied().filter(|l| scores.semseg.contains_key(l)).collect();
+    BarChart {
+        title: "Pooled segmentation metrics per lighting".into(),
+        groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
+        group_titles: lightings.iter().map(|l| l.label().to_string()).collect(),
+        series: Metric::COLUMNS
+            .iter()
+            .map(|&m| Series { name: m.label().to_string(), values: lightings.iter().map(|&l| scores.semseg(l, None, Aggregate::Overall, m)).collect() })
+            .collect(),
+        axis: Axis::Fraction,
+        size: Size::Small,
+    }
+    .to_svg()
+}
+
 /// `GET /submissions/{id}`.
 pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let record = crate::routes::submissions::visible_submission(&state, &caller, &id).await?;
@@ -100,54 +148,16 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
     let release = state.store.release(&view.release).await?;
     let order = crate::leaderboard::cache::manifest_lightings(&release.manifest);
     let scores = view.scores.as_ref();
-    let results = match scores {
-        Some(scores) => order
-            .iter()
-            .filter_map(|l: &Lighting| Some((l, scores.semseg.get(l)?)))
-            .map(|(l, table)| LightingResult {
-                label: l.label(),
-                pooled: cells(&table.overall),
-                pooled_ci: match table.overall.ci95 {
-                    Some(_) => Metric::COLUMNS.iter().map(|&m| interval(table.overall.interval(m))).collect(),
-                    None => Vec::new(),
-                },
-                mean: cells(&table.overall_mean),
-                scenes: table.scenes.iter().map(|(scene, t)| SceneResult { scene: scene.clone(), cells: cells(t) }).collect(),
-                pooled_scenes: table.pooled,
-            })
-            .collect(),
-        None => Vec::new(),
-    };
+    let results = scores.map_or_else(Vec::new, |scores| lighting_results(scores, &order));
     let vqa = scores.and_then(|s| s.vqa.as_ref());
     let board_link = format!("/?release={}&split={}", view.release, view.split);
-    let standing = match crate::routes::leaderboard::rendered(&state, Some(&view.release), Some(view.split)).await {
-        Ok(board) => board.board.entries.iter().find(|e| e.submission_id == view.id).map(|e| Standing {
-            rank: e.rank,
-            entries: board.board.entries.len(),
-            group: board.board.significance.then_some(e.rank_group),
-        }),
-        Err(_) => None,
-    };
+    let standing = standing(&state, &view).await;
     let origin = state.settings.public_url.clone().unwrap_or_default();
     let citation = format!(
         "{} ({}), OSMa-Bench++ release {}, {} split, submission {} — {origin}/submissions/{}",
         view.method.name, view.team, view.release, view.split, view.id, view.id
     );
-    let chart = scores.map_or_else(String::new, |scores| {
-        let lightings: Vec<Lighting> = order.iter().copied().filter(|l| scores.semseg.contains_key(l)).collect();
-        BarChart {
-            title: "Pooled segmentation metrics per lighting".into(),
-            groups: lightings.iter().map(|l| l.short_label().to_string()).collect(),
-            group_titles: lightings.iter().map(|l| l.label().to_string()).collect(),
-            series: Metric::COLUMNS
-                .iter()
-                .map(|&m| Series { name: m.label().to_string(), values: lightings.iter().map(|&l| scores.semseg(l, None, Aggregate::Overall, m)).collect() })
-                .collect(),
-            axis: Axis::Fraction,
-            size: Size::Small,
-        }
-        .to_svg()
-    });
+    let chart = scores.map_or_else(String::new, |scores| metrics_chart(scores, &order));
     Ok(SubmissionPage {
         metric_labels: Metric::COLUMNS.iter().map(|m| m.label()).collect(),
         split: view.split,

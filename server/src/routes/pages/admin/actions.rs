@@ -8,8 +8,9 @@ use axum::response::{IntoResponse, Redirect, Response};
 use serde::Deserialize;
 
 use super::{AdminMessage, AdminSession, parse_form};
-use crate::problem::Problem;
-use crate::routes::{ApiPath, admin, quota_policies};
+use crate::problem::{Problem, ProblemCode};
+use crate::routes::extract::ApiPath;
+use crate::routes::{admin, admin_teams, quota_policies};
 use crate::state::AppState;
 
 /// A form body after its form token was checked.
@@ -180,7 +181,7 @@ pub async fn set_quota(State(state): State<AppState>, session: AdminSession, hea
         text.trim().parse::<i64>().map_err(|_| {
             AdminMessage::problem(Problem::new(
                 axum::http::StatusCode::UNPROCESSABLE_ENTITY,
-                "invalid_request",
+                ProblemCode::InvalidRequest,
                 "Invalid request",
                 format!("{field}: expected a whole number, found '{text}'"),
             ))
@@ -215,7 +216,7 @@ pub async fn create_team(State(state): State<AppState>, session: AdminSession, h
         Ok(form) => form,
         Err(refused) => return refused,
     };
-    match admin::new_team(&state, &admin::NewTeam { name: form.name, daily_quota: None }).await {
+    match admin_teams::new_team(&state, &admin_teams::NewTeam { name: form.name, daily_quota: None }).await {
         Ok(team) => (
             axum::http::StatusCode::CREATED,
             [(axum::http::header::CACHE_CONTROL, "no-store")],

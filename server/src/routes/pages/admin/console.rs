@@ -12,9 +12,9 @@ use serde::Deserialize;
 use super::{AdminMessage, AdminSession};
 use crate::clock::rfc3339;
 use crate::jobs::progress::{Progress, Stage};
-use crate::routes::{ApiPath, ApiQuery};
+use crate::routes::extract::{ApiPath, ApiQuery};
 use crate::state::AppState;
-use crate::store::{JobRecord, JobState, ReleaseState, StoreError};
+use crate::store::{JobKind, JobRecord, JobState, ReleaseState, StoreError};
 
 pub struct ReleaseRow {
     pub version: String,
@@ -90,7 +90,7 @@ fn progress_of(job: &JobRecord) -> Progress {
 /// How far the render jobs of `version` among `jobs` are.
 fn renders_of(jobs: &[JobRecord], version: &str) -> RenderCounts {
     let mut counts = RenderCounts::default();
-    for j in jobs.iter().filter(|j| j.kind == "render_sequence" && subject_version(&j.subject) == version) {
+    for j in jobs.iter().filter(|j| j.kind == JobKind::RenderSequence && subject_version(&j.subject) == version) {
         counts.total += 1;
         match j.state {
             JobState::Succeeded => counts.succeeded += 1,
@@ -133,7 +133,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
         Err(problem) => return AdminMessage::problem(problem),
     };
     let team_name = |id: &str| teams.iter().find(|t| t.id == id).map_or_else(|| id.to_string(), |t| t.name.clone());
-    let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == "build_release").take(10).map(|j| build_row(j, &jobs)).collect();
+    let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == JobKind::BuildRelease).take(10).map(|j| build_row(j, &jobs)).collect();
     ConsolePage {
         // Only notices this server wrote for this session (see `AdminSession::seal`).
         notice: query.notice.filter(|n| query.seal.as_deref() == Some(session.seal(n).as_str())),
@@ -169,7 +169,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
             &releases
                 .iter()
                 .map(|r| r.version.clone())
-                .chain(jobs.iter().filter(|j| j.kind == "build_release").map(|j| subject_version(&j.subject).to_string()))
+                .chain(jobs.iter().filter(|j| j.kind == JobKind::BuildRelease).map(|j| subject_version(&j.subject).to_string()))
                 .collect(),
         ),
         quotas,
@@ -231,7 +231,7 @@ pub struct JobPage {
 /// `GET /admin/jobs/{id}`: a release build's stages and render jobs.
 pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): ApiPath<String>) -> Response {
     let job = match state.store.job(&id).await {
-        Ok(job) if job.kind == "build_release" => job,
+        Ok(job) if job.kind == JobKind::BuildRelease => job,
         Ok(_) | Err(StoreError::NotFound) => {
             return AdminMessage::page(StatusCode::NOT_FOUND, "No such build", &format!("There is no release build job '{id}'."));
         }
@@ -259,7 +259,7 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
     let log = progress.log.clone().unwrap_or_default();
     let mut renders: Vec<RenderRow> = jobs
         .iter()
-        .filter(|j| j.kind == "render_sequence" && subject_version(&j.subject) == job.subject)
+        .filter(|j| j.kind == JobKind::RenderSequence && subject_version(&j.subject) == job.subject)
         .map(|j| RenderRow {
             subject: j.subject.clone(),
             state: j.state.to_string(),

@@ -3,15 +3,13 @@
 //! lighting measures averaged over scenes — and the draft's scenes one by one, so an
 //! operator sees what publishing would change before publishing.
 
-use std::collections::BTreeSet;
-
 use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
-use serde_json::Value;
 
+use osmab_dataset::release::quality_report::{LightingMeasures, QualityReport};
 use osmab_evaluator::scores::{Aggregate, Metric, Split};
 
 use super::super::format::percent;
@@ -19,7 +17,7 @@ use super::{AdminMessage, AdminSession};
 use crate::auth::Caller;
 use crate::leaderboard::Leaderboard;
 use crate::problem::ApiResult;
-use crate::routes::ApiPath;
+use crate::routes::extract::ApiPath;
 use crate::state::AppState;
 use crate::store::{ReleaseRecord, ReleaseState, StoreError};
 
@@ -114,35 +112,25 @@ async fn boards_of(state: &AppState, record: &ReleaseRecord) -> Result<Vec<Draft
 }
 
 /// The summary numbers of a report, by name; `None` where the report has no such measure.
-fn summary(report: &Value) -> Vec<(String, Option<f64>, bool)> {
-    let scenes: Vec<&Value> = report["per_scene"].as_array().map(|a| a.iter().collect()).unwrap_or_default();
-    let count = |k: &str| report[k].as_f64();
-    let mean = |f: &dyn Fn(&Value) -> Option<f64>| {
-        let values: Vec<f64> = scenes.iter().filter_map(|s| f(s)).collect();
-        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
-    };
-    let instances: Vec<&Value> = scenes.iter().flat_map(|s| s["instances"].as_array().into_iter().flatten()).collect();
-    let mapped = (!instances.is_empty()).then(|| instances.iter().filter(|i| i["mapped"].as_bool() == Some(true)).count() as f64 / instances.len() as f64);
+fn summary(report: &QualityReport) -> Vec<(String, Option<f64>, bool)> {
     // (name, value, higher is better)
     let mut rows = vec![
-        ("scenes".to_string(), count("scenes"), true),
-        ("scenes passing the bar".to_string(), count("passed"), true),
-        ("scenes matching their prompt fully".to_string(), count("full_match"), true),
-        ("problems".to_string(), report["problems"].as_array().map(|p| p.len() as f64), false),
-        ("object instances mapped (share)".to_string(), mapped, true),
-        ("frames per scene (mean)".to_string(), mean(&|s| s["frames"].as_f64()), true),
-        ("camera travel per scene, m (mean)".to_string(), mean(&|s| s["travelled_m"].as_f64()), true),
-        ("degenerate frames (mean share)".to_string(), mean(&|s| s["degenerate_fraction"].as_f64()), false),
+        ("scenes".to_string(), report.scenes, true),
+        ("scenes passing the bar".to_string(), report.passed, true),
+        ("scenes matching their prompt fully".to_string(), report.full_match, true),
+        ("problems".to_string(), report.problems.as_ref().map(|p| p.len() as f64), false),
+        ("object instances mapped (share)".to_string(), report.mapped_share(), true),
+        ("frames per scene (mean)".to_string(), report.mean_over_scenes(|s| s.frames), true),
+        ("camera travel per scene, m (mean)".to_string(), report.mean_over_scenes(|s| s.travelled_m), true),
+        ("degenerate frames (mean share)".to_string(), report.mean_over_scenes(|s| s.degenerate_fraction), false),
     ];
-    let lightings: BTreeSet<String> = scenes.iter().flat_map(|s| s["lightings"].as_object().into_iter().flat_map(|m| m.keys().cloned())).collect();
-    for lighting in &lightings {
-        rows.push((format!("{lighting}: saturated pixels (median share, mean)"), mean(&|s| s["lightings"][lighting]["median_saturated"].as_f64()), false));
-        rows.push((format!("{lighting}: mean luma"), mean(&|s| s["lightings"][lighting]["mean_luma"].as_f64()), true));
+    for lighting in report.lightings() {
+        let measure = |of: fn(&LightingMeasures) -> Option<f64>| report.mean_over_scenes(|s| s.lightings.get(&lighting).and_then(of));
+        rows.push((format!("{lighting}: saturated pixels (median share, mean)"), measure(|l| l.median_saturated), false));
+        rows.push((format!("{lighting}: mean luma"), measure(|l| l.mean_luma), true));
     }
-    if let Some(oracle) = report["oracle_vqa"].as_object() {
-        for (category, accuracy) in oracle {
-            rows.push((format!("oracle VQA accuracy, {category}"), accuracy.as_f64(), true));
-        }
+    for (category, accuracy) in &report.oracle_vqa {
+        rows.push((format!("oracle VQA accuracy, {category}"), Some(*accuracy), true));
     }
     rows
 }
@@ -158,7 +146,7 @@ fn shown(value: Option<f64>) -> String {
 }
 
 /// `this` beside `current`, measure by measure (the union of both reports' measures).
-fn compare(this: &Value, current: Option<&Value>) -> Vec<Measure> {
+fn compare(this: &QualityReport, current: Option<&QualityReport>) -> Vec<Measure> {
     let ours = summary(this);
     let theirs = current.map(summary).unwrap_or_default();
     let mut names: Vec<(String, bool)> = ours.iter().map(|(n, _, up)| (n.clone(), *up)).collect();
@@ -183,25 +171,19 @@ fn compare(this: &Value, current: Option<&Value>) -> Vec<Measure> {
         .collect()
 }
 
-fn scene_rows(report: &Value) -> Vec<SceneRow> {
-    let text = |v: &Value| v.as_str().unwrap_or("").to_string();
-    report["per_scene"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|s| {
-            let instances = s["instances"].as_array().map(Vec::as_slice).unwrap_or_default();
-            let mapped = instances.iter().filter(|i| i["mapped"].as_bool() == Some(true)).count();
-            SceneRow {
-                scene: text(&s["scene"]),
-                subset: text(&s["subset"]),
-                prompt: text(&s["prompt_id"]),
-                frames: shown(s["frames"].as_f64()),
-                travelled: shown(s["travelled_m"].as_f64()),
-                degenerate: shown(s["degenerate_fraction"].as_f64()),
-                mapped: format!("{mapped}/{}", instances.len()),
-                problems: s["problems"].as_array().into_iter().flatten().map(text).collect(),
-            }
+fn scene_rows(report: &QualityReport) -> Vec<SceneRow> {
+    report
+        .per_scene
+        .iter()
+        .map(|s| SceneRow {
+            scene: s.scene.clone(),
+            subset: s.subset.clone(),
+            prompt: s.prompt_id.clone().unwrap_or_default(),
+            frames: shown(s.frames),
+            travelled: shown(s.travelled_m),
+            degenerate: shown(s.degenerate_fraction),
+            mapped: format!("{}/{}", s.mapped(), s.instances.len()),
+            problems: s.problems.clone(),
         })
         .collect()
 }
@@ -212,14 +194,14 @@ const FULL_REPORT: &str = "ground_truth/quality_report.json";
 
 /// The quality report of `version`, read from the blob store: the full one when the
 /// release keeps it, else the public one.
-async fn report_of(state: &AppState, version: &str) -> Result<Value, String> {
+async fn report_of(state: &AppState, version: &str) -> Result<QualityReport, String> {
     let prefix = crate::releases::release_prefix(version);
     let fetched = match state.blobs.fetch(&format!("{prefix}/{FULL_REPORT}")).await {
         Ok(full) => full,
         Err(_) => state.blobs.fetch(&format!("{prefix}/{REPORT}")).await.map_err(|e| format!("release {version} has no readable quality report: {e}"))?,
     };
     let bytes = tokio::fs::read(fetched.path()).await.map_err(|e| format!("{REPORT} of {version}: {e}"))?;
-    serde_json::from_slice(&bytes).map_err(|e| format!("{REPORT} of {version} is not JSON: {e}"))
+    QualityReport::parse(&bytes, &format!("{REPORT} of {version}"))
 }
 
 /// `GET /admin/releases/{version}/quality`.
@@ -251,7 +233,7 @@ pub async fn quality(State(state): State<AppState>, session: AdminSession, ApiPa
         current_overview: current_record.as_ref().and_then(overview_of),
         boards,
         measures: compare(&this, current_report.as_ref()),
-        problems: this["problems"].as_array().into_iter().flatten().filter_map(|p| p.as_str().map(str::to_string)).collect(),
+        problems: this.problems.clone().unwrap_or_default(),
         scenes: scene_rows(&this),
         draft: release.state == ReleaseState::Draft,
         form_token: session.form_token(),
@@ -278,8 +260,8 @@ mod tests {
     use super::*;
     use serde_json::json;
 
-    fn report(passed: u32, mapped: [bool; 2], problems: &[&str]) -> Value {
-        json!({
+    fn report(passed: u32, mapped: [bool; 2], problems: &[&str]) -> QualityReport {
+        let report = json!({
             "scenes": 2, "passed": passed, "full_match": passed, "problems": problems, "oracle_vqa": {"counting": 0.9},
             "per_scene": [
                 {"scene": "scene_000", "subset": "furniture", "prompt_id": "p1", "frames": 100, "travelled_m": 12.5, "degenerate_fraction": 0.01,
@@ -288,7 +270,8 @@ mod tests {
                 {"scene": "scene_001", "subset": "manipuland", "prompt_id": "p2", "frames": 80, "travelled_m": 7.5, "degenerate_fraction": 0.03,
                  "instances": [], "problems": [], "lightings": {"baseline": {"median_saturated": 0.003, "mean_luma": 100.0}}}
             ]
-        })
+        });
+        QualityReport::parse(report.to_string().as_bytes(), "report").unwrap()
     }
 
     #[test]

@@ -142,7 +142,7 @@ pub async fn login(State(state): State<AppState>, origin: PageOrigin, body: axum
         Err(problem) => return refused(problem.detail),
     }
     let expires = now_ms() + SESSION_HOURS * 3_600_000;
-    let (session, record) = issue_token("admin", None, Some(expires));
+    let (session, record) = issue_token(crate::store::TokenScope::Admin, None, Some(expires));
     if let Err(e) = state.store.insert_token(&record).await {
         return crate::problem::Problem::from(e).into_response();
     }

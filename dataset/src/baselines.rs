@@ -65,73 +65,15 @@ fn pose_drift(p: [f64; 3], severity: f64) -> [f64; 3] {
 /// and for each of its points the ground-truth point it came from.
 fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Result<(PredictedMap, Vec<usize>)> {
     let mut origin: Vec<usize> = (0..gt.points.len()).collect();
-    let mut rng = Rng::new(seed);
     let mut points = gt.points.clone();
     let mut labels = gt.labels.clone();
     match name {
         "oracle" => {}
-        "drop-small" => {
-            // Classes with under 2 % of the points vanish from the map.
-            let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
-            for &l in &labels {
-                *counts.entry(l).or_default() += 1;
-            }
-            let small: Vec<i64> = counts.iter().filter(|(_, c)| (**c as f64) < 0.02 * severity * labels.len() as f64).map(|(l, _)| *l).collect();
-            let keep: Vec<bool> = labels.iter().map(|l| !small.contains(l)).collect();
-            if keep.iter().all(|k| !k) {
-                return Err(InputError::new(&gt.source, "labels", "every class is small; nothing would be left"));
-            }
-            points = points.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect();
-            labels = labels.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
-            origin = origin.iter().zip(&keep).filter(|(_, k)| **k).map(|(o, _)| *o).collect();
-        }
-        "merge" => {
-            // The smaller half of the classes (at least one, never the largest) take the label
-            // of the class whose centroid is nearest.
-            let mut sums: BTreeMap<i64, ([f64; 3], usize)> = BTreeMap::new();
-            for (p, &l) in points.iter().zip(&labels) {
-                let e = sums.entry(l).or_insert(([0.0; 3], 0));
-                for a in 0..3 {
-                    e.0[a] += p[a] as f64;
-                }
-                e.1 += 1;
-            }
-            let centroids: Vec<(i64, [f64; 3], usize)> = sums.iter().map(|(&l, (s, n))| (l, s.map(|v| v / *n as f64), *n)).collect();
-            let mut by_size: Vec<&(i64, [f64; 3], usize)> = centroids.iter().collect();
-            by_size.sort_by_key(|c| (c.2, c.0));
-            let extra = ((severity - 1.0) * 2.5).floor() as usize;
-            let merging: Vec<i64> =
-                by_size.iter().take((centroids.len().saturating_sub(1) / 2 + extra).max(1).min(centroids.len().saturating_sub(1))).map(|c| c.0).collect();
-            let merged: BTreeMap<i64, i64> = centroids
-                .iter()
-                .filter(|c| merging.contains(&c.0))
-                .filter_map(|c| {
-                    centroids
-                        .iter()
-                        .filter(|o| o.0 != c.0)
-                        .min_by(|a, b| {
-                            let d = |o: &[f64; 3]| (0..3).map(|k| (o[k] - c.1[k]).powi(2)).sum::<f64>();
-                            d(&a.1).total_cmp(&d(&b.1))
-                        })
-                        .map(|o| (c.0, o.0))
-                })
-                .collect();
-            for l in &mut labels {
-                if let Some(&m) = merged.get(l) {
-                    *l = m;
-                }
-            }
-        }
+        "drop-small" => drop_small_classes(gt, &mut points, &mut labels, &mut origin, severity)?,
+        "merge" => merge_small_classes(&points, &mut labels, severity),
         "label-noise" => {
             let objects = objects_of(&points, &labels);
-            let vocabulary: Vec<i64> = objects.labels.iter().copied().collect::<std::collections::BTreeSet<_>>().into_iter().collect();
-            // Every fourth object (from a seeded phase) takes the next class of the scene;
-            // harder lightings mislabel part of a second quarter too.
-            let phase = rng.below(4);
-            let extra_tenths = ((severity - 1.0) * 10.0).round() as usize;
-            let next = |l: i64| vocabulary[(vocabulary.iter().position(|&v| v == l).unwrap_or(0) + 1) % vocabulary.len()];
-            let is_noisy = |i: usize| i % 4 == phase || (i % 4 == (phase + 2) % 4 && (i / 4) % 10 < extra_tenths);
-            let noisy: Vec<i64> = objects.labels.iter().enumerate().map(|(i, &l)| if is_noisy(i) { next(l) } else { l }).collect();
+            let noisy = mislabelled_objects(&objects, &mut Rng::new(seed), severity);
             let map =
                 PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy } };
             return Ok((map, origin));
@@ -150,6 +92,74 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
     let map =
         PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: objects.labels } };
     Ok((map, origin))
+}
+
+/// The drop-small baseline: classes with under 2 % of the points (times `severity`)
+/// vanish from the map, with their points' origins.
+fn drop_small_classes(gt: &GroundTruth, points: &mut Vec<[f32; 3]>, labels: &mut Vec<i64>, origin: &mut Vec<usize>, severity: f64) -> Result<()> {
+    let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
+    for &l in labels.iter() {
+        *counts.entry(l).or_default() += 1;
+    }
+    let small: Vec<i64> = counts.iter().filter(|(_, c)| (**c as f64) < 0.02 * severity * labels.len() as f64).map(|(l, _)| *l).collect();
+    let keep: Vec<bool> = labels.iter().map(|l| !small.contains(l)).collect();
+    if keep.iter().all(|k| !k) {
+        return Err(InputError::new(&gt.source, "labels", "every class is small; nothing would be left"));
+    }
+    *points = points.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect();
+    *labels = labels.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+    *origin = origin.iter().zip(&keep).filter(|(_, k)| **k).map(|(o, _)| *o).collect();
+    Ok(())
+}
+
+/// The merge baseline: the smaller half of the classes (at least one, never the largest;
+/// more under harder lightings) take the label of the class whose centroid is nearest.
+fn merge_small_classes(points: &[[f32; 3]], labels: &mut [i64], severity: f64) {
+    let mut sums: BTreeMap<i64, ([f64; 3], usize)> = BTreeMap::new();
+    for (p, &l) in points.iter().zip(labels.iter()) {
+        let e = sums.entry(l).or_insert(([0.0; 3], 0));
+        for a in 0..3 {
+            e.0[a] += p[a] as f64;
+        }
+        e.1 += 1;
+    }
+    let centroids: Vec<(i64, [f64; 3], usize)> = sums.iter().map(|(&l, (s, n))| (l, s.map(|v| v / *n as f64), *n)).collect();
+    let mut by_size: Vec<&(i64, [f64; 3], usize)> = centroids.iter().collect();
+    by_size.sort_by_key(|c| (c.2, c.0));
+    let extra = ((severity - 1.0) * 2.5).floor() as usize;
+    let merging: Vec<i64> =
+        by_size.iter().take((centroids.len().saturating_sub(1) / 2 + extra).max(1).min(centroids.len().saturating_sub(1))).map(|c| c.0).collect();
+    let merged: BTreeMap<i64, i64> = centroids
+        .iter()
+        .filter(|c| merging.contains(&c.0))
+        .filter_map(|c| {
+            centroids
+                .iter()
+                .filter(|o| o.0 != c.0)
+                .min_by(|a, b| {
+                    let d = |o: &[f64; 3]| (0..3).map(|k| (o[k] - c.1[k]).powi(2)).sum::<f64>();
+                    d(&a.1).total_cmp(&d(&b.1))
+                })
+                .map(|o| (c.0, o.0))
+        })
+        .collect();
+    for l in labels.iter_mut() {
+        if let Some(&m) = merged.get(l) {
+            *l = m;
+        }
+    }
+}
+
+/// The label-noise baseline's object labels: every fourth object (from a phase drawn from
+/// `rng`) takes the next class of the scene; harder lightings mislabel part of a second
+/// quarter too.
+fn mislabelled_objects(objects: &Objects, rng: &mut Rng, severity: f64) -> Vec<i64> {
+    let vocabulary: Vec<i64> = objects.labels.iter().copied().collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let phase = rng.below(4);
+    let extra_tenths = ((severity - 1.0) * 10.0).round() as usize;
+    let next = |l: i64| vocabulary[(vocabulary.iter().position(|&v| v == l).unwrap_or(0) + 1) % vocabulary.len()];
+    let is_noisy = |i: usize| i % 4 == phase || (i % 4 == (phase + 2) % 4 && (i / 4) % 10 < extra_tenths);
+    objects.labels.iter().enumerate().map(|(i, &l)| if is_noisy(i) { next(l) } else { l }).collect()
 }
 
 /// The scene graph of a baseline from the scene's objects (the release's hidden

@@ -19,7 +19,7 @@ use super::lexicon::{class_id, classes, normalise_name};
 use super::lighting::{habitat_lighting, lighting};
 use super::primitives::{box_mesh, cylinder_mesh, mtl, sphere_mesh};
 use super::scene::{DrakeScene, PlacedModel};
-use super::sdf::Geometry;
+use super::sdf::{Geometry, Visual};
 use super::transform::{Pose, drake_to_habitat, point_to_habitat, wxyz};
 
 /// Settings of the adaptation layer.
@@ -163,11 +163,10 @@ impl Writer<'_> {
         }
     }
 
+    /// Add `model` as instances of the scene: one per visual for room geometry (floor, each
+    /// wall), else one for the whole model.
     fn add_model(&mut self, model: &PlacedModel) -> Result<()> {
-        let c = drake_to_habitat();
-        let q_c = UnitQuaternion::from_rotation_matrix(&c);
         let room_geometry = model.model.name == "room_geometry";
-        // Room geometry: one instance per visual (floor, each wall); else one per model.
         let groups: Vec<Vec<usize>> =
             if room_geometry { (0..model.visuals().count()).map(|i| vec![i]).collect() } else { vec![(0..model.visuals().count()).collect()] };
         let visuals: Vec<_> = model.visuals().collect();
@@ -182,100 +181,17 @@ impl Writer<'_> {
             let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for &v in &group {
                 let (visual, world) = visuals[v];
-                let handle = format!("{}__{}__{}", self.scene.name, model.name, visual.name);
-                let (render_asset, rotation, scale, local_bounds, textured) = match &visual.geometry {
-                    Geometry::Mesh { path, scale } => {
-                        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
-                        // One folder per visual: SceneSmith names every wall `wall.gltf`.
-                        let target = PathBuf::from("assets").join(&model.name).join(&visual.name).join(path.file_name().expect("a mesh file"));
-                        let relative = path.strip_prefix(&self.scene.root).unwrap_or(path).display().to_string();
-                        match ext.as_str() {
-                            "gltf" | "glb" => {
-                                let asset = read_gltf(path)?;
-                                let broken: Vec<usize> =
-                                    asset.materials.iter().enumerate().filter(|(_, m)| m.texture_problem.is_some()).map(|(i, _)| i).collect();
-                                copy_mesh(path, &self.out.join(&target), &ext, &broken)?;
-                                if asset.generated_normals {
-                                    self.report.generated_normals.push(relative.clone());
-                                }
-                                for m in &asset.materials {
-                                    if let Some(problem) = &m.texture_problem {
-                                        let problem = problem.replace(&format!("{}/", self.scene.root.display()), "");
-                                        self.report.texture_fallbacks.push(format!("{relative}: material '{}': {problem}", m.name));
-                                    }
-                                }
-                                let textured = asset.materials.iter().any(|m| m.texture.is_some());
-                                // Drake turns glTF (Y-up) into Z-up by Rx(+90°): p_D = S·Rx90·p_gltf.
-                                let (glo, ghi) = asset.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
-                                let lo_d = [glo[0] as f64 * scale[0], -(ghi[2] as f64) * scale[1], glo[1] as f64 * scale[2]];
-                                let hi_d = [ghi[0] as f64 * scale[0], -(glo[2] as f64) * scale[1], ghi[1] as f64 * scale[2]];
-                                (target, q_c * world.rotation * q_c.inverse(), [scale[0], scale[2], scale[1]], (lo_d, hi_d), textured)
-                            }
-                            "obj" => {
-                                let bounds = obj_bounds(path)?;
-                                copy_mesh(path, &self.out.join(&target), &ext, &[])?;
-                                let lo_d = std::array::from_fn(|a| bounds.0[a] * scale[a]);
-                                let hi_d = std::array::from_fn(|a| bounds.1[a] * scale[a]);
-                                (target, q_c * world.rotation, *scale, (lo_d, hi_d), false)
-                            }
-                            other => return Err(InputError::new(path, "(mesh)", format!("unsupported mesh format '.{other}' (expected .gltf, .glb or .obj)"))),
-                        }
-                    }
-                    primitive => {
-                        let mesh = match primitive {
-                            Geometry::Box { size } => box_mesh(*size),
-                            Geometry::Cylinder { radius, length } => cylinder_mesh(*radius, *length, 32),
-                            Geometry::Sphere { radius } => sphere_mesh(*radius, 16, 32),
-                            Geometry::Mesh { .. } => unreachable!("handled above"),
-                        };
-                        let stem = format!("{}__{}", model.name, visual.name);
-                        let target = PathBuf::from("assets/primitives").join(format!("{stem}.obj"));
-                        let rgb = visual.diffuse.map(|d| [d[0], d[1], d[2]]).unwrap_or(default_colour(&class));
-                        let dir = self.out.join("assets/primitives");
-                        std::fs::create_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
-                        std::fs::write(dir.join(format!("{stem}.mtl")), mtl(&stem, rgb)).map_err(|e| InputError::io(&dir, &e))?;
-                        std::fs::write(self.out.join(&target), mesh.to_obj(&format!("{stem}.mtl"), &stem)).map_err(|e| InputError::io(&dir, &e))?;
-                        (target, q_c * world.rotation, [1.0; 3], mesh.bounds(), false)
-                    }
+                let asset = match &visual.geometry {
+                    Geometry::Mesh { path, scale } => self.mesh_asset(model, visual, &world, path, scale)?,
+                    _ => self.primitive_asset(model, visual, &world, &class)?,
                 };
-                let (vlo, vhi) = habitat_bounds(corners(local_bounds.0, local_bounds.1), &world);
+                let (vlo, vhi) = habitat_bounds(corners(asset.local_bounds.0, asset.local_bounds.1), &world);
                 for a in 0..3 {
                     lo[a] = lo[a].min(vlo[a]);
                     hi[a] = hi[a].max(vhi[a]);
                 }
-                let is_floor = class == "floor";
-                if (0..3).any(|a| vhi[a] - vlo[a] > self.options.max_room_side) {
-                    return Err(InputError::new(&model.file, &visual.name, format!("the visual spans more than {} m", self.options.max_room_side)));
-                }
-                if is_floor {
-                    self.floor = Some(match self.floor {
-                        Some((flo, fhi)) => (std::array::from_fn(|a| flo[a].min(vlo[a])), std::array::from_fn(|a| fhi[a].max(vhi[a]))),
-                        None => (vlo, vhi),
-                    });
-                } else if class != "ceiling" {
-                    self.obstacles.push((vlo, vhi));
-                }
-                let template = json!({
-                    "render_asset": format!("../{}", render_asset.display()),
-                    "up": [0.0, 1.0, 0.0],
-                    "front": [0.0, 0.0, -1.0],
-                    "semantic_id": instance_id,
-                    "shader_type": if textured { "material" } else { "phong" },
-                    "is_collidable": true,
-                    "units_to_meters": 1.0,
-                    "user_defined": {"class": class, "class_id": class_id(&class).unwrap_or(0), "model": model.name, "visual": visual.name},
-                });
-                self.templates.push((handle.clone(), template));
-                let translation = point_to_habitat(world.translation.vector);
-                let q = wxyz(&rotation);
-                self.instances.push(json!({
-                    "template_name": handle,
-                    "translation": translation,
-                    "rotation": q,
-                    "non_uniform_scale": scale,
-                    "motion_type": "STATIC",
-                    "translation_origin": "asset_local",
-                }));
+                self.add_footprint(model, visual, &class, (vlo, vhi))?;
+                self.add_instance(model, visual, &world, &class, instance_id, asset);
             }
             self.report.objects.push(ConvertedObject {
                 instance_id,
@@ -290,6 +206,125 @@ impl Writer<'_> {
         }
         Ok(())
     }
+
+    /// A visual's mesh file (glTF or OBJ) copied into the scene's assets, with the texture
+    /// fallbacks and generated normals it needed noted in the report.
+    fn mesh_asset(&mut self, model: &PlacedModel, visual: &Visual, world: &Pose, path: &Path, scale: &[f64; 3]) -> Result<VisualAsset> {
+        let q_c = UnitQuaternion::from_rotation_matrix(&drake_to_habitat());
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
+        // One folder per visual: SceneSmith names every wall `wall.gltf`.
+        let target = PathBuf::from("assets").join(&model.name).join(&visual.name).join(path.file_name().expect("a mesh file"));
+        let relative = path.strip_prefix(&self.scene.root).unwrap_or(path).display().to_string();
+        match ext.as_str() {
+            "gltf" | "glb" => {
+                let asset = read_gltf(path)?;
+                let broken: Vec<usize> = asset.materials.iter().enumerate().filter(|(_, m)| m.texture_problem.is_some()).map(|(i, _)| i).collect();
+                copy_mesh(path, &self.out.join(&target), &ext, &broken)?;
+                if asset.generated_normals {
+                    self.report.generated_normals.push(relative.clone());
+                }
+                for m in &asset.materials {
+                    if let Some(problem) = &m.texture_problem {
+                        let problem = problem.replace(&format!("{}/", self.scene.root.display()), "");
+                        self.report.texture_fallbacks.push(format!("{relative}: material '{}': {problem}", m.name));
+                    }
+                }
+                let textured = asset.materials.iter().any(|m| m.texture.is_some());
+                // Drake turns glTF (Y-up) into Z-up by Rx(+90°): p_D = S·Rx90·p_gltf.
+                let (glo, ghi) = asset.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
+                let lo_d = [glo[0] as f64 * scale[0], -(ghi[2] as f64) * scale[1], glo[1] as f64 * scale[2]];
+                let hi_d = [ghi[0] as f64 * scale[0], -(glo[2] as f64) * scale[1], ghi[1] as f64 * scale[2]];
+                Ok(VisualAsset {
+                    render_asset: target,
+                    rotation: q_c * world.rotation * q_c.inverse(),
+                    scale: [scale[0], scale[2], scale[1]],
+                    local_bounds: (lo_d, hi_d),
+                    textured,
+                })
+            }
+            "obj" => {
+                let bounds = obj_bounds(path)?;
+                copy_mesh(path, &self.out.join(&target), &ext, &[])?;
+                let lo_d = std::array::from_fn(|a| bounds.0[a] * scale[a]);
+                let hi_d = std::array::from_fn(|a| bounds.1[a] * scale[a]);
+                Ok(VisualAsset { render_asset: target, rotation: q_c * world.rotation, scale: *scale, local_bounds: (lo_d, hi_d), textured: false })
+            }
+            other => Err(InputError::new(path, "(mesh)", format!("unsupported mesh format '.{other}' (expected .gltf, .glb or .obj)"))),
+        }
+    }
+
+    /// A visual's primitive (box, cylinder, sphere) written as an OBJ mesh with its colour.
+    fn primitive_asset(&self, model: &PlacedModel, visual: &Visual, world: &Pose, class: &str) -> Result<VisualAsset> {
+        let q_c = UnitQuaternion::from_rotation_matrix(&drake_to_habitat());
+        let mesh = match &visual.geometry {
+            Geometry::Box { size } => box_mesh(*size),
+            Geometry::Cylinder { radius, length } => cylinder_mesh(*radius, *length, 32),
+            Geometry::Sphere { radius } => sphere_mesh(*radius, 16, 32),
+            Geometry::Mesh { .. } => unreachable!("meshes are not primitives"),
+        };
+        let stem = format!("{}__{}", model.name, visual.name);
+        let target = PathBuf::from("assets/primitives").join(format!("{stem}.obj"));
+        let rgb = visual.diffuse.map(|d| [d[0], d[1], d[2]]).unwrap_or(default_colour(class));
+        let dir = self.out.join("assets/primitives");
+        std::fs::create_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
+        std::fs::write(dir.join(format!("{stem}.mtl")), mtl(&stem, rgb)).map_err(|e| InputError::io(&dir, &e))?;
+        std::fs::write(self.out.join(&target), mesh.to_obj(&format!("{stem}.mtl"), &stem)).map_err(|e| InputError::io(&dir, &e))?;
+        Ok(VisualAsset { render_asset: target, rotation: q_c * world.rotation, scale: [1.0; 3], local_bounds: mesh.bounds(), textured: false })
+    }
+
+    /// Refuse a visual larger than a room; otherwise a floor visual widens the floor, and any
+    /// other (but the ceiling) is an obstacle.
+    fn add_footprint(&mut self, model: &PlacedModel, visual: &Visual, class: &str, (vlo, vhi): ([f64; 3], [f64; 3])) -> Result<()> {
+        let is_floor = class == "floor";
+        if (0..3).any(|a| vhi[a] - vlo[a] > self.options.max_room_side) {
+            return Err(InputError::new(&model.file, &visual.name, format!("the visual spans more than {} m", self.options.max_room_side)));
+        }
+        if is_floor {
+            self.floor = Some(match self.floor {
+                Some((flo, fhi)) => (std::array::from_fn(|a| flo[a].min(vlo[a])), std::array::from_fn(|a| fhi[a].max(vhi[a]))),
+                None => (vlo, vhi),
+            });
+        } else if class != "ceiling" {
+            self.obstacles.push((vlo, vhi));
+        }
+        Ok(())
+    }
+
+    /// The visual's object template and its placed instance in the scene.
+    fn add_instance(&mut self, model: &PlacedModel, visual: &Visual, world: &Pose, class: &str, instance_id: i64, asset: VisualAsset) {
+        let handle = format!("{}__{}__{}", self.scene.name, model.name, visual.name);
+        let template = json!({
+            "render_asset": format!("../{}", asset.render_asset.display()),
+            "up": [0.0, 1.0, 0.0],
+            "front": [0.0, 0.0, -1.0],
+            "semantic_id": instance_id,
+            "shader_type": if asset.textured { "material" } else { "phong" },
+            "is_collidable": true,
+            "units_to_meters": 1.0,
+            "user_defined": {"class": class, "class_id": class_id(class).unwrap_or(0), "model": model.name, "visual": visual.name},
+        });
+        self.templates.push((handle.clone(), template));
+        let translation = point_to_habitat(world.translation.vector);
+        let q = wxyz(&asset.rotation);
+        self.instances.push(json!({
+            "template_name": handle,
+            "translation": translation,
+            "rotation": q,
+            "non_uniform_scale": asset.scale,
+            "motion_type": "STATIC",
+            "translation_origin": "asset_local",
+        }));
+    }
+}
+
+/// A visual's render asset as placed in the scene: where it is, how it is turned and
+/// scaled, its bounds in its own frame, whether it is textured.
+struct VisualAsset {
+    render_asset: PathBuf,
+    rotation: UnitQuaternion<f64>,
+    scale: [f64; 3],
+    local_bounds: ([f64; 3], [f64; 3]),
+    textured: bool,
 }
 
 fn default_colour(class: &str) -> [f64; 3] {
@@ -421,15 +456,7 @@ fn write_png8(path: &Path, width: usize, height: usize, data: &[u8]) -> Result<(
 
 /// Convert `scene` into `out`.
 pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOptions) -> Result<ConversionReport> {
-    std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
-    // A second conversion into the same folder must not leave the first one's files
-    // behind (Habitat globs objects/ and scenes/); only our own folders are cleared.
-    for generated in ["assets", "objects", "scenes", "semantics", "lighting", "lighting_hadage", "navigation", "stages"] {
-        let dir = out.join(generated);
-        if dir.is_dir() {
-            std::fs::remove_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
-        }
-    }
+    clear_generated_folders(out)?;
     let mut w = Writer {
         out,
         options,
@@ -447,40 +474,10 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
     for (handle, template) in &w.templates {
         write_json(&out.join("objects").join(format!("{handle}.object_config.json")), template)?;
     }
-    let floor = w
-        .floor
-        .or_else(|| {
-            // No floor visual: the footprint of everything, at height 0.
-            let lo = w.report.objects.iter().fold([f64::INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].min(o.bbox_min[a])));
-            let hi = w.report.objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
-            lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
-        })
-        .ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
-    // No stage: the floor, walls and furniture are all collidable static objects with
-    // their own poses and semantic ids (navmeshes include static objects), so nothing
-    // needs the reference adapter's duplicate floor.
-    let scene_instance = json!({
-        "stage_instance": {"template_name": "NONE"},
-        "default_lighting": format!("{name}.baseline"),
-        "translation_origin": "asset_local",
-        "semantic_scene_instance": name,
-        "object_instances": w.instances,
-    });
-    write_json(&out.join("scenes").join(format!("{name}.scene_instance.json")), &scene_instance)?;
-    write_json(
-        &out.join(format!("{name}.scene_dataset_config.json")),
-        &json!({
-            "objects": {"paths": {".object_config.json": ["objects/"]}},
-            "light_setups": {"default_attributes": {"positive_intensity_scale": 2.5, "negative_intensity_scale": 0.1}, "paths": {".lighting_config.json": ["lighting/"]}},
-            "scene_instances": {"paths": {".scene_instance.json": ["scenes/"]}},
-            "semantic_scene_descriptor_instances": {name.clone(): format!("semantics/{name}.lexicon.json")},
-        }),
-    )?;
-    // Instance ids with their class names: HaDaGe's remap_classes collapses them to classes.
-    let mut lexicon = vec![json!({"name": "other", "id": 0})];
-    lexicon.extend(w.report.objects.iter().map(|o| json!({"name": o.class, "id": o.instance_id})));
-    write_json(&out.join("semantics").join(format!("{name}.lexicon.json")), &json!({"classes": lexicon}))?;
-    write_json(&out.join("semantics/classes.json"), &json!({"classes": classes()}))?;
+    let floor =
+        w.floor.or_else(|| footprint_of_objects(&w.report.objects)).ok_or_else(|| InputError::new(&scene.root, "models", "the scene has no visuals"))?;
+    write_scene_configs(out, name, &w.instances)?;
+    write_semantics(out, name, &w.report.objects)?;
     let ceiling_height = scene.wall_height.unwrap_or_else(|| w.obstacles.iter().map(|(_, hi)| hi[1]).fold(2.5f64, f64::max));
     if (0..3).step_by(2).any(|a| floor.1[a] - floor.0[a] > options.max_room_side) {
         return Err(InputError::new(&scene.root, "floor", format!("the floor spans more than {} m", options.max_room_side)));
@@ -489,18 +486,7 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
         write_json(&out.join("lighting").join(format!("{name}.{condition}.lighting_config.json")), &habitat_lighting(&lights))?;
         write_json(&out.join("lighting_hadage").join(format!("light_settings_{name}_{condition}.json")), &lights)?;
     }
-    let (width, height, cells) = navigable_map(floor, &w.obstacles, options);
-    let nav_dir = out.join("navigation");
-    std::fs::create_dir_all(&nav_dir).map_err(|e| InputError::io(&nav_dir, &e))?;
-    write_png8(&nav_dir.join(format!("{name}.navigable.png")), width, height, &cells)?;
-    let navigable = cells.iter().filter(|&&c| c == 255).count() as f64 / cells.len() as f64;
-    w.report.navigable_fraction = navigable;
-    write_json(
-        &nav_dir.join(format!("{name}.navigable.json")),
-        &json!({"origin_xz": [floor.0[0], floor.0[2]], "floor_height": floor.1[1], "cell_size": options.cell_size, "width": width, "height": height,
-                "agent_radius": options.agent_radius, "agent_height": options.agent_height, "navigable_fraction": navigable,
-                "png": format!("{name}.navigable.png"), "rows": "z increasing", "columns": "x increasing", "values": "255 navigable, 0 blocked"}),
-    )?;
+    w.report.navigable_fraction = write_navigation(out, name, floor, &w.obstacles, options)?;
     if let Some(prompt) = &scene.prompt {
         write_json(&out.join("prompt.json"), &json!({"prompt": prompt}))?;
     }
@@ -508,4 +494,77 @@ pub fn write_habitat_scene(scene: &DrakeScene, out: &Path, options: &ConvertOpti
     w.report.unknown_names.dedup();
     write_json(&out.join("conversion_report.json"), &w.report)?;
     Ok(w.report)
+}
+
+/// Remove what an earlier conversion into `out` generated: a second conversion into the
+/// same folder must not leave the first one's files behind (Habitat globs objects/ and
+/// scenes/); only our own folders are cleared.
+fn clear_generated_folders(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
+    for generated in ["assets", "objects", "scenes", "semantics", "lighting", "lighting_hadage", "navigation", "stages"] {
+        let dir = out.join(generated);
+        if dir.is_dir() {
+            std::fs::remove_dir_all(&dir).map_err(|e| InputError::io(&dir, &e))?;
+        }
+    }
+    Ok(())
+}
+
+/// The floor of a scene without a floor visual: the footprint of everything, at height 0
+/// (none without objects).
+fn footprint_of_objects(objects: &[ConvertedObject]) -> Option<([f64; 3], [f64; 3])> {
+    let lo = objects.iter().fold([f64::INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].min(o.bbox_min[a])));
+    let hi = objects.iter().fold([f64::NEG_INFINITY; 3], |m, o| std::array::from_fn(|a| m[a].max(o.bbox_max[a])));
+    lo[0].is_finite().then_some(([lo[0], 0.0, lo[2]], [hi[0], 0.0, hi[2]]))
+}
+
+/// The scene instance (its placed objects) and the scene dataset config that points Habitat
+/// at objects, lighting, scenes and semantics.
+fn write_scene_configs(out: &Path, name: &str, instances: &[Value]) -> Result<()> {
+    // No stage: the floor, walls and furniture are all collidable static objects with
+    // their own poses and semantic ids (navmeshes include static objects), so nothing
+    // needs the reference adapter's duplicate floor.
+    let scene_instance = json!({
+        "stage_instance": {"template_name": "NONE"},
+        "default_lighting": format!("{name}.baseline"),
+        "translation_origin": "asset_local",
+        "semantic_scene_instance": name,
+        "object_instances": instances,
+    });
+    write_json(&out.join("scenes").join(format!("{name}.scene_instance.json")), &scene_instance)?;
+    write_json(
+        &out.join(format!("{name}.scene_dataset_config.json")),
+        &json!({
+            "objects": {"paths": {".object_config.json": ["objects/"]}},
+            "light_setups": {"default_attributes": {"positive_intensity_scale": 2.5, "negative_intensity_scale": 0.1}, "paths": {".lighting_config.json": ["lighting/"]}},
+            "scene_instances": {"paths": {".scene_instance.json": ["scenes/"]}},
+            "semantic_scene_descriptor_instances": {name.to_string(): format!("semantics/{name}.lexicon.json")},
+        }),
+    )
+}
+
+/// The scene's lexicon (instance ids with their class names: HaDaGe's remap_classes
+/// collapses them to classes) and the class list.
+fn write_semantics(out: &Path, name: &str, objects: &[ConvertedObject]) -> Result<()> {
+    let mut lexicon = vec![json!({"name": "other", "id": 0})];
+    lexicon.extend(objects.iter().map(|o| json!({"name": o.class, "id": o.instance_id})));
+    write_json(&out.join("semantics").join(format!("{name}.lexicon.json")), &json!({"classes": lexicon}))?;
+    write_json(&out.join("semantics/classes.json"), &json!({"classes": classes()}))
+}
+
+/// The navigable map of `floor` around `obstacles` as a PNG and its description; returns
+/// the navigable fraction of the floor.
+fn write_navigation(out: &Path, name: &str, floor: ([f64; 3], [f64; 3]), obstacles: &[([f64; 3], [f64; 3])], options: &ConvertOptions) -> Result<f64> {
+    let (width, height, cells) = navigable_map(floor, obstacles, options);
+    let nav_dir = out.join("navigation");
+    std::fs::create_dir_all(&nav_dir).map_err(|e| InputError::io(&nav_dir, &e))?;
+    write_png8(&nav_dir.join(format!("{name}.navigable.png")), width, height, &cells)?;
+    let navigable = cells.iter().filter(|&&c| c == 255).count() as f64 / cells.len() as f64;
+    write_json(
+        &nav_dir.join(format!("{name}.navigable.json")),
+        &json!({"origin_xz": [floor.0[0], floor.0[2]], "floor_height": floor.1[1], "cell_size": options.cell_size, "width": width, "height": height,
+                "agent_radius": options.agent_radius, "agent_height": options.agent_height, "navigable_fraction": navigable,
+                "png": format!("{name}.navigable.png"), "rows": "z increasing", "columns": "x increasing", "values": "255 navigable, 0 blocked"}),
+    )?;
+    Ok(navigable)
 }

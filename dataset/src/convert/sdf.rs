@@ -151,108 +151,139 @@ pub fn read_sdf(path: &Path, resolver: &UriResolver) -> Result<Model> {
     let name = model.attribute("name").unwrap_or_default().to_string();
     let is_static = child_text(*model, "static").is_some_and(|t| matches!(t.trim(), "true" | "1"));
     let dir = path.parent().unwrap_or(Path::new("."));
-    let mut raw_links = Vec::new();
-    for link in model.children().filter(|c| c.has_tag_name("link")) {
-        let link_name = link.attribute("name").unwrap_or_default().to_string();
-        let field = format!("link[{link_name}]");
-        let (link_pose, relative_to) = pose_of(link, path, &field)?;
-        let mut visuals = Vec::new();
-        for visual in link.children().filter(|c| c.has_tag_name("visual")) {
-            let visual_name = visual.attribute("name").unwrap_or_default().to_string();
-            let vfield = format!("{field}.visual[{visual_name}]");
-            let (visual_pose, visual_relative) = pose_of(visual, path, &vfield)?;
-            if visual_relative.is_some_and(|r| r != link_name) {
-                return Err(InputError::new(path, format!("{vfield}.pose"), "visual poses relative to other frames are not supported"));
-            }
-            let geometry = visual.children().find(|c| c.has_tag_name("geometry")).ok_or_else(|| InputError::new(path, &vfield, "missing <geometry>"))?;
-            let shape = geometry.children().find(|c| c.is_element()).ok_or_else(|| InputError::new(path, format!("{vfield}.geometry"), "empty <geometry>"))?;
-            let gfield = format!("{vfield}.geometry.{}", shape.tag_name().name());
-            let geometry = match shape.tag_name().name() {
-                "mesh" => {
-                    let uri = child_text(shape, "uri").ok_or_else(|| InputError::new(path, &gfield, "missing <uri>"))?.trim();
-                    let file = resolver.resolve(uri, dir).map_err(|m| InputError::new(path, format!("{gfield}.uri"), m))?;
-                    if !file.is_file() {
-                        return Err(InputError::new(path, format!("{gfield}.uri"), format!("'{uri}' resolves to {}, which does not exist", file.display())));
-                    }
-                    let scale = match child_text(shape, "scale") {
-                        Some(t) => numbers(t, 3, path, &format!("{gfield}.scale"))?,
-                        None => vec![1.0; 3],
-                    };
-                    if scale.iter().any(|s| *s <= 0.0) {
-                        return Err(InputError::new(path, format!("{gfield}.scale"), "scales must be positive"));
-                    }
-                    Geometry::Mesh { path: file, scale: [scale[0], scale[1], scale[2]] }
-                }
-                "box" => {
-                    let s = numbers(child_text(shape, "size").unwrap_or(""), 3, path, &format!("{gfield}.size"))?;
-                    Geometry::Box { size: [s[0], s[1], s[2]] }
-                }
-                "cylinder" => Geometry::Cylinder {
-                    radius: numbers(child_text(shape, "radius").unwrap_or(""), 1, path, &format!("{gfield}.radius"))?[0],
-                    length: numbers(child_text(shape, "length").unwrap_or(""), 1, path, &format!("{gfield}.length"))?[0],
-                },
-                "sphere" => Geometry::Sphere { radius: numbers(child_text(shape, "radius").unwrap_or(""), 1, path, &format!("{gfield}.radius"))?[0] },
-                other => return Err(InputError::new(path, gfield, format!("unsupported geometry <{other}> (expected mesh, box, cylinder or sphere)"))),
-            };
-            let diffuse = visual
-                .children()
-                .find(|c| c.has_tag_name("material"))
-                .and_then(|m| child_text(m, "diffuse"))
-                .map(|t| {
-                    numbers(t, 4, path, &format!("{vfield}.material.diffuse")).or_else(|_| {
-                        numbers(t, 3, path, &format!("{vfield}.material.diffuse")).map(|mut v| {
-                            v.push(1.0);
-                            v
-                        })
-                    })
-                })
-                .transpose()?
-                .map(|v| [v[0], v[1], v[2], v[3]]);
-            visuals.push(Visual { name: visual_name, pose: visual_pose, geometry, diffuse });
-        }
-        raw_links.push((link_name, link_pose, relative_to, visuals));
-    }
+    let raw_links = model.children().filter(|c| c.has_tag_name("link")).map(|link| read_link(link, path, dir, resolver)).collect::<Result<Vec<_>>>()?;
     if raw_links.is_empty() {
         return Err(InputError::new(path, "model.link", "the model has no links"));
     }
-    // Resolve `relative_to` chains between links (cycles are errors).
-    let index: HashMap<String, usize> = raw_links.iter().enumerate().map(|(i, l)| (l.0.clone(), i)).collect();
-    let mut resolved: Vec<Option<Pose>> = vec![None; raw_links.len()];
-    fn resolve(
-        i: usize,
-        raw: &[(String, Pose, Option<String>, Vec<Visual>)],
-        index: &HashMap<String, usize>,
-        resolved: &mut [Option<Pose>],
-        visiting: &mut Vec<usize>,
-        path: &Path,
-    ) -> Result<Pose> {
-        if let Some(p) = resolved[i] {
-            return Ok(p);
+    Ok(Model { name, is_static, links: links_in_model(&raw_links, path)? })
+}
+
+/// A `<link>` as written: its name, its pose and the frame that pose is relative to, its visuals.
+#[derive(Clone)]
+struct RawLink {
+    name: String,
+    pose: Pose,
+    relative_to: Option<String>,
+    visuals: Vec<Visual>,
+}
+
+/// One `<link>` of the model at `path` (mesh URIs resolved from `dir`).
+fn read_link(link: roxmltree::Node, path: &Path, dir: &Path, resolver: &UriResolver) -> Result<RawLink> {
+    let link_name = link.attribute("name").unwrap_or_default().to_string();
+    let field = format!("link[{link_name}]");
+    let (link_pose, relative_to) = pose_of(link, path, &field)?;
+    let mut visuals = Vec::new();
+    for visual in link.children().filter(|c| c.has_tag_name("visual")) {
+        let visual_name = visual.attribute("name").unwrap_or_default().to_string();
+        let vfield = format!("{field}.visual[{visual_name}]");
+        let (visual_pose, visual_relative) = pose_of(visual, path, &vfield)?;
+        if visual_relative.is_some_and(|r| r != link_name) {
+            return Err(InputError::new(path, format!("{vfield}.pose"), "visual poses relative to other frames are not supported"));
         }
-        if visiting.contains(&i) {
-            let chain: Vec<&str> = visiting.iter().map(|&j| raw[j].0.as_str()).collect();
-            return Err(InputError::new(path, format!("link[{}].pose", raw[i].0), format!("relative_to forms a cycle: {}", chain.join(" -> "))));
-        }
-        visiting.push(i);
-        let pose = match &raw[i].2 {
-            None => raw[i].1,
-            Some(frame) if frame == "__model__" => raw[i].1,
-            Some(frame) => {
-                let j = *index
-                    .get(frame)
-                    .ok_or_else(|| InputError::new(path, format!("link[{}].pose", raw[i].0), format!("relative_to '{frame}' is not a link of the model")))?;
-                resolve(j, raw, index, resolved, visiting, path)? * raw[i].1
-            }
-        };
-        visiting.pop();
-        resolved[i] = Some(pose);
-        Ok(pose)
+        let geometry = visual.children().find(|c| c.has_tag_name("geometry")).ok_or_else(|| InputError::new(path, &vfield, "missing <geometry>"))?;
+        let shape = geometry.children().find(|c| c.is_element()).ok_or_else(|| InputError::new(path, format!("{vfield}.geometry"), "empty <geometry>"))?;
+        let geometry = read_geometry(shape, &vfield, path, dir, resolver)?;
+        let diffuse = read_diffuse(visual, &vfield, path)?;
+        visuals.push(Visual { name: visual_name, pose: visual_pose, geometry, diffuse });
     }
+    Ok(RawLink { name: link_name, pose: link_pose, relative_to, visuals })
+}
+
+/// The shape of a visual's `<geometry>`: a mesh (its file resolved and checked), a box, a
+/// cylinder or a sphere.
+fn read_geometry(shape: roxmltree::Node, vfield: &str, path: &Path, dir: &Path, resolver: &UriResolver) -> Result<Geometry> {
+    let gfield = format!("{vfield}.geometry.{}", shape.tag_name().name());
+    let geometry = match shape.tag_name().name() {
+        "mesh" => {
+            let uri = child_text(shape, "uri").ok_or_else(|| InputError::new(path, &gfield, "missing <uri>"))?.trim();
+            let file = resolver.resolve(uri, dir).map_err(|m| InputError::new(path, format!("{gfield}.uri"), m))?;
+            if !file.is_file() {
+                return Err(InputError::new(path, format!("{gfield}.uri"), format!("'{uri}' resolves to {}, which does not exist", file.display())));
+            }
+            let scale = match child_text(shape, "scale") {
+                Some(t) => numbers(t, 3, path, &format!("{gfield}.scale"))?,
+                None => vec![1.0; 3],
+            };
+            if scale.iter().any(|s| *s <= 0.0) {
+                return Err(InputError::new(path, format!("{gfield}.scale"), "scales must be positive"));
+            }
+            Geometry::Mesh { path: file, scale: [scale[0], scale[1], scale[2]] }
+        }
+        "box" => {
+            let s = numbers(child_text(shape, "size").unwrap_or(""), 3, path, &format!("{gfield}.size"))?;
+            Geometry::Box { size: [s[0], s[1], s[2]] }
+        }
+        "cylinder" => Geometry::Cylinder {
+            radius: numbers(child_text(shape, "radius").unwrap_or(""), 1, path, &format!("{gfield}.radius"))?[0],
+            length: numbers(child_text(shape, "length").unwrap_or(""), 1, path, &format!("{gfield}.length"))?[0],
+        },
+        "sphere" => Geometry::Sphere { radius: numbers(child_text(shape, "radius").unwrap_or(""), 1, path, &format!("{gfield}.radius"))?[0] },
+        other => return Err(InputError::new(path, gfield, format!("unsupported geometry <{other}> (expected mesh, box, cylinder or sphere)"))),
+    };
+    Ok(geometry)
+}
+
+/// A visual's `<material><diffuse>` colour as RGBA (an RGB one opaque), if it has one.
+fn read_diffuse(visual: roxmltree::Node, vfield: &str, path: &Path) -> Result<Option<[f64; 4]>> {
+    Ok(visual
+        .children()
+        .find(|c| c.has_tag_name("material"))
+        .and_then(|m| child_text(m, "diffuse"))
+        .map(|t| {
+            numbers(t, 4, path, &format!("{vfield}.material.diffuse")).or_else(|_| {
+                numbers(t, 3, path, &format!("{vfield}.material.diffuse")).map(|mut v| {
+                    v.push(1.0);
+                    v
+                })
+            })
+        })
+        .transpose()?
+        .map(|v| [v[0], v[1], v[2], v[3]]))
+}
+
+/// The links with their poses in the model frame, `relative_to` chains between links
+/// resolved (cycles are errors).
+fn links_in_model(raw_links: &[RawLink], path: &Path) -> Result<Vec<Link>> {
+    let index: HashMap<String, usize> = raw_links.iter().enumerate().map(|(i, l)| (l.name.clone(), i)).collect();
+    let mut resolved: Vec<Option<Pose>> = vec![None; raw_links.len()];
     let mut links = Vec::new();
     for i in 0..raw_links.len() {
-        let pose_in_model = resolve(i, &raw_links, &index, &mut resolved, &mut Vec::new(), path)?;
-        let (name, _, _, visuals) = raw_links[i].clone();
+        let pose_in_model = link_pose_in_model(i, raw_links, &index, &mut resolved, &mut Vec::new(), path)?;
+        let RawLink { name, visuals, .. } = raw_links[i].clone();
         links.push(Link { name, pose_in_model, visuals });
     }
-    Ok(Model { name, is_static, links })
+    Ok(links)
+}
+
+/// The pose of link `i` in the model frame, following its `relative_to` chain (memoised
+/// in `resolved`; `visiting` is the chain so far, to tell a cycle).
+fn link_pose_in_model(
+    i: usize,
+    raw: &[RawLink],
+    index: &HashMap<String, usize>,
+    resolved: &mut [Option<Pose>],
+    visiting: &mut Vec<usize>,
+    path: &Path,
+) -> Result<Pose> {
+    if let Some(p) = resolved[i] {
+        return Ok(p);
+    }
+    if visiting.contains(&i) {
+        let chain: Vec<&str> = visiting.iter().map(|&j| raw[j].name.as_str()).collect();
+        return Err(InputError::new(path, format!("link[{}].pose", raw[i].name), format!("relative_to forms a cycle: {}", chain.join(" -> "))));
+    }
+    visiting.push(i);
+    let pose = match &raw[i].relative_to {
+        None => raw[i].pose,
+        Some(frame) if frame == "__model__" => raw[i].pose,
+        Some(frame) => {
+            let j = *index
+                .get(frame)
+                .ok_or_else(|| InputError::new(path, format!("link[{}].pose", raw[i].name), format!("relative_to '{frame}' is not a link of the model")))?;
+            link_pose_in_model(j, raw, index, resolved, visiting, path)? * raw[i].pose
+        }
+    };
+    visiting.pop();
+    resolved[i] = Some(pose);
+    Ok(pose)
 }

@@ -253,107 +253,156 @@ fn true_relations(layout: &Layout, spec: &SceneSpec, subject: &str, kinds: &[Rel
 /// it describes, and the relations that layout fails (a prompt with any is not used).
 pub fn write_prompt(regime: Regime, rng: &mut Rng, assets: &AssetSource) -> (String, SceneSpec, u64, Vec<String>) {
     let plan = pick(rng, PLANS);
-    let anchor_count = count_in(rng, plan.anchor_counts);
-    let mut objects = vec![ObjectSpec { category: plan.anchor.into(), count: anchor_count, kind: ObjectKind::Furniture }];
-    let mut relations = vec![Relation { subject: plan.anchor.into(), kind: plan.anchor_place, targets: vec![] }];
-    // Companions in a random order, as many as the regime needs.
-    let mut order: Vec<usize> = (0..plan.companions.len()).collect();
-    for i in (1..order.len()).rev() {
-        order.swap(i, rng.below(i + 1));
-    }
-    let wanted = match regime {
-        Regime::Furniture => 3 + rng.below(plan.companions.len().min(5) - 2),
-        Regime::Manipuland => 1 + rng.below(2),
-    };
-    let mut clauses = vec![format!("{} {}", counted(anchor_count, plan.anchor), plan.anchor_place.phrase())];
-    for &c in order.iter().take(wanted.min(plan.companions.len())) {
-        let companion = &plan.companions[c];
-        let mut count = count_in(rng, companion.counts);
-        if regime == Regime::Manipuland {
-            count = count.min(2);
-        }
-        let (kind, targets) = match *pick(rng, companion.places) {
-            Place::Anchor(k) => (k, vec![plan.anchor.to_string()]),
-            Place::Room(k) => (k, vec![]),
-        };
-        clauses.push(format!("{} {}", counted(count, companion.category), relation_phrase(kind, &targets, |_| anchor_count)));
-        objects.push(ObjectSpec { category: companion.category.into(), count, kind: ObjectKind::Furniture });
-        relations.push(Relation { subject: companion.category.into(), kind, targets });
-    }
-    let openers = ["A {room} with", "The {room} contains", "This {room} has", "A furnished {room} holds", "The layout of the {room} has"];
-    let opener = pick(rng, &openers).replace("{room}", plan.room);
-    let (last, rest) = clauses.split_last().expect("anchor clause");
-    let list = if rest.len() == 1 { format!("{} and {last}", rest[0]) } else { format!("{}, and {last}", rest.join(", ")) };
-    let mut sentences = vec![format!("{opener} {list}.")];
-
-    let furniture: Vec<ObjectSpec> = objects.clone();
+    let mut draft = Draft::opening(regime, plan, rng);
+    let furniture: Vec<ObjectSpec> = draft.objects.clone();
     if regime == Regime::Manipuland {
-        // The main target and at most one secondary group of small objects.
-        let (target, target_relations) = *pick(rng, plan.smalls);
-        let target_count = 1 + rng.below(2) as u32;
-        let target_relation = *pick(rng, target_relations);
-        let anchor_phrase = relation_phrase(target_relation, &[plan.anchor.to_string()], |_| anchor_count);
-        sentences.push(format!("{}, there {} {}.", capitalise(&anchor_phrase), if target_count == 1 { "is" } else { "are" }, counted(target_count, target)));
-        objects.push(ObjectSpec { category: target.into(), count: target_count, kind: ObjectKind::Manipuland });
-        relations.push(Relation { subject: target.into(), kind: target_relation, targets: vec![plan.anchor.into()] });
-        let others: Vec<&(&str, &[RelationKind])> = plan.smalls.iter().filter(|(c, r)| *c != target && r.contains(&On)).collect();
-        if !others.is_empty() && rng.unit() < 0.7 {
-            let (group, _) = **pick(rng, &others);
-            let n = 2 + rng.below(3) as u32;
-            let host = pick(rng, &furniture[..]).category.clone();
-            let host_is_surface = plan.anchor == host || !matches!(host.as_str(), "dining chair" | "chair" | "office chair" | "armchair");
-            let host = if host_is_surface { host } else { plan.anchor.to_string() };
-            let host_count = furniture.iter().find(|o| o.category == host).map_or(1, |o| o.count);
-            sentences.push(format!(
-                "{} {} {}.",
-                capitalise(&counted(n, group)),
-                if n == 1 { "rests" } else { "rest" },
-                relation_phrase(On, &[host.clone()], |_| host_count)
-            ));
-            objects.push(ObjectSpec { category: group.into(), count: n, kind: ObjectKind::Manipuland });
-            relations.push(Relation { subject: group.into(), kind: On, targets: vec![host] });
-        }
+        draft.add_small_objects(plan, &furniture, rng);
     }
 
     // Place what the first sentences say, then describe relations that hold in that
     // layout: the prompt states only what its scene will show.
     let layout_seed = rng.next_u64();
-    let primary = SceneSpec { regime, room: plan.room.into(), objects: objects.clone(), relations: relations.clone() };
+    let primary = SceneSpec { regime, room: plan.room.into(), objects: draft.objects, relations: draft.relations };
     let layout = place(&primary, layout_seed, assets);
-    let mut spec = primary;
+    let mut described = Described { layout: &layout, furniture: &furniture, spec: primary, sentences: draft.sentences };
     if regime == Regime::Manipuland {
-        let target = spec.objects.iter().find(|o| o.kind == ObjectKind::Manipuland).map(|o| (o.category.clone(), o.count));
+        described.target_relation(rng);
+    }
+    described.furniture_relations(regime, plan.anchor, rng);
+    let unmet = crate::synthesis::relations::unmet_relations(&described.spec, &layout);
+    (described.sentences.join(" "), described.spec, layout_seed, unmet)
+}
+
+/// A prompt's first sentences as they are drawn: the objects they name, how those are
+/// placed, the sentences.
+struct Draft {
+    objects: Vec<ObjectSpec>,
+    relations: Vec<Relation>,
+    sentences: Vec<String>,
+    anchor_count: u32,
+}
+
+impl Draft {
+    /// The opening sentence: `plan`'s anchor and, in a random order, as many of its
+    /// companions as `regime` needs, each placed relative to the anchor or the room.
+    fn opening(regime: Regime, plan: &RoomPlan, rng: &mut Rng) -> Draft {
+        let anchor_count = count_in(rng, plan.anchor_counts);
+        let mut objects = vec![ObjectSpec { category: plan.anchor.into(), count: anchor_count, kind: ObjectKind::Furniture }];
+        let mut relations = vec![Relation { subject: plan.anchor.into(), kind: plan.anchor_place, targets: vec![] }];
+        let mut order: Vec<usize> = (0..plan.companions.len()).collect();
+        for i in (1..order.len()).rev() {
+            order.swap(i, rng.below(i + 1));
+        }
+        let wanted = match regime {
+            Regime::Furniture => 3 + rng.below(plan.companions.len().min(5) - 2),
+            Regime::Manipuland => 1 + rng.below(2),
+        };
+        let mut clauses = vec![format!("{} {}", counted(anchor_count, plan.anchor), plan.anchor_place.phrase())];
+        for &c in order.iter().take(wanted.min(plan.companions.len())) {
+            let companion = &plan.companions[c];
+            let mut count = count_in(rng, companion.counts);
+            if regime == Regime::Manipuland {
+                count = count.min(2);
+            }
+            let (kind, targets) = match *pick(rng, companion.places) {
+                Place::Anchor(k) => (k, vec![plan.anchor.to_string()]),
+                Place::Room(k) => (k, vec![]),
+            };
+            clauses.push(format!("{} {}", counted(count, companion.category), relation_phrase(kind, &targets, |_| anchor_count)));
+            objects.push(ObjectSpec { category: companion.category.into(), count, kind: ObjectKind::Furniture });
+            relations.push(Relation { subject: companion.category.into(), kind, targets });
+        }
+        let openers = ["A {room} with", "The {room} contains", "This {room} has", "A furnished {room} holds", "The layout of the {room} has"];
+        let opener = pick(rng, &openers).replace("{room}", plan.room);
+        let (last, rest) = clauses.split_last().expect("anchor clause");
+        let list = if rest.len() == 1 { format!("{} and {last}", rest[0]) } else { format!("{}, and {last}", rest.join(", ")) };
+        Draft { objects, relations, sentences: vec![format!("{opener} {list}.")], anchor_count }
+    }
+
+    /// A manipuland prompt's small objects: the main target and at most one secondary group
+    /// resting on a surface among the `furniture`.
+    fn add_small_objects(&mut self, plan: &RoomPlan, furniture: &[ObjectSpec], rng: &mut Rng) {
+        let anchor_count = self.anchor_count;
+        let (target, target_relations) = *pick(rng, plan.smalls);
+        let target_count = 1 + rng.below(2) as u32;
+        let target_relation = *pick(rng, target_relations);
+        let anchor_phrase = relation_phrase(target_relation, &[plan.anchor.to_string()], |_| anchor_count);
+        self.sentences.push(format!(
+            "{}, there {} {}.",
+            capitalise(&anchor_phrase),
+            if target_count == 1 { "is" } else { "are" },
+            counted(target_count, target)
+        ));
+        self.objects.push(ObjectSpec { category: target.into(), count: target_count, kind: ObjectKind::Manipuland });
+        self.relations.push(Relation { subject: target.into(), kind: target_relation, targets: vec![plan.anchor.into()] });
+        let others: Vec<&(&str, &[RelationKind])> = plan.smalls.iter().filter(|(c, r)| *c != target && r.contains(&On)).collect();
+        if !others.is_empty() && rng.unit() < 0.7 {
+            let (group, _) = **pick(rng, &others);
+            let n = 2 + rng.below(3) as u32;
+            let host = pick(rng, furniture).category.clone();
+            let host_is_surface = plan.anchor == host || !matches!(host.as_str(), "dining chair" | "chair" | "office chair" | "armchair");
+            let host = if host_is_surface { host } else { plan.anchor.to_string() };
+            let host_count = furniture.iter().find(|o| o.category == host).map_or(1, |o| o.count);
+            self.sentences.push(format!(
+                "{} {} {}.",
+                capitalise(&counted(n, group)),
+                if n == 1 { "rests" } else { "rest" },
+                relation_phrase(On, &[host.clone()], |_| host_count)
+            ));
+            self.objects.push(ObjectSpec { category: group.into(), count: n, kind: ObjectKind::Manipuland });
+            self.relations.push(Relation { subject: group.into(), kind: On, targets: vec![host] });
+        }
+    }
+}
+
+/// A prompt's spec and sentences growing by relations that hold in its placed `layout`.
+struct Described<'a> {
+    layout: &'a Layout,
+    furniture: &'a [ObjectSpec],
+    spec: SceneSpec,
+    sentences: Vec<String>,
+}
+
+impl Described<'_> {
+    /// A manipuland prompt's target placed relative to furniture, preferring the strong
+    /// relations the filter asks for (in front of, behind).
+    fn target_relation(&mut self, rng: &mut Rng) {
+        let target = self.spec.objects.iter().find(|o| o.kind == ObjectKind::Manipuland).map(|o| (o.category.clone(), o.count));
         if let Some((target, target_count)) = target {
-            let found = true_relations(&layout, &spec, &target, &[InFrontOf, Behind, NextTo, Near], &furniture);
-            // Prefer the strong relations the filter asks for (in front of, behind).
+            let found = true_relations(self.layout, &self.spec, &target, &[InFrontOf, Behind, NextTo, Near], self.furniture);
             let strong: Vec<&Relation> = found.iter().filter(|r| matches!(r.kind, InFrontOf | Behind)).collect();
             let choice = if strong.is_empty() { found.first() } else { Some(*pick(rng, &strong)) };
             if let Some(r) = choice.cloned() {
-                let count = furniture.iter().find(|f| f.category == r.targets[0]).map_or(1, |f| f.count);
-                sentences.push(format!("{} {}.", subject_is(&target, target_count), relation_phrase(r.kind, &r.targets, |_| count)));
-                spec.relations.push(r);
+                let count = self.furniture.iter().find(|f| f.category == r.targets[0]).map_or(1, |f| f.count);
+                self.sentences.push(format!("{} {}.", subject_is(&target, target_count), relation_phrase(r.kind, &r.targets, |_| count)));
+                self.spec.relations.push(r);
             }
         }
     }
-    let extra = match regime {
-        Regime::Furniture => 2 + rng.below(3),
-        Regime::Manipuland => usize::from(sentences.len() < 3),
-    };
-    let mut candidates: Vec<Relation> = Vec::new();
-    for f in furniture.iter().filter(|f| f.category != plan.anchor) {
-        candidates.extend(true_relations(&layout, &spec, &f.category, &[Behind, InFrontOf, NextTo, Opposite, Facing, ParallelTo], &furniture));
-    }
-    for _ in 0..extra {
-        if candidates.is_empty() {
-            break;
+
+    /// A few more relations between the furniture (but the `anchor`), drawn from those
+    /// that hold: two to four for a furniture prompt, one for a manipuland prompt still
+    /// short of three sentences.
+    fn furniture_relations(&mut self, regime: Regime, anchor: &str, rng: &mut Rng) {
+        let extra = match regime {
+            Regime::Furniture => 2 + rng.below(3),
+            Regime::Manipuland => usize::from(self.sentences.len() < 3),
+        };
+        let furniture = self.furniture;
+        let mut candidates: Vec<Relation> = Vec::new();
+        for f in furniture.iter().filter(|f| f.category != anchor) {
+            candidates.extend(true_relations(self.layout, &self.spec, &f.category, &[Behind, InFrontOf, NextTo, Opposite, Facing, ParallelTo], furniture));
         }
-        let r = candidates.swap_remove(rng.below(candidates.len()));
-        candidates.retain(|c| c.subject != r.subject || c.kind != r.kind);
-        let count_of = |c: &str| furniture.iter().find(|o| o.category == c).map_or(1, |o| o.count);
-        let subject_count = count_of(&r.subject);
-        sentences.push(format!("{} {}.", subject_is(&r.subject, subject_count), relation_phrase(r.kind, &r.targets, count_of)));
-        spec.relations.push(r);
+        for _ in 0..extra {
+            if candidates.is_empty() {
+                break;
+            }
+            let r = candidates.swap_remove(rng.below(candidates.len()));
+            candidates.retain(|c| c.subject != r.subject || c.kind != r.kind);
+            let count_of = |c: &str| furniture.iter().find(|o| o.category == c).map_or(1, |o| o.count);
+            let subject_count = count_of(&r.subject);
+            self.sentences.push(format!("{} {}.", subject_is(&r.subject, subject_count), relation_phrase(r.kind, &r.targets, count_of)));
+            self.spec.relations.push(r);
+        }
     }
-    let unmet = crate::synthesis::relations::unmet_relations(&spec, &layout);
-    (sentences.join(" "), spec, layout_seed, unmet)
 }

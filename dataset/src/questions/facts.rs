@@ -7,11 +7,10 @@ use std::collections::BTreeMap;
 
 use osmab_evaluator::vqa::QuestionForm;
 use osmab_evaluator::vqa::answer::ClassifiedGraph;
-use osmab_evaluator::vqa::graph::SceneGraph;
-use osmab_evaluator::vqa::judge::judge_without_llm;
-use serde_json::Value;
+use osmab_evaluator::vqa::graph::{GraphObject, SceneGraph};
+use osmab_evaluator::vqa::judge::judge_text_without_llm;
 
-use super::{SceneObject, oracle_graph};
+use super::{SceneObject, to_millimetre};
 
 /// Two boxes differ clearly in size when one is this many times the other's volume.
 pub const CLEARLY_LARGER: f64 = 1.5;
@@ -31,9 +30,22 @@ pub struct SceneFacts<'a> {
     answerer: ClassifiedGraph<'a>,
 }
 
-/// The scene graph a perfect map builds of `objects`, parsed.
+/// The scene graph a perfect map builds of `objects` ([`super::oracle_graph`]) as its parse
+/// reads it: every seen object with its label and caption (trimmed, lower case, the empty
+/// left out) and its box to the millimetre; no features, no edges.
 pub fn oracle_scene_graph(objects: &[SceneObject]) -> SceneGraph {
-    SceneGraph::parse(&oracle_graph(objects), "oracle").expect("the oracle's graph is well formed")
+    let objects = objects
+        .iter()
+        .filter(|o| o.seen())
+        .map(|o| GraphObject {
+            id: o.id.clone(),
+            texts: [&o.label, &o.caption].into_iter().map(|t| t.trim()).filter(|t| !t.is_empty()).map(str::to_lowercase).collect(),
+            center: to_millimetre(o.bbox_center),
+            extent: to_millimetre(o.bbox_extent),
+            features: None,
+        })
+        .collect();
+    SceneGraph { objects, edges: Vec::new() }
 }
 
 impl<'a> SceneFacts<'a> {
@@ -170,7 +182,7 @@ impl<'a> SceneFacts<'a> {
         };
         // Asked only when a perfect map's graph gives the scene's answer.
         let given = self.answerer.answer(form);
-        judge_without_llm(&Value::from(answer.as_str()), &Value::from(given), Some(form), None).is_some_and(|v| v.correct).then_some(answer)
+        judge_text_without_llm(&answer, &given, Some(form)).is_some_and(|v| v.correct).then_some(answer)
     }
 
     /// Whether the scene has `class`: `None` when it has one the camera never saw (a map
@@ -199,6 +211,23 @@ mod tests {
             caption: format!("a red {label}"),
             rests_on: Some(rests_on.into()),
         }
+    }
+
+    #[test]
+    fn the_typed_oracle_graph_is_the_parse_of_the_oracles_json_graph() {
+        let mut odd = object("o", "Lamp ", [0.12345, -0.0004, 1e-9], [0.0006, 2.0, 1.23456789], "floor", 50);
+        odd.caption = "  A Tall LAMP ".into();
+        let mut blank = object("p", "plant", [-1.0005, 0.5, 3.0], [0.3, 0.3, 0.3], "floor", 50);
+        blank.caption = "   ".into();
+        let objects = vec![
+            odd,
+            blank,
+            object("t", "table", [0.0, 0.375, 0.0], [1.2, 0.75, 0.8], "floor", 900),
+            object("b", "bed", [-3.0, 0.3, 3.0], [2.0, 0.6, 1.6], "floor", 0),
+        ];
+        let parsed = SceneGraph::parse(&super::super::oracle_graph(&objects), "oracle").unwrap();
+        assert_eq!(oracle_scene_graph(&objects), parsed);
+        assert_eq!(parsed.objects.len(), 3, "the unseen bed is left out");
     }
 
     #[test]

@@ -162,13 +162,18 @@ pub fn scene_objects(report: &ConversionReport, instances: &BTreeMap<i64, Instan
 /// The scene graph a perfect map builds: every seen object with its class, caption and
 /// box (to the millimetre, as a submission would carry it).
 pub fn oracle_graph(objects: &[SceneObject]) -> Value {
-    let mm = |v: [f64; 3]| v.map(|x| (x * 1000.0).round() / 1000.0);
+    let mm = to_millimetre;
     let nodes: Vec<Value> = objects
         .iter()
         .filter(|o| o.seen())
         .map(|o| json!({"id": o.id, "label": o.label, "caption": o.caption, "bbox_center": mm(o.bbox_center), "bbox_extent": mm(o.bbox_extent)}))
         .collect();
     json!({"objects": nodes})
+}
+
+/// `v` (metres) rounded to the millimetre, as the oracle's graph carries boxes.
+pub(crate) fn to_millimetre(v: [f64; 3]) -> [f64; 3] {
+    v.map(|x| (x * 1000.0).round() / 1000.0)
 }
 
 /// The id of the object with instance id `instance`.

@@ -90,19 +90,38 @@ impl Asking<'_> {
 
 /// The standard questions of a scene: (category, question), before ids are given.
 pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
-    let mut out: Vec<(&'static str, Candidate)> = Vec::new();
-    let mut add = |category: &'static str, drawn: Vec<Candidate>| out.extend(drawn.into_iter().map(|c| (category, c)));
-    let in_scene = |c: &str| format!("Is there {} in the scene?", with_article(c));
+    let mut out = existence_questions(asking);
+    out.extend(logical_questions(asking));
+    let counts = asking.counts(|c| format!("How many {} are there in the scene?", plural(c)));
+    out.extend(in_category("Measurement", draw_balanced(counts, is_nonzero, 2, &mut asking.rng)));
+    out.extend(in_category("Object Attributes", colours(asking, 3)));
+    out.extend(relation_questions(asking));
+    out.extend(comparison_questions(asking));
+    out
+}
 
-    // One draw for both existence categories, so they never ask the same question.
+/// `drawn` questions, each of `category`.
+fn in_category(category: &'static str, drawn: Vec<Candidate>) -> impl Iterator<Item = (&'static str, Candidate)> {
+    drawn.into_iter().map(move |c| (category, c))
+}
+
+/// Binary General and Binary Existence-Based: one draw of "is there a X" for both
+/// categories, so they never ask the same question, then "is the X <colour>".
+fn existence_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
+    let in_scene = |c: &str| format!("Is there {} in the scene?", with_article(c));
     let existence = draw_balanced(asking.existence(in_scene), is_yes, 3, &mut asking.rng);
     let per_side = existence.len() / 2;
     let (yes, no) = existence.split_at(per_side);
     let general = if per_side == 3 { 1 } else { 0 };
-    add("Binary General", yes[..general].iter().chain(&no[..general]).cloned().collect());
-    add("Binary Existence-Based", yes[general..].iter().chain(&no[general..]).cloned().collect());
-    add("Binary General", has_colour(asking));
+    let mut out: Vec<(&'static str, Candidate)> = Vec::new();
+    out.extend(in_category("Binary General", yes[..general].iter().chain(&no[..general]).cloned().collect()));
+    out.extend(in_category("Binary Existence-Based", yes[general..].iter().chain(&no[general..]).cloned().collect()));
+    out.extend(in_category("Binary General", has_colour(asking)));
+    out
+}
 
+/// Binary Logical: "X and Y" and "X or Y" over pairs of classes drawn by their odds.
+fn logical_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let pairs = asking.pairs(40);
     let all: Vec<Candidate> = pairs
         .iter()
@@ -118,14 +137,13 @@ pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)>
             asking.candidate(QuestionForm::ExistsAny { classes: vec![a.clone(), b.clone()] }, text)
         })
         .collect();
-    add("Binary Logical", draw_balanced(all, is_yes, 1, &mut asking.rng));
-    add("Binary Logical", draw_balanced(any, is_yes, 1, &mut asking.rng));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Binary Logical", draw_balanced(all, is_yes, 1, &mut asking.rng)).collect();
+    out.extend(in_category("Binary Logical", draw_balanced(any, is_yes, 1, &mut asking.rng)));
+    out
+}
 
-    let counts = asking.counts(|c| format!("How many {} are there in the scene?", plural(c)));
-    add("Measurement", draw_balanced(counts, is_nonzero, 2, &mut asking.rng));
-
-    add("Object Attributes", colours(asking, 3));
-
+/// Object Relations, spatial (the closest object, next to / near) and functional (resting on).
+fn relation_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let singles = asking.facts.singles();
     let present: Vec<&str> = asking.facts.classes().filter(|c| asking.facts.seen(c)).collect();
     let mut nearest = Vec::new();
@@ -149,10 +167,16 @@ pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)>
             }
         }
     }
-    add("Object Relations - Spatial", draw_balanced(nearest, is_yes, 1, &mut asking.rng));
-    add("Object Relations - Spatial", draw_balanced(beside, is_yes, 1, &mut asking.rng));
-    add("Object Relations - Functional", draw_balanced(resting, is_yes, 2, &mut asking.rng));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Object Relations - Spatial", draw_balanced(nearest, is_yes, 1, &mut asking.rng)).collect();
+    out.extend(in_category("Object Relations - Spatial", draw_balanced(beside, is_yes, 1, &mut asking.rng)));
+    out.extend(in_category("Object Relations - Functional", draw_balanced(resting, is_yes, 2, &mut asking.rng)));
+    out
+}
 
+/// Comparison: more X than Y, and is the X larger than the Y.
+fn comparison_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
+    let singles = asking.facts.singles();
+    let present: Vec<&str> = asking.facts.classes().filter(|c| asking.facts.seen(c)).collect();
     let mut more = Vec::new();
     for a in &present {
         for b in present.iter().filter(|b| *b != a) {
@@ -167,8 +191,8 @@ pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)>
             larger.extend(asking.candidate(form, format!("Is the {} larger than the {}?", a.label, b.label)));
         }
     }
-    add("Comparison", draw_balanced(more, is_yes, 1, &mut asking.rng));
-    add("Comparison", draw_balanced(larger, is_yes, 1, &mut asking.rng));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Comparison", draw_balanced(more, is_yes, 1, &mut asking.rng)).collect();
+    out.extend(in_category("Comparison", draw_balanced(larger, is_yes, 1, &mut asking.rng)));
     out
 }
 

@@ -25,17 +25,19 @@ use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
 
 use crate::convert::habitat::ConversionReport;
+use crate::prompts::ScenePrompt;
+use crate::questions::priors::QuestionPriors;
 use crate::questions::support::resting_on;
-use crate::questions::{scene_objects, scene_questions};
+use crate::questions::{SceneObject, scene_objects, scene_questions};
 use crate::render::mesh::World;
 use crate::render::sequence::SequenceSummary;
 use instances::InstanceLabels;
 use manifest::{digest, list_files};
 use osmab_evaluator::scores::Split;
-use osmab_evaluator::vqa::is_prompt_grounded;
+use osmab_evaluator::vqa::{SceneQuestions, is_prompt_grounded};
 use quality::{Rendered, SceneQuality, oracle_ceiling};
 use split::SplitSecret;
-use stages::{Build, INSTANCES_JSON, read_json, scene_name, write_json};
+use stages::{Build, INSTANCES_JSON, Selection, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK, packed_sequence_archive};
 
 pub use publication::GROUND_TRUTH;
@@ -86,98 +88,24 @@ pub fn render_release_sequence(config_path: &Path, out: &Path, secret: Option<&S
 /// operator's `secret`).
 pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, progress: &dyn Fn(&str)) -> Result<Value> {
     let build = Build::open(config_path, out, secret)?;
-    let (config, config_text) = (&build.config, &build.config_text);
-    let work = &build.work;
+    let config = &build.config;
     let selection = build.prompts(progress)?;
 
     // 3–6. Per scene: synthesis, conversion, trajectory, sequences, ground truth, questions.
     let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
     let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let layouts = build.pool_layouts()?;
-    let priors = crate::questions::priors::QuestionPriors::new(&layouts, &lexicon);
+    let priors = QuestionPriors::new(&layouts, &lexicon);
     progress(&format!("questions: odds from {} simulated layouts of the prompt pool", priors.layouts()));
+    let assembly = SceneAssembly { build: &build, out, lightings: &lightings, lexicon: &lexicon, priors: &priors, progress };
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
     let mut previews: Vec<(String, usize)> = Vec::new();
     for i in 0..selection.scenes.len() {
-        let scene = scene_name(i);
-        let settled = build.settle_scene(i, &selection, progress)?;
-        let split = build.split_of(i);
-        let prompt = &settled.prompt;
-        let habitat = build.habitat_dir(i);
-        let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
-        for lighting in &lightings {
-            let unit = SequenceUnit { scene_index: i, scene: scene.clone(), lighting: lighting.to_string() };
-            let summary = build.render_sequence(&unit, progress)?;
-            build.contact_sheet(&unit, &summary)?;
-            summaries.insert(lighting.to_string(), summary);
-        }
-        let gt_dir = build.ground_truth(i, progress)?;
-        // A test scene's prompt tells its prompt-grounded answers: it stays with the ground truth.
-        let open = publication::publishes_prompt_and_questions(split);
-        let prompt_root = if open { out.to_path_buf() } else { out.join(GROUND_TRUTH) };
-        write_json(
-            &prompt_root.join("scenes").join(&scene).join("prompt.json"),
-            &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "split": split, "prompt": prompt.text, "spec": prompt.spec}),
-        )?;
-        let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
-        let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
-        previews.push((scene.clone(), preview));
-        let mut scene_json = json!({
-            "id": scene,
-            "subset": prompt.spec.regime,
-            "split": split,
-            "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
-        });
-        if open {
-            scene_json["prompt"] = json!(prompt.text);
-            scene_json["questions"] = json!(format!("questions/{scene}.json"));
-        }
-        scenes_json.push(scene_json);
-
-        // The scene's objects: what the ground truth holds of each, what it rests on.
-        let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
-        let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
-        let gt = GroundTruth::read(&gt_dir, &classes)?;
-        let labels: InstanceLabels = read_json(&gt_dir.join(INSTANCES_JSON))?;
-        let world = World::load_habitat_scene(&habitat, &scene)?;
-        let objects = scene_objects(&conversion, &labels.instances, &resting_on(&world, &conversion));
-
-        // Questions: prompt-grounded and standard; a val scene's are public without their
-        // answers, a test scene's are not published at all (the server answers them from a
-        // submission's scene graph). The answers and the scene objects stay with the ground truth.
-        let questions = scene_questions(&scene, &prompt.spec, &objects, &lexicon, &priors, config.seed.wrapping_add(i as u64));
-        if open {
-            write_json(&out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
-        }
-        write_json(&out.join(GROUND_TRUTH).join("questions").join(format!("{scene}.json")), &questions)?;
-        write_json(&out.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json")), &json!({"scene": scene, "objects": objects}))?;
-
-        let unmet: Vec<String> = read_json(&build.unmet_path(i))?;
-        let rendered = Rendered {
-            split,
-            spec: &prompt.spec,
-            conversion: &conversion,
-            unmet: &unmet,
-            summaries: &summaries,
-            instances: &labels,
-            gt_labels: &gt.labels,
-            objects: &objects,
-            questions: &questions,
-            lexicon: &lexicon,
-        };
-        let measured = SceneQuality::measure(&scene, &prompt.id, settled.replaced.clone(), &rendered, &config.quality);
-        progress(&format!(
-            "{scene}: {} frames, {:.1} m, {} questions ({} prompt-grounded), {} of {} objects mapped{}",
-            measured.frames,
-            measured.travelled_m,
-            questions.questions.len(),
-            questions.questions.iter().filter(|q| is_prompt_grounded(&q.category)).count(),
-            objects.iter().filter(|o| o.seen()).count(),
-            objects.len(),
-            if measured.problems.is_empty() { String::new() } else { format!("; misses: {}", measured.problems.join("; ")) }
-        ));
-        quality.push(measured);
+        let scene = assembly.assemble(i, &selection)?;
+        scenes_json.push(scene.entry);
+        previews.push(scene.preview);
+        quality.push(scene.quality);
     }
 
     // The bar: every scene, and the oracle's answers over all of them.
@@ -185,27 +113,8 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let mut failures: Vec<String> = quality.iter().flat_map(|q| q.problems.iter().map(move |p| format!("{}: {p}", q.scene))).collect();
     failures.extend(oracle_problems.iter().cloned());
 
-    // The public tree: classes, quality report and overview, manifest.
-    contact::write_overview(out, &previews, &lightings, &out.join(OVERVIEW))?;
-    let classes_json: Value =
-        read_json(&work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
-    write_json(&out.join("classes.json"), &classes_json)?;
-    let scene_splits: Vec<Split> = quality.iter().map(|q| q.split).collect();
-    front_matter::write(out, &front_matter::Contents { config, splits: &scene_splits, lightings: &lightings })?;
-    let full = quality.iter().filter(|q| q.full_match).count();
-    write_json(
-        &out.join(GROUND_TRUTH).join(FULL_QUALITY_REPORT),
-        &json!({
-            "scenes": quality.len(),
-            "full_match": full,
-            "passed": quality.iter().filter(|q| q.problems.is_empty()).count(),
-            "bar": config.quality,
-            "oracle_vqa": oracle_accuracy,
-            "problems": failures,
-            "per_scene": quality,
-        }),
-    )?;
-    write_json(&out.join("quality/quality_report.json"), &public_quality_report(&quality, config))?;
+    write_public_tree(&build, out, &quality, &previews, &lightings)?;
+    write_quality_reports(out, config, &quality, &oracle_accuracy, &failures)?;
     if config.quality.enforce && !failures.is_empty() {
         return Err(InputError::new(
             out.join("quality/quality_report.json"),
@@ -213,43 +122,22 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
             format!("the release misses its quality bar (nothing was published): {}", failures.join("; ")),
         ));
     }
-    let scene_names: Vec<String> = quality.iter().map(|q| q.scene.clone()).collect();
-    let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
-    let mut gt_expected: Vec<String> = scene_names.iter().map(|s| format!("{s}/")).collect();
-    gt_expected.push(FULL_QUALITY_REPORT.into());
-    for q in &quality {
-        gt_expected.extend([format!("questions/{}.json", q.scene), format!("objects/{}.json", q.scene)]);
-        if !publication::publishes_prompt_and_questions(q.split) {
-            gt_expected.push(format!("scenes/{}/prompt.json", q.scene));
-        }
-    }
-    refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
-    write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
+    let gt_files = seal_ground_truth(out, config, &quality)?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
-    let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
-    expected.extend(front_matter::FILES.iter().map(|f| f.to_string()));
-    for q in &quality {
-        let scene = &q.scene;
-        if publication::publishes_prompt_and_questions(q.split) {
-            expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
-        }
-        for lighting in &lightings {
-            expected.extend([format!("sequences/{lighting}/{scene}/"), format!("quality/contact_sheets/{lighting}/{scene}.png")]);
-        }
-    }
-    refuse_leftovers(out, &files, &expected)?;
+    refuse_leftovers(out, &files, &expected_public_files(&quality, &lightings))?;
     let splits: BTreeMap<&str, Split> = quality.iter().map(|q| (q.scene.as_str(), q.split)).collect();
     let files = public_files(files, &gt_files, &splits);
     let manifest = json!({
         "version": config.version,
         "created": config.created,
         "digest": digest(&files),
-        "generator": generator(config_text, config, build.secret_id(), build.assets_digest()),
+        "generator": generator(&build.config_text, config, build.secret_id(), build.assets_digest()),
         "scenes": scenes_json,
         "lightings": lightings,
         "files": files,
     });
     write_json(&out.join("manifest.json"), &manifest)?;
+    let full = quality.iter().filter(|q| q.full_match).count();
     progress(&format!(
         "release {}: {} scenes, {full} full matches, {} files, digest {}",
         config.version,
@@ -258,6 +146,209 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
         manifest["digest"].as_str().unwrap_or("")
     ));
     Ok(manifest)
+}
+
+/// What the assembly of every scene shares: the build, the lightings, the class lexicon
+/// and the question odds of the prompt pool.
+struct SceneAssembly<'a> {
+    build: &'a Build,
+    out: &'a Path,
+    lightings: &'a [&'a str],
+    lexicon: &'a [String],
+    priors: &'a QuestionPriors<'a>,
+    progress: &'a dyn Fn(&str),
+}
+
+/// One assembled scene: its manifest entry, its preview frame and its measured quality.
+struct AssembledScene {
+    entry: Value,
+    preview: (String, usize),
+    quality: SceneQuality,
+}
+
+/// A scene's objects as the questions see them, with what they were made from.
+struct SceneTruth {
+    conversion: ConversionReport,
+    gt: GroundTruth,
+    labels: InstanceLabels,
+    objects: Vec<SceneObject>,
+}
+
+impl SceneAssembly<'_> {
+    /// Stages 3–6 of scene `i` and what the release says of it: its sequences, ground
+    /// truth, prompt, questions and measured quality.
+    fn assemble(&self, i: usize, selection: &Selection) -> Result<AssembledScene> {
+        let build = self.build;
+        let scene = scene_name(i);
+        let settled = build.settle_scene(i, selection, self.progress)?;
+        let split = build.split_of(i);
+        let prompt = &settled.prompt;
+        let summaries = self.render_sequences(i, &scene)?;
+        let gt_dir = build.ground_truth(i, self.progress)?;
+        // A test scene's prompt tells its prompt-grounded answers: it stays with the ground truth.
+        let open = publication::publishes_prompt_and_questions(split);
+        let prompt_root = if open { self.out.to_path_buf() } else { self.out.join(GROUND_TRUTH) };
+        write_json(
+            &prompt_root.join("scenes").join(&scene).join("prompt.json"),
+            &json!({"scene": scene, "prompt_id": prompt.id, "subset": prompt.spec.regime, "split": split, "prompt": prompt.text, "spec": prompt.spec}),
+        )?;
+        let (entry, preview) = scene_entry(&scene, prompt, split, &summaries, open);
+        let truth = scene_truth(&build.habitat_dir(i), &gt_dir, &scene)?;
+        let questions = self.write_questions(i, &scene, prompt, &truth.objects, open)?;
+        let unmet: Vec<String> = read_json(&build.unmet_path(i))?;
+        let rendered = Rendered {
+            split,
+            spec: &prompt.spec,
+            conversion: &truth.conversion,
+            unmet: &unmet,
+            summaries: &summaries,
+            instances: &truth.labels,
+            gt_labels: &truth.gt.labels,
+            objects: &truth.objects,
+            questions: &questions,
+            lexicon: self.lexicon,
+        };
+        let measured = SceneQuality::measure(&scene, &prompt.id, settled.replaced.clone(), &rendered, &build.config.quality);
+        (self.progress)(&scene_progress_line(&scene, &measured, &questions, &truth.objects));
+        Ok(AssembledScene { entry, preview: (scene, preview), quality: measured })
+    }
+
+    /// Stage 5 of scene `i`: its sequence under every lighting with its contact sheet;
+    /// returns each sequence's summary by lighting.
+    fn render_sequences(&self, i: usize, scene: &str) -> Result<BTreeMap<String, SequenceSummary>> {
+        let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
+        for lighting in self.lightings {
+            let unit = SequenceUnit { scene_index: i, scene: scene.to_string(), lighting: lighting.to_string() };
+            let summary = self.build.render_sequence(&unit, self.progress)?;
+            self.build.contact_sheet(&unit, &summary)?;
+            summaries.insert(lighting.to_string(), summary);
+        }
+        Ok(summaries)
+    }
+
+    /// Questions of scene `i`, prompt-grounded and standard, written where they belong: a
+    /// val scene's are public without their answers, a test scene's are not published at
+    /// all (the server answers them from a submission's scene graph). The answers and the
+    /// scene objects stay with the ground truth.
+    fn write_questions(&self, i: usize, scene: &str, prompt: &ScenePrompt, objects: &[SceneObject], open: bool) -> Result<SceneQuestions> {
+        let seed = self.build.config.seed.wrapping_add(i as u64);
+        let questions = scene_questions(scene, &prompt.spec, objects, self.lexicon, self.priors, seed);
+        if open {
+            write_json(&self.out.join("questions").join(format!("{scene}.json")), &questions.without_answers())?;
+        }
+        write_json(&self.out.join(GROUND_TRUTH).join("questions").join(format!("{scene}.json")), &questions)?;
+        write_json(&self.out.join(GROUND_TRUTH).join("objects").join(format!("{scene}.json")), &json!({"scene": scene, "objects": objects}))?;
+        Ok(questions)
+    }
+}
+
+/// A scene's entry in the manifest, and its preview frame (from the baseline sequence if
+/// there is one, else the first).
+fn scene_entry(scene: &str, prompt: &ScenePrompt, split: Split, summaries: &BTreeMap<String, SequenceSummary>, open: bool) -> (Value, usize) {
+    let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
+    let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
+    let mut entry = json!({
+        "id": scene,
+        "subset": prompt.spec.regime,
+        "split": split,
+        "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
+    });
+    if open {
+        entry["prompt"] = json!(prompt.text);
+        entry["questions"] = json!(format!("questions/{scene}.json"));
+    }
+    (entry, preview)
+}
+
+/// The scene's objects: what the ground truth holds of each, what it rests on.
+fn scene_truth(habitat: &Path, gt_dir: &Path, scene: &str) -> Result<SceneTruth> {
+    let conversion: ConversionReport = read_json(&habitat.join("conversion_report.json"))?;
+    let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
+    let gt = GroundTruth::read(gt_dir, &classes)?;
+    let labels: InstanceLabels = read_json(&gt_dir.join(INSTANCES_JSON))?;
+    let world = World::load_habitat_scene(habitat, scene)?;
+    let objects = scene_objects(&conversion, &labels.instances, &resting_on(&world, &conversion));
+    Ok(SceneTruth { conversion, gt, labels, objects })
+}
+
+/// The progress line of a finished scene: its frames, path, questions, objects mapped and misses.
+fn scene_progress_line(scene: &str, measured: &SceneQuality, questions: &SceneQuestions, objects: &[SceneObject]) -> String {
+    format!(
+        "{scene}: {} frames, {:.1} m, {} questions ({} prompt-grounded), {} of {} objects mapped{}",
+        measured.frames,
+        measured.travelled_m,
+        questions.questions.len(),
+        questions.questions.iter().filter(|q| is_prompt_grounded(&q.category)).count(),
+        objects.iter().filter(|o| o.seen()).count(),
+        objects.len(),
+        if measured.problems.is_empty() { String::new() } else { format!("; misses: {}", measured.problems.join("; ")) }
+    )
+}
+
+/// The public tree around the scenes: the overview contact sheet, the classes and the front matter.
+fn write_public_tree(build: &Build, out: &Path, quality: &[SceneQuality], previews: &[(String, usize)], lightings: &[&str]) -> Result<()> {
+    contact::write_overview(out, previews, lightings, &out.join(OVERVIEW))?;
+    let classes_json: Value =
+        read_json(&build.work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
+    write_json(&out.join("classes.json"), &classes_json)?;
+    let scene_splits: Vec<Split> = quality.iter().map(|q| q.split).collect();
+    front_matter::write(out, &front_matter::Contents { config: &build.config, splits: &scene_splits, lightings })
+}
+
+/// The full quality report (kept with the ground truth) and the public one.
+fn write_quality_reports(
+    out: &Path,
+    config: &config::ReleaseConfig,
+    quality: &[SceneQuality],
+    oracle_accuracy: &BTreeMap<String, f64>,
+    failures: &[String],
+) -> Result<()> {
+    write_json(
+        &out.join(GROUND_TRUTH).join(FULL_QUALITY_REPORT),
+        &json!({
+            "scenes": quality.len(),
+            "full_match": quality.iter().filter(|q| q.full_match).count(),
+            "passed": quality.iter().filter(|q| q.problems.is_empty()).count(),
+            "bar": config.quality,
+            "oracle_vqa": oracle_accuracy,
+            "problems": failures,
+            "per_scene": quality,
+        }),
+    )?;
+    write_json(&out.join("quality/quality_report.json"), &public_quality_report(quality, config))
+}
+
+/// Check the ground truth holds only what the scenes made and write its own manifest;
+/// returns its files.
+fn seal_ground_truth(out: &Path, config: &config::ReleaseConfig, quality: &[SceneQuality]) -> Result<Vec<manifest::FileEntry>> {
+    let gt_files = list_files(&out.join(GROUND_TRUTH), &["manifest.json"])?;
+    let mut gt_expected: Vec<String> = quality.iter().map(|q| format!("{}/", q.scene)).collect();
+    gt_expected.push(FULL_QUALITY_REPORT.into());
+    for q in quality {
+        gt_expected.extend([format!("questions/{}.json", q.scene), format!("objects/{}.json", q.scene)]);
+        if !publication::publishes_prompt_and_questions(q.split) {
+            gt_expected.push(format!("scenes/{}/prompt.json", q.scene));
+        }
+    }
+    refuse_leftovers(&out.join(GROUND_TRUTH), &gt_files, &gt_expected)?;
+    write_json(&out.join(GROUND_TRUTH).join("manifest.json"), &json!({"version": config.version, "files": gt_files, "digest": digest(&gt_files)}))?;
+    Ok(gt_files)
+}
+
+/// The files and folders the public tree of the release should hold, and nothing else.
+fn expected_public_files(quality: &[SceneQuality], lightings: &[&str]) -> Vec<String> {
+    let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
+    expected.extend(front_matter::FILES.iter().map(|f| f.to_string()));
+    for q in quality {
+        let scene = &q.scene;
+        if publication::publishes_prompt_and_questions(q.split) {
+            expected.extend([format!("scenes/{scene}/"), format!("questions/{scene}.json")]);
+        }
+        for lighting in lightings {
+            expected.extend([format!("sequences/{lighting}/{scene}/"), format!("quality/contact_sheets/{lighting}/{scene}.png")]);
+        }
+    }
+    expected
 }
 
 /// The manifest's provenance: the config, its seed and content digest, the code version

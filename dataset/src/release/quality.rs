@@ -14,8 +14,7 @@ use std::collections::BTreeMap;
 use osmab_evaluator::scores::Split;
 use osmab_evaluator::vqa::SceneQuestions;
 use osmab_evaluator::vqa::answer::ClassifiedGraph;
-use osmab_evaluator::vqa::graph::SceneGraph;
-use osmab_evaluator::vqa::judge::judge_without_llm;
+use osmab_evaluator::vqa::judge::judge_text_without_llm;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -23,7 +22,8 @@ use super::config::QualityConfig;
 use super::instances::InstanceLabels;
 use crate::convert::habitat::ConversionReport;
 use crate::convert::lexicon::{class_id, normalise_name};
-use crate::questions::{MIN_SEEN_POINTS, SceneObject, object_id, oracle_graph};
+use crate::questions::facts::oracle_scene_graph;
+use crate::questions::{MIN_SEEN_POINTS, SceneObject, object_id};
 use crate::render::coverage::Plan;
 use crate::render::sequence::SequenceSummary;
 use crate::spec::{Regime, SceneSpec};
@@ -226,13 +226,13 @@ pub fn lighting_quality(summaries: &BTreeMap<String, SequenceSummary>) -> BTreeM
 
 /// The oracle's graph (every seen object) answering `questions`.
 pub fn oracle_vqa(questions: &SceneQuestions, objects: &[SceneObject], lexicon: &[String]) -> OracleVqa {
-    let graph = SceneGraph::parse(&oracle_graph(objects), "oracle").expect("the oracle's graph is well formed");
+    let graph = oracle_scene_graph(objects);
     let answerer = ClassifiedGraph::new(&graph, lexicon);
     let mut out = OracleVqa::default();
     for q in &questions.questions {
         let (Some(form), Some(answer)) = (&q.form, &q.answer) else { continue };
         let given = answerer.answer(form);
-        let correct = judge_without_llm(&Value::from(answer.as_str()), &Value::from(given.as_str()), Some(form), None).is_some_and(|v| v.correct);
+        let correct = judge_text_without_llm(answer, &given, Some(form)).is_some_and(|v| v.correct);
         let tally = out.per_category.entry(q.category.clone()).or_default();
         tally[0] += correct as usize;
         tally[1] += 1;

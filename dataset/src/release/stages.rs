@@ -142,6 +142,17 @@ impl Selection {
     }
 }
 
+/// The keys selection knows a pool's accepted prompts by: id and position.
+fn pool_keys(pool: &PromptPool) -> Vec<String> {
+    pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect()
+}
+
+/// The accepted prompt of `pool` that `key` (of [`pool_keys`]) names.
+fn prompt_of_key(pool: &PromptPool, key: &str) -> ScenePrompt {
+    let index: usize = key.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
+    pool.accepted[index].clone()
+}
+
 /// One side's selection as a stage keeps it: per subset its scenes' prompts in order and
 /// its spares (and, for the val side, the selection's keys and embeddings, which the test
 /// side's draw continues from).
@@ -278,6 +289,18 @@ impl Build {
     /// test scenes draw theirs in the operator's secret order from the rest of the pool, so
     /// no public file tells which prompt a test scene was built from.
     pub fn prompts(&self, progress: &dyn Fn(&str)) -> Result<Selection> {
+        let pools = self.prompt_pools(progress)?;
+        let open = self.select_val_prompts(&pools, progress)?;
+        let test = match &self.secret {
+            Some(secret) => self.draw_test_prompts(&pools, &open, secret, progress)?,
+            None => OpenSelection::default(),
+        };
+        let scenes = self.assign_prompts(&open, &test)?;
+        Ok(Selection { scenes, spares: open.spares, test_spares: test.spares })
+    }
+
+    /// Stage 1: the prompt pool of each regime, written by the configured LLM or the grammar.
+    fn prompt_pools(&self, progress: &dyn Fn(&str)) -> Result<Vec<PromptPool>> {
         let (config, config_path, work) = (&self.config, &self.config_path, &self.work);
         let mut pools: Vec<PromptPool> = Vec::new();
         for (regime, count) in [(Regime::Furniture, config.prompts.furniture_pool), (Regime::Manipuland, config.prompts.manipuland_pool)] {
@@ -295,12 +318,13 @@ impl Build {
             })?;
             pools.push(read_json(&path)?);
         }
-        let keys_of = |pool: &PromptPool| -> Vec<String> { pool.accepted.iter().enumerate().map(|(i, p)| format!("{}#{i}", p.id)).collect() };
-        let prompt_of = |pool: &PromptPool, key: &str| -> ScenePrompt {
-            let index: usize = key.rsplit('#').next().and_then(|i| i.parse().ok()).expect("keys end in their position");
-            pool.accepted[index].clone()
-        };
+        Ok(pools)
+    }
 
+    /// Stage 2 for val scenes: the pool's farthest-first selection without near-duplicates,
+    /// each regime's scenes then its spares.
+    fn select_val_prompts(&self, pools: &[PromptPool], progress: &dyn Fn(&str)) -> Result<OpenSelection> {
+        let (config, config_path, work) = (&self.config, &self.config_path, &self.work);
         let open_dir = work.join("selection/out");
         staged(&work.join("selection/.done"), &self.inputs, &open_dir, || {
             progress("selection: removing near-duplicates, choosing diverse scenes");
@@ -313,11 +337,11 @@ impl Build {
             };
             let mut open = OpenSelection::default();
             let mut reports = BTreeMap::new();
-            for pool in &pools {
+            for pool in pools {
                 let regime = pool.regime;
                 let target = self.wanted(regime) - self.test_count(regime);
                 let texts: Vec<String> = pool.accepted.iter().map(|p| p.text.clone()).collect();
-                let keys = keys_of(pool);
+                let keys = pool_keys(pool);
                 let embeddings = embedder.embed(&texts).map_err(|e| InputError::new(config_path, "selection.embeddings", e.to_string()))?;
                 // Farthest-first is greedy: the first `target` are the val scenes, the rest spares
                 // (as many as the pool has beside what the test scenes need, twice over).
@@ -332,7 +356,7 @@ impl Build {
                 }
                 for (k, chosen) in report.selected.iter().enumerate() {
                     let list = if k < target { open.scenes.entry(regime).or_default() } else { open.spares.entry(regime).or_default() };
-                    list.push(prompt_of(pool, &chosen.id));
+                    list.push(prompt_of_key(pool, &chosen.id));
                 }
                 open.keys.insert(regime, report.selected.iter().map(|s| s.id.clone()).collect());
                 open.embeddings.insert(regime, embeddings);
@@ -341,61 +365,67 @@ impl Build {
             write_json(&open_dir.join("selection.json"), &json!({"embedder": embedder.name(), "regimes": reports}))?;
             write_json(&open_dir.join("open_selection.json"), &open)
         })?;
-        let open: OpenSelection = read_json(&open_dir.join("open_selection.json"))?;
+        read_json(&open_dir.join("open_selection.json"))
+    }
 
-        let mut test = OpenSelection::default();
-        if let Some(secret) = &self.secret {
-            let test_dir = work.join("selection/test");
-            staged(&work.join("selection/test.done"), &self.test_inputs(), &test_dir, || {
-                progress("selection: drawing the test scenes' prompts in the secret order");
-                let mut drawn = OpenSelection::default();
-                for pool in &pools {
-                    let regime = pool.regime;
-                    let target = self.test_count(regime);
-                    if target == 0 {
-                        continue;
-                    }
-                    let keys = keys_of(pool);
-                    let earlier = open.keys.get(&regime).cloned().unwrap_or_default();
-                    let embeddings = open.embeddings.get(&regime).cloned().unwrap_or_default();
-                    // The rest of the pool in the secret's order (no near-duplicate of a kept
-                    // prompt: one of a val prompt would all but publish the scene's). A uniform
-                    // draw, not farthest-first: test scenes are drawn like the pool's prompts,
-                    // so the odds questions are drawn against (the pool's) hold for them.
-                    let report = select(&keys, &embeddings, 0, config.selection.threshold);
-                    let duplicates: Vec<&str> = report.near_duplicates.iter().map(|d| d.id.as_str()).collect();
-                    let mut order: Vec<usize> = (0..keys.len()).filter(|&i| !earlier.contains(&keys[i]) && !duplicates.contains(&keys[i].as_str())).collect();
-                    order.sort_by_key(|&i| (secret.test_prompt_rank(&pool.accepted[i].id), i));
-                    let order: Vec<String> = order.into_iter().map(|i| keys[i].clone()).collect();
-                    if order.len() < target {
-                        return Err(InputError::new(
-                            config_path,
-                            "selection",
-                            format!(
-                                "only {} {} prompts are left for the {target} test scenes beside the val selection; enlarge the pool",
-                                order.len(),
-                                regime.name()
-                            ),
-                        ));
-                    }
-                    for (k, key) in order.iter().enumerate() {
-                        let list = if k < target { drawn.scenes.entry(regime).or_default() } else { drawn.spares.entry(regime).or_default() };
-                        list.push(prompt_of(pool, key));
-                    }
+    /// Stage 2 for test scenes: the rest of each pool (beside the val selection `open`) in
+    /// the order of the operator's `secret`.
+    fn draw_test_prompts(&self, pools: &[PromptPool], open: &OpenSelection, secret: &SplitSecret, progress: &dyn Fn(&str)) -> Result<OpenSelection> {
+        let (config, config_path, work) = (&self.config, &self.config_path, &self.work);
+        let test_dir = work.join("selection/test");
+        staged(&work.join("selection/test.done"), &self.test_inputs(), &test_dir, || {
+            progress("selection: drawing the test scenes' prompts in the secret order");
+            let mut drawn = OpenSelection::default();
+            for pool in pools {
+                let regime = pool.regime;
+                let target = self.test_count(regime);
+                if target == 0 {
+                    continue;
                 }
-                write_json(&test_dir.join("test_selection.json"), &drawn)
-            })?;
-            test = read_json(&test_dir.join("test_selection.json"))?;
-        }
+                let keys = pool_keys(pool);
+                let earlier = open.keys.get(&regime).cloned().unwrap_or_default();
+                let embeddings = open.embeddings.get(&regime).cloned().unwrap_or_default();
+                // The rest of the pool in the secret's order (no near-duplicate of a kept
+                // prompt: one of a val prompt would all but publish the scene's). A uniform
+                // draw, not farthest-first: test scenes are drawn like the pool's prompts,
+                // so the odds questions are drawn against (the pool's) hold for them.
+                let report = select(&keys, &embeddings, 0, config.selection.threshold);
+                let duplicates: Vec<&str> = report.near_duplicates.iter().map(|d| d.id.as_str()).collect();
+                let mut order: Vec<usize> = (0..keys.len()).filter(|&i| !earlier.contains(&keys[i]) && !duplicates.contains(&keys[i].as_str())).collect();
+                order.sort_by_key(|&i| (secret.test_prompt_rank(&pool.accepted[i].id), i));
+                let order: Vec<String> = order.into_iter().map(|i| keys[i].clone()).collect();
+                if order.len() < target {
+                    return Err(InputError::new(
+                        config_path,
+                        "selection",
+                        format!(
+                            "only {} {} prompts are left for the {target} test scenes beside the val selection; enlarge the pool",
+                            order.len(),
+                            regime.name()
+                        ),
+                    ));
+                }
+                for (k, key) in order.iter().enumerate() {
+                    let list = if k < target { drawn.scenes.entry(regime).or_default() } else { drawn.spares.entry(regime).or_default() };
+                    list.push(prompt_of_key(pool, key));
+                }
+            }
+            write_json(&test_dir.join("test_selection.json"), &drawn)
+        })?;
+        read_json(&test_dir.join("test_selection.json"))
+    }
 
-        // Scene by scene in the config's order: each takes the next prompt of its subset and split.
+    /// Scene by scene in the config's order: each takes the next prompt of its subset and
+    /// split (from `test` for a test scene, else from `open`).
+    fn assign_prompts(&self, open: &OpenSelection, test: &OpenSelection) -> Result<Vec<ScenePrompt>> {
+        let config_path = &self.config_path;
         let mut scenes = Vec::new();
         let mut taken: BTreeMap<(Regime, Split), usize> = BTreeMap::new();
         for regime in [Regime::Furniture, Regime::Manipuland] {
             for _ in 0..self.wanted(regime) {
                 let index = scenes.len();
                 let split = self.split_of(index);
-                let source = if split == Split::Test { &test } else { &open };
+                let source = if split == Split::Test { test } else { open };
                 let next = taken.entry((regime, split)).or_default();
                 let prompt = source.scenes.get(&regime).and_then(|list| list.get(*next)).cloned().ok_or_else(|| {
                     InputError::new(config_path, "selection", format!("no {split} prompt of the {} pool is left for scene {index}", regime.name()))
@@ -404,7 +434,7 @@ impl Build {
                 scenes.push(prompt);
             }
         }
-        Ok(Selection { scenes, spares: open.spares, test_spares: test.spares })
+        Ok(scenes)
     }
 
     /// The prompt pools' layouts the odds of questions are read from (stage 1's output,

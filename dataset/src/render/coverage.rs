@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::{SensorSettings, camera_pose};
 use super::mesh::World;
-use super::navigation::NavGrid;
+use super::navigation::{Distances, NavGrid};
 use super::raster::{Frame, render_visibility};
 use super::trajectory::{AgentState, MotionSettings, Walker, heading_towards, wrap};
 use super::view::{Observed, View, ViewpointRule};
@@ -200,38 +200,70 @@ impl Tally {
 
 /// Plan a trajectory through `grid` that observes `targets` in `world`.
 pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &MotionSettings, targets: &[Target], goals: &CoverageGoals) -> Plan {
-    let probe_sensor = sensor.scaled_to(PROBE_WIDTH);
-    let probe = Probe {
-        world,
-        floor_height: grid.floor_height,
-        scale: (sensor.width as f64 * sensor.height as f64) / (probe_sensor.width as f64 * probe_sensor.height as f64),
-        sensor: probe_sensor,
-    };
-    let rule = goals.viewpoint_rule(sensor.width, sensor.height);
-    let view_pixels = rule.min_pixels;
-    // A "good" view: enough pixels that the frames of a viewpoint leave the points wanted.
-    let dwell_gt_frames = ((4.0 * goals.sweep_degrees / (motion.turn_degrees / motion.sub_steps as f64)) / FRAME_STRIDE as f64).max(1.0);
-    let good_pixels = (goals.points * POINT_STRIDE as f64 / dwell_gt_frames).max(view_pixels);
-
-    let mut tallies: Vec<Tally> =
-        targets.iter().map(|t| Tally { target: t.clone(), weight: if t.prompted { PROMPTED_WEIGHT } else { 1.0 }, seen: Observed::default() }).collect();
-    let index: HashMap<u16, usize> = targets.iter().enumerate().map(|(i, t)| (t.instance_id, i)).collect();
-    let empty = Plan {
-        frames: Vec::new(),
-        goals: 0,
-        travelled: 0.0,
-        viewpoints: Vec::new(),
-        coverage: Vec::new(),
-        degenerate_frames: 0,
-        degenerate: Vec::new(),
-        never_visible: Vec::new(),
-    };
-
-    // Candidate viewpoints on a lattice of the largest free region.
     let region = grid.largest_region();
     if region.is_empty() {
-        return empty;
+        return Plan::empty();
     }
+    let planner = Planner::new(world, grid, sensor, motion, goals, targets);
+    let candidates = planner.probe_candidates(&candidate_cells(grid, &region));
+    let never_visible = planner.never_visible(targets, &candidates);
+    let mut tallies: Vec<Tally> =
+        targets.iter().map(|t| Tally { target: t.clone(), weight: if t.prompted { PROMPTED_WEIGHT } else { 1.0 }, seen: Observed::default() }).collect();
+
+    let start_cell = planner.start_cell(&candidates, &tallies);
+    let mut walker = planner.look_around(&candidates, start_cell);
+    let mut crediting = Crediting { frame: Frame::default(), credited: 0, degenerate: Vec::new() };
+    crediting.credit_new_frames(&planner, &walker, &mut tallies);
+    let mut viewpoints = planner.visit_viewpoints(&candidates, &never_visible, &mut walker, &mut tallies, &mut crediting);
+
+    renumber_goals(&mut walker.frames, &mut viewpoints);
+    let goal_count = split_goals(&mut walker.frames, &mut viewpoints, motion.goals);
+    Plan {
+        goals: goal_count,
+        travelled: walker.travelled,
+        frames: walker.frames,
+        viewpoints,
+        coverage: tallies.into_iter().map(Tally::predicted).collect(),
+        degenerate_frames: crediting.degenerate.len(),
+        degenerate: crediting.degenerate,
+        never_visible,
+    }
+}
+
+impl Plan {
+    /// The plan of a scene with nowhere to stand: no frames, nothing observed.
+    fn empty() -> Plan {
+        Plan {
+            frames: Vec::new(),
+            goals: 0,
+            travelled: 0.0,
+            viewpoints: Vec::new(),
+            coverage: Vec::new(),
+            degenerate_frames: 0,
+            degenerate: Vec::new(),
+            never_visible: Vec::new(),
+        }
+    }
+}
+
+impl Tally {
+    /// What the walked frames showed of this object, as the plan reports it.
+    fn predicted(self) -> PredictedCoverage {
+        PredictedCoverage {
+            instance_id: self.target.instance_id,
+            class: self.target.class,
+            prompted: self.target.prompted,
+            frames: self.seen.frames,
+            viewpoints: self.seen.viewpoints.len(),
+            points: self.seen.points,
+            closest: self.seen.closest,
+        }
+    }
+}
+
+/// Candidate viewpoint cells: a lattice over the largest free `region`, keeping clearance
+/// where it can; the lattice alone, or the single clearest cell, where it cannot.
+fn candidate_cells(grid: &NavGrid, region: &[usize]) -> Vec<usize> {
     let area = region.len() as f64 * grid.cell_size * grid.cell_size;
     let spacing = (area / MAX_POSITIONS as f64).sqrt().max(0.35);
     let stride = ((spacing / grid.cell_size).round() as usize).max(1);
@@ -243,127 +275,163 @@ pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &Mot
     if cells.is_empty() {
         cells.push(*region.iter().max_by(|&&a, &&b| grid.clearance[a].total_cmp(&grid.clearance[b]).then(b.cmp(&a))).expect("non-empty"));
     }
-    let jobs: Vec<(usize, usize)> = cells.iter().flat_map(|&c| (0..HEADINGS).map(move |h| (c, h))).collect();
-    let candidates: Vec<Candidate> = jobs
-        .par_iter()
-        .map_init(Frame::default, |frame, &(cell, h)| {
-            let position = grid.centre(cell);
-            let heading = wrap(h as f64 * std::f64::consts::TAU / HEADINGS as f64);
-            let state = AgentState { x: position[0], z: position[1], yaw: heading, goal_index: 0, action: super::trajectory::Action::TurnLeft };
-            Candidate { cell, position, heading, view: probe.view(&state, frame) }
-        })
-        .collect();
-    let never_visible: Vec<u16> = targets
-        .iter()
-        .filter(|t| candidates.iter().all(|c| (c.view.pixels_of(t.instance_id) as f64) * probe.scale < view_pixels))
-        .map(|t| t.instance_id)
-        .collect();
+    cells
+}
 
-    // The start: the position overlooking the most (weighted) objects; the seed picks
-    // among the best three.
-    // (Candidates come position by position, HEADINGS at a time.)
-    let overlook = |headings: &[Candidate]| -> f64 {
-        tallies
-            .iter()
-            .filter(|t| headings.iter().any(|c| c.view.pixels_of(t.target.instance_id) as f64 * probe.scale >= view_pixels))
-            .map(|t| t.weight)
-            .sum::<f64>()
-            + grid.clearance[headings[0].cell].min(1.0) * 0.5
-    };
-    let mut starts: Vec<(f64, usize)> = candidates.chunks(HEADINGS).map(|h| (overlook(h), h[0].cell)).collect();
-    starts.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut rng = Rng::new(motion.seed);
-    let start_cell = starts[rng.below(starts.len().min(3))].1;
-    let start = grid.centre(start_cell);
+/// The heading indices of candidate `k`'s position (candidates come HEADINGS at a time)
+/// whose probe view is degenerate.
+fn degenerate_headings(candidates: &[Candidate], k: usize) -> Vec<bool> {
+    candidates[k - k % HEADINGS..k - k % HEADINGS + HEADINGS].iter().map(|c| c.view.degenerate()).collect()
+}
 
-    // The look-around: the shortest arc of headings holding every heading that sees an
-    // object, or the whole turn when objects are all around.
-    let at_start: Vec<&Candidate> = candidates.iter().filter(|c| c.cell == start_cell).collect();
-    let useful: Vec<bool> = at_start
-        .iter()
-        .map(|c| !c.view.degenerate() && c.view.objects.iter().any(|v| index.contains_key(&v.instance_id) && v.pixels as f64 * probe.scale >= view_pixels))
-        .collect();
-    let step = std::f64::consts::TAU / HEADINGS as f64;
-    let (arc_start, arc_len) = look_around_arc(&useful);
-    let first_heading = at_start.get(arc_start).map_or(0.0, |c| c.heading);
-    let mut walker = Walker::new(grid, *motion, start, first_heading);
-    walker.turn_by(arc_len as f64 * step);
+/// What the planner consults throughout: the scene, the probe, the motion, the goals and
+/// what makes a view of an object count.
+struct Planner<'a> {
+    grid: &'a NavGrid,
+    motion: &'a MotionSettings,
+    goals: &'a CoverageGoals,
+    probe: Probe<'a>,
+    rule: ViewpointRule,
+    /// Full-resolution pixels an object covers in a view that counts as a viewpoint.
+    view_pixels: f64,
+    /// Pixels of a "good" view: enough that the frames of a viewpoint leave the points wanted.
+    good_pixels: f64,
+    /// The index into the targets (and tallies) of each instance id.
+    index: HashMap<u16, usize>,
+}
 
-    let mut frame = Frame::default();
-    let mut credited = 0;
-    let mut degenerate = Vec::new();
-    let mut credit = |walker: &Walker, tallies: &mut Vec<Tally>, credited: &mut usize, degenerate: &mut Vec<usize>| {
-        for (i, state) in walker.frames.iter().enumerate().skip(*credited) {
-            let view = probe.view(state, &mut frame);
-            if view.degenerate() {
-                degenerate.push(i);
-            }
-            for v in &view.objects {
-                let Some(&t) = index.get(&v.instance_id) else { continue };
-                tallies[t].seen.add(i, [state.x, state.z], v.pixels as f64 * probe.scale, v.nearest as f64, &rule);
-            }
-        }
-        *credited = walker.frames.len();
-    };
-    credit(&walker, &mut tallies, &mut credited, &mut degenerate);
+/// Whether the walk is still covering objects, and how far it has yet to travel.
+#[derive(Clone, Copy)]
+struct Need {
+    covering: bool,
+    travel: f64,
+}
 
-    let mut used = vec![false; candidates.len()];
-    let mut viewpoints = Vec::new();
-    let sweep = goals.sweep_degrees.to_radians();
-    let (step_m, turn_rad) = (motion.step_per_frame(), motion.turn_per_frame());
-    let sweep_frames = 4.0 * sweep / turn_rad;
-    let frames_per_heading = std::f64::consts::TAU / HEADINGS as f64 / turn_rad;
-    // Per position (candidates come HEADINGS at a time), which headings show a degenerate view.
-    let degenerate_at = |k: usize| -> Vec<bool> { candidates[k - k % HEADINGS..k - k % HEADINGS + HEADINGS].iter().map(|c| c.view.degenerate()).collect() };
-    for _ in 0..candidates.len() {
-        if walker.budget_left() < motion.sub_steps as usize {
-            break;
-        }
-        let covering = tallies.iter().any(|t| !t.satisfied(goals) && !never_visible.contains(&t.target.instance_id));
-        if !covering && walker.travelled >= goals.min_travel {
-            break;
-        }
-        let here = walker.position();
-        let Some(here_cell) = grid.cell_of(here[0], here[1]) else { break };
-        let distances = grid.distances_from(here_cell);
-        // The gain of a candidate: while covering, what it adds to objects still short of
-        // views or points; afterwards further distinct viewpoints of anything well seen,
-        // or, while the camera has not travelled far enough, the distance it adds.
-        let travel_needed = (goals.min_travel - walker.travelled).max(0.0);
-        let gain = |c: &Candidate, length: f64| -> (f64, Vec<u16>) {
-            if !covering && travel_needed > 0.0 {
-                return (length.min(travel_needed) + 0.01, Vec::new());
-            }
-            let mut gain = 0.0;
-            let mut why = Vec::new();
-            for v in &c.view.objects {
-                let Some(&t) = index.get(&v.instance_id) else { continue };
-                let tally = &tallies[t];
-                let pixels = v.pixels as f64 * probe.scale;
-                let g = if covering {
-                    if tally.satisfied(goals) {
-                        0.0
-                    } else {
-                        let view = (pixels >= view_pixels && tally.needs_view_at(goals, c.position)) as u8 as f64;
-                        let points = if tally.seen.points < goals.points { (pixels / good_pixels).min(1.0) } else { 0.0 };
-                        view + points
-                    }
-                } else {
-                    (pixels >= good_pixels && tally.seen.far_from_viewpoints(c.position, goals.separation)) as u8 as f64 * 0.5
-                };
-                if g > 0.0 {
-                    gain += tally.weight * g;
-                    why.push(v.instance_id);
-                }
-            }
-            // Once covered, a goal that only adds a goal still counts.
-            if !covering {
-                gain += 0.01;
-            }
-            (gain, why)
+impl<'a> Planner<'a> {
+    /// The planner for `targets` seen through `sensor` at probe resolution.
+    fn new(world: &'a World, grid: &'a NavGrid, sensor: &SensorSettings, motion: &'a MotionSettings, goals: &'a CoverageGoals, targets: &[Target]) -> Self {
+        let probe_sensor = sensor.scaled_to(PROBE_WIDTH);
+        let probe = Probe {
+            world,
+            floor_height: grid.floor_height,
+            scale: (sensor.width as f64 * sensor.height as f64) / (probe_sensor.width as f64 * probe_sensor.height as f64),
+            sensor: probe_sensor,
         };
-        // Views that show something well first; any view when none does (an empty room
-        // still needs its goals and its travel).
+        let rule = goals.viewpoint_rule(sensor.width, sensor.height);
+        let view_pixels = rule.min_pixels;
+        let dwell_gt_frames = ((4.0 * goals.sweep_degrees / (motion.turn_degrees / motion.sub_steps as f64)) / FRAME_STRIDE as f64).max(1.0);
+        let good_pixels = (goals.points * POINT_STRIDE as f64 / dwell_gt_frames).max(view_pixels);
+        let index = targets.iter().enumerate().map(|(i, t)| (t.instance_id, i)).collect();
+        Planner { grid, motion, goals, probe, rule, view_pixels, good_pixels, index }
+    }
+
+    /// Probe views from every heading at each of `cells`, position by position.
+    fn probe_candidates(&self, cells: &[usize]) -> Vec<Candidate> {
+        let jobs: Vec<(usize, usize)> = cells.iter().flat_map(|&c| (0..HEADINGS).map(move |h| (c, h))).collect();
+        jobs.par_iter()
+            .map_init(Frame::default, |frame, &(cell, h)| {
+                let position = self.grid.centre(cell);
+                let heading = wrap(h as f64 * std::f64::consts::TAU / HEADINGS as f64);
+                let state = AgentState { x: position[0], z: position[1], yaw: heading, goal_index: 0, action: super::trajectory::Action::TurnLeft };
+                Candidate { cell, position, heading, view: self.probe.view(&state, frame) }
+            })
+            .collect()
+    }
+
+    /// The targets no candidate sees well enough for a viewpoint.
+    fn never_visible(&self, targets: &[Target], candidates: &[Candidate]) -> Vec<u16> {
+        targets
+            .iter()
+            .filter(|t| candidates.iter().all(|c| (c.view.pixels_of(t.instance_id) as f64) * self.probe.scale < self.view_pixels))
+            .map(|t| t.instance_id)
+            .collect()
+    }
+
+    /// The start: the position overlooking the most (weighted) objects; the seed picks
+    /// among the best three.
+    fn start_cell(&self, candidates: &[Candidate], tallies: &[Tally]) -> usize {
+        // (Candidates come position by position, HEADINGS at a time.)
+        let overlook = |headings: &[Candidate]| -> f64 {
+            tallies
+                .iter()
+                .filter(|t| headings.iter().any(|c| c.view.pixels_of(t.target.instance_id) as f64 * self.probe.scale >= self.view_pixels))
+                .map(|t| t.weight)
+                .sum::<f64>()
+                + self.grid.clearance[headings[0].cell].min(1.0) * 0.5
+        };
+        let mut starts: Vec<(f64, usize)> = candidates.chunks(HEADINGS).map(|h| (overlook(h), h[0].cell)).collect();
+        starts.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut rng = Rng::new(self.motion.seed);
+        starts[rng.below(starts.len().min(3))].1
+    }
+
+    /// A walker at `start_cell` that has looked around: the shortest arc of headings
+    /// holding every heading that sees an object, or the whole turn when objects are all around.
+    fn look_around(&self, candidates: &[Candidate], start_cell: usize) -> Walker<'a> {
+        let at_start: Vec<&Candidate> = candidates.iter().filter(|c| c.cell == start_cell).collect();
+        let useful: Vec<bool> = at_start
+            .iter()
+            .map(|c| {
+                !c.view.degenerate()
+                    && c.view.objects.iter().any(|v| self.index.contains_key(&v.instance_id) && v.pixels as f64 * self.probe.scale >= self.view_pixels)
+            })
+            .collect();
+        let step = std::f64::consts::TAU / HEADINGS as f64;
+        let (arc_start, arc_len) = look_around_arc(&useful);
+        let first_heading = at_start.get(arc_start).map_or(0.0, |c| c.heading);
+        let mut walker = Walker::new(self.grid, *self.motion, self.grid.centre(start_cell), first_heading);
+        walker.turn_by(arc_len as f64 * step);
+        walker
+    }
+
+    /// Walk viewpoint after viewpoint, each the best value for its cost, until every object
+    /// is covered and the camera has travelled enough (or the frames run out).
+    fn visit_viewpoints(
+        &self,
+        candidates: &[Candidate],
+        never_visible: &[u16],
+        walker: &mut Walker,
+        tallies: &mut [Tally],
+        crediting: &mut Crediting,
+    ) -> Vec<PlannedView> {
+        let mut used = vec![false; candidates.len()];
+        let mut viewpoints = Vec::new();
+        for _ in 0..candidates.len() {
+            if walker.budget_left() < self.motion.sub_steps as usize {
+                break;
+            }
+            let covering = tallies.iter().any(|t| !t.satisfied(self.goals) && !never_visible.contains(&t.target.instance_id));
+            if !covering && walker.travelled >= self.goals.min_travel {
+                break;
+            }
+            let here = walker.position();
+            let Some(here_cell) = self.grid.cell_of(here[0], here[1]) else { break };
+            let distances = self.grid.distances_from(here_cell);
+            let need = Need { covering, travel: (self.goals.min_travel - walker.travelled).max(0.0) };
+            let Some((k, why)) = self.best_viewpoint(candidates, &used, &distances, walker, tallies, need) else { break };
+            used[k] = true;
+            let (arrived, view) = self.go_to_viewpoint(candidates, k, why, &distances, walker);
+            viewpoints.push(view);
+            crediting.credit_new_frames(self, walker, tallies);
+            if !arrived && walker.budget_left() < self.motion.sub_steps as usize {
+                break;
+            }
+        }
+        viewpoints
+    }
+
+    /// The unused candidate with the most gain per frame it costs, and the objects it is
+    /// for: views that show something well first; any view when none does (an empty room
+    /// still needs its goals and its travel).
+    fn best_viewpoint(
+        &self,
+        candidates: &[Candidate],
+        used: &[bool],
+        distances: &Distances,
+        walker: &Walker,
+        tallies: &[Tally],
+        need: Need,
+    ) -> Option<(usize, Vec<u16>)> {
         let mut best: Option<(f64, usize, Vec<u16>)> = None;
         for picky in [true, false] {
             for (k, c) in candidates.iter().enumerate() {
@@ -374,25 +442,11 @@ pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &Mot
                 if !length.is_finite() {
                     continue;
                 }
-                let (g, why) = gain(c, length);
+                let (g, why) = self.gain(c, length, tallies, need);
                 if g <= 0.0 {
                     continue;
                 }
-                let travel_heading = if length > 0.1 { heading_towards(here, c.position) } else { walker.yaw };
-                // Frames facing bare walls: arriving towards one, turning past them. A goal
-                // only for the distance is not turned to or swept.
-                let walls = degenerate_at(k);
-                let arrival = heading_index(travel_heading);
-                let arrival_walls = if length > 0.1 && walls[arrival] { ARRIVAL_FRAMES } else { 0.0 };
-                let cost = if why.is_empty() {
-                    length / step_m + wrap(travel_heading - walker.yaw).abs() / turn_rad + FIXED_COST + DEGENERATE_COST * arrival_walls
-                } else {
-                    let turns = wrap(travel_heading - walker.yaw).abs() + wrap(c.heading - travel_heading).abs();
-                    let (_, passed) = turn_direction(&walls, arrival, k % HEADINGS);
-                    let degenerate_frames = arrival_walls + passed as f64 * frames_per_heading;
-                    length / step_m + turns / turn_rad + sweep_frames + FIXED_COST + DEGENERATE_COST * degenerate_frames
-                };
-                let score = g / cost;
+                let score = g / self.cost(candidates, k, length, walker, why.is_empty());
                 if best.as_ref().is_none_or(|b| score > b.0) {
                     best = Some((score, k, why));
                 }
@@ -401,12 +455,75 @@ pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &Mot
                 break;
             }
         }
-        let Some((_, k, why)) = best else { break };
-        used[k] = true;
+        best.map(|(_, k, why)| (k, why))
+    }
+
+    /// The gain of a candidate `length` metres away, and the objects it adds to: while
+    /// covering, what it adds to objects still short of views or points; afterwards further
+    /// distinct viewpoints of anything well seen, or, while the camera has not travelled
+    /// far enough, the distance it adds.
+    fn gain(&self, c: &Candidate, length: f64, tallies: &[Tally], need: Need) -> (f64, Vec<u16>) {
+        if !need.covering && need.travel > 0.0 {
+            return (length.min(need.travel) + 0.01, Vec::new());
+        }
+        let mut gain = 0.0;
+        let mut why = Vec::new();
+        for v in &c.view.objects {
+            let Some(&t) = self.index.get(&v.instance_id) else { continue };
+            let tally = &tallies[t];
+            let pixels = v.pixels as f64 * self.probe.scale;
+            let g = if need.covering {
+                if tally.satisfied(self.goals) {
+                    0.0
+                } else {
+                    let view = (pixels >= self.view_pixels && tally.needs_view_at(self.goals, c.position)) as u8 as f64;
+                    let points = if tally.seen.points < self.goals.points { (pixels / self.good_pixels).min(1.0) } else { 0.0 };
+                    view + points
+                }
+            } else {
+                (pixels >= self.good_pixels && tally.seen.far_from_viewpoints(c.position, self.goals.separation)) as u8 as f64 * 0.5
+            };
+            if g > 0.0 {
+                gain += tally.weight * g;
+                why.push(v.instance_id);
+            }
+        }
+        // Once covered, a goal that only adds a goal still counts.
+        if !need.covering {
+            gain += 0.01;
+        }
+        (gain, why)
+    }
+
+    /// The frames candidate `k`, `length` metres away, costs: its travel, its turns, its
+    /// sweep and a fixed cost, with frames facing bare walls (arriving towards one, turning
+    /// past them) costing more. A goal `only_for_travel` is not turned to or swept.
+    fn cost(&self, candidates: &[Candidate], k: usize, length: f64, walker: &Walker, only_for_travel: bool) -> f64 {
+        let c = &candidates[k];
+        let (step_m, turn_rad) = (self.motion.step_per_frame(), self.motion.turn_per_frame());
+        let travel_heading = if length > 0.1 { heading_towards(walker.position(), c.position) } else { walker.yaw };
+        let walls = degenerate_headings(candidates, k);
+        let arrival = heading_index(travel_heading);
+        let arrival_walls = if length > 0.1 && walls[arrival] { ARRIVAL_FRAMES } else { 0.0 };
+        if only_for_travel {
+            length / step_m + wrap(travel_heading - walker.yaw).abs() / turn_rad + FIXED_COST + DEGENERATE_COST * arrival_walls
+        } else {
+            let sweep_frames = 4.0 * self.goals.sweep_degrees.to_radians() / turn_rad;
+            let frames_per_heading = std::f64::consts::TAU / HEADINGS as f64 / turn_rad;
+            let turns = wrap(travel_heading - walker.yaw).abs() + wrap(c.heading - travel_heading).abs();
+            let (_, passed) = turn_direction(&walls, arrival, k % HEADINGS);
+            let degenerate_frames = arrival_walls + passed as f64 * frames_per_heading;
+            length / step_m + turns / turn_rad + sweep_frames + FIXED_COST + DEGENERATE_COST * degenerate_frames
+        }
+    }
+
+    /// Walk to candidate `k` as a new goal: its path, then (unless it is only for travel)
+    /// a turn to its heading and a sweep. Returns whether it got there, and the viewpoint.
+    fn go_to_viewpoint(&self, candidates: &[Candidate], k: usize, why: Vec<u16>, distances: &Distances, walker: &mut Walker) -> (bool, PlannedView) {
         let c = &candidates[k];
         walker.goal += 1;
-        let path = grid.path_to(&distances, c.cell).unwrap_or_default();
-        let walls = degenerate_at(k);
+        let path = self.grid.path_to(distances, c.cell).unwrap_or_default();
+        let walls = degenerate_headings(candidates, k);
         // Within a heading step the short way; further, the way past fewer bare walls.
         let arrived = walker.follow(&path)
             && if why.is_empty() {
@@ -416,37 +533,35 @@ pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &Mot
             } else {
                 walker.turn_towards(c.heading, turn_direction(&walls, heading_index(walker.yaw), k % HEADINGS).0)
             }
-            && (why.is_empty() || walker.sweep(sweep));
+            && (why.is_empty() || walker.sweep(self.goals.sweep_degrees.to_radians()));
         let heading_deg = if why.is_empty() { wrap(walker.yaw).to_degrees() } else { c.heading.to_degrees() };
-        viewpoints.push(PlannedView { goal: walker.goal, position: c.position, heading_deg, for_instances: why });
-        credit(&walker, &mut tallies, &mut credited, &mut degenerate);
-        if !arrived && walker.budget_left() < motion.sub_steps as usize {
-            break;
-        }
+        (arrived, PlannedView { goal: walker.goal, position: c.position, heading_deg, for_instances: why })
     }
+}
 
-    renumber_goals(&mut walker.frames, &mut viewpoints);
-    let goal_count = split_goals(&mut walker.frames, &mut viewpoints, motion.goals);
-    Plan {
-        goals: goal_count,
-        travelled: walker.travelled,
-        frames: walker.frames,
-        viewpoints,
-        coverage: tallies
-            .into_iter()
-            .map(|t| PredictedCoverage {
-                instance_id: t.target.instance_id,
-                class: t.target.class,
-                prompted: t.target.prompted,
-                frames: t.seen.frames,
-                viewpoints: t.seen.viewpoints.len(),
-                points: t.seen.points,
-                closest: t.seen.closest,
-            })
-            .collect(),
-        degenerate_frames: degenerate.len(),
-        degenerate,
-        never_visible,
+/// Credits the walked frames, as they come, to the objects their probe views show.
+struct Crediting {
+    frame: Frame,
+    /// Frames of the walker credited so far.
+    credited: usize,
+    /// Indices of the walked frames whose probe view is degenerate.
+    degenerate: Vec<usize>,
+}
+
+impl Crediting {
+    /// Probe the frames walked since the last call and credit what each shows to `tallies`.
+    fn credit_new_frames(&mut self, planner: &Planner, walker: &Walker, tallies: &mut [Tally]) {
+        for (i, state) in walker.frames.iter().enumerate().skip(self.credited) {
+            let view = planner.probe.view(state, &mut self.frame);
+            if view.degenerate() {
+                self.degenerate.push(i);
+            }
+            for v in &view.objects {
+                let Some(&t) = planner.index.get(&v.instance_id) else { continue };
+                tallies[t].seen.add(i, [state.x, state.z], v.pixels as f64 * planner.probe.scale, v.nearest as f64, &planner.rule);
+            }
+        }
+        self.credited = walker.frames.len();
     }
 }
 

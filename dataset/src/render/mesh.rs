@@ -116,8 +116,7 @@ impl World {
         let instance_path = dir.join("scenes").join(format!("{scene}.scene_instance.json"));
         let text = std::fs::read(&instance_path).map_err(|e| InputError::io(&instance_path, &e))?;
         let instance: Value = serde_json::from_slice(&text).map_err(|e| InputError::new(&instance_path, "(json)", e.to_string()))?;
-        let (mut triangles, mut surfaces) = (Vec::new(), Vec::new());
-        let mut texture_cache: Vec<(String, Option<std::sync::Arc<Texture>>)> = Vec::new();
+        let mut builder = WorldBuilder::default();
         for (i, object) in instance["object_instances"].as_array().into_iter().flatten().enumerate() {
             let field = format!("object_instances[{i}]");
             let handle = object["template_name"].as_str().ok_or_else(|| InputError::new(&instance_path, &field, "missing template_name"))?;
@@ -125,77 +124,130 @@ impl World {
             let template: Value = serde_json::from_slice(&std::fs::read(&template_path).map_err(|e| InputError::io(&template_path, &e))?)
                 .map_err(|e| InputError::new(&template_path, "(json)", e.to_string()))?;
             let asset = dir.join("objects").join(template["render_asset"].as_str().ok_or_else(|| InputError::new(&template_path, "render_asset", "missing"))?);
-            let class_id = template["user_defined"]["class_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16;
-            let instance_id = template["semantic_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16;
-            let (t, q, s) = (
-                floats(&object["translation"], 3).unwrap_or(vec![0.0; 3]),
-                floats(&object["rotation"], 4).unwrap_or(vec![1.0, 0.0, 0.0, 0.0]),
-                floats(&object["non_uniform_scale"], 3).unwrap_or(vec![1.0; 3]),
-            );
-            let rotation = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
-            let transform = Matrix4::new_translation(&Vector3::new(t[0], t[1], t[2]))
-                * rotation.to_homogeneous()
-                * Matrix4::new_nonuniform_scaling(&Vector3::new(s[0], s[1], s[2]));
-            let normal_matrix = transform.fixed_view::<3, 3>(0, 0).try_inverse().map(|m| m.transpose()).unwrap_or_else(nalgebra::Matrix3::identity);
-            let place = |p: [f32; 3]| {
-                let w = transform.transform_point(&Point3::new(p[0] as f64, p[1] as f64, p[2] as f64));
-                [w.x as f32, w.y as f32, w.z as f32]
+            let ids = ObjectIds {
+                class_id: template["user_defined"]["class_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16,
+                instance_id: template["semantic_id"].as_u64().unwrap_or(0).min(u16::MAX as u64) as u16,
             };
-            let turn = |n: [f32; 3]| {
-                let w = (normal_matrix * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64)).normalize();
-                [w.x as f32, w.y as f32, w.z as f32]
-            };
+            let placement = Placement::of(object);
             let ext = asset.extension().and_then(|e| e.to_str()).unwrap_or("").to_lowercase();
             if ext == "obj" {
-                let obj = super::obj::read_obj(&asset)?;
-                let base = surfaces.len() as u32;
-                for m in &obj.materials {
-                    surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
-                }
-                for (corners, material) in &obj.triangles {
-                    // Flat faces: the face normal, so boxes keep sharp edges.
-                    let p = corners.map(|(k, _)| place(obj.positions[k as usize]));
-                    let e1 = Vector3::new(p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
-                    let e2 = Vector3::new(p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
-                    let n = e1.cross(&e2);
-                    let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
-                    let uvs = corners.map(|(_, t)| t.map_or([0.0; 2], |t| obj.uvs[t as usize]));
-                    triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs, surface: base + *material as u32, class_id, instance_id });
-                }
+                builder.add_obj(&asset, &placement, ids)?;
             } else {
-                let gltf = read_gltf(&asset)?;
-                let base = surfaces.len() as u32;
-                for (m, material) in gltf.materials.iter().enumerate() {
-                    let key = format!("{}#{m}", asset.display());
-                    let texture = match texture_cache.iter().find(|(k, _)| *k == key) {
-                        Some((_, t)) => t.clone(),
-                        None => {
-                            let t = material.texture.clone().map(std::sync::Arc::new);
-                            texture_cache.push((key, t.clone()));
-                            t
-                        }
-                    };
-                    let c = material.base_color;
-                    surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
-                }
-                let fallback = surfaces.len() as u32;
-                surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
-                for mesh in &gltf.meshes {
-                    let surface = mesh.material.filter(|&m| m < gltf.materials.len()).map_or(fallback, |m| base + m as u32);
-                    for tri in mesh.indices.chunks_exact(3) {
-                        let k = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                        triangles.push(Triangle {
-                            positions: k.map(|k| place(mesh.positions[k])),
-                            normals: k.map(|k| turn(mesh.normals[k])),
-                            uvs: k.map(|k| mesh.uvs.as_ref().map_or([0.0; 2], |uv| uv[k])),
-                            surface,
-                            class_id,
-                            instance_id,
-                        });
-                    }
-                }
+                builder.add_gltf(&asset, &placement, ids)?;
             }
         }
-        Ok(World::new(triangles, surfaces))
+        Ok(World::new(builder.triangles, builder.surfaces))
+    }
+}
+
+/// The class and instance of an object's triangles.
+#[derive(Clone, Copy)]
+struct ObjectIds {
+    class_id: u16,
+    instance_id: u16,
+}
+
+/// Where an object instance is: its transform from its asset's frame into the world, and
+/// the matrix that turns its normals.
+struct Placement {
+    transform: Matrix4<f64>,
+    normal_matrix: nalgebra::Matrix3<f64>,
+}
+
+impl Placement {
+    /// The placement of an `object_instances` entry: translation, rotation (w, x, y, z) and
+    /// non-uniform scale, each the identity when missing.
+    fn of(object: &Value) -> Placement {
+        let (t, q, s) = (
+            floats(&object["translation"], 3).unwrap_or(vec![0.0; 3]),
+            floats(&object["rotation"], 4).unwrap_or(vec![1.0, 0.0, 0.0, 0.0]),
+            floats(&object["non_uniform_scale"], 3).unwrap_or(vec![1.0; 3]),
+        );
+        let rotation = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
+        let transform = Matrix4::new_translation(&Vector3::new(t[0], t[1], t[2]))
+            * rotation.to_homogeneous()
+            * Matrix4::new_nonuniform_scaling(&Vector3::new(s[0], s[1], s[2]));
+        let normal_matrix = transform.fixed_view::<3, 3>(0, 0).try_inverse().map(|m| m.transpose()).unwrap_or_else(nalgebra::Matrix3::identity);
+        Placement { transform, normal_matrix }
+    }
+
+    /// A point of the asset, in the world.
+    fn place(&self, p: [f32; 3]) -> [f32; 3] {
+        let w = self.transform.transform_point(&Point3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+        [w.x as f32, w.y as f32, w.z as f32]
+    }
+
+    /// A normal of the asset, in the world (unit length).
+    fn turn(&self, n: [f32; 3]) -> [f32; 3] {
+        let w = (self.normal_matrix * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64)).normalize();
+        [w.x as f32, w.y as f32, w.z as f32]
+    }
+}
+
+/// A world's triangles and surfaces as its objects are added, with the textures loaded so far.
+#[derive(Default)]
+struct WorldBuilder {
+    triangles: Vec<Triangle>,
+    surfaces: Vec<Surface>,
+    texture_cache: Vec<(String, Option<std::sync::Arc<Texture>>)>,
+}
+
+impl WorldBuilder {
+    /// An OBJ asset's materials and triangles, with flat faces: the face normal, so boxes
+    /// keep sharp edges.
+    fn add_obj(&mut self, asset: &Path, placement: &Placement, ids: ObjectIds) -> Result<()> {
+        let obj = super::obj::read_obj(asset)?;
+        let base = self.surfaces.len() as u32;
+        for m in &obj.materials {
+            self.surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
+        }
+        for (corners, material) in &obj.triangles {
+            let p = corners.map(|(k, _)| placement.place(obj.positions[k as usize]));
+            let e1 = Vector3::new(p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]);
+            let e2 = Vector3::new(p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]);
+            let n = e1.cross(&e2);
+            let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::y() };
+            let uvs = corners.map(|(_, t)| t.map_or([0.0; 2], |t| obj.uvs[t as usize]));
+            let (class_id, instance_id) = (ids.class_id, ids.instance_id);
+            self.triangles.push(Triangle { positions: p, normals: [[n.x, n.y, n.z]; 3], uvs, surface: base + *material as u32, class_id, instance_id });
+        }
+        Ok(())
+    }
+
+    /// A glTF asset's materials (each texture loaded once per asset and material), a grey
+    /// fallback surface, and its triangles with their interpolated normals.
+    fn add_gltf(&mut self, asset: &Path, placement: &Placement, ids: ObjectIds) -> Result<()> {
+        let gltf = read_gltf(asset)?;
+        let base = self.surfaces.len() as u32;
+        for (m, material) in gltf.materials.iter().enumerate() {
+            let key = format!("{}#{m}", asset.display());
+            let texture = match self.texture_cache.iter().find(|(k, _)| *k == key) {
+                Some((_, t)) => t.clone(),
+                None => {
+                    let t = material.texture.clone().map(std::sync::Arc::new);
+                    self.texture_cache.push((key, t.clone()));
+                    t
+                }
+            };
+            let c = material.base_color;
+            self.surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
+        }
+        let fallback = self.surfaces.len() as u32;
+        self.surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
+        for mesh in &gltf.meshes {
+            let surface = mesh.material.filter(|&m| m < gltf.materials.len()).map_or(fallback, |m| base + m as u32);
+            for tri in mesh.indices.chunks_exact(3) {
+                let k = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                self.triangles.push(Triangle {
+                    positions: k.map(|k| placement.place(mesh.positions[k])),
+                    normals: k.map(|k| placement.turn(mesh.normals[k])),
+                    uvs: k.map(|k| mesh.uvs.as_ref().map_or([0.0; 2], |uv| uv[k])),
+                    surface,
+                    class_id: ids.class_id,
+                    instance_id: ids.instance_id,
+                });
+            }
+        }
+        Ok(())
     }
 }

@@ -13,7 +13,7 @@ use nalgebra::Matrix4;
 use rayon::prelude::*;
 
 use super::edges::{Edges, Row, column, distance_at};
-use super::mesh::{Cluster, Triangle, World};
+use super::mesh::{Cluster, Surface, Triangle, World};
 use super::screen::{BAND, Part, Screen, ScreenTriangle};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
@@ -234,10 +234,26 @@ pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
 fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
     let start = Instant::now();
     frame.resize(camera.width, camera.height);
+    project_triangles(world, camera, &mut frame.screen);
+    let transformed = Instant::now();
+    frame.pass_times.transform += transformed - start;
+    let screen = &frame.screen;
+    let w = camera.width as usize;
+    // Visibility: a depth buffer per band of rows.
+    frame
+        .depth
+        .par_chunks_mut(w * BAND)
+        .zip(frame.hit.par_chunks_mut(w * BAND))
+        .zip(frame.weights.par_chunks_mut(w * BAND))
+        .enumerate()
+        .for_each(|(band, ((depth, hit), weights))| nearest_in_band(screen, camera, band, Nearest { depth, hit, weights }));
+    frame.pass_times.visibility += transformed.elapsed();
+}
+
+/// Into `screen`: the triangles of the clusters `camera` may see, in camera space,
+/// clipped, projected and binned by band, part by part.
+fn project_triangles(world: &World, camera: &Camera, screen: &mut Screen) {
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
-    let (w, h) = (camera.width as usize, camera.height as usize);
-    let wf = w as f64;
-    let screen = &mut frame.screen;
     screen.parts.resize_with(world.clusters().len().div_ceil(CLUSTERS_PER_TASK), Part::default);
     world.clusters().par_chunks(CLUSTERS_PER_TASK).zip(screen.parts.par_iter_mut()).for_each(|(clusters, part)| {
         part.triangles.clear();
@@ -250,73 +266,71 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
         part.bin(camera.width, camera.height);
     });
     screen.index_parts();
-    let transformed = Instant::now();
-    frame.pass_times.transform += transformed - start;
-    let screen = &frame.screen;
-    // Visibility: a depth buffer per band of rows.
-    frame.depth.par_chunks_mut(w * BAND).zip(frame.hit.par_chunks_mut(w * BAND)).zip(frame.weights.par_chunks_mut(w * BAND)).enumerate().for_each(
-        |(band, ((depth, hit), weights))| {
-            depth.fill(f32::INFINITY);
-            hit.fill(u32::MAX);
-            let y0 = band * BAND;
-            let y1 = (y0 + BAND).min(h);
-            // Part by part, each in its order: the triangles in the world's order, so that
-            // of two at the same depth the first drawn keeps the pixel.
-            let triangles = screen
-                .parts
-                .iter()
-                .enumerate()
-                .flat_map(|(p, part)| part.in_band(band).iter().map(move |&place| (screen.index(p, place), &part.triangles[place as usize])));
-            for (index, t) in triangles {
-                let ([xmin, ymin], [xmax, ymax]) = t.bounds();
-                let [a, b, c] = t.xy;
-                let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-                if area.abs() < 1e-9 {
-                    continue;
-                }
-                let px0 = (xmin.ceil().max(0.0)) as usize;
-                let px1 = (xmax.floor().min(wf - 1.0)).max(-1.0) as isize;
-                let py0 = (ymin.ceil().max(y0 as f64)) as usize;
-                let py1 = (ymax.floor().min(y1 as f64 - 1.0)) as isize;
-                if px1 < px0 as isize || py1 < py0 as isize {
-                    continue;
-                }
-                // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
-                // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32.
-                let edges = Edges::new(t.xy, area, px0, py0, px1 as usize);
-                let [za, zb, zc] = t.inv_z_plane;
-                let (x0, y0f) = (px0 as f64, py0 as f64);
-                let mut draw = RowDraw {
-                    index,
-                    first: px0,
-                    dy: 0.0,
-                    inv_z: [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32],
-                    edges: [edges.distance[1], edges.distance[2]],
-                    gradient_lengths: edges.gradient_lengths,
-                    vertex_inv_z: [t.inv_z[1], t.inv_z[2]],
-                };
-                for py in py0..=py1 as usize {
-                    draw.dy = column(py - py0);
-                    let row = (py - y0) * w..(py - y0 + 1) * w;
-                    let nearest = Nearest { depth: &mut depth[row.clone()], hit: &mut hit[row.clone()], weights: &mut weights[row] };
-                    match edges.row(draw.dy) {
-                        Row::Run(run) => draw.run(run, nearest),
-                        Row::TestEachPixel => {
-                            for px in px0..=px1 as usize {
-                                if let Some([_, d1, d2]) = edges.covered(px, draw.dy) {
-                                    draw.pixel(column(px - px0), [d1, d2], &mut nearest.depth[px], &mut nearest.hit[px], &mut nearest.weights[px]);
-                                }
-                            }
+}
+
+/// The nearest triangle of every pixel of band `band` (`nearest` holds its rows).
+fn nearest_in_band(screen: &Screen, camera: &Camera, band: usize, nearest: Nearest) {
+    let Nearest { depth, hit, weights } = nearest;
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let wf = w as f64;
+    depth.fill(f32::INFINITY);
+    hit.fill(u32::MAX);
+    let y0 = band * BAND;
+    let y1 = (y0 + BAND).min(h);
+    // Part by part, each in its order: the triangles in the world's order, so that
+    // of two at the same depth the first drawn keeps the pixel.
+    let triangles = screen
+        .parts
+        .iter()
+        .enumerate()
+        .flat_map(|(p, part)| part.in_band(band).iter().map(move |&place| (screen.index(p, place), &part.triangles[place as usize])));
+    for (index, t) in triangles {
+        let ([xmin, ymin], [xmax, ymax]) = t.bounds();
+        let [a, b, c] = t.xy;
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if area.abs() < 1e-9 {
+            continue;
+        }
+        let px0 = (xmin.ceil().max(0.0)) as usize;
+        let px1 = (xmax.floor().min(wf - 1.0)).max(-1.0) as isize;
+        let py0 = (ymin.ceil().max(y0 as f64)) as usize;
+        let py1 = (ymax.floor().min(y1 as f64 - 1.0)) as isize;
+        if px1 < px0 as isize || py1 < py0 as isize {
+            continue;
+        }
+        // Barycentrics and 1/z are affine in (x, y), set up in f64 at the first pixel
+        // (clipped vertices reach ~10⁶ pixels); the per-pixel steps are f32.
+        let edges = Edges::new(t.xy, area, px0, py0, px1 as usize);
+        let [za, zb, zc] = t.inv_z_plane;
+        let (x0, y0f) = (px0 as f64, py0 as f64);
+        let mut draw = RowDraw {
+            index,
+            first: px0,
+            dy: 0.0,
+            inv_z: [(za * x0 + zb * y0f + zc) as f32, za as f32, zb as f32],
+            edges: [edges.distance[1], edges.distance[2]],
+            gradient_lengths: edges.gradient_lengths,
+            vertex_inv_z: [t.inv_z[1], t.inv_z[2]],
+        };
+        for py in py0..=py1 as usize {
+            draw.dy = column(py - py0);
+            let row = (py - y0) * w..(py - y0 + 1) * w;
+            let nearest = Nearest { depth: &mut depth[row.clone()], hit: &mut hit[row.clone()], weights: &mut weights[row] };
+            match edges.row(draw.dy) {
+                Row::Run(run) => draw.run(run, nearest),
+                Row::TestEachPixel => {
+                    for px in px0..=px1 as usize {
+                        if let Some([_, d1, d2]) = edges.covered(px, draw.dy) {
+                            draw.pixel(column(px - px0), [d1, d2], &mut nearest.depth[px], &mut nearest.hit[px], &mut nearest.weights[px]);
                         }
                     }
                 }
             }
-        },
-    );
-    frame.pass_times.visibility += transformed.elapsed();
+        }
+    }
 }
 
-/// One row of a band's visibility buffers.
+/// Rows of a band's visibility buffers (all of the band's, or one).
 struct Nearest<'a> {
     depth: &'a mut [f32],
     hit: &'a mut [u32],
@@ -398,11 +412,25 @@ impl RowScratch {
 /// shading, colour.
 fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mut Frame) {
     let start = Instant::now();
-    let screen = &frame.screen;
     let w = camera.width as usize;
-    let pose = camera.pose;
-    let camera_origin = [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32];
-    let lights: Vec<Light> = match shading {
+    let resolver = Resolver::new(world, &frame.screen, camera, shading);
+    frame
+        .rgb
+        .par_chunks_mut(w * 3)
+        .zip(frame.semantic.par_chunks_mut(w).zip(frame.instance.par_chunks_mut(w)))
+        .zip(frame.depth.par_chunks_mut(w))
+        .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
+        .enumerate()
+        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
+            resolver.row(py, row, RowOut { rgb, semantic, instance, depth, hit, weights });
+        });
+    frame.pass_times.resolve += start.elapsed();
+}
+
+/// The lights of `shading` in world coordinates (a camera light's offset placed by the
+/// camera `pose`); none without lights.
+fn world_lights(shading: Option<&Shading>, pose: &Matrix4<f64>) -> Vec<Light> {
+    match shading {
         None | Some(Shading::Flat) => Vec::new(),
         Some(Shading::Lit(lights)) => lights
             .iter()
@@ -416,131 +444,195 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
                 }
             })
             .collect(),
-    };
-    let lit = matches!(shading, Some(Shading::Lit(_)));
-    let coloured = shading.is_some();
-    let r: [[f32; 4]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32));
-    let (cx, cy, inv_fx, inv_fy) = (camera.cx as f32, camera.cy as f32, 1.0 / camera.fx as f32, 1.0 / camera.fy as f32);
-    frame
-        .rgb
-        .par_chunks_mut(w * 3)
-        .zip(frame.semantic.par_chunks_mut(w).zip(frame.instance.par_chunks_mut(w)))
-        .zip(frame.depth.par_chunks_mut(w))
-        .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
-        .enumerate()
-        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
-            row.resize(w);
-            let RowScratch { albedo: row_albedo, position, normal, light } = row;
-            // 1. What each pixel shows: class, instance, depth and (when coloured) its
-            //    albedo and interpolated normal (gathered from its triangle).
-            {
-                let mut finder = screen.finder();
-                // Neighbouring pixels mostly show the same triangle: it is looked up once a run.
-                let mut showing: Option<(u32, &ScreenTriangle, &Triangle)> = None;
-                let [ar, ag, ab] = row_albedo.each_mut().map(|v| &mut v[..w]);
-                let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
-                let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
-                for px in 0..w {
-                    if hit[px] == u32::MAX {
-                        semantic[px] = 0;
-                        instance[px] = 0;
-                        depth[px] = 0.0;
-                        (ar[px], ag[px], ab[px]) = (0.0, 0.0, 0.0);
-                        (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
-                        continue;
-                    }
-                    let (st, tri) = match showing {
-                        Some((shown, st, tri)) if shown == hit[px] => (st, tri),
-                        _ => {
-                            let st = finder.triangle(hit[px]);
-                            let tri: &Triangle = &world.triangles()[st.source as usize];
-                            showing = Some((hit[px], st, tri));
-                            (st, tri)
-                        }
-                    };
-                    let [w1, w2] = weights[px];
-                    let w0 = 1.0 - w1 - w2;
-                    // Barycentrics in the source triangle.
-                    let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
-                    semantic[px] = tri.class_id;
-                    instance[px] = tri.instance_id;
-                    if !coloured {
-                        continue;
-                    }
-                    let surface = &world.surfaces()[tri.surface as usize];
-                    let mut albedo = surface.color;
-                    if let Some(tex) = &surface.texture {
-                        let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
-                        let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
-                        // Through u32, which converts in one instruction where usize takes
-                        // several; the values are the same (the product is below the width).
-                        let (tw, th) = (tex.width as usize, tex.height as usize);
-                        let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
-                        let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
-                        let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
-                        albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
-                    }
-                    (ar[px], ag[px], ab[px]) = (albedo[0], albedo[1], albedo[2]);
-                    if lit {
-                        let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
-                        (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
-                    }
+    }
+}
+
+/// One row of a frame: its outputs, and the visibility they are resolved from.
+struct RowOut<'a> {
+    rgb: &'a mut [u8],
+    semantic: &'a mut [u16],
+    instance: &'a mut [u16],
+    depth: &'a mut [f32],
+    hit: &'a [u32],
+    weights: &'a [[f32; 2]],
+}
+
+/// What resolving every row of a frame shares: the world, the visible triangles, the
+/// camera and the lights.
+struct Resolver<'a> {
+    world: &'a World,
+    screen: &'a Screen,
+    w: usize,
+    lights: Vec<Light>,
+    lit: bool,
+    coloured: bool,
+    /// The camera pose's rotation and translation, and its origin.
+    r: [[f32; 4]; 3],
+    camera_origin: [f32; 3],
+    cx: f32,
+    cy: f32,
+    inv_fx: f32,
+    inv_fy: f32,
+}
+
+impl<'a> Resolver<'a> {
+    /// The resolver of `camera`'s frame of `world`, whose visible triangles are `screen`.
+    fn new(world: &'a World, screen: &'a Screen, camera: &Camera, shading: Option<&Shading>) -> Self {
+        let pose = camera.pose;
+        Resolver {
+            world,
+            screen,
+            w: camera.width as usize,
+            lights: world_lights(shading, &pose),
+            lit: matches!(shading, Some(Shading::Lit(_))),
+            coloured: shading.is_some(),
+            r: std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32)),
+            camera_origin: [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32],
+            cx: camera.cx as f32,
+            cy: camera.cy as f32,
+            inv_fx: 1.0 / camera.fx as f32,
+            inv_fy: 1.0 / camera.fy as f32,
+        }
+    }
+
+    /// Resolve row `py` into `out`, with `row` as scratch.
+    fn row(&self, py: usize, row: &mut RowScratch, out: RowOut) {
+        row.resize(self.w);
+        self.gather_surfaces(row, out.semantic, out.instance, out.depth, out.hit, out.weights);
+        if self.lit {
+            self.positions_and_normals(py, row, out.depth);
+        }
+        if !self.coloured {
+            return;
+        }
+        self.light(row);
+        colour(row, out.rgb, self.w);
+    }
+
+    /// 1. What each pixel shows: class, instance, depth and (when coloured) its albedo and
+    ///    interpolated normal (gathered from its triangle).
+    fn gather_surfaces(&self, row: &mut RowScratch, semantic: &mut [u16], instance: &mut [u16], depth: &mut [f32], hit: &[u32], weights: &[[f32; 2]]) {
+        let w = self.w;
+        let mut finder = self.screen.finder();
+        // Neighbouring pixels mostly show the same triangle: it is looked up once a run.
+        let mut showing: Option<(u32, &ScreenTriangle, &Triangle)> = None;
+        let [ar, ag, ab] = row.albedo.each_mut().map(|v| &mut v[..w]);
+        let [nx, ny, nz] = row.normal.each_mut().map(|v| &mut v[..w]);
+        let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
+        for px in 0..w {
+            if hit[px] == u32::MAX {
+                semantic[px] = 0;
+                instance[px] = 0;
+                depth[px] = 0.0;
+                (ar[px], ag[px], ab[px]) = (0.0, 0.0, 0.0);
+                (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
+                continue;
+            }
+            let (st, tri) = match showing {
+                Some((shown, st, tri)) if shown == hit[px] => (st, tri),
+                _ => {
+                    let st = finder.triangle(hit[px]);
+                    let tri: &Triangle = &self.world.triangles()[st.source as usize];
+                    showing = Some((hit[px], st, tri));
+                    (st, tri)
                 }
+            };
+            let [w1, w2] = weights[px];
+            let w0 = 1.0 - w1 - w2;
+            // Barycentrics in the source triangle.
+            let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
+            semantic[px] = tri.class_id;
+            instance[px] = tri.instance_id;
+            if !self.coloured {
+                continue;
             }
-            // 1b. Lit: world positions from depth, and the normals turned to the camera's
-            //     side (two-sided) and made unit length — across the row, branch-free, so
-            //     it vectorises. A pixel without a hit has a zero normal: it gets no light.
-            if lit {
-                let [px_, py_, pz_] = position.each_mut().map(|v| &mut v[..w]);
-                let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
-                let depth = &depth[..w];
-                let y = (py as f32 - cy) * inv_fy;
-                for px in 0..w {
-                    let z = depth[px];
-                    let cam = [(column(px) - cx) * inv_fx * z, y * z, z];
-                    let p: [f32; 3] = std::array::from_fn(|i| r[i][0] * cam[0] + r[i][1] * cam[1] + r[i][2] * cam[2] + r[i][3]);
-                    let n = [nx[px], ny[px], nz[px]];
-                    let to_camera = [camera_origin[0] - p[0], camera_origin[1] - p[1], camera_origin[2] - p[2]];
-                    let side = if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 { -1.0 } else { 1.0 };
-                    let unit = side / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
-                    (px_[px], py_[px], pz_[px]) = (p[0], p[1], p[2]);
-                    (nx[px], ny[px], nz[px]) = (n[0] * unit, n[1] * unit, n[2] * unit);
-                }
+            let albedo = albedo_at(&self.world.surfaces()[tri.surface as usize], tri, b);
+            (ar[px], ag[px], ab[px]) = (albedo[0], albedo[1], albedo[2]);
+            if self.lit {
+                let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
             }
-            if !coloured {
-                return;
+        }
+    }
+
+    /// 1b. Lit: world positions from depth, and the normals turned to the camera's side
+    ///     (two-sided) and made unit length — across the row, branch-free, so it
+    ///     vectorises. A pixel without a hit has a zero normal: it gets no light.
+    fn positions_and_normals(&self, py: usize, row: &mut RowScratch, depth: &[f32]) {
+        let w = self.w;
+        let (r, camera_origin) = (&self.r, self.camera_origin);
+        let [px_, py_, pz_] = row.position.each_mut().map(|v| &mut v[..w]);
+        let [nx, ny, nz] = row.normal.each_mut().map(|v| &mut v[..w]);
+        let depth = &depth[..w];
+        let y = (py as f32 - self.cy) * self.inv_fy;
+        for px in 0..w {
+            let z = depth[px];
+            let cam = [(column(px) - self.cx) * self.inv_fx * z, y * z, z];
+            let p: [f32; 3] = std::array::from_fn(|i| r[i][0] * cam[0] + r[i][1] * cam[1] + r[i][2] * cam[2] + r[i][3]);
+            let n = [nx[px], ny[px], nz[px]];
+            let to_camera = [camera_origin[0] - p[0], camera_origin[1] - p[1], camera_origin[2] - p[2]];
+            let side = if n[0] * to_camera[0] + n[1] * to_camera[1] + n[2] * to_camera[2] < 0.0 { -1.0 } else { 1.0 };
+            let unit = side / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
+            (px_[px], py_[px], pz_[px]) = (p[0], p[1], p[2]);
+            (nx[px], ny[px], nz[px]) = (n[0] * unit, n[1] * unit, n[2] * unit);
+        }
+    }
+
+    /// 2. Light: ambient plus, light by light across the row, Lambert (n·d / |d|) times
+    ///    Magnum PhongGL's attenuation 1/(1 + |d|²) for an unbounded range; a light behind
+    ///    the surface adds nothing.
+    fn light(&self, row: &mut RowScratch) {
+        let w = self.w;
+        let RowScratch { position, normal, light, .. } = row;
+        for c in light.iter_mut() {
+            c.fill(if self.lit { AMBIENT } else { 1.0 });
+        }
+        for l in &self.lights {
+            // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
+            let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
+            let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
+            for i in 0..w {
+                let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
+                let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
+                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
+                lr[i] += factor * l.color[0];
+                lg[i] += factor * l.color[1];
+                lb[i] += factor * l.color[2];
             }
-            // 2. Light: ambient plus, light by light across the row, Lambert (n·d / |d|)
-            //    times Magnum PhongGL's attenuation 1/(1 + |d|²) for an unbounded range;
-            //    a light behind the surface adds nothing.
-            for c in light.iter_mut() {
-                c.fill(if lit { AMBIENT } else { 1.0 });
-            }
-            for l in &lights {
-                // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
-                let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
-                let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
-                for i in 0..w {
-                    let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
-                    let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
-                    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                    let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
-                    lr[i] += factor * l.color[0];
-                    lg[i] += factor * l.color[1];
-                    lb[i] += factor * l.color[2];
-                }
-            }
-            // 3. Colour: albedo times light, clipped, rounded half up (without libm's
-            //    roundf, which is not inlined on baseline x86-64).
-            let ([ar, ag, ab], [lr, lg, lb]) = (row_albedo.each_ref().map(|v| &v[..w]), light.each_ref().map(|v| &v[..w]));
-            let channel = |albedo: f32, light: f32| ((albedo * light.max(0.0)).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-            for (px, out) in rgb[..3 * w].chunks_exact_mut(3).enumerate() {
-                out[0] = channel(ar[px], lr[px]);
-                out[1] = channel(ag[px], lg[px]);
-                out[2] = channel(ab[px], lb[px]);
-            }
-        });
-    frame.pass_times.resolve += start.elapsed();
+        }
+    }
+}
+
+/// The albedo of `surface` at barycentrics `b` of `tri`: its colour, times its texture's
+/// texel there when it has one.
+#[inline(always)]
+fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3]) -> [f32; 3] {
+    let mut albedo = surface.color;
+    if let Some(tex) = &surface.texture {
+        let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
+        let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
+        // Through u32, which converts in one instruction where usize takes
+        // several; the values are the same (the product is below the width).
+        let (tw, th) = (tex.width as usize, tex.height as usize);
+        let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
+        let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
+        let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
+        albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
+    }
+    albedo
+}
+
+/// 3. Colour: albedo times light, clipped, rounded half up (without libm's roundf, which
+///    is not inlined on baseline x86-64), into the `w` pixels of `rgb`.
+fn colour(row: &RowScratch, rgb: &mut [u8], w: usize) {
+    let ([ar, ag, ab], [lr, lg, lb]) = (row.albedo.each_ref().map(|v| &v[..w]), row.light.each_ref().map(|v| &v[..w]));
+    let channel = |albedo: f32, light: f32| ((albedo * light.max(0.0)).clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    for (px, out) in rgb[..3 * w].chunks_exact_mut(3).enumerate() {
+        out[0] = channel(ar[px], lr[px]);
+        out[1] = channel(ag[px], lg[px]);
+        out[2] = channel(ab[px], lb[px]);
+    }
 }
 
 #[cfg(test)]

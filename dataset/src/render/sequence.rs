@@ -22,7 +22,7 @@ use super::coverage::CoverageGoals;
 use super::mesh::World;
 use super::raster::{Frame, Light, Shading, render};
 use super::trajectory::AgentState;
-use super::view::{Observed, View, digest64, exposure, visible_classes};
+use super::view::{Observed, View, ViewpointRule, digest64, exposure, visible_classes};
 
 /// A HaDaGe light-settings file as the renderer's lights for navigation segment `goal`
 /// (a light is on when one of its `life_intervals` [start, end) holds the segment).
@@ -122,6 +122,48 @@ pub fn render_sequence(
     settings_copy: &Value,
     dir: &Path,
 ) -> Result<SequenceSummary> {
+    prepare_sequence_folder(dir, sensor, light_settings, classes, settings_copy)?;
+    let poses: Vec<Matrix4<f64>> = states.iter().map(|s| camera_pose(s, floor_height, sensor)).collect();
+    write_trajectory(dir, states, &poses)?;
+
+    let travelled = states.windows(2).map(|w| ((w[1].x - w[0].x).powi(2) + (w[1].z - w[0].z).powi(2)).sqrt()).sum();
+    let mut summary = SequenceSummary { frames: states.len(), travelled, ..Default::default() };
+    let mut pixel_counts = vec![0u64; 1 << 16];
+    let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
+    // A lighting without any light is flat; one whose lights are all off in a segment
+    // is lit by the ambient term only (never brighter than with them on).
+    let flat = has_no_lights(light_settings);
+    const BATCH: usize = 8;
+    let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
+    for start in (0..states.len()).step_by(BATCH) {
+        let end = (start + BATCH).min(states.len());
+        for (k, i) in (start..end).enumerate() {
+            let lights = lights_for_goal(light_settings, states[i].goal_index);
+            let shading = if flat { Shading::Flat } else { Shading::Lit(lights) };
+            render(world, &sensor.camera(poses[i]), &shading, &mut frames[k]);
+            for &c in &frames[k].semantic {
+                pixel_counts[c as usize] += 1;
+            }
+        }
+        // Encoding is the slow part of writing: all frames of the batch at once, each
+        // measured as it is encoded.
+        let measured: Vec<(FrameMeasures, View)> =
+            frames[..end - start].par_iter().enumerate().map(|(k, f)| encode_frame(dir, sensor, &rule, start + k, f)).collect::<Result<_>>()?;
+        for (k, (measures, view)) in measured.into_iter().enumerate() {
+            let state = &states[start + k];
+            summary.per_frame.push(measures);
+            for v in &view.objects {
+                summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
+            }
+        }
+    }
+    summary.class_pixels = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
+    Ok(summary)
+}
+
+/// Make `dir` afresh for a sequence: its results folder, camera parameters, classes,
+/// loader configs and the settings it was rendered with.
+fn prepare_sequence_folder(dir: &Path, sensor: &SensorSettings, light_settings: &Value, classes: &ClassList, settings_copy: &Value) -> Result<()> {
     let results = dir.join("results");
     if dir.exists() {
         std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
@@ -145,71 +187,41 @@ pub fn render_sequence(
         std::fs::create_dir_all(path.parent().expect("nested")).map_err(|e| InputError::io(&path, &e))?;
         std::fs::write(&path, serde_json::to_string_pretty(value).expect("json")).map_err(|e| InputError::io(&path, &e))?;
     }
-    let poses: Vec<Matrix4<f64>> = states.iter().map(|s| camera_pose(s, floor_height, sensor)).collect();
-    Trajectory { poses: poses.clone() }.write(&dir.join("traj.txt"))?;
-    let log: String = states.iter().enumerate().map(|(i, s)| format!("[{i:06}] Action: {}\n", s.action.name())).collect();
-    std::fs::write(dir.join("log.txt"), log).map_err(|e| InputError::io(dir, &e))?;
+    Ok(())
+}
 
-    let travelled = states.windows(2).map(|w| ((w[1].x - w[0].x).powi(2) + (w[1].z - w[0].z).powi(2)).sqrt()).sum();
-    let mut summary = SequenceSummary { frames: states.len(), travelled, ..Default::default() };
-    let mut pixel_counts = vec![0u64; 1 << 16];
-    let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
-    // A lighting without any light is flat; one whose lights are all off in a segment
-    // is lit by the ambient term only (never brighter than with them on).
-    let flat = has_no_lights(light_settings);
-    const BATCH: usize = 8;
-    let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
-    for start in (0..states.len()).step_by(BATCH) {
-        let end = (start + BATCH).min(states.len());
-        for (k, i) in (start..end).enumerate() {
-            let lights = lights_for_goal(light_settings, states[i].goal_index);
-            let shading = if flat { Shading::Flat } else { Shading::Lit(lights) };
-            render(world, &sensor.camera(poses[i]), &shading, &mut frames[k]);
-            for &c in &frames[k].semantic {
-                pixel_counts[c as usize] += 1;
-            }
-        }
-        // Encoding is the slow part of writing: all frames of the batch at once, each
-        // measured as it is encoded.
-        let measured: Vec<(FrameMeasures, View)> = frames[..end - start]
-            .par_iter()
-            .enumerate()
-            .map(|(k, f)| -> Result<(FrameMeasures, View)> {
-                let i = start + k;
-                let (w, h) = (sensor.width, sensor.height);
-                write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: w, height: h, pixels: f.rgb.clone() }, sensor.jpeg_quality)?;
-                let scale = sensor.depth_scale as f32;
-                // HaDaGe: float metres × scale, truncated (Pillow's f2i), clipped to 16 bits.
-                let depth: Vec<u16> = f.depth.iter().map(|&z| (z * scale).clamp(0.0, 65535.0) as u16).collect();
-                let view = View::of(f);
-                let (saturated, luma) = exposure(&f.rgb);
-                let mut geometry: Vec<u8> = depth.iter().flat_map(|d| d.to_le_bytes()).collect();
-                geometry.extend(f.semantic.iter().flat_map(|c| c.to_le_bytes()));
-                let measures = FrameMeasures {
-                    saturated: saturated as f32,
-                    luma: luma as f32,
-                    dominant: view.dominant_fraction as f32,
-                    valid_depth: view.valid_fraction as f32,
-                    objects: view.objects.iter().filter(|v| v.pixels as f64 >= rule.min_pixels).count().min(u16::MAX as usize) as u16,
-                    classes: visible_classes(&f.semantic, &depth, rule.min_pixels),
-                    colour_digest: digest64(&f.rgb),
-                    geometry_digest: digest64(&geometry),
-                };
-                write_png_gray16(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth })?;
-                write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })?;
-                Ok((measures, view))
-            })
-            .collect::<Result<_>>()?;
-        for (k, (measures, view)) in measured.into_iter().enumerate() {
-            let state = &states[start + k];
-            summary.per_frame.push(measures);
-            for v in &view.objects {
-                summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
-            }
-        }
-    }
-    summary.class_pixels = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
-    Ok(summary)
+/// The camera path (`traj.txt`, one pose a frame) and the action log.
+fn write_trajectory(dir: &Path, states: &[AgentState], poses: &[Matrix4<f64>]) -> Result<()> {
+    Trajectory { poses: poses.to_vec() }.write(&dir.join("traj.txt"))?;
+    let log: String = states.iter().enumerate().map(|(i, s)| format!("[{i:06}] Action: {}\n", s.action.name())).collect();
+    std::fs::write(dir.join("log.txt"), log).map_err(|e| InputError::io(dir, &e))
+}
+
+/// Frame `i`'s colour, depth and semantic images encoded into `dir`, and its measures
+/// and view (what it shows, by `rule`).
+fn encode_frame(dir: &Path, sensor: &SensorSettings, rule: &ViewpointRule, i: usize, f: &Frame) -> Result<(FrameMeasures, View)> {
+    let (w, h) = (sensor.width, sensor.height);
+    write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: w, height: h, pixels: f.rgb.clone() }, sensor.jpeg_quality)?;
+    let scale = sensor.depth_scale as f32;
+    // HaDaGe: float metres × scale, truncated (Pillow's f2i), clipped to 16 bits.
+    let depth: Vec<u16> = f.depth.iter().map(|&z| (z * scale).clamp(0.0, 65535.0) as u16).collect();
+    let view = View::of(f);
+    let (saturated, luma) = exposure(&f.rgb);
+    let mut geometry: Vec<u8> = depth.iter().flat_map(|d| d.to_le_bytes()).collect();
+    geometry.extend(f.semantic.iter().flat_map(|c| c.to_le_bytes()));
+    let measures = FrameMeasures {
+        saturated: saturated as f32,
+        luma: luma as f32,
+        dominant: view.dominant_fraction as f32,
+        valid_depth: view.valid_fraction as f32,
+        objects: view.objects.iter().filter(|v| v.pixels as f64 >= rule.min_pixels).count().min(u16::MAX as usize) as u16,
+        classes: visible_classes(&f.semantic, &depth, rule.min_pixels),
+        colour_digest: digest64(&f.rgb),
+        geometry_digest: digest64(&geometry),
+    };
+    write_png_gray16(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth })?;
+    write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })?;
+    Ok((measures, view))
 }
 
 /// Whether a light-settings file holds no light at all (the `no_lights` condition).

@@ -318,7 +318,13 @@ fn face_plus_y(mut asset: Asset) -> Asset {
     asset
 }
 
+/// A new asset of `category` from the procedural library, if it has one.
 fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
+    tables_and_desks(category, rng).or_else(|| seats_and_beds(category, rng)).or_else(|| storage_furniture(category, rng)).or_else(|| manipuland(category, rng))
+}
+
+/// A table, desk, workbench or counter of `category`.
+fn tables_and_desks(category: &str, rng: &mut Rng) -> Option<Asset> {
     let a = match category {
         "dining table" => table(category, vary(rng, 1.4, 2.0), vary(rng, 0.85, 1.0), 0.76, WOOD, WOOD),
         "conference table" => table(category, vary(rng, 2.2, 3.0), vary(rng, 1.0, 1.3), 0.75, DARK_WOOD, METAL),
@@ -344,6 +350,14 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
             a.description = format!("A {category} with a stone top over cabinets.");
             a
         }
+        _ => return None,
+    };
+    Some(a)
+}
+
+/// A chair, sofa, bench or bed of `category`.
+fn seats_and_beds(category: &str, rng: &mut Rng) -> Option<Asset> {
+    let a = match category {
         "dining chair" | "chair" => chair(category, rng, WOOD, WOOD),
         "office chair" => {
             let (w, h) = (0.55, vary(rng, 0.95, 1.1));
@@ -396,6 +410,14 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
                 mesh: None,
             }
         }
+        _ => return None,
+    };
+    Some(a)
+}
+
+/// A cabinet, shelf or other storage furniture of `category`.
+fn storage_furniture(category: &str, rng: &mut Rng) -> Option<Asset> {
+    let a = match category {
         "nightstand" => cabinet(category, vary(rng, 0.4, 0.5), 0.4, vary(rng, 0.5, 0.6), WOOD, METAL, 1, false),
         "dresser" => cabinet(category, vary(rng, 1.0, 1.4), 0.5, vary(rng, 0.8, 1.0), WOOD, METAL, 2, false),
         "wardrobe" => cabinet(category, vary(rng, 1.0, 1.5), 0.6, vary(rng, 1.9, 2.1), WHITE, METAL, 3, false),
@@ -410,174 +432,89 @@ fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
         "filing cabinet" => cabinet(category, 0.45, 0.6, vary(rng, 0.7, 1.3), METAL, BLACK, 2, false),
         "bookshelf" | "shelf" => cabinet(category, vary(rng, 0.8, 1.2), 0.35, vary(rng, 1.6, 2.0), WOOD, METAL, 4, true),
         "storage rack" => cabinet(category, vary(rng, 1.0, 1.5), 0.5, vary(rng, 1.7, 2.0), METAL, METAL, 3, true),
-        // Manipulands.
-        "mug" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.04, 0.1, CERAMIC), bx([0.055, 0.0, 0.05], [0.02, 0.012, 0.06], CERAMIC)],
-            size: [0.12, 0.08, 0.1],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A ceramic mug with a handle.".into(),
-            mesh: None,
-        },
-        "book" => {
-            let (w, d, h) = (vary(rng, 0.15, 0.22), vary(rng, 0.2, 0.28), vary(rng, 0.02, 0.05));
-            Asset {
-                category: category.into(),
-                parts: vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)],
-                size: [w, d, h],
-                supports: vec![],
-                clearance: 0.0,
-                under: None,
-                description: "A hardcover book.".into(),
-                mesh: None,
-            }
-        }
-        "laptop" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.01], [0.34, 0.24, 0.02], METAL), bx([0.0, 0.12, 0.13], [0.34, 0.01, 0.22], BLACK)],
-            size: [0.34, 0.25, 0.24],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "An open laptop.".into(),
-            mesh: None,
-        },
-        "plate" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.02, CERAMIC)],
-            size: [0.24, 0.24, 0.02],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A round plate.".into(),
-            mesh: None,
-        },
-        "bowl" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.05, 0.02, CERAMIC), cyl([0.0, 0.0, 0.02], 0.08, 0.05, CERAMIC)],
-            size: [0.16, 0.16, 0.07],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A ceramic bowl.".into(),
-            mesh: None,
-        },
-        "bottle" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.035, 0.2, GREEN_GLASS), cyl([0.0, 0.0, 0.2], 0.013, 0.08, GREEN_GLASS)],
-            size: [0.07, 0.07, 0.28],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A glass bottle.".into(),
-            mesh: None,
-        },
-        "can" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.033, 0.12, RED)],
-            size: [0.066, 0.066, 0.12],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A metal can.".into(),
-            mesh: None,
-        },
-        "box" => {
-            let s = [vary(rng, 0.25, 0.45), vary(rng, 0.2, 0.35), vary(rng, 0.15, 0.3)];
-            Asset {
-                category: category.into(),
-                parts: vec![bx([0.0, 0.0, s[2] / 2.0], s, CARDBOARD)],
-                size: s,
-                supports: vec![],
-                clearance: 0.0,
-                under: None,
-                description: "A cardboard box.".into(),
-                mesh: None,
-            }
-        }
-        "bucket" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.14, 0.3, METAL), bx([0.0, 0.0, 0.33], [0.28, 0.01, 0.01], BLACK)],
-            size: [0.28, 0.28, 0.34],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A metal bucket with a handle.".into(),
-            mesh: None,
-        },
-        "towel" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.03], [0.3, 0.2, 0.06], WHITE)],
-            size: [0.3, 0.2, 0.06],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A folded towel.".into(),
-            mesh: None,
-        },
-        "pillow" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.06], [0.5, 0.35, 0.12], CUSHION)],
-            size: [0.5, 0.35, 0.12],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A pillow.".into(),
-            mesh: None,
-        },
-        "blanket" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.04], [0.6, 0.4, 0.08], FABRIC)],
-            size: [0.6, 0.4, 0.08],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A folded blanket.".into(),
-            mesh: None,
-        },
-        "backpack" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.22], [0.3, 0.18, 0.44], FABRIC), bx([0.0, -0.1, 0.15], [0.24, 0.04, 0.2], BLACK)],
-            size: [0.3, 0.22, 0.44],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A backpack with a front pocket.".into(),
-            mesh: None,
-        },
-        "suitcase" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.33], [0.42, 0.25, 0.66], BLACK), bx([0.0, 0.0, 0.7], [0.15, 0.03, 0.06], METAL)],
-            size: [0.42, 0.25, 0.72],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A hard-shell suitcase.".into(),
-            mesh: None,
-        },
-        "helmet" => Asset {
-            category: category.into(),
-            parts: vec![cyl([0.0, 0.0, 0.0], 0.12, 0.12, RED), cyl([0.0, 0.0, 0.12], 0.08, 0.06, RED)],
-            size: [0.24, 0.24, 0.18],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A helmet.".into(),
-            mesh: None,
-        },
-        "clock" => Asset {
-            category: category.into(),
-            parts: vec![bx([0.0, 0.0, 0.1], [0.2, 0.06, 0.2], WHITE), bx([0.0, -0.031, 0.1], [0.16, 0.002, 0.16], PAPER)],
-            size: [0.2, 0.06, 0.2],
-            supports: vec![],
-            clearance: 0.0,
-            under: None,
-            description: "A desk clock.".into(),
-            mesh: None,
-        },
         _ => return None,
     };
     Some(a)
+}
+
+/// A small object of `category` that can be picked up.
+fn manipuland(category: &str, rng: &mut Rng) -> Option<Asset> {
+    let a = match category {
+        "mug" => small_object(
+            category,
+            vec![cyl([0.0, 0.0, 0.0], 0.04, 0.1, CERAMIC), bx([0.055, 0.0, 0.05], [0.02, 0.012, 0.06], CERAMIC)],
+            [0.12, 0.08, 0.1],
+            "A ceramic mug with a handle.",
+        ),
+        "book" => {
+            let (w, d, h) = (vary(rng, 0.15, 0.22), vary(rng, 0.2, 0.28), vary(rng, 0.02, 0.05));
+            small_object(
+                category,
+                vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)],
+                [w, d, h],
+                "A hardcover book.",
+            )
+        }
+        "laptop" => small_object(
+            category,
+            vec![bx([0.0, 0.0, 0.01], [0.34, 0.24, 0.02], METAL), bx([0.0, 0.12, 0.13], [0.34, 0.01, 0.22], BLACK)],
+            [0.34, 0.25, 0.24],
+            "An open laptop.",
+        ),
+        "plate" => small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.12, 0.02, CERAMIC)], [0.24, 0.24, 0.02], "A round plate."),
+        "bowl" => small_object(
+            category,
+            vec![cyl([0.0, 0.0, 0.0], 0.05, 0.02, CERAMIC), cyl([0.0, 0.0, 0.02], 0.08, 0.05, CERAMIC)],
+            [0.16, 0.16, 0.07],
+            "A ceramic bowl.",
+        ),
+        "bottle" => small_object(
+            category,
+            vec![cyl([0.0, 0.0, 0.0], 0.035, 0.2, GREEN_GLASS), cyl([0.0, 0.0, 0.2], 0.013, 0.08, GREEN_GLASS)],
+            [0.07, 0.07, 0.28],
+            "A glass bottle.",
+        ),
+        "can" => small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.033, 0.12, RED)], [0.066, 0.066, 0.12], "A metal can."),
+        "box" => {
+            let s = [vary(rng, 0.25, 0.45), vary(rng, 0.2, 0.35), vary(rng, 0.15, 0.3)];
+            small_object(category, vec![bx([0.0, 0.0, s[2] / 2.0], s, CARDBOARD)], s, "A cardboard box.")
+        }
+        "bucket" => small_object(
+            category,
+            vec![cyl([0.0, 0.0, 0.0], 0.14, 0.3, METAL), bx([0.0, 0.0, 0.33], [0.28, 0.01, 0.01], BLACK)],
+            [0.28, 0.28, 0.34],
+            "A metal bucket with a handle.",
+        ),
+        "towel" => small_object(category, vec![bx([0.0, 0.0, 0.03], [0.3, 0.2, 0.06], WHITE)], [0.3, 0.2, 0.06], "A folded towel."),
+        "pillow" => small_object(category, vec![bx([0.0, 0.0, 0.06], [0.5, 0.35, 0.12], CUSHION)], [0.5, 0.35, 0.12], "A pillow."),
+        "blanket" => small_object(category, vec![bx([0.0, 0.0, 0.04], [0.6, 0.4, 0.08], FABRIC)], [0.6, 0.4, 0.08], "A folded blanket."),
+        "backpack" => small_object(
+            category,
+            vec![bx([0.0, 0.0, 0.22], [0.3, 0.18, 0.44], FABRIC), bx([0.0, -0.1, 0.15], [0.24, 0.04, 0.2], BLACK)],
+            [0.3, 0.22, 0.44],
+            "A backpack with a front pocket.",
+        ),
+        "suitcase" => small_object(
+            category,
+            vec![bx([0.0, 0.0, 0.33], [0.42, 0.25, 0.66], BLACK), bx([0.0, 0.0, 0.7], [0.15, 0.03, 0.06], METAL)],
+            [0.42, 0.25, 0.72],
+            "A hard-shell suitcase.",
+        ),
+        "helmet" => {
+            small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.12, 0.12, RED), cyl([0.0, 0.0, 0.12], 0.08, 0.06, RED)], [0.24, 0.24, 0.18], "A helmet.")
+        }
+        "clock" => small_object(
+            category,
+            vec![bx([0.0, 0.0, 0.1], [0.2, 0.06, 0.2], WHITE), bx([0.0, -0.031, 0.1], [0.16, 0.002, 0.16], PAPER)],
+            [0.2, 0.06, 0.2],
+            "A desk clock.",
+        ),
+        _ => return None,
+    };
+    Some(a)
+}
+
+/// An object with no support surfaces, nothing under it and no mesh of its own.
+fn small_object(category: &str, parts: Vec<Part>, size: [f64; 3], description: &str) -> Asset {
+    Asset { category: category.into(), parts, size, supports: vec![], clearance: 0.0, under: None, description: description.into(), mesh: None }
 }

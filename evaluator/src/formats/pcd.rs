@@ -81,20 +81,9 @@ pub fn read_pcd(path: &Path) -> Result<PointCloud> {
 }
 
 fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
-    let bad = |field: &str, msg: String| InputError::new(path, format!("header.{field}"), msg);
-    let mut fields: Vec<String> = Vec::new();
-    let (mut sizes, mut types, mut counts) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut width, mut height, mut points) = (None, None, None);
+    let mut said = HeaderLines::default();
     for _ in 0..MAX_HEADER_LINES {
-        let mut line = Vec::new();
-        let read = reader.take(MAX_HEADER_LINE_BYTES as u64).read_until(b'\n', &mut line).map_err(|e| InputError::io(path, &e))?;
-        if read == 0 {
-            return Err(bad("DATA", "file ends before the header's DATA line".into()));
-        }
-        if !line.ends_with(b"\n") && line.len() >= MAX_HEADER_LINE_BYTES {
-            return Err(bad("line", format!("header line longer than {MAX_HEADER_LINE_BYTES} bytes")));
-        }
-        let line = String::from_utf8(line).map_err(|_| bad("line", "header is not text; is this a PCD file?".into()))?;
+        let line = next_header_line(reader, path)?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -102,96 +91,140 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header> {
         let mut words = line.split_whitespace();
         let key = words.next().unwrap_or_default().to_ascii_uppercase();
         let values: Vec<&str> = words.collect();
+        if key == "DATA" {
+            let encoding = match values.first().map(|s| s.to_ascii_lowercase()).as_deref() {
+                Some("ascii") => Encoding::Ascii,
+                Some("binary") => Encoding::Binary,
+                Some("binary_compressed") => Encoding::BinaryCompressed,
+                other => return Err(header_error(path, "DATA", format!("expected ascii, binary or binary_compressed, found '{}'", other.unwrap_or("")))),
+            };
+            return said.into_header(encoding, path);
+        }
+        said.take(&key, &values, path)?;
+    }
+    Err(header_error(path, "DATA", format!("no DATA line within the first {MAX_HEADER_LINES} header lines")))
+}
+
+/// The error of header line `field` of the file at `path`.
+fn header_error(path: &Path, field: &str, msg: String) -> InputError {
+    InputError::new(path, format!("header.{field}"), msg)
+}
+
+/// The next line of the header as text (at most [`MAX_HEADER_LINE_BYTES`]).
+fn next_header_line(reader: &mut impl BufRead, path: &Path) -> Result<String> {
+    let mut line = Vec::new();
+    let read = reader.take(MAX_HEADER_LINE_BYTES as u64).read_until(b'\n', &mut line).map_err(|e| InputError::io(path, &e))?;
+    if read == 0 {
+        return Err(header_error(path, "DATA", "file ends before the header's DATA line".into()));
+    }
+    if !line.ends_with(b"\n") && line.len() >= MAX_HEADER_LINE_BYTES {
+        return Err(header_error(path, "line", format!("header line longer than {MAX_HEADER_LINE_BYTES} bytes")));
+    }
+    String::from_utf8(line).map_err(|_| header_error(path, "line", "header is not text; is this a PCD file?".into()))
+}
+
+/// What the header's lines before DATA have said.
+#[derive(Default)]
+struct HeaderLines {
+    fields: Vec<String>,
+    sizes: Vec<usize>,
+    types: Vec<char>,
+    counts: Vec<usize>,
+    width: Option<usize>,
+    height: Option<usize>,
+    points: Option<usize>,
+}
+
+impl HeaderLines {
+    /// Take the line `key values` (any keyword but DATA).
+    fn take(&mut self, key: &str, values: &[&str], path: &Path) -> Result<()> {
+        let bad = |field: &str, msg: String| header_error(path, field, msg);
         let number = |key: &str, v: &[&str]| -> Result<usize> {
             v.first().and_then(|s| s.parse().ok()).ok_or_else(|| bad(key, format!("expected a non-negative integer, found '{}'", v.join(" "))))
         };
-        match key.as_str() {
+        match key {
             "VERSION" | "VIEWPOINT" => {}
-            "FIELDS" => fields = values.iter().map(|s| s.to_string()).collect(),
+            "FIELDS" => self.fields = values.iter().map(|s| s.to_string()).collect(),
             "SIZE" => {
-                sizes = values
+                self.sizes = values
                     .iter()
                     .map(|s| s.parse::<usize>())
                     .collect::<std::result::Result<_, _>>()
                     .map_err(|_| bad("SIZE", "sizes must be 1, 2, 4 or 8".into()))?
             }
-            "TYPE" => types = values.iter().map(|s| s.chars().next().unwrap_or('?').to_ascii_uppercase()).collect(),
+            "TYPE" => self.types = values.iter().map(|s| s.chars().next().unwrap_or('?').to_ascii_uppercase()).collect(),
             "COUNT" => {
-                counts = values
+                self.counts = values
                     .iter()
                     .map(|s| s.parse::<usize>())
                     .collect::<std::result::Result<_, _>>()
                     .map_err(|_| bad("COUNT", "counts must be positive integers".into()))?
             }
-            "WIDTH" => width = Some(number("WIDTH", &values)?),
-            "HEIGHT" => height = Some(number("HEIGHT", &values)?),
-            "POINTS" => points = Some(number("POINTS", &values)?),
-            "DATA" => {
-                let encoding = match values.first().map(|s| s.to_ascii_lowercase()).as_deref() {
-                    Some("ascii") => Encoding::Ascii,
-                    Some("binary") => Encoding::Binary,
-                    Some("binary_compressed") => Encoding::BinaryCompressed,
-                    other => return Err(bad("DATA", format!("expected ascii, binary or binary_compressed, found '{}'", other.unwrap_or("")))),
-                };
-                if counts.is_empty() {
-                    counts = vec![1; fields.len()];
-                }
-                if fields.is_empty() || sizes.len() != fields.len() || types.len() != fields.len() || counts.len() != fields.len() {
-                    return Err(bad(
-                        "FIELDS",
-                        format!(
-                            "FIELDS ({}), SIZE ({}), TYPE ({}) and COUNT ({}) must list the same number of entries",
-                            fields.len(),
-                            sizes.len(),
-                            types.len(),
-                            counts.len()
-                        ),
-                    ));
-                }
-                let fields: Vec<Field> =
-                    fields.into_iter().zip(sizes).zip(types).zip(counts).map(|(((name, size), kind), count)| Field { name, size, kind, count }).collect();
-                for f in &fields {
-                    let valid = matches!((f.kind, f.size), ('F', 4 | 8) | ('I' | 'U', 1 | 2 | 4 | 8));
-                    if !valid || f.count == 0 || f.count > MAX_FIELD_COUNT {
-                        return Err(bad(
-                            "TYPE",
-                            format!("field '{}' has unsupported type {}{} x {} (counts 1..={MAX_FIELD_COUNT})", f.name, f.kind, f.size, f.count),
-                        ));
-                    }
-                }
-                let record: usize = fields.iter().map(|f| f.size * f.count).sum();
-                if record > MAX_RECORD_BYTES {
-                    return Err(bad("SIZE", format!("records of {record} bytes are larger than {MAX_RECORD_BYTES}")));
-                }
-                let points = match (points, width, height) {
-                    (Some(p), _, _) => p,
-                    (None, Some(w), Some(h)) => w.checked_mul(h).ok_or_else(|| bad("POINTS", "WIDTH x HEIGHT overflows".into()))?,
-                    _ => return Err(bad("POINTS", "missing POINTS (or WIDTH and HEIGHT)".into())),
-                };
-                if let (Some(w), Some(h)) = (width, height)
-                    && w.checked_mul(h) != Some(points)
-                {
-                    return Err(bad("POINTS", format!("POINTS {points} disagrees with WIDTH {w} x HEIGHT {h}")));
-                }
-                let header = Header { fields, points, encoding };
-                for axis in ["x", "y", "z"] {
-                    match header.locate(axis) {
-                        Some((_, f)) if f.kind == 'F' && f.count == 1 => {}
-                        Some(_) => return Err(bad("FIELDS", format!("field '{axis}' must be a single float"))),
-                        None => {
-                            return Err(bad(
-                                "FIELDS",
-                                format!("missing field '{axis}' (found: {})", header.fields.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(" ")),
-                            ));
-                        }
-                    }
-                }
-                return Ok(header);
-            }
+            "WIDTH" => self.width = Some(number("WIDTH", values)?),
+            "HEIGHT" => self.height = Some(number("HEIGHT", values)?),
+            "POINTS" => self.points = Some(number("POINTS", values)?),
             other => return Err(bad("line", format!("unknown header keyword '{other}'"))),
         }
+        Ok(())
     }
-    Err(bad("DATA", format!("no DATA line within the first {MAX_HEADER_LINES} header lines")))
+
+    /// The header these lines and the DATA line's `encoding` describe, checked: its fields
+    /// (supported types, x, y and z single floats) and its number of points.
+    fn into_header(self, encoding: Encoding, path: &Path) -> Result<Header> {
+        let bad = |field: &str, msg: String| header_error(path, field, msg);
+        let HeaderLines { fields, sizes, types, mut counts, width, height, points } = self;
+        if counts.is_empty() {
+            counts = vec![1; fields.len()];
+        }
+        if fields.is_empty() || sizes.len() != fields.len() || types.len() != fields.len() || counts.len() != fields.len() {
+            return Err(bad(
+                "FIELDS",
+                format!(
+                    "FIELDS ({}), SIZE ({}), TYPE ({}) and COUNT ({}) must list the same number of entries",
+                    fields.len(),
+                    sizes.len(),
+                    types.len(),
+                    counts.len()
+                ),
+            ));
+        }
+        let fields: Vec<Field> =
+            fields.into_iter().zip(sizes).zip(types).zip(counts).map(|(((name, size), kind), count)| Field { name, size, kind, count }).collect();
+        for f in &fields {
+            let valid = matches!((f.kind, f.size), ('F', 4 | 8) | ('I' | 'U', 1 | 2 | 4 | 8));
+            if !valid || f.count == 0 || f.count > MAX_FIELD_COUNT {
+                return Err(bad("TYPE", format!("field '{}' has unsupported type {}{} x {} (counts 1..={MAX_FIELD_COUNT})", f.name, f.kind, f.size, f.count)));
+            }
+        }
+        let record: usize = fields.iter().map(|f| f.size * f.count).sum();
+        if record > MAX_RECORD_BYTES {
+            return Err(bad("SIZE", format!("records of {record} bytes are larger than {MAX_RECORD_BYTES}")));
+        }
+        let points = match (points, width, height) {
+            (Some(p), _, _) => p,
+            (None, Some(w), Some(h)) => w.checked_mul(h).ok_or_else(|| bad("POINTS", "WIDTH x HEIGHT overflows".into()))?,
+            _ => return Err(bad("POINTS", "missing POINTS (or WIDTH and HEIGHT)".into())),
+        };
+        if let (Some(w), Some(h)) = (width, height)
+            && w.checked_mul(h) != Some(points)
+        {
+            return Err(bad("POINTS", format!("POINTS {points} disagrees with WIDTH {w} x HEIGHT {h}")));
+        }
+        let header = Header { fields, points, encoding };
+        for axis in ["x", "y", "z"] {
+            match header.locate(axis) {
+                Some((_, f)) if f.kind == 'F' && f.count == 1 => {}
+                Some(_) => return Err(bad("FIELDS", format!("field '{axis}' must be a single float"))),
+                None => {
+                    return Err(bad(
+                        "FIELDS",
+                        format!("missing field '{axis}' (found: {})", header.fields.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(" ")),
+                    ));
+                }
+            }
+        }
+        Ok(header)
+    }
 }
 
 fn float_at(bytes: &[u8], size: usize) -> f32 {

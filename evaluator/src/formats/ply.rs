@@ -92,84 +92,97 @@ pub fn read_semantic_mesh(path: &Path) -> Result<SemanticMesh> {
     let mut mesh = SemanticMesh { face_offsets: vec![0], ..Default::default() };
     let mut source = ValueSource { reader: &mut reader, format, path, line: Vec::new(), pos: 0 };
     for element in &elements {
-        let find = |name: &str| element.properties.iter().position(|p| p.name == name);
         match element.name.as_str() {
-            "vertex" => {
-                let axes = [find("x"), find("y"), find("z")];
-                if axes.iter().any(Option::is_none) {
-                    return Err(InputError::new(path, "header.vertex", "vertices need properties x, y and z"));
-                }
-                mesh.vertices.reserve(element.count.min(1 << 24));
-                let mut values = vec![0.0f64; element.properties.len()];
-                for i in 0..element.count {
-                    source.start_record()?;
-                    for (k, p) in element.properties.iter().enumerate() {
-                        if p.list.is_some() {
-                            source.skip_list(p)?;
-                        } else {
-                            values[k] = source.scalar(p.value)?;
-                        }
-                    }
-                    let v = axes.map(|a| values[a.expect("checked")] as f32);
-                    if v.iter().any(|c| !c.is_finite()) {
-                        return Err(InputError::new(path, format!("vertex {i}"), "non-finite coordinate"));
-                    }
-                    mesh.vertices.push(v);
-                }
-            }
-            "face" => {
-                let indices = find("vertex_indices")
-                    .or_else(|| find("vertex_index"))
-                    .ok_or_else(|| InputError::new(path, "header.face", "faces need a 'vertex_indices' list"))?;
-                let object = find("object_id").ok_or_else(|| InputError::new(path, "header.face", "faces need an 'object_id' property"))?;
-                for i in 0..element.count {
-                    source.start_record()?;
-                    let mut object_id = 0;
-                    for (k, p) in element.properties.iter().enumerate() {
-                        match (k, p.list) {
-                            (k, Some(count_type)) if k == indices => {
-                                let len = source.scalar(count_type)? as usize;
-                                if len > MAX_FACE_VERTICES {
-                                    return Err(InputError::new(path, format!("face {i}"), format!("{len} vertices (at most {MAX_FACE_VERTICES})")));
-                                }
-                                for _ in 0..len {
-                                    let v = source.scalar(p.value)?;
-                                    if v < 0.0 || v as usize >= mesh.vertices.len() {
-                                        return Err(InputError::new(
-                                            path,
-                                            format!("face {i}"),
-                                            format!("vertex index {v} is outside 0..{}", mesh.vertices.len()),
-                                        ));
-                                    }
-                                    mesh.face_vertices.push(v as u32);
-                                }
-                            }
-                            (_, Some(_)) => source.skip_list(p)?,
-                            (k, None) if k == object => object_id = source.scalar(p.value)? as i64,
-                            (_, None) => {
-                                source.scalar(p.value)?;
-                            }
-                        }
-                    }
-                    mesh.face_offsets.push(mesh.face_vertices.len());
-                    mesh.face_objects.push(object_id);
-                }
-            }
-            _ => {
-                for _ in 0..element.count {
-                    source.start_record()?;
-                    for p in &element.properties {
-                        if p.list.is_some() {
-                            source.skip_list(p)?;
-                        } else {
-                            source.scalar(p.value)?;
-                        }
-                    }
-                }
-            }
+            "vertex" => read_vertices(&mut source, element, &mut mesh, path)?,
+            "face" => read_faces(&mut source, element, &mut mesh, path)?,
+            _ => skip_element(&mut source, element)?,
         }
     }
     Ok(mesh)
+}
+
+/// The position of `element`'s property `name`, if it has one.
+fn property(element: &Element, name: &str) -> Option<usize> {
+    element.properties.iter().position(|p| p.name == name)
+}
+
+/// The vertices of `element` into `mesh`: their x, y and z (finite), other properties skipped.
+fn read_vertices<R: BufRead>(source: &mut ValueSource<R>, element: &Element, mesh: &mut SemanticMesh, path: &Path) -> Result<()> {
+    let axes = [property(element, "x"), property(element, "y"), property(element, "z")];
+    if axes.iter().any(Option::is_none) {
+        return Err(InputError::new(path, "header.vertex", "vertices need properties x, y and z"));
+    }
+    mesh.vertices.reserve(element.count.min(1 << 24));
+    let mut values = vec![0.0f64; element.properties.len()];
+    for i in 0..element.count {
+        source.start_record()?;
+        for (k, p) in element.properties.iter().enumerate() {
+            if p.list.is_some() {
+                source.skip_list(p)?;
+            } else {
+                values[k] = source.scalar(p.value)?;
+            }
+        }
+        let v = axes.map(|a| values[a.expect("checked")] as f32);
+        if v.iter().any(|c| !c.is_finite()) {
+            return Err(InputError::new(path, format!("vertex {i}"), "non-finite coordinate"));
+        }
+        mesh.vertices.push(v);
+    }
+    Ok(())
+}
+
+/// The faces of `element` into `mesh`: their vertex indices (each a vertex read before)
+/// and their object id, other properties skipped.
+fn read_faces<R: BufRead>(source: &mut ValueSource<R>, element: &Element, mesh: &mut SemanticMesh, path: &Path) -> Result<()> {
+    let indices = property(element, "vertex_indices")
+        .or_else(|| property(element, "vertex_index"))
+        .ok_or_else(|| InputError::new(path, "header.face", "faces need a 'vertex_indices' list"))?;
+    let object = property(element, "object_id").ok_or_else(|| InputError::new(path, "header.face", "faces need an 'object_id' property"))?;
+    for i in 0..element.count {
+        source.start_record()?;
+        let mut object_id = 0;
+        for (k, p) in element.properties.iter().enumerate() {
+            match (k, p.list) {
+                (k, Some(count_type)) if k == indices => {
+                    let len = source.scalar(count_type)? as usize;
+                    if len > MAX_FACE_VERTICES {
+                        return Err(InputError::new(path, format!("face {i}"), format!("{len} vertices (at most {MAX_FACE_VERTICES})")));
+                    }
+                    for _ in 0..len {
+                        let v = source.scalar(p.value)?;
+                        if v < 0.0 || v as usize >= mesh.vertices.len() {
+                            return Err(InputError::new(path, format!("face {i}"), format!("vertex index {v} is outside 0..{}", mesh.vertices.len())));
+                        }
+                        mesh.face_vertices.push(v as u32);
+                    }
+                }
+                (_, Some(_)) => source.skip_list(p)?,
+                (k, None) if k == object => object_id = source.scalar(p.value)? as i64,
+                (_, None) => {
+                    source.scalar(p.value)?;
+                }
+            }
+        }
+        mesh.face_offsets.push(mesh.face_vertices.len());
+        mesh.face_objects.push(object_id);
+    }
+    Ok(())
+}
+
+/// Read past every record of an element the mesh does not use.
+fn skip_element<R: BufRead>(source: &mut ValueSource<R>, element: &Element) -> Result<()> {
+    for _ in 0..element.count {
+        source.start_record()?;
+        for p in &element.properties {
+            if p.list.is_some() {
+                source.skip_list(p)?;
+            } else {
+                source.scalar(p.value)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<(Format, Vec<Element>)> {

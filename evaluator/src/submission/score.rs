@@ -118,6 +118,45 @@ pub fn score_submission_timed(
         return Err(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against"));
     }
     let mut timings = ScoringTimings::default();
+    let by_lighting = score_maps(submission, release, limits, cache, &mut timings, progress)?;
+    let clock = Instant::now();
+    let mut semseg = BTreeMap::new();
+    let mut tables: BTreeMap<Lighting, MetricsTable> = BTreeMap::new();
+    for (lighting, scenes) in by_lighting {
+        let (scores, table) = lighting_scores(release, scenes);
+        semseg.insert(lighting, scores);
+        tables.insert(lighting, table);
+    }
+    let relative_change = relative_changes(&tables);
+    timings.tables = clock.elapsed();
+    let clock = Instant::now();
+    let vqa = published_vqa(submission, release, open)?;
+    timings.vqa = clock.elapsed();
+    let scores = Scores {
+        complete: submission.complete,
+        evaluator_version: EVALUATOR_VERSION.to_string(),
+        missing_maps: submission.missing_maps.clone(),
+        relative_change,
+        release: release.version.clone(),
+        semseg,
+        split: release.split,
+        vqa,
+        withheld: None,
+    };
+    Ok((scores, timings))
+}
+
+/// Every map of `submission` scored against its scene's ground truth, scene by scene (the
+/// ground truth from `cache` when it holds it, and kept there when it does not): per
+/// lighting, each scene's confusion matrix.
+fn score_maps(
+    submission: &ValidSubmission,
+    release: &ReleaseIndex,
+    limits: SubmissionLimits,
+    cache: Option<&PreparedCache>,
+    timings: &mut ScoringTimings,
+    progress: &dyn Fn(usize, usize),
+) -> Result<BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>>> {
     let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
     let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
@@ -130,7 +169,7 @@ pub fn score_submission_timed(
             // (the background store may still hold it while it writes it).
             drop(ground_truth.take());
             let classes = release.scene_classes(&entry.scene)?;
-            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), &mut timings)?;
+            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), timings)?;
             ground_truth = Some((entry.scene.as_str(), gt, classes));
         }
         let (_, gt, classes) = ground_truth.as_ref().expect("read above");
@@ -152,46 +191,47 @@ pub fn score_submission_timed(
         timings.keep_ground_truth = kept.writing;
         timings.not_kept.extend(kept.misses);
     }
-    let clock = Instant::now();
+    Ok(by_lighting)
+}
 
-    let mut semseg = BTreeMap::new();
-    let mut tables: BTreeMap<Lighting, MetricsTable> = BTreeMap::new();
-    for (lighting, scenes) in by_lighting {
-        let counts: BTreeMap<String, Vec<ClassCount>> = scenes.iter().map(|(s, m)| (s.clone(), ClassCount::of(m))).collect();
-        // Resamples are drawn over the release's scenes in manifest order, so every
-        // submission of the release is resampled alike; a scene without a map adds nothing.
-        let in_release = |subset: Option<Regime>| -> Vec<Vec<ClassCount>> {
-            release.scenes.iter().filter(|s| subset.is_none_or(|r| s.subset == r)).map(|s| counts.get(&s.id).cloned().unwrap_or_default()).collect()
-        };
-        let mut subsets = BTreeMap::new();
-        for subset in Regime::ALL {
-            let members: Vec<(String, ConfusionMatrix)> =
-                scenes.iter().filter(|(s, _)| release.scene(s).is_some_and(|r| r.subset == subset)).map(|(s, m)| (s.clone(), m.clone())).collect();
-            if !members.is_empty() {
-                let table = MetricsTable::from_scenes(members);
-                let overall = MetricTriple { ci95: Replicates::of(&in_release(Some(subset))).intervals(), ..(&table.overall).into() };
-                subsets.insert(subset, SubsetScores { overall, overall_mean: table.overall_mean, scenes: table.scenes.len() });
-            }
+/// One lighting's scores from its `scenes`' confusion matrices: the scene rows, the
+/// aggregates with bootstrap intervals, the same per subset; and its metrics table.
+fn lighting_scores(release: &ReleaseIndex, scenes: Vec<(String, ConfusionMatrix)>) -> (LightingScores, MetricsTable) {
+    let counts: BTreeMap<String, Vec<ClassCount>> = scenes.iter().map(|(s, m)| (s.clone(), ClassCount::of(m))).collect();
+    // Resamples are drawn over the release's scenes in manifest order, so every
+    // submission of the release is resampled alike; a scene without a map adds nothing.
+    let in_release = |subset: Option<Regime>| -> Vec<Vec<ClassCount>> {
+        release.scenes.iter().filter(|s| subset.is_none_or(|r| s.subset == r)).map(|s| counts.get(&s.id).cloned().unwrap_or_default()).collect()
+    };
+    let mut subsets = BTreeMap::new();
+    for subset in Regime::ALL {
+        let members: Vec<(String, ConfusionMatrix)> =
+            scenes.iter().filter(|(s, _)| release.scene(s).is_some_and(|r| r.subset == subset)).map(|(s, m)| (s.clone(), m.clone())).collect();
+        if !members.is_empty() {
+            let table = MetricsTable::from_scenes(members);
+            let overall = MetricTriple { ci95: Replicates::of(&in_release(Some(subset))).intervals(), ..(&table.overall).into() };
+            subsets.insert(subset, SubsetScores { overall, overall_mean: table.overall_mean, scenes: table.scenes.len() });
         }
-        let table = MetricsTable::from_scenes(scenes);
-        let replicates = Replicates::of(&in_release(None));
-        semseg.insert(
-            lighting,
-            LightingScores {
-                bootstrap_miou: replicates.miou(),
-                overall: MetricTriple { ci95: replicates.intervals(), ..(&table.overall).into() },
-                overall_mean: table.overall_mean,
-                pooled: None,
-                scenes: table.scenes.iter().map(|(s, m)| (s.clone(), m.into())).collect(),
-                subsets,
-            },
-        );
-        tables.insert(lighting, table);
     }
+    let table = MetricsTable::from_scenes(scenes);
+    let replicates = Replicates::of(&in_release(None));
+    let scores = LightingScores {
+        bootstrap_miou: replicates.miou(),
+        overall: MetricTriple { ci95: replicates.intervals(), ..(&table.overall).into() },
+        overall_mean: table.overall_mean,
+        pooled: None,
+        scenes: table.scenes.iter().map(|(s, m)| (s.clone(), m.into())).collect(),
+        subsets,
+    };
+    (scores, table)
+}
 
+/// The relative change of each lighting's aggregates against the baseline lighting's
+/// (none without a baseline).
+fn relative_changes(tables: &BTreeMap<Lighting, MetricsTable>) -> BTreeMap<Lighting, RelativeChange> {
     let mut relative_change = BTreeMap::new();
     if let Some(base) = tables.get(&Lighting::BASELINE) {
-        for (lighting, table) in &tables {
+        for (lighting, table) in tables {
             relative_change.insert(
                 *lighting,
                 RelativeChange {
@@ -201,29 +241,19 @@ pub fn score_submission_timed(
             );
         }
     }
-    timings.tables = clock.elapsed();
-    let clock = Instant::now();
+    relative_change
+}
+
+/// The VQA scores as published. A test scene's answers stay hidden: per question, the
+/// answer given and whether it was right would tell them (the oracle's document would
+/// list them all), and per scene and lighting the number right lets one submission try
+/// four answer sets. The pooled accuracies (per category, group and lighting) stay.
+fn published_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: crate::vqa::score::OpenBackends) -> Result<Option<crate::scores::VqaScores>> {
     let mut vqa = crate::vqa::score::score_vqa(submission, release, open)?;
     if release.split == Some(crate::scores::Split::Test) {
-        // A test scene's answers stay hidden: per question, the answer given and whether it
-        // was right would tell them (the oracle's document would list them all), and per
-        // scene and lighting the number right lets one submission try four answer sets.
-        // The pooled accuracies (per category, group and lighting) stay.
         for v in vqa.iter_mut() {
             v.scenes.clear();
         }
     }
-    timings.vqa = clock.elapsed();
-    let scores = Scores {
-        complete: submission.complete,
-        evaluator_version: EVALUATOR_VERSION.to_string(),
-        missing_maps: submission.missing_maps.clone(),
-        relative_change,
-        release: release.version.clone(),
-        semseg,
-        split: release.split,
-        vqa,
-        withheld: None,
-    };
-    Ok((scores, timings))
+    Ok(vqa)
 }

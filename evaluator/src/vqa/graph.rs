@@ -73,77 +73,8 @@ impl SceneGraph {
             },
             _ => return Err(InputError::new(name, "(json)", "expected {\"objects\": [...]} or a list of nodes")),
         };
-        let mut objects = Vec::with_capacity(nodes.len());
-        for (i, node) in nodes.iter().enumerate() {
-            let Some(fields) = node.as_object() else {
-                return Err(InputError::new(name, format!("objects[{i}]"), "expected an object"));
-            };
-            let id = match fields.get("id") {
-                Some(Value::String(s)) => s.clone(),
-                Some(Value::Number(n)) => n.to_string(),
-                None => i.to_string(),
-                Some(_) => return Err(InputError::new(name, format!("objects[{i}].id"), "expected a string or an integer")),
-            };
-            let mut texts = Vec::new();
-            for key in ["label", "object_tag", "description", "caption"] {
-                match fields.get(key) {
-                    Some(Value::String(s)) if !s.trim().is_empty() => texts.push(s.trim().to_lowercase()),
-                    Some(Value::String(_) | Value::Null) | None => {}
-                    Some(_) => return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected a string")),
-                }
-            }
-            if let Some(tags) = fields.get("possible_tags") {
-                let Some(list) = tags.as_array() else {
-                    return Err(InputError::new(name, format!("objects[{i}].possible_tags"), "expected a list of strings"));
-                };
-                texts.extend(list.iter().filter_map(Value::as_str).map(|s| s.trim().to_lowercase()).filter(|s| !s.is_empty()));
-            }
-            let center = triple(fields.get("bbox_center"), name, format!("objects[{i}].bbox_center"))?;
-            let extent = triple(fields.get("bbox_extent"), name, format!("objects[{i}].bbox_extent"))?;
-            let (Some(center), Some(extent)) = (center, extent) else {
-                return Err(InputError::new(name, format!("objects[{i}]"), "every node needs bbox_center and bbox_extent (three numbers each)"));
-            };
-            if extent.iter().any(|&e| e < 0.0) {
-                return Err(InputError::new(name, format!("objects[{i}].bbox_extent"), "extents cannot be negative"));
-            }
-            let features = match fields.get("features") {
-                None | Some(Value::Null) => None,
-                Some(Value::Array(values)) => {
-                    let numbers: Vec<f32> = values.iter().filter_map(Value::as_f64).map(|v| v as f32).collect();
-                    if numbers.len() != values.len()
-                        || numbers.is_empty()
-                        || numbers.len() > crate::formats::map::MAX_FEATURE_DIM
-                        || !numbers.iter().all(|v| v.is_finite())
-                    {
-                        return Err(InputError::new(
-                            name,
-                            format!("objects[{i}].features"),
-                            format!("expected 1 to {} finite numbers", crate::formats::map::MAX_FEATURE_DIM),
-                        ));
-                    }
-                    Some(numbers)
-                }
-                Some(_) => return Err(InputError::new(name, format!("objects[{i}].features"), "expected a list of numbers")),
-            };
-            objects.push(GraphObject { id, texts, center, extent, features });
-        }
-        let mut edges = Vec::new();
-        if let Some(list) = value.get("edges") {
-            let Some(list) = list.as_array() else {
-                return Err(InputError::new(name, "edges", "expected a list of {\"source\", \"target\", \"relation\"}"));
-            };
-            for (i, edge) in list.iter().enumerate() {
-                let text = |key: &str| match edge.get(key) {
-                    Some(Value::String(s)) => Some(s.clone()),
-                    Some(Value::Number(n)) => Some(n.to_string()),
-                    _ => None,
-                };
-                match (text("source"), text("target"), text("relation")) {
-                    (Some(source), Some(target), Some(relation)) => edges.push(Edge { source, target, relation: relation.to_lowercase() }),
-                    _ => return Err(InputError::new(name, format!("edges[{i}]"), "expected {\"source\", \"target\", \"relation\"}")),
-                }
-            }
-        }
+        let objects = nodes.iter().enumerate().map(|(i, node)| parse_node(i, node, name)).collect::<Result<Vec<_>, _>>()?;
+        let edges = parse_edges(value, name)?;
         Ok(SceneGraph { objects, edges })
     }
 
@@ -153,6 +84,91 @@ impl SceneGraph {
         let value: Value = serde_json::from_slice(&bytes).map_err(|e| InputError::new(name, "(json)", format!("not valid JSON: {e}")))?;
         SceneGraph::parse(&value, name)
     }
+}
+
+/// Node `i` of a scene graph (`name` is the file as the participant knows it): its id,
+/// texts, box and optional feature vector.
+fn parse_node(i: usize, node: &Value, name: &str) -> Result<GraphObject, InputError> {
+    let Some(fields) = node.as_object() else {
+        return Err(InputError::new(name, format!("objects[{i}]"), "expected an object"));
+    };
+    let id = match fields.get("id") {
+        Some(Value::String(s)) => s.clone(),
+        Some(Value::Number(n)) => n.to_string(),
+        None => i.to_string(),
+        Some(_) => return Err(InputError::new(name, format!("objects[{i}].id"), "expected a string or an integer")),
+    };
+    let mut texts = Vec::new();
+    for key in ["label", "object_tag", "description", "caption"] {
+        match fields.get(key) {
+            Some(Value::String(s)) if !s.trim().is_empty() => texts.push(s.trim().to_lowercase()),
+            Some(Value::String(_) | Value::Null) | None => {}
+            Some(_) => return Err(InputError::new(name, format!("objects[{i}].{key}"), "expected a string")),
+        }
+    }
+    if let Some(tags) = fields.get("possible_tags") {
+        let Some(list) = tags.as_array() else {
+            return Err(InputError::new(name, format!("objects[{i}].possible_tags"), "expected a list of strings"));
+        };
+        texts.extend(list.iter().filter_map(Value::as_str).map(|s| s.trim().to_lowercase()).filter(|s| !s.is_empty()));
+    }
+    let center = triple(fields.get("bbox_center"), name, format!("objects[{i}].bbox_center"))?;
+    let extent = triple(fields.get("bbox_extent"), name, format!("objects[{i}].bbox_extent"))?;
+    let (Some(center), Some(extent)) = (center, extent) else {
+        return Err(InputError::new(name, format!("objects[{i}]"), "every node needs bbox_center and bbox_extent (three numbers each)"));
+    };
+    if extent.iter().any(|&e| e < 0.0) {
+        return Err(InputError::new(name, format!("objects[{i}].bbox_extent"), "extents cannot be negative"));
+    }
+    let features = parse_features(fields.get("features"), i, name)?;
+    Ok(GraphObject { id, texts, center, extent, features })
+}
+
+/// Node `i`'s feature vector, if it has one: 1 to [`crate::formats::map::MAX_FEATURE_DIM`]
+/// finite numbers.
+fn parse_features(value: Option<&Value>, i: usize, name: &str) -> Result<Option<Vec<f32>>, InputError> {
+    let features = match value {
+        None | Some(Value::Null) => None,
+        Some(Value::Array(values)) => {
+            let numbers: Vec<f32> = values.iter().filter_map(Value::as_f64).map(|v| v as f32).collect();
+            if numbers.len() != values.len()
+                || numbers.is_empty()
+                || numbers.len() > crate::formats::map::MAX_FEATURE_DIM
+                || !numbers.iter().all(|v| v.is_finite())
+            {
+                return Err(InputError::new(
+                    name,
+                    format!("objects[{i}].features"),
+                    format!("expected 1 to {} finite numbers", crate::formats::map::MAX_FEATURE_DIM),
+                ));
+            }
+            Some(numbers)
+        }
+        Some(_) => return Err(InputError::new(name, format!("objects[{i}].features"), "expected a list of numbers")),
+    };
+    Ok(features)
+}
+
+/// The relation edges of a scene graph `value`, if it has any.
+fn parse_edges(value: &Value, name: &str) -> Result<Vec<Edge>, InputError> {
+    let mut edges = Vec::new();
+    if let Some(list) = value.get("edges") {
+        let Some(list) = list.as_array() else {
+            return Err(InputError::new(name, "edges", "expected a list of {\"source\", \"target\", \"relation\"}"));
+        };
+        for (i, edge) in list.iter().enumerate() {
+            let text = |key: &str| match edge.get(key) {
+                Some(Value::String(s)) => Some(s.clone()),
+                Some(Value::Number(n)) => Some(n.to_string()),
+                _ => None,
+            };
+            match (text("source"), text("target"), text("relation")) {
+                (Some(source), Some(target), Some(relation)) => edges.push(Edge { source, target, relation: relation.to_lowercase() }),
+                _ => return Err(InputError::new(name, format!("edges[{i}]"), "expected {\"source\", \"target\", \"relation\"}")),
+            }
+        }
+    }
+    Ok(edges)
 }
 
 /// Class text features as unit vectors, to name nodes that carry only a feature.

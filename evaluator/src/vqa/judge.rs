@@ -122,6 +122,11 @@ pub fn judge_without_llm(answer: &Value, predicted: &Value, form: Option<&Questi
     similar.and_then(recorded).map(|correct| Verdict { correct, by: JudgedBy::Recorded })
 }
 
+/// [`judge_without_llm`] of a textual `answer` and `predicted` answer, without a recorded verdict.
+pub fn judge_text_without_llm(answer: &str, predicted: &str, form: Option<&QuestionForm>) -> Option<Verdict> {
+    judge_without_llm(&Value::from(answer), &Value::from(predicted), form, None)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

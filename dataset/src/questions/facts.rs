@@ -10,7 +10,7 @@ use osmab_evaluator::vqa::answer::ClassifiedGraph;
 use osmab_evaluator::vqa::graph::{GraphObject, SceneGraph};
 use osmab_evaluator::vqa::judge::judge_text_without_llm;
 
-use super::{SceneObject, to_millimetre};
+use super::objects::{SceneObject, to_millimetre};
 
 /// Two boxes differ clearly in size when one is this many times the other's volume.
 pub const CLEARLY_LARGER: f64 = 1.5;

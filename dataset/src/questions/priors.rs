@@ -12,8 +12,8 @@ use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
 
 use super::facts::{SceneFacts, oracle_scene_graph};
-use super::{SceneObject, object_id};
-use crate::convert::lexicon::normalise_name;
+use super::objects::{SceneObject, object_id};
+use crate::convert::lexicon::{SHELL_CLASSES, normalise_name};
 use crate::prompts::{PromptPool, ScenePrompt};
 use crate::spec::Regime;
 use crate::synthesis::placement::{Layout, place};
@@ -91,7 +91,7 @@ pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
         .iter()
         .enumerate()
         .filter_map(|(k, o)| {
-            let label = normalise_name(&o.category).filter(|c| !super::STRUCTURAL.contains(c))?.to_string();
+            let label = normalise_name(&o.category).filter(|c| !SHELL_CLASSES.contains(c))?.to_string();
             let ([x0, y0], [x1, y1]) = o.footprint();
             let height = o.asset.size[2];
             // Drake (x, y, z) is Habitat's (x, z, −y).

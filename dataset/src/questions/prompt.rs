@@ -12,7 +12,8 @@ use osmab_evaluator::vqa::{QuestionForm, Relation};
 
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
 use super::standard::Asking;
-use super::{STRUCTURAL, plural, with_article};
+use super::wording::{plural, with_article};
+use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
 use crate::convert::lexicon::normalise_name;
 use crate::spec::{RelationKind, SceneSpec};
 

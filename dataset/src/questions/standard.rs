@@ -20,7 +20,8 @@ use osmab_evaluator::vqa::{QuestionForm, Relation};
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
 use super::facts::SceneFacts;
 use super::priors::QuestionPriors;
-use super::{STRUCTURAL, plural, with_article};
+use super::wording::{plural, with_article};
+use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
 use crate::spec::Regime;
 
 /// What the templates of a scene ask from: its facts, its room's odds and a draw.

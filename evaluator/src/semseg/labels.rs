@@ -5,7 +5,7 @@
 use faer::{Accum, MatRef, Par};
 use rayon::prelude::*;
 
-use super::Vocabulary;
+use super::vocabulary::Vocabulary;
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
 use crate::formats::map::{FeatureMatrix, MapSemantics, PredictedMap, TextFeatures};

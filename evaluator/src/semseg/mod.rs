@@ -14,6 +14,7 @@ pub mod metrics;
 pub mod nearest;
 pub mod prepared_cache;
 pub mod report;
+pub mod vocabulary;
 pub mod z_order;
 
 use std::time::{Duration, Instant};
@@ -22,6 +23,7 @@ pub use confusion::{ConfusionMatrix, NearestCount};
 pub use metrics::{ClassScore, SegmentationMetrics};
 pub use nearest::NearestIndex;
 pub use report::{LightingComparison, MetricTriple, MetricsTable};
+pub use vocabulary::Vocabulary;
 
 use rayon::prelude::*;
 
@@ -29,41 +31,6 @@ use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
-
-/// The classes a scene is scored on: those present in its ground truth, except 0.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Vocabulary {
-    ids: Vec<i64>,
-}
-
-impl Vocabulary {
-    /// Sorted unique ground-truth labels that are classes of the release, without 0
-    /// ("other") and -1 ("none"): the reference's `(classes & present) - excluded`.
-    pub fn from_ground_truth(labels: &[i64], classes: &ClassList) -> Self {
-        let ids = crate::label_set::unique_labels(labels).into_iter().filter(|l| !metrics::EXCLUDED_LABELS.contains(l) && classes.contains(*l)).collect();
-        Self { ids }
-    }
-
-    /// Class ids, ascending.
-    pub fn ids(&self) -> &[i64] {
-        &self.ids
-    }
-
-    /// Whether `id` is scored in this scene.
-    pub fn contains(&self, id: i64) -> bool {
-        self.ids.binary_search(&id).is_ok()
-    }
-
-    /// Number of classes.
-    pub fn len(&self) -> usize {
-        self.ids.len()
-    }
-
-    /// Whether no class is scored.
-    pub fn is_empty(&self) -> bool {
-        self.ids.is_empty()
-    }
-}
 
 /// Wall-clock time of each scoring stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

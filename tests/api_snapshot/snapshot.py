@@ -194,7 +194,7 @@ def scenario(binary: str, release: str) -> dict:
             ("/api/v1/quota", token), ("/api/v1/keys", None), ("/api/v1/nowhere", None), ("/api/v1/openapi.json", None), ("/api/docs", None),
             # The pages, as HTML text.
             ("/", None), ("/?agg=overall_mean&subset=manipuland&sort=camera.macc", None), ("/?sort=bogus.x&agg=zzz", None),
-            (f"/submissions/{oracle['id']}", token), (f"/releases/{version}", None),
+            (f"/submissions/{oracle['id']}", token), (f"/releases/{version}", None), ("/about", None),
         ]
         for path, who in reads:
             label = f"GET {path}" + (" (admin)" if who == ADMIN else " (team)" if who else "")

@@ -11,16 +11,24 @@ use crate::semseg::ConfusionMatrix;
 /// Largest total count accepted: 2^53, the largest integer float64 holds exactly.
 const MAX_TOTAL: u64 = 1 << 53;
 
-#[derive(Serialize, Deserialize)]
-struct ConfusionJson {
-    labels: Vec<i64>,
-    matrix: Vec<Vec<u64>>,
+/// A confusion matrix as its file writes it: the labels, and one row of counts per label.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConfusionDocument {
+    pub labels: Vec<i64>,
+    pub matrix: Vec<Vec<u64>>,
+}
+
+impl From<&ConfusionMatrix> for ConfusionDocument {
+    fn from(matrix: &ConfusionMatrix) -> Self {
+        let n = matrix.labels().len();
+        ConfusionDocument { labels: matrix.labels().to_vec(), matrix: (0..n).map(|r| matrix.row(r).to_vec()).collect() }
+    }
 }
 
 /// Read a `.confusion.json` file.
 pub fn read_confusion(path: &Path) -> Result<ConfusionMatrix> {
     let text = std::fs::read(path).map_err(|e| InputError::io(path, &e))?;
-    let json: ConfusionJson = serde_json::from_slice(&text)
+    let json: ConfusionDocument = serde_json::from_slice(&text)
         .map_err(|e| InputError::new(path, "(json)", format!("expected {{\"labels\": [int, ...], \"matrix\": [[non-negative int, ...], ...]}}: {e}")))?;
     let n = json.labels.len();
     if json.matrix.len() != n {
@@ -43,15 +51,8 @@ pub fn read_confusion(path: &Path) -> Result<ConfusionMatrix> {
     ConfusionMatrix::new(json.labels, counts).map_err(|m| InputError::new(path, "labels", m))
 }
 
-/// The JSON value of a confusion matrix (`labels` and `matrix`).
-pub fn confusion_to_json(matrix: &ConfusionMatrix) -> serde_json::Value {
-    let n = matrix.labels().len();
-    let rows: Vec<Vec<u64>> = (0..n).map(|r| matrix.row(r).to_vec()).collect();
-    serde_json::json!({ "labels": matrix.labels(), "matrix": rows })
-}
-
 /// Write a `.confusion.json` file.
 pub fn write_confusion(path: &Path, matrix: &ConfusionMatrix) -> Result<()> {
-    let text = serde_json::to_string(&confusion_to_json(matrix)).expect("confusion matrices serialise");
+    let text = serde_json::to_string(&ConfusionDocument::from(matrix)).expect("confusion matrices serialise");
     std::fs::write(path, text).map_err(|e| InputError::io(path, &e))
 }

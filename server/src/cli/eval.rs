@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use osmab_evaluator::formats::classes::ClassList;
-use osmab_evaluator::formats::confusion::{confusion_to_json, read_confusion};
+use osmab_evaluator::formats::confusion::{ConfusionDocument, read_confusion};
 use osmab_evaluator::formats::map::{PredictedMap, TextFeatures};
 use osmab_evaluator::formats::npy::ReadLimits;
 use osmab_evaluator::ground_truth::GroundTruth;
@@ -131,8 +131,8 @@ fn semseg(args: &SemsegArgs) -> anyhow::Result<()> {
     let score = score_scene(&ground_truth, &map, &classes, text.as_ref())?;
     print_scores(&score, &classes, ground_truth.points.len(), map.points.len());
     if let Some(out) = &args.json {
-        let mut json = confusion_to_json(&score.confusion);
-        json["metrics"] = serde_json::json!({ "miou": score.metrics.miou, "fmiou": score.metrics.fmiou, "macc": score.metrics.macc });
+        let metrics = Headline { fmiou: score.metrics.fmiou, macc: score.metrics.macc, miou: score.metrics.miou };
+        let json = EvalDocument { confusion: ConfusionDocument::from(&score.confusion), metrics };
         std::fs::write(out, serde_json::to_string(&json)?).with_context(|| format!("{}: cannot write", out.display()))?;
     }
     if args.timings {
@@ -164,4 +164,20 @@ fn print_scores(score: &SceneScore, classes: &ClassList, gt_points: usize, map_p
     for c in &m.classes {
         println!("{:>6}  {:<24} {:>10} {:>10} {:>8.4} {:>8.4}", c.label, classes.name(c.label).unwrap_or("?"), c.ground_truth, c.predicted, c.iou, c.recall);
     }
+}
+
+/// What `--json` writes: the scene's confusion matrix and its headline metrics (keys sorted,
+/// a metric that is undefined as `null`).
+#[derive(serde::Serialize)]
+struct EvalDocument {
+    #[serde(flatten)]
+    confusion: ConfusionDocument,
+    metrics: Headline,
+}
+
+#[derive(serde::Serialize)]
+struct Headline {
+    fmiou: f64,
+    macc: f64,
+    miou: f64,
 }

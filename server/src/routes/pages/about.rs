@@ -4,6 +4,7 @@
 use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
+use osmab_evaluator::scores::Metric;
 
 use super::manifest::PublishedManifest;
 use crate::state::AppState;

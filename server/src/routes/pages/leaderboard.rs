@@ -139,7 +139,7 @@ pub struct Row {
 }
 
 pub struct Choice {
-    pub label: &'static str,
+    pub label: std::borrow::Cow<'static, str>,
     pub link: String,
     pub active: bool,
 }
@@ -261,12 +261,12 @@ fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFram
         rows,
         aggregates: Aggregate::ALL
             .iter()
-            .map(|&aggregate| Choice { label: aggregate.label(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
+            .map(|&aggregate| Choice { label: aggregate.label().into(), link: View { aggregate, ..view }.link(board), active: aggregate == view.aggregate })
             .collect(),
         subsets: std::iter::once(None)
             .chain(Regime::ALL.iter().copied().map(Some))
             .map(|subset| Choice {
-                label: subset.map_or("All scenes", Regime::label),
+                label: subset.map_or("All scenes", Regime::label).into(),
                 link: View { subset, ..view }.link(board),
                 active: subset == view.subset,
             })
@@ -322,9 +322,10 @@ fn row(rank: usize, e: &Entry, board: &Leaderboard, view: View, cells_of: &[(Lig
 
 /// mIoU alone, or every metric.
 fn metric_choices(board: &Leaderboard, view: View) -> Vec<Choice> {
-    [(false, "mIoU"), (true, "mIoU, f-mIoU, mAcc")]
+    let every_metric = Metric::COLUMNS.map(Metric::label).join(", ");
+    [(false, Metric::Miou.label().into()), (true, every_metric.into())]
         .into_iter()
-        .map(|(all_metrics, label)| {
+        .map(|(all_metrics, label): (bool, std::borrow::Cow<'static, str>)| {
             // mIoU alone also sorts by mIoU (a sort by another metric shows every metric).
             let sort = if all_metrics { view.sort } else { (view.sort.0, Metric::Miou) };
             Choice { label, link: View { all_metrics, sort, ..view }.link(board), active: all_metrics == view.all_metrics }
@@ -341,7 +342,7 @@ fn split_choices(board: &Leaderboard, view: View) -> Vec<Choice> {
         .splits
         .iter()
         .map(|&split| Choice {
-            label: split.label(),
+            label: split.label().into(),
             link: format!("/?release={}&split={split}&agg={}&subset={}", board.release, view.aggregate, view.subset_name()),
             active: split == board.split,
         })
@@ -352,7 +353,7 @@ fn split_choices(board: &Leaderboard, view: View) -> Vec<Choice> {
 /// `label`. It keeps the leaderboard's own order, so a method keeps its colour whatever the sorting.
 fn change_chart(board: &Leaderboard, view: View, others: &[Lighting], size: Size, label: fn(Lighting) -> &'static str) -> String {
     BarChart {
-        title: "Relative change of pooled mIoU against the baseline lighting".into(),
+        title: format!("Relative change of pooled {} against the baseline lighting", Metric::Miou.label()),
         groups: others.iter().map(|&l| label(l).to_string()).collect(),
         group_titles: others.iter().map(|l| l.label().to_string()).collect(),
         series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),

@@ -84,7 +84,6 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 40)]
         timed_frames: usize,
     },
-    /// Time the symbolic VQA answerer and the judge on a full-size synthetic submission.
     /// How much of a build's hidden test answers text-only predictors get right, per question
     /// template, against each template's majority answer (an operator's build folder: its
     /// ground truth and `.work/prompts`); several builds are summed.
@@ -103,6 +102,7 @@ pub enum BenchCommand {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Time the symbolic VQA answerer and the judge on a full-size synthetic submission.
     Vqa {
         #[arg(long, default_value_t = 40)]
         scenes: usize,
@@ -161,6 +161,8 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 1)]
         repeat: usize,
     },
+    /// Time the nearest-neighbour index of a map: building it, and querying every
+    /// ground-truth point frame by frame (or shuffled) and in Z-order.
     Nearest {
         #[arg(long, default_value_t = 5_000_000)]
         gt_points: usize,

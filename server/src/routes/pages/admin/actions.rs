@@ -24,6 +24,19 @@ trait FormWithToken: serde::de::DeserializeOwned {
     fn form_token(&self) -> &str;
 }
 
+/// The forms, each with its `form_token` field.
+macro_rules! form_with_token {
+    ($($form:ty),+ $(,)?) => {
+        $(impl FormWithToken for $form {
+            fn form_token(&self) -> &str {
+                &self.form_token
+            }
+        })+
+    };
+}
+
+form_with_token!(TokenOnly, RegenerateForm, FlagForm, QuotaForm, TeamForm);
+
 /// The console with a notice on top (sealed for this session).
 fn back(session: &AdminSession, notice: &str) -> Response {
     Redirect::to(&format!("/admin?notice={}&seal={}", urlencoding(notice), session.seal(notice))).into_response()
@@ -44,12 +57,6 @@ struct TokenOnly {
     form_token: String,
 }
 
-impl FormWithToken for TokenOnly {
-    fn form_token(&self) -> &str {
-        &self.form_token
-    }
-}
-
 #[derive(Deserialize)]
 struct RegenerateForm {
     form_token: String,
@@ -59,12 +66,6 @@ struct RegenerateForm {
     baselines: Option<String>,
     /// Build even what would be an existing release under another name.
     identical: Option<String>,
-}
-
-impl FormWithToken for RegenerateForm {
-    fn form_token(&self) -> &str {
-        &self.form_token
-    }
 }
 
 /// `POST /admin/regenerate` (`config`, `publish`, `baselines`): queue a release build and
@@ -109,12 +110,6 @@ pub async fn publish(
 struct FlagForm {
     form_token: String,
     reason: String,
-}
-
-impl FormWithToken for FlagForm {
-    fn form_token(&self) -> &str {
-        &self.form_token
-    }
 }
 
 /// `POST /admin/submissions/{id}/flag` (`reason`).
@@ -165,12 +160,6 @@ struct QuotaForm {
     window_hours: String,
 }
 
-impl FormWithToken for QuotaForm {
-    fn form_token(&self) -> &str {
-        &self.form_token
-    }
-}
-
 /// `POST /admin/quotas` (`split`, `limit`, `window_hours`): a split's limit per window.
 pub async fn set_quota(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
     let form: QuotaForm = match checked(&session, &headers, &body) {
@@ -201,12 +190,6 @@ pub async fn set_quota(State(state): State<AppState>, session: AdminSession, hea
 struct TeamForm {
     form_token: String,
     name: String,
-}
-
-impl FormWithToken for TeamForm {
-    fn form_token(&self) -> &str {
-        &self.form_token
-    }
 }
 
 /// `POST /admin/teams`: create a team; the answer shows its first token, once (it never

@@ -126,8 +126,9 @@ pub struct JobRecord {
     pub updated_at: i64,
 }
 
-/// A scored submission with its latest score and team, for the leaderboard.
-#[derive(Debug, Clone, PartialEq)]
+/// A scored submission with its latest score and team, for the leaderboard. The store reads
+/// every field but the scores from the row, and the scores from the row's stored document.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
 pub struct LeaderboardRow {
     pub submission_id: String,
     pub team: String,
@@ -139,7 +140,9 @@ pub struct LeaderboardRow {
     pub anonymous: bool,
     pub flag: Option<String>,
     pub created_at: i64,
+    #[sqlx(try_from = "String")]
     pub split: Split,
+    #[sqlx(skip)]
     pub scores: Scores,
 }
 

@@ -1,7 +1,7 @@
 //! Scores: one row per scoring of a submission (re-scoring adds rows). The score document
 //! is kept as its JSON text and read back typed; nothing outside the store sees the text.
 
-use osmab_evaluator::scores::{Scores, Split};
+use osmab_evaluator::scores::Scores;
 
 use super::{LeaderboardRow, ScoreRecord, Store, StoreResult, on_pool};
 
@@ -32,21 +32,12 @@ struct ScoreRow {
     created_at: i64,
 }
 
+/// A board's row as queried: the entry, and the id and text of its latest score.
 #[derive(sqlx::FromRow)]
 struct BoardRow {
+    #[sqlx(flatten)]
+    entry: LeaderboardRow,
     score_id: i64,
-    submission_id: String,
-    team: String,
-    method_name: String,
-    paper_url: Option<String>,
-    code_url: Option<String>,
-    baseline: bool,
-    complete: bool,
-    anonymous: bool,
-    flag: Option<String>,
-    created_at: i64,
-    #[sqlx(try_from = "String")]
-    split: Split,
     body: String,
 }
 
@@ -88,24 +79,6 @@ impl Store {
         .fetch_all(pool)
         .await
         })?;
-        Ok(rows
-            .into_iter()
-            .filter_map(|r| {
-                Some(LeaderboardRow {
-                    scores: parse(r.score_id, &r.body)?,
-                    submission_id: r.submission_id,
-                    team: r.team,
-                    method_name: r.method_name,
-                    paper_url: r.paper_url,
-                    code_url: r.code_url,
-                    baseline: r.baseline,
-                    complete: r.complete,
-                    anonymous: r.anonymous,
-                    flag: r.flag,
-                    created_at: r.created_at,
-                    split: r.split,
-                })
-            })
-            .collect())
+        Ok(rows.into_iter().filter_map(|r| Some(LeaderboardRow { scores: parse(r.score_id, &r.body)?, ..r.entry })).collect())
     }
 }

@@ -1,8 +1,9 @@
 """The asset forge: every class of the release's lexicon as real-looking, textured meshes.
 
-For each class (tools/forge/recipes.py) it spawns seeded variants from Infinigen's factories
-(or composes simple parts dressed in Infinigen's materials where Infinigen has no factory),
-keeps those that fit the class's plausible size (scaling uniformly into it), turns each to the
+For each class of the class table (dataset/classes.toml, read by recipes.py) it spawns
+seeded variants from Infinigen's factories (or composes simple parts dressed in Infinigen's
+materials where Infinigen has no factory), keeps those that fit the class's plausible size
+(scaling uniformly into it, or a thin axis on its own), turns each to the
 SceneSmith object frame (up +z, front +y, bottom at z = 0, centred), decimates it to its
 triangle budget, bakes its procedural materials to one base-colour texture (every shader's
 base colour as emission, so metals and coatings keep their colour), measures the surfaces
@@ -10,6 +11,8 @@ other objects can rest on, and writes a GLB with an embedded JPEG. Room shells (
 walls) are baked as tileable textures. `assets/catalogue.json` lists everything, with the
 SHA-256 of every file. `--sheets` also renders, per class, each variant's original
 (Cycles, procedural materials) beside its baked GLB, from the front and from three quarters.
+`--occlusion` bakes ambient occlusion into the pack's GLBs (their glTF occlusionTexture)
+without forging them again; forging ends with it for the classes forged.
 
 Run with the forge's own Python (tools/forge/install.sh):
 
@@ -23,7 +26,6 @@ import json
 import logging
 import math
 import os
-import struct
 import sys
 import time
 import zlib
@@ -41,6 +43,7 @@ from mathutils import Matrix, Vector
 from mathutils.bvhtree import BVHTree
 
 sys.path.insert(0, str(Path(__file__).parent))
+import glb  # noqa: E402
 import recipes  # noqa: E402
 
 GENERATOR = "infinigen 1.15.5, bpy 4.2.0"
@@ -77,7 +80,9 @@ def realize_and_join(name):
             bpy.ops.object.duplicates_make_real()
     # Only what the scene shows: factories leave helper objects outside the view layer (a
     # cabinet's frame its geometry nodes instance), which the conversion bakes in anyway.
-    convertible = [o for o in bpy.context.view_layer.objects if o.type in ("MESH", "CURVE", "SURFACE", "META", "FONT") and not o.hide_render]
+    # Nor what a factory keeps in a hidden collection (a door's parts, which its geometry
+    # nodes join into the one object it shows).
+    convertible = [o for o in bpy.context.view_layer.objects if o.type in ("MESH", "CURVE", "SURFACE", "META", "FONT") and not o.hide_render and not all(c.hide_render or c.hide_viewport for c in o.users_collection)]
     bpy.ops.object.select_all(action="DESELECT")
     for o in convertible:
         o.hide_set(False)
@@ -110,22 +115,78 @@ def bounds(obj):
     return co.min(axis=0), co.max(axis=0)
 
 
-def normalise(obj, front, size_range):
-    """Turn the front to +y, stand the object at z = 0 centred in x and y, and scale it
-    uniformly into `size_range`; returns the scale, or None when no uniform scale fits."""
+def fit(dims, size_range, stretch=False):
+    """The scale (x, y, z) that brings an object of `dims` into `size_range`: uniform, the
+    smallest change that fits (up to 15 % short of the range where nothing fits exactly, the
+    geometric mean then); with `stretch`, where no uniform scale fits, the thinnest axis is
+    scaled on its own (a rug's thickness, a picture's depth) and the other two uniformly.
+    None when nothing fits."""
+    lows = [r[0] / d for r, d in zip(size_range, dims)]
+    highs = [r[1] / d for r, d in zip(size_range, dims)]
+
+    def uniform(axes):
+        s_lo, s_hi = max(lows[a] for a in axes), min(highs[a] for a in axes)
+        if s_lo > s_hi * 1.15:  # needs a stretch beyond what a uniform scale can give
+            return None
+        return min(max(1.0, s_lo), s_hi) if s_lo <= s_hi else math.sqrt(s_lo * s_hi)
+
+    every = (0, 1, 2)
+    if not stretch or max(lows) <= min(highs):
+        scale = uniform(every)
+        return None if scale is None else (scale, scale, scale)
+    thin = int(np.argmin(dims))
+    scale = uniform([a for a in every if a != thin])
+    if scale is None:
+        return None
+    scales = [scale] * 3
+    scales[thin] = min(max(scale, lows[thin]), highs[thin])
+    return tuple(scales)
+
+
+def cut_behind_back(obj):
+    """For things hung on a wall (a door, a window, a picture): everything behind its back
+    plane cut away (a door's handle on the far side), so its back (-y) lies flat at the wall.
+    The back plane is the rearmost one, among the faces looking back or front (Infinigen
+    winds faces either way), that covers at least 5 % of the object's front view (a handle's
+    rosette does not)."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    lo, hi = bounds(obj)
+    view = (hi[0] - lo[0]) * (hi[2] - lo[2])
+    planes = {}
+    for face in bm.faces:
+        if abs(face.normal.y) > 0.95:
+            y = round(face.calc_center_median().y, 3)
+            planes[y] = planes.get(y, 0.0) + face.calc_area()
+    backs = sorted(y for y, area in planes.items() if area >= 0.05 * view)
+    if backs and backs[0] > lo[1] + 1e-4:
+        geom = bm.verts[:] + bm.edges[:] + bm.faces[:]
+        bmesh.ops.bisect_plane(bm, geom=geom, dist=1e-5, plane_co=(0.0, backs[0] - 1e-4, 0.0), plane_no=(0.0, 1.0, 0.0), clear_inner=True)
+        bm.to_mesh(obj.data)
+        obj.data.update()
+    bm.free()
+
+
+def normalise(obj, front, size_range, stretch=False, flat_back=False):
+    """Turn the front to +y (cutting away what is behind the back plane when `flat_back`),
+    stand the object at z = 0 centred in x and y, and scale it into `size_range` (fit());
+    returns the uniform scale (of the two other axes where the thin one was stretched), or
+    None when no scale fits."""
     obj.data.transform(Matrix.Rotation(math.radians(FRONTS[front]), 4, "Z"))
+    if flat_back:
+        cut_behind_back(obj)
     lo, hi = bounds(obj)
     obj.data.transform(Matrix.Translation(Vector((-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]))))
     dims = hi - lo
-    lows = [r[0] / d for r, d in zip(size_range, dims)]
-    highs = [r[1] / d for r, d in zip(size_range, dims)]
-    s_lo, s_hi = max(lows), min(highs)
-    if s_lo > s_hi * 1.15:  # needs a stretch beyond what a uniform scale can give
+    scales = fit(dims, size_range, stretch)
+    if scales is None:
         return None
-    scale = min(max(1.0, s_lo), s_hi) if s_lo <= s_hi else math.sqrt(s_lo * s_hi)
-    obj.data.transform(Matrix.Scale(scale, 4))
+    if scales[0] == scales[1] == scales[2]:
+        obj.data.transform(Matrix.Scale(scales[0], 4))
+    else:
+        obj.data.transform(Matrix.Diagonal((*scales, 1.0)))
     obj.data.update()
-    return scale
+    return scales[(int(np.argmin(dims)) + 1) % 3]
 
 
 def stand_centred(obj):
@@ -214,6 +275,47 @@ def _albedo_tree_as_emission(tree):
         tree.nodes.remove(node)
 
 
+# A window's or a glazed door's glass, baked as what it shows from inside a room by day: a
+# light, slightly blue-grey pane (sRGB; the synthesizer draws it opaque in front of a wall).
+# Infinigen's glass is transparent, which an emission bake records as a dark grey.
+GLASS_PANE = (0.80, 0.85, 0.89)
+GLASS_NODES = ("ShaderNodeBsdfTransparent", "ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction")
+
+
+def is_glass(tree):
+    """Whether a material's node tree (or a node group it uses) is glass: a transparent, glass
+    or refraction BSDF, or a principled BSDF that mostly transmits."""
+    for node in tree.nodes:
+        if node.bl_idname in GLASS_NODES:
+            return True
+        if node.bl_idname == "ShaderNodeBsdfPrincipled":
+            transmission = node.inputs.get("Transmission Weight")
+            if transmission is not None and not transmission.is_linked and transmission.default_value >= 0.5:
+                return True
+        if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None and is_glass(node.node_tree):
+            return True
+    return False
+
+
+def as_pane(material):
+    """The material's surface replaced by an emission of GLASS_PANE."""
+    tree = material.node_tree
+    output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.is_active_output), None)
+    if output is None:
+        output = tree.nodes.new("ShaderNodeOutputMaterial")
+    for socket in ("Surface", "Displacement", "Volume"):
+        for link in list(output.inputs[socket].links):
+            tree.links.remove(link)
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (*(srgb_to_linear(c) for c in GLASS_PANE), 1.0)
+    emission.inputs["Strength"].default_value = 1.0
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+
+
+def srgb_to_linear(c):
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
 def dress_material(obj, module, cls, seed=None):
     """Infinigen's material `materials.<module>.<cls>` on `obj` (drawn from numpy's global
     generator, seeded with `seed` when given). Infinigen 1.15.5's materials come in two kinds:
@@ -230,9 +332,16 @@ def dress_material(obj, module, cls, seed=None):
     obj.data.materials.append(material)
 
 
-def bake(obj, size, name, unwrap=True):
+# A texel spanning more of the object than this (a rug's, 2.4 m on a 256² texture) is baked
+# from 16 samples spread over it: one sample a texel aliases a fine weave into stripes.
+# Everything smaller keeps one sample a texel, as the committed pack was baked.
+SUPERSAMPLED_TEXEL = 0.008  # metres
+
+
+def bake(obj, size, name, unwrap=True, panes=False):
     """One base-colour texture of `size`² for `obj` (smart UV projection unless it has its
-    UVs), which then carries it as its only material."""
+    UVs), which then carries it as its only material. With `panes` (doors and windows), glass
+    bakes as GLASS_PANE."""
     bpy.context.view_layer.objects.active = obj
     obj.select_set(True)
     uv_layers = obj.data.uv_layers
@@ -260,14 +369,20 @@ def bake(obj, size, name, unwrap=True):
         slot.material = slot.material.copy()
         material = slot.material
         material.use_nodes = True
-        albedo_as_emission(material)
+        if panes and is_glass(material.node_tree):
+            as_pane(material)
+        else:
+            albedo_as_emission(material)
         target = material.node_tree.nodes.new("ShaderNodeTexImage")
         target.image = image
         material.node_tree.nodes.active = target
     scene = bpy.context.scene
     scene.cycles.bake_type = "EMIT"
     scene.render.bake.margin = 4
+    lo, hi = bounds(obj)
+    scene.cycles.samples = 16 if unwrap and float((hi - lo).max()) / size > SUPERSAMPLED_TEXEL else 1
     bpy.ops.object.bake(type="EMIT")
+    scene.cycles.samples = 1
     baked = bpy.data.materials.new(f"{name}_baked")
     baked.use_nodes = True
     bsdf = baked.node_tree.nodes["Principled BSDF"]
@@ -328,33 +443,12 @@ def write_catalogue(path, pack):
 
 
 def canonical_triangle_order(path):
-    """Rewrite the triangle lists of the GLB at `path` in one canonical order (each triangle
-    started at its smallest index, winding kept; triangles sorted): Blender's exporter lists
-    the same triangles in an order that varies between runs. Returns how many triangles the
-    GLB holds (the exporter drops degenerate ones, so it can be fewer than Blender counted)."""
-    data = bytearray(path.read_bytes())
-    json_length = struct.unpack_from("<I", data, 12)[0]
-    gltf = json.loads(data[20 : 20 + json_length])
-    binary = 20 + json_length + 8
-    types = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32}
-    triangles_total = 0
-    for mesh in gltf["meshes"]:
-        for primitive in mesh["primitives"]:
-            if "indices" not in primitive or primitive.get("mode", 4) != 4:
-                continue
-            accessor = gltf["accessors"][primitive["indices"]]
-            view = gltf["bufferViews"][accessor["bufferView"]]
-            start = binary + view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
-            dtype = np.dtype(types[accessor["componentType"]])
-            count = accessor["count"]
-            triangles = np.frombuffer(bytes(data[start : start + count * dtype.itemsize]), dtype=dtype).reshape(-1, 3)
-            first = triangles.argmin(axis=1)
-            rotated = np.stack([np.roll(t, -k) for t, k in zip(triangles, first)]) if len(triangles) else triangles
-            ordered = rotated[np.lexsort(rotated.T[::-1])]
-            triangles_total += len(ordered)
-            data[start : start + count * dtype.itemsize] = ordered.astype(dtype).tobytes()
-    path.write_bytes(bytes(data))
-    return triangles_total
+    """Rewrite the GLB at `path` with its triangle lists in one canonical order (glb.py);
+    returns how many triangles it holds (the exporter drops degenerate ones, so it can be
+    fewer than Blender counted)."""
+    data, triangles = glb.canonical_triangle_order(path.read_bytes())
+    path.write_bytes(data)
+    return triangles
 
 
 def sha256(path):
@@ -460,25 +554,43 @@ def under_of(obj):
     return {"clearance": round(min(clearance, float(hi[2])), 4), "min": [round(min(xs), 4), round(min(ys), 4)], "max": [round(max(xs), 4), round(max(ys), 4)]}
 
 
-def spawn(recipe, seed, size_range, front):
-    """The factory's asset for `seed`. A recipe `(module, factory, options)` passes its options
-    to the factory; `sized` draws the asset's dimensions from the class's size range (in
-    the factory's own axes: a factory facing +x has its depth along x), for factories whose
-    own ranges miss the class (cabinets, wardrobes, counters)."""
-    module, factory, options = (*recipe, {})[:3]
-    options = dict(options)
-    if options.pop("sized", False):
+# Factories that take their dimensions when the asset is made (create_asset, not the
+# constructor), and the order they take them in from the class's (width, depth, height).
+DIMENSIONS_AT_CREATION = {
+    "WindowFactory": lambda width, depth, height: (width, height, depth),  # frame thickness last
+}
+
+
+def spawn(recipe, seed, size_range):
+    """The factory's asset for `seed`, the recipe's options passed to the factory. A `sized`
+    recipe draws the asset's dimensions from the class's size range (in the factory's own
+    axes: a factory facing +x has its depth along x), for factories whose own ranges miss the
+    class (cabinets, wardrobes, counters, windows)."""
+    options = dict(recipe.options)
+    made = {}
+    if recipe.sized:
         width, depth, height = (float(np.random.uniform(lo, hi)) for lo, hi in size_range)
-        options["dimensions"] = Vector((depth, width, height) if front == "+x" else (width, depth, height))
-    cls = getattr(importlib.import_module(f"infinigen.assets.objects.{module}"), factory)
-    return cls(factory_seed=seed, **options).spawn_asset(0)
+        if recipe.factory_class in DIMENSIONS_AT_CREATION:
+            made["dimensions"] = DIMENSIONS_AT_CREATION[recipe.factory_class](width, depth, height)
+        else:
+            options["dimensions"] = Vector((depth, width, height) if recipe.front == "+x" else (width, depth, height))
+    module = importlib.import_module(f"infinigen.assets.objects.{recipe.factory_module}")
+    cls = getattr(module, recipe.factory_class)
+    return cls(factory_seed=seed, **options).spawn_asset(0, **made)
 
 
-def compose(name, seed):
+def composed_builders():
+    """The builders composed.py has (it needs Blender: imported here, not by recipes.py)."""
+    from composed import BUILDERS  # noqa: PLC0415
+
+    return set(BUILDERS)
+
+
+def compose(builder, seed):
     """Classes Infinigen has no factory for: simple parts in Infinigen's materials."""
     from composed import build  # noqa: PLC0415 (Blender must be loaded first)
 
-    build(name, seed)
+    build(builder, seed)
 
 
 def shot(obj, path, view):
@@ -518,17 +630,21 @@ def shot(obj, path, view):
         bpy.data.objects.remove(o, do_unlink=True)
 
 
-def forge_variant(name, recipe, seed, size_range, budget, texture, out_dir, front, shots=None):
+def forge_variant(kind, recipe, seed, out_dir, shots=None):
+    """One variant of the class `kind` (recipes.ForgeClass) from `recipe` and `seed`: the
+    object and its catalogue record, or None when it does not fit."""
+    name = kind.name
     reset()
     np.random.seed(seed)
-    if recipe == "composed":
-        compose(name, seed)
+    if recipe.is_composed:
+        compose(recipe.composed, seed)
     else:
-        spawn(recipe, seed, size_range, front)
+        spawn(recipe, seed, kind.size_range)
     obj = realize_and_join(name.replace(" ", "_"))
-    scale = normalise(obj, front, size_range)
+    scale = normalise(obj, recipe.front, kind.size_range, stretch=recipe.stretch, flat_back=kind.rests == "wall")
     if scale is None:
         return None
+    budget, texture = kind.triangles, kind.texture
     if shots is not None:
         shot(obj, shots / "original.png", "three_quarters")
     triangles = decimate(obj, budget)
@@ -537,7 +653,7 @@ def forge_variant(name, recipe, seed, size_range, budget, texture, out_dir, fron
         # Thousands of small islands (a woven seat) that collapsing cannot merge: another seed.
         log.info("%s seed %d: %d triangles after decimation, over 1.5 × the budget of %d", name, seed, triangles, budget)
         return None
-    bake(obj, texture, name.replace(" ", "_"))
+    bake(obj, texture, name.replace(" ", "_"), panes=kind.role == "shell")
     if shots is not None:
         shot(obj, shots / "baked.png", "three_quarters")
         shot(obj, shots / "front.png", "front")
@@ -552,6 +668,144 @@ def forge_variant(name, recipe, seed, size_range, budget, texture, out_dir, fron
     return obj, record
 
 
+# The occlusion pass (--occlusion): Cycles' ambient occlusion of each forged mesh, baked on
+# its own texture atlas (TEXCOORD_0) and written into its GLB as the glTF occlusionTexture.
+AO_SAMPLES = 24  # a full-resolution texel; 96 for each stored (half-resolution) one
+AO_DISTANCE_FURNITURE = 0.5  # metres: furniture and the room's fixtures
+AO_DISTANCE_SMALL = 0.2  # metres: small objects
+AO_MARGIN = 2  # texels the bake extends past the UV islands (so filtering finds no white seam)
+# The bake is made at the base-colour texture's resolution and stored at half of it (2 × 2
+# texels averaged: less noise, a quarter of the bytes; occlusion has no fine detail).
+AO_QUALITY = 85
+
+
+def occlusion_bake(objects, size, distance, rests):
+    """The ambient occlusion of `objects` (greyscale, `size`² floats in [0, 1], rows from the
+    image's top as a file stores them) on their active UV map, smoothed over the islands and
+    their margin (smooth()); texels no island nor its margin covers are white. Infinigen's
+    meshes have faces wound either way and are drawn double-sided, so each face is baked from
+    both sides and keeps the lighter one (the side seen from outside; a face buried in another
+    part is dark from both). Furniture standing
+    on the floor has the floor as an occluder (the underside of a seat, the foot of a
+    cabinet), a door's, a window's or a picture's the wall behind it; small objects only
+    themselves (they are moved from table to shelf)."""
+    scene = bpy.context.scene
+    scene.cycles.samples = AO_SAMPLES
+    world = bpy.data.worlds.new("occlusion")
+    world.light_settings.distance = distance
+    scene.world = world
+    lo = np.min([np.array(o.bound_box).min(axis=0) for o in objects], axis=0)
+    if rests == "floor":
+        bpy.ops.mesh.primitive_plane_add(size=50.0, location=(0.0, 0.0, float(lo[2])))
+    elif rests == "wall":
+        bpy.ops.mesh.primitive_plane_add(size=50.0, location=(0.0, float(lo[1]), 0.0), rotation=(math.pi / 2, 0.0, 0.0))
+    uncovered = -1.0  # what the image holds where the bake writes nothing
+    images = []
+    for side in ("outside", "inside"):
+        image = bpy.data.images.new(f"occlusion_{side}", size, size, alpha=False, float_buffer=True)
+        image.colorspace_settings.name = "Non-Color"
+        image.pixels[:] = np.full(size * size * 4, uncovered, dtype=np.float32)
+        for obj in objects:
+            for material in obj.data.materials:
+                material.use_nodes = True
+                node = material.node_tree.nodes.new("ShaderNodeTexImage")
+                node.image = image
+                material.node_tree.nodes.active = node
+        bpy.ops.object.select_all(action="DESELECT")
+        for obj in objects:
+            obj.select_set(True)
+            bpy.context.view_layer.objects.active = obj
+            if side == "inside":
+                bpy.ops.object.mode_set(mode="EDIT")
+                bpy.ops.mesh.select_all(action="SELECT")
+                bpy.ops.mesh.flip_normals()
+                bpy.ops.object.mode_set(mode="OBJECT")
+            elif obj.data.has_custom_normals:
+                bpy.ops.mesh.customdata_custom_splitnormals_clear()
+        for obj in objects:
+            obj.select_set(True)
+        scene.render.bake.margin = AO_MARGIN
+        scene.render.bake.use_clear = False
+        scene.render.bake.use_selected_to_active = False
+        bpy.ops.object.bake(type="AO")
+        images.append(np.array(image.pixels[:], dtype=np.float32).reshape(size, size, 4)[..., 0])
+    covered = (images[0] > uncovered / 2) & (images[1] > uncovered / 2)
+    ao = smooth(np.clip(np.maximum(*images), 0.0, 1.0), covered)
+    return np.where(covered, ao, 1.0)[::-1]
+
+
+def smooth(image, covered):
+    """`image` blurred (3 × 3, weights 1 2 1) over the `covered` texels only, so the bake's
+    noise goes and nothing outside the islands (and their margin) bleeds in."""
+    weights = np.array([1.0, 2.0, 1.0])
+    padded = np.pad(np.where(covered, image, 0.0), 1)
+    mask = np.pad(covered.astype(np.float64), 1)
+    total = np.zeros(image.shape)
+    weight = np.zeros(image.shape)
+    n, m = image.shape
+    for i in range(3):
+        for j in range(3):
+            w = weights[i] * weights[j]
+            total += w * padded[i : i + n, j : j + m]
+            weight += w * mask[i : i + n, j : j + m]
+    return np.where(covered, total / np.maximum(weight, 1e-9), image)
+
+
+def half(image):
+    """`image` (n × n) at half its resolution, each texel the mean of 2 × 2."""
+    n = image.shape[0] // 2
+    return image[: 2 * n, : 2 * n].reshape(n, 2, n, 2).mean(axis=(1, 3))
+
+
+def occlusion_jpeg(ao):
+    """The occlusion as a JPEG (grey in all three channels; glTF reads the red one)."""
+    from io import BytesIO  # noqa: PLC0415
+
+    from PIL import Image  # noqa: PLC0415
+
+    grey = np.round(ao * 255.0).astype(np.uint8)
+    buffer = BytesIO()
+    Image.fromarray(grey, "L").convert("RGB").save(buffer, "JPEG", quality=AO_QUALITY)
+    return buffer.getvalue()
+
+
+def occlusion_pass(out, classes, dump=None):
+    """Bake the occlusion of every catalogued mesh of `classes` (None: all) into its GLB (the
+    geometry and the base-colour texture stay byte for byte); updates the catalogue's SHA-256."""
+    import tempfile  # noqa: PLC0415
+
+    catalogue_path = out / "catalogue.json"
+    pack = read_catalogue(catalogue_path)
+    for entry in pack["objects"]:
+        if classes is not None and entry["class"] not in classes:
+            continue
+        clock = time.time()
+        path = out / entry["path"]
+        data = glb.strip_occlusion(path.read_bytes())
+        gltf, binary = glb.read(data)
+        size = glb.jpeg_size(glb.image_bytes(gltf, binary, glb.base_colour_image(gltf)))[0]
+        kind = recipes.RECIPES.get(entry["class"])
+        furniture = kind.furniture if kind is not None else size >= recipes.FURNITURE_TEXTURE
+        distance = AO_DISTANCE_FURNITURE if furniture else AO_DISTANCE_SMALL
+        reset()
+        with tempfile.TemporaryDirectory() as tmp:
+            source = Path(tmp) / "mesh.glb"
+            source.write_bytes(data)
+            bpy.ops.import_scene.gltf(filepath=str(source))
+        objects = [o for o in bpy.context.view_layer.objects if o.type == "MESH"]
+        ao = half(occlusion_bake(objects, size, distance, kind.rests if kind is not None else "surface"))
+        name = gltf["images"][glb.base_colour_image(gltf)].get("name", entry["class"]).removesuffix("_albedo")
+        path.write_bytes(glb.embed_occlusion(data, occlusion_jpeg(ao), name))
+        entry["sha256"] = sha256(path)
+        if dump is not None:
+            from PIL import Image  # noqa: PLC0415
+
+            dump.mkdir(parents=True, exist_ok=True)
+            Image.fromarray(np.round(ao * 255.0).astype(np.uint8), "L").save(dump / f"{Path(entry['path']).stem}.png")
+        log.info("%s: occlusion %d² (distance %.1f m, mean %.2f, %.0f %% under 0.5) in %.1f s", entry["path"], ao.shape[0], distance, float(ao.mean()), 100.0 * float((ao < 0.5).mean()), time.time() - clock)
+        write_catalogue(catalogue_path, pack)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, help="the asset pack folder (assets/)")
@@ -559,44 +813,56 @@ def main():
     parser.add_argument("--variants", type=int, default=recipes.VARIANTS)
     parser.add_argument("--sheets", help="write a contact sheet per class here")
     parser.add_argument("--no-shell", action="store_true", help="skip the room-shell textures")
+    parser.add_argument("--occlusion", action="store_true", help="only bake ambient occlusion into the pack's meshes (no forging)")
+    parser.add_argument("--no-occlusion", action="store_true", help="forge without baking the occlusion of what was forged")
+    parser.add_argument("--dump-occlusion", help="also write each occlusion image here as PNG")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     for noisy in ("infinigen", "bpy"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
     out = Path(args.out)
+    wanted = args.classes.split(",") if args.classes else list(recipes.RECIPES)
+    unknown = [name for name in wanted if name not in recipes.RECIPES]
+    if unknown:
+        parser.error(f"no forge recipe for {', '.join(unknown)} in {recipes.TABLE}")
+    started = time.time()
+    if args.occlusion:
+        occlusion_pass(out, set(wanted) if args.classes else None, Path(args.dump_occlusion) if args.dump_occlusion else None)
+        log.info("occlusion baked in %.0f s", time.time() - started)
+        logging.shutdown()
+        os._exit(0)
+    builders = composed_builders()
+    missing = sorted({r.composed for name in wanted for r in recipes.RECIPES[name].recipes if r.is_composed} - builders)
+    if missing:
+        parser.error(f"composed.py has no builder {', '.join(missing)}")
     catalogue_path = out / "catalogue.json"
     pack = read_catalogue(catalogue_path)
     catalogue = pack["objects"]
-    wanted = args.classes.split(",") if args.classes else list(recipes.RECIPES)
-    started = time.time()
     for name in wanted:
-        factories, size_range, furniture = recipes.RECIPES[name]
-        budget = recipes.FURNITURE_TRIANGLES if furniture else recipes.SMALL_TRIANGLES
-        texture = 512 if furniture else 256
+        kind = recipes.RECIPES[name]
         catalogue = [e for e in catalogue if e["class"] != name]
         slug = name.replace(" ", "-")
         made = 0
         for variant in range(args.variants):
-            recipe = factories[variant % len(factories)]
-            front = recipes.front_of(recipe)
+            recipe = kind.recipes[variant % len(kind.recipes)]
             for attempt in range(SEEDS_PER_VARIANT):
                 seed = class_seed(name, variant, attempt)
                 clock = time.time()
                 shots = Path(args.sheets) / "shots" / f"{slug}-{variant}" if args.sheets else None
                 try:
-                    made_variant = forge_variant(name, recipe, seed, size_range, budget, texture, out, front, shots)
+                    made_variant = forge_variant(kind, recipe, seed, out, shots)
                 except Exception as e:  # a factory that fails for a seed: the next seed
                     log.warning("%s variant %d seed %d: %s", name, variant, seed, e)
                     continue
                 if made_variant is None:
-                    log.info("%s variant %d seed %d: does not fit %s", name, variant, seed, size_range)
+                    log.info("%s variant %d seed %d: does not fit %s", name, variant, seed, kind.size_range)
                     continue
                 obj, record = made_variant
                 path = out / "meshes" / f"{slug}-{variant}.glb"
                 export_glb(obj, path)
                 record["triangles"] = canonical_triangle_order(path)
-                source = "infinigen" if recipe != "composed" else "composed (infinigen materials)"
-                generator = f"{GENERATOR}: " + recipes.describe(recipe)
+                source = "composed (infinigen materials)" if recipe.is_composed else "infinigen"
+                generator = f"{GENERATOR}: " + recipe.describe()
                 catalogue.append(
                     {
                         "class": name,
@@ -618,6 +884,8 @@ def main():
         catalogue.sort(key=lambda e: (e["class"], e["variant"]))
         pack["objects"] = catalogue
         write_catalogue(catalogue_path, pack)
+    if not args.no_occlusion:
+        occlusion_pass(out, set(wanted), Path(args.dump_occlusion) if args.dump_occlusion else None)
     if not args.no_shell:
         import shell  # noqa: PLC0415
 

@@ -1,115 +1,190 @@
-"""What the forge makes of every class of the release's lexicon: the Infinigen factories that
-build it (or a composition of simple parts dressed in Infinigen's materials where Infinigen
-has none), the plausible size range a variant must fit (width x depth x height in metres, the
-object frame: x right, y front, z up), the triangle budget, and where the factory's front
-faces before the forge turns it to +y.
+"""What the forge makes of every class, read from the release's class table
+(dataset/classes.toml, its header documents every field): for each class with a `forge`
+list, its recipes in order (an Infinigen factory with its options, or a builder of
+composed.py), its plausible size range (width x depth x height in metres, the object frame:
+x right, y front, z up), where it rests, and its budget (the room's fixtures and furniture:
+10,000 triangles and a 512² texture; small objects: 2,000 and 256²).
 
-Sizes are the ones the built-in synthesizer has always placed (dataset/src/synthesis/library.rs);
-a variant outside them is scaled uniformly into them (recorded as `scale` in the catalogue).
+Pure Python (tomllib): the tests read it without Blender.
 """
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+TABLE = Path(__file__).resolve().parents[2] / "dataset" / "classes.toml"
 
 FURNITURE_TRIANGLES = 10_000
 SMALL_TRIANGLES = 2_000
+FURNITURE_TEXTURE = 512
+SMALL_TEXTURE = 256
 VARIANTS = 3
 
-# (module, factory) of infinigen.assets.objects
-BED = ("seating", "BedFactory")
-CHAIR = ("seating", "ChairFactory")
-BAR_CHAIR = ("seating", "BarChairFactory")
-OFFICE_CHAIR = ("seating", "OfficeChairFactory")
-ARMCHAIR = ("seating", "ArmChairFactory")
-SOFA = ("seating", "SofaFactory")
-PILLOW = ("seating", "PillowFactory")
-DINING_TABLE = ("tables", "TableDiningFactory")
-COFFEE_TABLE = ("tables", "CoffeeTableFactory")
-SIDE_TABLE = ("tables", "SideTableFactory")
-COCKTAIL_TABLE = ("tables", "TableCocktailFactory")
-SINGLE_CABINET = ("shelves", "SingleCabinetFactory")
-KITCHEN_CABINET = ("shelves", "KitchenCabinetFactory")
-KITCHEN_ISLAND = ("shelves", "KitchenIslandFactory")
-LARGE_SHELF = ("shelves", "LargeShelfFactory")
-BOOKCASE = ("shelves", "SimpleBookcaseFactory")
-CELL_SHELF = ("shelves", "CellShelfFactory")
-SIMPLE_DESK = ("shelves", "SimpleDeskFactory")
-SIDETABLE_DESK = ("shelves", "SidetableDeskFactory")
-TV_STAND = ("shelves", "TVStandFactory")
-MONITOR = ("appliances", "MonitorFactory")
-TV = ("appliances", "TVFactory")
-CUP = ("tableware", "CupFactory")
-PLATE = ("tableware", "PlateFactory")
-BOWL = ("tableware", "BowlFactory")
-BOTTLE = ("tableware", "BottleFactory")
-CAN = ("tableware", "CanFactory")
-FOOD_BOX = ("tableware", "FoodBoxFactory")
-POT = ("tableware", "PotFactory")
-PLANT_CONTAINER = ("tableware", "PlantContainerFactory")
-BOOK = ("table_decorations", "BookFactory")
-VASE = ("table_decorations", "VaseFactory")
-DESK_LAMP = ("lamp", "DeskLampFactory")
-FLOOR_LAMP = ("lamp", "FloorLampFactory")
-TOWEL = ("clothes", "TowelFactory")
-BLANKET = ("clothes", "BlanketFactory")
+ROLES = ("shell", "furniture", "object")
+FRONTS = ("+x", "-x", "+y", "-y")
+FACTORY_FRONT = "+x"  # Infinigen's factories face +x (a chair's seat opens towards +x)
+COMPOSED_FRONT = "+y"  # composed.py builds its parts facing +y
+RECIPE_KEYS = {"factory", "composed", "front", "sized", "options"}
+# Options the forge itself reads (never passed to the factory): `stretch` lets normalise()
+# scale the object's thinnest axis on its own when no uniform scale fits the size range (a
+# rug's thickness, a picture's depth), the other two stay uniform.
+FORGE_OPTIONS = ("stretch",)
 
-# The same factories with their dimensions drawn from the class's size range (forge.spawn),
-# where the factory's own range misses the class.
-SIZED_CABINET = ("shelves", "KitchenCabinetFactory", {"sized": True})
-SIZED_DRAWERS = ("shelves", "KitchenCabinetFactory", {"sized": True, "drawer_only": True})
-SIZED_TABLE = ("tables", "TableDiningFactory", {"sized": True})
-SIZED_ISLAND = ("shelves", "KitchenSpaceFactory", {"sized": True, "island": True})
 
-# class: (factories, size range ((wmin, wmax), (dmin, dmax), (hmin, hmax)), furniture?)
-RECIPES = {
-    "bed": ([BED], ((1.4, 1.9), (2.0, 2.2), (0.6, 1.2)), True),
-    "nightstand": ([SIDE_TABLE, SINGLE_CABINET], ((0.4, 0.6), (0.35, 0.5), (0.45, 0.65)), True),
-    "wardrobe": ([SIZED_CABINET], ((0.9, 1.5), (0.5, 0.65), (1.8, 2.2)), True),
-    "dresser": ([SIZED_DRAWERS], ((0.9, 1.4), (0.45, 0.6), (0.75, 1.05)), True),
-    "desk": ([SIMPLE_DESK, SIDETABLE_DESK], ((1.1, 1.6), (0.55, 0.8), (0.72, 0.78)), True),
-    "chair": ([CHAIR, BAR_CHAIR], ((0.4, 0.55), (0.42, 0.6), (0.8, 1.0)), True),
-    "dining chair": ([CHAIR], ((0.4, 0.55), (0.42, 0.6), (0.82, 1.0)), True),
-    "office chair": ([OFFICE_CHAIR], ((0.55, 0.7), (0.55, 0.7), (0.9, 1.15)), True),
-    "armchair": ([ARMCHAIR], ((0.7, 1.0), (0.75, 0.95), (0.75, 1.0)), True),
-    "sofa": ([SOFA], ((1.7, 2.4), (0.8, 1.0), (0.75, 0.95)), True),
-    "bench": (["composed"], ((1.0, 1.5), (0.35, 0.45), (0.42, 0.48)), True),
-    "table": ([DINING_TABLE, SIDE_TABLE], ((0.9, 1.4), (0.7, 0.9), (0.72, 0.78)), True),
-    "dining table": ([DINING_TABLE], ((1.4, 2.0), (0.85, 1.05), (0.72, 0.8)), True),
-    "coffee table": ([COFFEE_TABLE], ((0.9, 1.25), (0.5, 0.75), (0.38, 0.48)), True),
-    "console table": ([SIZED_TABLE], ((1.0, 1.4), (0.32, 0.42), (0.75, 0.85)), True),
-    "conference table": ([SIZED_TABLE], ((2.2, 3.0), (1.0, 1.3), (0.72, 0.78)), True),
-    "cabinet": ([SIZED_CABINET], ((0.8, 1.2), (0.4, 0.55), (0.9, 1.8)), True),
-    "filing cabinet": ([SIZED_DRAWERS], ((0.4, 0.55), (0.5, 0.65), (0.7, 1.3)), True),
-    "storage cabinet": ([SIZED_CABINET], ((0.8, 1.2), (0.4, 0.55), (0.9, 1.8)), True),
-    "bookshelf": ([LARGE_SHELF, BOOKCASE], ((0.8, 1.2), (0.3, 0.4), (1.6, 2.0)), True),
-    "shelf": ([CELL_SHELF, BOOKCASE], ((0.8, 1.2), (0.3, 0.4), (1.6, 2.0)), True),
-    "storage rack": ([LARGE_SHELF, CELL_SHELF], ((1.0, 1.5), (0.45, 0.55), (1.7, 2.0)), True),
-    "sideboard": ([SIZED_CABINET, TV_STAND], ((1.4, 1.9), (0.4, 0.5), (0.75, 0.85)), True),
-    "credenza": ([TV_STAND, SIZED_DRAWERS], ((1.4, 1.9), (0.4, 0.5), (0.75, 0.85)), True),
-    "counter": ([SIZED_CABINET], ((1.5, 2.4), (0.6, 0.7), (0.88, 0.94)), True),
-    "kitchen island": ([SIZED_ISLAND, SIZED_CABINET], ((1.5, 2.4), (0.8, 1.05), (0.88, 0.94)), True),
-    "workbench": ([SIMPLE_DESK, DINING_TABLE], ((1.6, 2.2), (0.7, 0.85), (0.86, 0.94)), True),
-    "tv stand": ([TV_STAND], ((1.4, 1.8), (0.4, 0.5), (0.45, 0.6)), True),
-    "mug": ([CUP], ((0.08, 0.13), (0.08, 0.11), (0.08, 0.12)), False),
-    "book": ([BOOK], ((0.15, 0.24), (0.2, 0.3), (0.02, 0.06)), False),
-    "laptop": (["composed"], ((0.32, 0.36), (0.23, 0.26), (0.22, 0.25)), False),
-    "plate": ([PLATE], ((0.2, 0.28), (0.2, 0.28), (0.015, 0.04)), False),
-    "bowl": ([BOWL], ((0.12, 0.2), (0.12, 0.2), (0.05, 0.1)), False),
-    "bottle": ([BOTTLE], ((0.06, 0.09), (0.06, 0.09), (0.22, 0.32)), False),
-    "can": ([CAN], ((0.06, 0.08), (0.06, 0.08), (0.1, 0.14)), False),
-    "box": ([FOOD_BOX], ((0.2, 0.45), (0.15, 0.35), (0.1, 0.3)), False),
-    "bucket": ([POT, "composed"], ((0.24, 0.32), (0.24, 0.32), (0.26, 0.36)), False),
-    "towel": ([TOWEL], ((0.25, 0.4), (0.18, 0.3), (0.03, 0.08)), False),
-    "pillow": ([PILLOW], ((0.4, 0.6), (0.3, 0.45), (0.1, 0.18)), False),
-    "blanket": ([BLANKET], ((0.5, 0.7), (0.35, 0.5), (0.05, 0.1)), False),
-    "backpack": (["composed"], ((0.28, 0.34), (0.18, 0.24), (0.4, 0.48)), False),
-    "suitcase": (["composed"], ((0.38, 0.46), (0.22, 0.28), (0.65, 0.75)), False),
-    "helmet": (["composed"], ((0.22, 0.27), (0.22, 0.3), (0.16, 0.2)), False),
-    "clock": (["composed"], ((0.18, 0.24), (0.05, 0.08), (0.18, 0.24)), False),
-    "printer": (["composed"], ((0.4, 0.5), (0.35, 0.45), (0.2, 0.3)), True),
-    "monitor": ([MONITOR], ((0.5, 0.7), (0.15, 0.25), (0.35, 0.5)), False),
-    "lamp": ([DESK_LAMP, FLOOR_LAMP], ((0.2, 0.5), (0.2, 0.5), (0.35, 1.7)), False),
-    "plant": ([PLANT_CONTAINER], ((0.2, 0.45), (0.2, 0.45), (0.3, 0.9)), False),
-    "vase": ([VASE], ((0.1, 0.2), (0.1, 0.2), (0.2, 0.4)), False),
-    "television": ([TV], ((0.9, 1.3), (0.08, 0.25), (0.55, 0.8)), False),
-}
+class ClassTableError(ValueError):
+    """A class-table entry the forge cannot use; the message names the class."""
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """One way to make a class: an Infinigen factory (`factory_module` under
+    infinigen.assets.objects, `factory_class`) or a builder of composed.py (`composed`)."""
+
+    factory_module: str | None = None
+    factory_class: str | None = None
+    composed: str | None = None
+    front: str = FACTORY_FRONT
+    sized: bool = False  # the factory's dimensions are drawn from the class's size range
+    stretch: bool = False  # see FORGE_OPTIONS
+    options: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+
+    @property
+    def is_composed(self):
+        return self.composed is not None
+
+    def describe(self):
+        """The recipe as the catalogue's generator names it (unchanged from the hand-written
+        recipes: `sized` and the forge's own options sort among the factory's options)."""
+        if self.is_composed:
+            return "tools/forge/composed.py"
+        named = dict(self.options)
+        if self.sized:
+            named["sized"] = True
+        if self.stretch:
+            named["stretch"] = True
+        listed = ", ".join(f"{k}={v}" for k, v in sorted(named.items()))
+        return f"{self.factory_module}.{self.factory_class}" + (f"({listed})" if listed else "")
+
+
+@dataclass(frozen=True)
+class ForgeClass:
+    name: str
+    role: str
+    rests: str | None
+    size_range: tuple  # ((wmin, wmax), (dmin, dmax), (hmin, hmax))
+    recipes: tuple  # of Recipe, in the table's order
+
+    @property
+    def furniture(self):
+        """Furniture and the room's fixtures (doors, windows) get the large budget."""
+        return self.role in ("furniture", "shell")
+
+    @property
+    def triangles(self):
+        return FURNITURE_TRIANGLES if self.furniture else SMALL_TRIANGLES
+
+    @property
+    def texture(self):
+        return FURNITURE_TEXTURE if self.furniture else SMALL_TEXTURE
+
+
+def _recipe(where, raw):
+    if not isinstance(raw, dict):
+        raise ClassTableError(f"{where}: expected a table {{ factory = ... }} or {{ composed = ... }}, found {raw!r}")
+    unknown = sorted(set(raw) - RECIPE_KEYS)
+    if unknown:
+        raise ClassTableError(f"{where}: unknown key(s) {', '.join(unknown)} (expected {', '.join(sorted(RECIPE_KEYS))})")
+    factory, composed = raw.get("factory"), raw.get("composed")
+    if (factory is None) == (composed is None):
+        raise ClassTableError(f"{where}: a recipe names either a factory or a composed builder, found {raw!r}")
+    front = raw.get("front", FACTORY_FRONT if factory is not None else COMPOSED_FRONT)
+    if front not in FRONTS:
+        raise ClassTableError(f"{where}: front {front!r} is not one of {', '.join(FRONTS)}")
+    sized = raw.get("sized", False)
+    if not isinstance(sized, bool):
+        raise ClassTableError(f"{where}: sized must be true or false, found {sized!r}")
+    options = raw.get("options", {})
+    if not isinstance(options, dict):
+        raise ClassTableError(f"{where}: options must be a table, found {options!r}")
+    options = dict(options)
+    stretch = options.pop("stretch", False)
+    if not isinstance(stretch, bool):
+        raise ClassTableError(f"{where}: options.stretch must be true or false, found {stretch!r}")
+    if composed is not None:
+        if not isinstance(composed, str) or not composed.isidentifier():
+            raise ClassTableError(f"{where}: composed must name a builder of composed.py, found {composed!r}")
+        if sized or options or stretch:
+            raise ClassTableError(f"{where}: a composed recipe takes no sized or options")
+        return Recipe(composed=composed, front=front)
+    parts = factory.split(".") if isinstance(factory, str) else []
+    if len(parts) < 2 or not all(p.isidentifier() for p in parts) or not parts[-1][0].isupper():
+        raise ClassTableError(f"{where}: factory must be \"module.Factory\" of infinigen.assets.objects, found {factory!r}")
+    return Recipe(
+        factory_module=".".join(parts[:-1]),
+        factory_class=parts[-1],
+        front=front,
+        sized=sized,
+        stretch=stretch,
+        options=MappingProxyType(options),
+    )
+
+
+def _size(where, size):
+    try:
+        ranges = tuple((float(lo), float(hi)) for lo, hi in size)
+    except (TypeError, ValueError):
+        ranges = ()
+    if len(ranges) != 3 or any(not (0 < lo <= hi) for lo, hi in ranges) or any(isinstance(v, bool) for r in size for v in r):
+        raise ClassTableError(f"{where}: size must be [[wmin, wmax], [dmin, dmax], [hmin, hmax]] of positive metres, found {size!r}")
+    return ranges
+
+
+def parse(table):
+    """The forged classes of a parsed class table (a dict as tomllib gives it), by name in the
+    table's order; raises ClassTableError naming the class of a bad entry."""
+    classes = table.get("class")
+    if not isinstance(classes, list):
+        raise ClassTableError("the class table has no [[class]] entries")
+    forged = {}
+    for index, raw in enumerate(classes):
+        name = raw.get("name") if isinstance(raw, dict) else None
+        if not isinstance(name, str) or not name:
+            raise ClassTableError(f"class[{index}]: no name")
+        where = f"class[{index}] ({name})"
+        role = raw.get("role")
+        if role not in ROLES:
+            raise ClassTableError(f"{where}.role: expected one of {', '.join(ROLES)}, found {role!r}")
+        recipes = raw.get("forge", [])
+        if not isinstance(recipes, list):
+            raise ClassTableError(f"{where}.forge: expected a list of recipes, found {recipes!r}")
+        if not recipes:
+            continue
+        if name in forged:
+            raise ClassTableError(f"{where}: a second class named {name!r}")
+        if "size" not in raw:
+            raise ClassTableError(f"{where}.size: a forged class needs its size range")
+        forged[name] = ForgeClass(
+            name=name,
+            role=role,
+            rests=raw.get("rests"),
+            size_range=_size(f"{where}.size", raw["size"]),
+            recipes=tuple(_recipe(f"{where}.forge[{i}]", r) for i, r in enumerate(recipes)),
+        )
+    return forged
+
+
+def load(path=TABLE):
+    """The forged classes of the class table at `path`."""
+    with open(path, "rb") as f:
+        try:
+            table = tomllib.load(f)
+        except tomllib.TOMLDecodeError as e:
+            raise ClassTableError(f"{path}: {e}") from e
+    return parse(table)
+
+
+RECIPES = load()
 
 # Room shells: (name, kind, material module and class of infinigen.assets.materials, tile size
 # in metres); baked to tileable textures the synthesizer dresses floors and walls in.
@@ -121,30 +196,3 @@ SHELL = [
     ("wall-plaster", "wall", ("ceramic", "Plaster"), 2.0),
     ("wall-paint", "wall", ("ceramic", "Plaster"), 2.0),
 ]
-
-# Where each factory's front faces in Infinigen's own frame (the forge turns it to +y);
-# checked on the front views of the contact sheets. Infinigen's factories face +x (a
-# chair's seat opens towards +x); the composed parts are built facing +y.
-FRONT = {
-    "composed": "+y",
-    # Tables have no front: their long side stays along x as the factory makes it.
-    "TableDiningFactory": "+y",
-    "CoffeeTableFactory": "+y",
-    "SideTableFactory": "+y",
-    "TableCocktailFactory": "+y",
-}
-INFINIGEN_FRONT = "+x"
-
-
-def front_of(recipe):
-    """Where a recipe's asset faces before the forge turns it (FRONT, INFINIGEN_FRONT)."""
-    return FRONT.get(recipe if recipe == "composed" else recipe[1], INFINIGEN_FRONT)
-
-
-def describe(recipe):
-    """The recipe as the catalogue's generator names it."""
-    if recipe == "composed":
-        return "tools/forge/composed.py"
-    options = recipe[2] if len(recipe) > 2 else {}
-    named = ", ".join(f"{k}={v}" for k, v in sorted(options.items()))
-    return f"{recipe[0]}.{recipe[1]}" + (f"({named})" if named else "")

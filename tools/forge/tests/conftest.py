@@ -1,0 +1,7 @@
+"""The forge's pure modules (recipes.py, glb.py) import without Blender: put tools/forge on
+the path for the tests."""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

@@ -4,6 +4,8 @@
 
 pub mod assets;
 pub mod baselines;
+pub mod classes;
+pub mod colour;
 pub mod convert;
 pub mod embedding;
 pub mod external;

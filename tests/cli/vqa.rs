@@ -283,8 +283,16 @@ mod release_questions {
             for (lighting, accuracy) in by_lighting {
                 assert!(*accuracy <= oracle[lighting], "{name} under {lighting}: {accuracy} > the oracle's {}", oracle[lighting]);
             }
-            assert!(by_lighting["no_lights"] <= by_lighting["baseline"], "{name}: {by_lighting:?}");
+            // Dropping small classes, mislabelling and drift only grow with the lighting's
+            // severity, and so does what they cost. Merging does not: a harder lighting merges
+            // more classes, and a further merge can put a question's class back together with
+            // what it was merged into (one question of 47 in the dressed test release).
+            if *name != "merge" {
+                assert!(by_lighting["no_lights"] <= by_lighting["baseline"], "{name}: {by_lighting:?}");
+            }
         }
+        let mean = |lighting: &str| scored.values().map(|l| l[lighting]).sum::<f64>() / scored.len() as f64;
+        assert!(mean("no_lights") < mean("baseline"), "on average no lights costs answers: {scored:?}");
         assert!(scored.values().any(|l| l["baseline"] < oracle["baseline"]), "some degradation costs answers: {scored:?} vs {oracle:?}");
     }
 }

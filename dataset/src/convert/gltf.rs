@@ -35,6 +35,9 @@ pub struct Material {
     pub texture: Option<Texture>,
     /// Why a referenced texture could not be used (then the base colour is used).
     pub texture_problem: Option<String>,
+    /// The ambient-occlusion texture (`occlusionTexture`, its red channel), when it decodes
+    /// (one that does not is left out: it only darkens).
+    pub occlusion: Option<Texture>,
 }
 
 /// One triangle list with a single material.
@@ -349,7 +352,10 @@ fn read_materials(source: &Source, dir: &Path, path: &Path) -> Vec<Material> {
                     Err(e) => (None, Some(e.to_string())),
                 },
             };
-            Material { name: m["name"].as_str().unwrap_or("").to_string(), base_color, texture, texture_problem }
+            let occlusion = m["occlusionTexture"]["index"]
+                .as_u64()
+                .and_then(|t| load_texture(source, t as usize, dir, path, &format!("materials[{i}].occlusionTexture")).ok());
+            Material { name: m["name"].as_str().unwrap_or("").to_string(), base_color, texture, texture_problem, occlusion }
         })
         .collect()
 }

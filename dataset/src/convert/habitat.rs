@@ -284,7 +284,7 @@ impl Writer<'_> {
                 Some((flo, fhi)) => (std::array::from_fn(|a| flo[a].min(vlo[a])), std::array::from_fn(|a| fhi[a].max(vhi[a]))),
                 None => (vlo, vhi),
             });
-        } else if class != "ceiling" {
+        } else if class != "ceiling" && !lies_flat_on_the_floor((vlo, vhi)) {
             self.obstacles.push((vlo, vhi));
         }
         Ok(())
@@ -325,6 +325,12 @@ struct VisualAsset {
     scale: [f64; 3],
     local_bounds: ([f64; 3], [f64; 3]),
     textured: bool,
+}
+
+/// Whether a visual's box (Habitat axes, y up) lies flat on the floor — a rug, a mat: walked
+/// over, not around.
+fn lies_flat_on_the_floor((lo, hi): ([f64; 3], [f64; 3])) -> bool {
+    hi[1] - lo[1] < 0.05 && lo[1] < 0.02
 }
 
 fn default_colour(class: &str) -> [f64; 3] {

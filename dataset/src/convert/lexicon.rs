@@ -4,69 +4,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::classes::table;
+
 /// Classes of the room's shell (and "other", names that matched nothing): not objects
 /// a trajectory must observe or a question asks about.
-pub const SHELL_CLASSES: [&str; 6] = ["other", "floor", "wall", "ceiling", "door", "window"];
-
-/// Canonical classes in id order (id = position; 0 is "other"), each with synonyms.
-pub const CLASSES: &[(&str, &[&str])] = &[
-    ("other", &[]),
-    ("floor", &["ground", "floor plane", "rug", "carpet"]),
-    ("wall", &["exterior wall", "partition"]),
-    ("ceiling", &[]),
-    ("door", &["doorway"]),
-    ("window", &["window frame"]),
-    ("bed", &["king bed", "queen bed", "double bed", "single bed", "bunk bed", "twin bed"]),
-    ("nightstand", &["bedside table", "night stand", "night table"]),
-    ("wardrobe", &["closet", "armoire"]),
-    ("dresser", &["chest of drawers", "drawer chest"]),
-    ("desk", &["work desk", "writing desk", "computer desk", "reception desk", "standing desk"]),
-    ("chair", &["side chair", "stool", "bar stool"]),
-    ("dining chair", &[]),
-    ("office chair", &["swivel chair", "desk chair", "task chair"]),
-    ("armchair", &["lounge chair", "accent chair", "recliner"]),
-    ("sofa", &["couch", "loveseat", "sectional"]),
-    ("bench", &[]),
-    ("table", &["side table", "end table", "work table"]),
-    ("dining table", &["kitchen table"]),
-    ("coffee table", &[]),
-    ("console table", &[]),
-    ("conference table", &["meeting table"]),
-    ("cabinet", &["cupboard"]),
-    ("filing cabinet", &["file cabinet"]),
-    ("storage cabinet", &["locker"]),
-    ("bookshelf", &["bookcase", "book shelf"]),
-    ("shelf", &["shelving unit", "shelves"]),
-    ("storage rack", &["rack", "metal shelf"]),
-    ("sideboard", &["buffet"]),
-    ("credenza", &[]),
-    ("counter", &["countertop", "kitchen counter"]),
-    ("kitchen island", &["island"]),
-    ("workbench", &["work bench"]),
-    ("tv stand", &["tv cabinet", "media console"]),
-    ("mug", &["coffee mug", "cup", "tea cup"]),
-    ("book", &[]),
-    ("laptop", &["notebook computer"]),
-    ("plate", &["dish"]),
-    ("bowl", &[]),
-    ("bottle", &["water bottle", "wine bottle"]),
-    ("can", &["tin can", "oil can", "soda can"]),
-    ("box", &["cardboard box", "storage box", "crate"]),
-    ("bucket", &["pail"]),
-    ("towel", &[]),
-    ("pillow", &["cushion"]),
-    ("blanket", &["throw"]),
-    ("backpack", &["rucksack"]),
-    ("suitcase", &["luggage"]),
-    ("helmet", &[]),
-    ("clock", &["alarm clock", "wall clock"]),
-    ("printer", &["printer scanner"]),
-    ("monitor", &["computer monitor", "screen", "display"]),
-    ("lamp", &["floor lamp", "table lamp", "desk lamp"]),
-    ("plant", &["potted plant", "houseplant"]),
-    ("vase", &[]),
-    ("television", &["tv"]),
-];
+pub fn is_shell_class(name: &str) -> bool {
+    table().is_shell(name)
+}
 
 /// The lexicon entry of a class.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -77,12 +21,12 @@ pub struct ClassEntry {
 
 /// Every class as `{"name", "id"}`.
 pub fn classes() -> Vec<ClassEntry> {
-    CLASSES.iter().enumerate().map(|(id, (name, _))| ClassEntry { name: (*name).into(), id: id as i64 }).collect()
+    table().classes().iter().map(|c| ClassEntry { name: c.name.clone(), id: c.id }).collect()
 }
 
 /// The id of canonical class `name`.
 pub fn class_id(name: &str) -> Option<i64> {
-    CLASSES.iter().position(|(n, _)| *n == name).map(|i| i as i64)
+    table().class(name).map(|c| c.id)
 }
 
 /// Lower case, punctuation and underscores as spaces, the last word singular.
@@ -108,7 +52,7 @@ fn normalise(name: &str) -> Vec<String> {
 }
 
 fn lookup(phrase: &str) -> Option<&'static str> {
-    CLASSES.iter().find(|(name, synonyms)| *name == phrase || synonyms.contains(&phrase)).map(|(name, _)| *name)
+    table().classes().iter().find(|c| c.name == phrase || c.synonyms.iter().any(|s| s == phrase)).map(|c| c.name.as_str())
 }
 
 /// The canonical class of a free-text object name: the whole name, then ever shorter
@@ -143,7 +87,8 @@ mod tests {
     #[test]
     fn ids_are_positions_and_fit_sixteen_bits() {
         assert_eq!(class_id("other"), Some(0));
-        assert_eq!(classes().len(), CLASSES.len());
-        assert!(CLASSES.len() < 65_536);
+        assert_eq!(classes().len(), table().classes().len());
+        assert!(classes().iter().enumerate().all(|(i, c)| c.id == i as i64));
+        assert!(classes().len() < 65_536);
     }
 }

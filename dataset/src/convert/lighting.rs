@@ -2,7 +2,8 @@
 //! settings (and, without life intervals, as Habitat lighting configs):
 //!
 //! - `baseline`: ceiling point lights on a grid (at most 2.5 m apart, at least two),
-//!   30 cm under the wall top, their intensity calibrated per room so that the floor
+//!   just under the ceiling fixtures the synthesizer hangs there ([`FIXTURE_DROP`] under
+//!   the wall top), their intensity calibrated per room so that the floor
 //!   and the walls up to 2 m are exposed like Habitat's flat albedo — the 90th
 //!   percentile of the light factor `0.4 + Σ lights` on them is [`EXPOSURE_TARGET`] —
 //!   so white walls are not blown out however large or small the room;
@@ -24,6 +25,11 @@ use serde_json::{Value, json};
 
 /// Ceiling lights at most this far apart (metres).
 const LIGHT_SPACING: f64 = 2.5;
+/// How far under the wall top a ceiling light shines from: the underside of its fixture
+/// ([`FIXTURE_HEIGHT`] tall) and a little more.
+pub const FIXTURE_DROP: f64 = 0.12;
+/// The height of a ceiling fixture (a flush dome), metres.
+pub const FIXTURE_HEIGHT: f64 = 0.08;
 /// The 90th percentile of the light factor on floor and walls under `baseline`.
 pub const EXPOSURE_TARGET: f64 = 1.0;
 /// Habitat's ambient term and its scale of positive intensities.
@@ -37,7 +43,9 @@ pub const CAMERA_LIGHT_OFFSET: [f64; 3] = [0.0, 0.25, 0.75];
 const DIMMED: f64 = 0.3;
 /// Goals the dynamic pattern is written for (the last state holds after them).
 const PATTERN_GOALS: usize = 64;
-const WARM_WHITE: [f64; 3] = [1.0, 0.96, 0.9];
+/// The ceiling lights' colour: a warm white as a camera white-balanced for it records it,
+/// barely tinted (a stronger tint pushed wood and leather into toy-like saturation).
+const WARM_WHITE: [f64; 3] = [1.0, 0.98, 0.95];
 
 /// A ceiling light of the grid: position and (column, row).
 struct CeilingLight {
@@ -54,7 +62,7 @@ fn ceiling_grid(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> Vec<Ceiling
         // Two zones at least, so some of the room can be lit while the rest is not.
         if w >= d { nx = 2 } else { nz = 2 }
     }
-    let y = hi[1] + ceiling_height - 0.3;
+    let y = hi[1] + ceiling_height - FIXTURE_DROP;
     let mut lights = Vec::new();
     for i in 0..nx {
         for k in 0..nz {
@@ -64,6 +72,12 @@ fn ceiling_grid(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> Vec<Ceiling
         }
     }
     lights
+}
+
+/// Where the ceiling lights of a room with `floor` bounds (Habitat axes) and walls
+/// `ceiling_height` high shine from: the synthesizer hangs their fixtures there.
+pub fn ceiling_light_positions(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> Vec<[f64; 3]> {
+    ceiling_grid(floor, ceiling_height).into_iter().map(|l| l.position).collect()
 }
 
 /// The light factor (beyond ambient) of unit-intensity `lights` at point `p` with

@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::classes::{Role, table};
 use crate::spec::Regime;
 
 /// Thresholds and phrase lists of one regime.
@@ -23,10 +24,23 @@ pub struct FilterRules {
     pub max_sentences: usize,
     pub spatial_cues: &'static [&'static str],
     pub vague: &'static [&'static str],
-    pub object_hints: &'static [&'static str],
+    /// The reference's known objects, and every name of the class table's classes of the
+    /// regime's role (so a class added to the table is known without an edit here).
+    pub object_hints: Vec<&'static str>,
     pub forbidden_objects: &'static [&'static str],
     pub risky: &'static [&'static str],
     pub strong: &'static [&'static str],
+}
+
+/// `reference` and every name of the table's classes of `role`, each once.
+fn object_hints(reference: &[&'static str], role: Role) -> Vec<&'static str> {
+    let mut hints = reference.to_vec();
+    for word in table().prompt_words(role) {
+        if !hints.contains(&word) {
+            hints.push(word);
+        }
+    }
+    hints
 }
 
 const VAGUE: &[&str] = &["several", "some", "many", "few", "multiple", "various", "a couple of", "a few", "lots of", "a set of", "a group of"];
@@ -46,7 +60,7 @@ impl FilterRules {
                 max_sentences: 7,
                 spatial_cues: FURNITURE_SPATIAL_CUES,
                 vague: VAGUE,
-                object_hints: FURNITURE_OBJECT_HINTS,
+                object_hints: object_hints(FURNITURE_OBJECT_HINTS, Role::Furniture),
                 forbidden_objects: FURNITURE_FORBIDDEN_OBJECTS,
                 risky: FURNITURE_RISKY,
                 strong: FURNITURE_STRONG,
@@ -62,7 +76,7 @@ impl FilterRules {
                 max_sentences: 7,
                 spatial_cues: &["on", "under", "inside", "between", "behind", "next to", "near", "in front of", "against the wall", "along the wall"],
                 vague: &VAGUE[..9],
-                object_hints: MANIPULAND_OBJECT_HINTS,
+                object_hints: object_hints(MANIPULAND_OBJECT_HINTS, Role::Object),
                 forbidden_objects: &[],
                 risky: MANIPULAND_RISKY,
                 strong: &["under", "inside", "behind", "in front of", "between"],
@@ -91,7 +105,7 @@ const FURNITURE_SPATIAL_CUES: &[&str] = &[
     "opposite",
 ];
 
-/// Furniture a furniture prompt is expected to name.
+/// Furniture a furniture prompt is expected to name (the reference's list).
 const FURNITURE_OBJECT_HINTS: &[&str] = &[
     "table",
     "desk",
@@ -204,7 +218,7 @@ const FURNITURE_STRONG: &[&str] = &[
     "u-shaped",
 ];
 
-/// Objects a manipuland prompt is expected to name.
+/// Objects a manipuland prompt is expected to name (the reference's list).
 const MANIPULAND_OBJECT_HINTS: &[&str] = &[
     "box",
     "container",
@@ -332,7 +346,7 @@ pub fn analyze(text: &str, rules: &FilterRules) -> PromptAnalysis {
         sentence_count: sentence_count(text),
         explicit_numbers: explicit_numbers(text),
         spatial_hits: phrase_hits(&w, rules.spatial_cues).into_iter().map(String::from).collect(),
-        object_hits: phrase_hits(&w, rules.object_hints).into_iter().map(String::from).collect(),
+        object_hits: phrase_hits(&w, &rules.object_hints).into_iter().map(String::from).collect(),
     }
 }
 

@@ -20,7 +20,6 @@ pub mod wording;
 
 use osmab_evaluator::vqa::{Question, SceneQuestions};
 
-pub use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
 use crate::spec::SceneSpec;
 pub use objects::{InstancePoints, MIN_SEEN_POINTS, SceneObject, colour_name, object_id, oracle_graph, scene_objects};
 pub use wording::{plural, with_article};

@@ -8,8 +8,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use super::support::Support;
+pub use crate::colour::colour_name;
 use crate::convert::habitat::ConversionReport;
-use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
+use crate::convert::lexicon::is_shell_class;
 
 /// Ground-truth points an object needs to count as seen (mapped) by the trajectory.
 pub const MIN_SEEN_POINTS: usize = 10;
@@ -19,7 +20,8 @@ pub const MIN_SEEN_POINTS: usize = 10;
 pub struct InstancePoints {
     /// Its ground-truth points.
     pub points: usize,
-    /// The mean albedo (sRGB, 0–255) of its surface where those points lie.
+    /// The mean albedo (sRGB, 0–255) of the colour covering most of its surface where those
+    /// points lie (`None` when no one colour covers half of it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub albedo: Option<[f64; 3]>,
 }
@@ -57,66 +59,18 @@ impl SceneObject {
     }
 }
 
-/// The name of an sRGB colour, or `None` when it sits between names.
-pub fn colour_name(rgb: [f64; 3]) -> Option<&'static str> {
-    let [r, g, b] = rgb.map(|c| c / 255.0);
-    let max = r.max(g).max(b);
-    let min = r.min(g).min(b);
-    let (value, chroma) = (max, max - min);
-    let saturation = if max > 0.0 { chroma / max } else { 0.0 };
-    if value < 0.18 {
-        return Some("black");
-    }
-    if saturation < 0.12 {
-        return Some(if value > 0.82 {
-            "white"
-        } else if value > 0.3 {
-            "grey"
-        } else {
-            "black"
-        });
-    }
-    if saturation < 0.2 {
-        return None;
-    }
-    let hue = if chroma == 0.0 {
-        0.0
-    } else if max == r {
-        60.0 * ((g - b) / chroma).rem_euclid(6.0)
-    } else if max == g {
-        60.0 * ((b - r) / chroma + 2.0)
-    } else {
-        60.0 * ((r - g) / chroma + 4.0)
-    };
-    Some(match hue {
-        h if !(12.0..345.0).contains(&h) => "red",
-        h if h < 45.0 => {
-            if value < 0.65 {
-                "brown"
-            } else {
-                "orange"
-            }
-        }
-        h if h < 70.0 => "yellow",
-        h if h < 165.0 => "green",
-        h if h < 255.0 => "blue",
-        h if h < 290.0 => "purple",
-        _ => "pink",
-    })
-}
-
 /// The scene's objects (not the shell), each with its ground-truth points (`instances`,
 /// by instance id), the colour of its albedo and what it rests on (`supports`).
 pub fn scene_objects(report: &ConversionReport, instances: &BTreeMap<i64, InstancePoints>, supports: &BTreeMap<i64, Support>) -> Vec<SceneObject> {
     report
         .objects
         .iter()
-        .filter(|o| !STRUCTURAL.contains(&o.class.as_str()))
+        .filter(|o| !is_shell_class(&o.class))
         .map(|o| {
             let seen = instances.get(&o.instance_id).cloned().unwrap_or_default();
             // Screens, leaves and clock faces keep their own colours, which follow from the
             // class: no colour is named (or asked) for them.
-            let own_colours = crate::synthesis::source::OWN_COLOURS.contains(&o.class.as_str());
+            let own_colours = crate::synthesis::finishes::keeps_own_colours(&o.class);
             let colour = seen.albedo.filter(|_| seen.points >= MIN_SEEN_POINTS && !own_colours).and_then(colour_name).map(str::to_string);
             let center = std::array::from_fn(|a| (o.bbox_min[a] + o.bbox_max[a]) / 2.0);
             let extent = std::array::from_fn(|a| o.bbox_max[a] - o.bbox_min[a]);
@@ -196,16 +150,8 @@ mod tests {
         assert_eq!(colour_name([20.0, 20.0, 25.0]), Some("black"));
         assert_eq!(colour_name([40.0, 90.0, 200.0]), Some("blue"));
         assert_eq!(colour_name([150.0, 140.0, 125.0]), None, "greyish beige is neither grey nor a hue");
-    }
-
-    #[test]
-    fn every_finish_is_named_by_its_own_name_within_a_twentieth_of_its_brightness() {
-        for finish in crate::synthesis::library::FINISHES {
-            let name = finish.name.trim_start_matches("finish_");
-            for gain in [0.95, 1.0, 1.05] {
-                let albedo = std::array::from_fn(|c| (finish.color[c] as f64 * gain * 255.0).min(255.0));
-                assert_eq!(colour_name(albedo), Some(name), "{name} at {gain}× its brightness");
-            }
-        }
+        assert_eq!(colour_name([168.0, 138.0, 102.0]), Some("brown"), "light oak is brown, not orange");
+        assert_eq!(colour_name([215.0, 200.0, 170.0]), None, "pale tan (beige) has no name");
+        assert_eq!(colour_name([230.0, 120.0, 40.0]), Some("orange"), "a vivid orange is orange");
     }
 }

@@ -13,10 +13,11 @@ use osmab_evaluator::vqa::QuestionForm;
 
 use super::facts::{SceneFacts, oracle_scene_graph};
 use super::objects::{SceneObject, object_id};
-use crate::convert::lexicon::{SHELL_CLASSES, normalise_name};
+use crate::convert::lexicon::{is_shell_class, normalise_name};
 use crate::prompts::{PromptPool, ScenePrompt};
 use crate::spec::Regime;
-use crate::synthesis::placement::{Layout, place};
+use crate::synthesis::dressing::furnished;
+use crate::synthesis::placement::Layout;
 use crate::synthesis::source::AssetSource;
 
 /// Layouts of the same room at least, before a room's own odds count fully.
@@ -91,7 +92,7 @@ pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
         .iter()
         .enumerate()
         .filter_map(|(k, o)| {
-            let label = normalise_name(&o.category).filter(|c| !SHELL_CLASSES.contains(c))?.to_string();
+            let label = normalise_name(&o.category).filter(|c| !is_shell_class(c))?.to_string();
             let ([x0, y0], [x1, y1]) = o.footprint();
             let height = o.asset.size[2];
             // Drake (x, y, z) is Habitat's (x, z, −y).
@@ -118,8 +119,8 @@ pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
 /// A prompt placed as the built-in synthesizer places it.
 fn placed(prompt: &ScenePrompt, seed: u64, assets: &AssetSource) -> Layout {
     match prompt.layout_seed {
-        Some(layout_seed) => place(&prompt.spec.primary_only(), layout_seed, assets),
-        None => place(&prompt.spec, seed, assets),
+        Some(layout_seed) => furnished(&prompt.spec.primary_only(), layout_seed, assets),
+        None => furnished(&prompt.spec, seed, assets),
     }
 }
 

@@ -1,7 +1,9 @@
 //! Prompt-grounded (PromptGT) questions, as OSMa-Bench++ asks them: counts, relations and
 //! existence in the words of the scene's prompt ("in the dining room"), answered by the
 //! prompt — which the release's quality control verified the scene to satisfy — and by the
-//! scene where the prompt is silent (a class it never names is absent: zero, no). Drawn
+//! scene where the prompt is silent (a class it never names is absent: zero, no). A class the
+//! prompt does not name but the room's dressing holds (a rug, a vase) is not asked here: the
+//! prompt cannot answer it (the standard questions do). Drawn
 //! like every question ([`super::draw`]): as many yes as no per scene, each against its
 //! odds, so the text tells nothing; relations are asked between the scene's classes (the
 //! prompt's stated ones among them) and answered by the scene's boxes.
@@ -13,7 +15,7 @@ use osmab_evaluator::vqa::{QuestionForm, Relation};
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
 use super::standard::Asking;
 use super::wording::{plural, with_article};
-use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
+use crate::convert::lexicon::is_shell_class;
 use crate::convert::lexicon::normalise_name;
 use crate::spec::{RelationKind, SceneSpec};
 
@@ -36,7 +38,7 @@ fn relation_form(kind: RelationKind) -> Option<Relation> {
 
 /// The release class of a prompt category (none for the room's shell or unknown names).
 pub fn class_of(category: &str) -> Option<&'static str> {
-    normalise_name(category).filter(|c| !STRUCTURAL.contains(c))
+    normalise_name(category).filter(|c| !is_shell_class(c))
 }
 
 /// A stable seed per scene.
@@ -56,8 +58,14 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     let stated: Vec<&str> = spec.objects.iter().filter_map(|o| class_of(&o.category)).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
     let per_side = stated.len().clamp(1, 3);
 
+    // Only what the prompt settles: a class it states, or one the scene lacks altogether.
+    let settled = |c: &Candidate| match &c.form {
+        QuestionForm::Count { class } | QuestionForm::Exists { class } => stated.contains(&class.as_str()) || asking.facts.counted(class) == Some(0),
+        _ => true,
+    };
     // Measurement: the stated count of a class (categories of one class add up), or zero.
-    let counts = asking.counts(|c| format!("How many {} are in the {room}?", plural(c)));
+    let mut counts = asking.counts(|c| format!("How many {} are in the {room}?", plural(c)));
+    counts.retain(settled);
     out.extend(draw_balanced(counts, is_nonzero, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Measurement", c)));
 
     // Relations between the scene's classes, as its boxes decide them: what the prompt
@@ -73,7 +81,7 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
             ),
         );
     }
-    let present: Vec<&str> = asking.facts.classes().filter(|c| asking.facts.seen(c)).collect();
+    let present: Vec<&str> = asking.facts.classes().filter(|c| asking.facts.seen(c) && stated.contains(c)).collect();
     for subject in &present {
         for object in present.iter().filter(|o| *o != subject) {
             for relation in ASKED_RELATIONS {
@@ -87,7 +95,8 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     out.extend(draw_balanced(relations, is_yes, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Relations", c)));
 
     // Existence: classes the prompt states (yes) and classes it does not (no).
-    let existence = asking.existence(|c| format!("Is there {} in the {room}?", with_article(c)));
+    let mut existence = asking.existence(|c| format!("Is there {} in the {room}?", with_article(c)));
+    existence.retain(settled);
     out.extend(draw_balanced(existence, is_yes, 2, &mut asking.rng).into_iter().map(|c| ("PromptGT-Existence", c)));
     out
 }

@@ -21,7 +21,7 @@ use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
 use super::facts::SceneFacts;
 use super::priors::QuestionPriors;
 use super::wording::{plural, with_article};
-use crate::convert::lexicon::SHELL_CLASSES as STRUCTURAL;
+use crate::convert::lexicon::is_shell_class;
 use crate::spec::Regime;
 
 /// What the templates of a scene ask from: its facts, its room's odds and a draw.
@@ -37,7 +37,7 @@ pub struct Asking<'a> {
 impl Asking<'_> {
     /// The classes a question may name: the lexicon without the room's shell.
     pub fn askable(&self) -> Vec<&str> {
-        self.lexicon.iter().map(String::as_str).filter(|c| !STRUCTURAL.contains(c)).collect()
+        self.lexicon.iter().map(String::as_str).filter(|c| !is_shell_class(c)).collect()
     }
 
     /// `form` as a candidate, when the scene settles it.
@@ -197,25 +197,26 @@ fn comparison_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     out
 }
 
-/// The colour names instances are drawn in (see `synthesis::library::FINISHES`).
-pub fn palette() -> Vec<&'static str> {
-    crate::synthesis::library::FINISHES.iter().map(|f| f.name.trim_start_matches("finish_")).collect()
+/// The colour names instances of `class` are drawn in (its palette in the class table),
+/// each equally likely; every name the questions use for a class the table does not colour.
+pub fn palette(class: &str) -> Vec<&'static str> {
+    let names = crate::classes::table().class(class).map(|c| c.colour_names()).unwrap_or_default();
+    if names.len() >= 2 { names } else { vec!["black", "white", "grey", "brown", "red", "orange", "yellow", "green", "blue", "purple", "pink"] }
 }
 
 /// "Is the X <colour>?" of single objects with a clear colour: one asked with its own
-/// colour, one with another drawn evenly from the palette (every colour is as likely for
-/// every class, so the asked colour tells nothing).
+/// colour, one with another drawn evenly from its class's palette (every name of a class's
+/// palette is as likely for it, so the asked colour tells nothing).
 fn has_colour(asking: &mut Asking) -> Vec<Candidate> {
     let mut coloured: Vec<_> = asking.facts.singles().into_iter().filter(|o| o.colour.is_some()).collect();
     if coloured.len() < 2 {
         return Vec::new();
     }
-    let palette = palette();
     let first = coloured.swap_remove(asking.rng.below(coloured.len()));
     let second = coloured.swap_remove(asking.rng.below(coloured.len()));
     let own = first.colour.clone().expect("coloured");
     let theirs = second.colour.clone().expect("coloured");
-    let others: Vec<&str> = palette.iter().copied().filter(|c| *c != theirs).collect();
+    let others: Vec<&str> = palette(&second.label).into_iter().filter(|c| *c != theirs).collect();
     let other = others[asking.rng.below(others.len())].to_string();
     [(first, own), (second, other)]
         .into_iter()

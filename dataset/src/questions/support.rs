@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use crate::convert::habitat::ConversionReport;
-use crate::convert::lexicon::SHELL_CLASSES;
+use crate::convert::lexicon::is_shell_class;
 use crate::render::mesh::World;
 
 /// What an object rests on.
@@ -60,7 +60,7 @@ pub fn resting_on(world: &World, report: &ConversionReport) -> BTreeMap<i64, Sup
         .map(|t| (t.instance_id as i64, t.positions))
         .collect();
     let mut out = BTreeMap::new();
-    for object in report.objects.iter().filter(|o| !SHELL_CLASSES.contains(&o.class.as_str())) {
+    for object in report.objects.iter().filter(|o| !is_shell_class(&o.class)) {
         let base = object.bbox_min[1] as f32;
         let mut votes: BTreeMap<i64, usize> = BTreeMap::new();
         for [x, z] in footprint_samples(object.bbox_min, object.bbox_max) {
@@ -113,7 +113,7 @@ mod tests {
         triangles.extend(rectangle(2, [0.0, 0.7], [2.0, 0.9], 0.9)); // sofa back top
         triangles.extend(rectangle(4, [3.0, 0.0], [4.2, 0.8], 0.75)); // table top
         triangles.extend(rectangle(5, [3.2, 0.2], [3.6, 0.5], 0.77)); // tray top
-        let world = World::new(triangles, vec![Surface { color: [1.0; 3], texture: None }]);
+        let world = World::new(triangles, vec![Surface { color: [1.0; 3], texture: None, occlusion_in_alpha: false }]);
         let report = ConversionReport {
             objects: vec![
                 object(1, "floor", [-5.0, -0.1, -5.0], [5.0, 0.0, 5.0]),

@@ -15,14 +15,14 @@ use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::convert::habitat::ConversionReport;
-use crate::questions::InstancePoints;
+use crate::questions::{InstancePoints, colour_name};
 use crate::render::mesh::World;
 use crate::render::raster::{Camera, Frame, Shading, render};
 
 /// Instance labels of a ground truth.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct InstanceLabels {
-    /// Per instance id, its points and mean albedo.
+    /// Per instance id, its points and the albedo of its dominant colour.
     pub instances: BTreeMap<i64, InstancePoints>,
     /// Points labelled from the redrawn frames (their class agreed).
     pub drawn: usize,
@@ -39,7 +39,7 @@ pub struct InstanceLabels {
 pub fn label_instances(world: &World, sequence: &Sequence, gt: &GroundTruth, report: &ConversionReport) -> Result<InstanceLabels> {
     let camera = &sequence.camera;
     let mut labels = InstanceLabels { per_point: Vec::with_capacity(gt.points.len()), ..Default::default() };
-    let mut albedo: BTreeMap<i64, ([f64; 3], usize)> = BTreeMap::new();
+    let mut albedo: BTreeMap<i64, ColourTally> = BTreeMap::new();
     let mut frame = Frame::default();
     for (index, pixels) in kept_pixels(sequence)? {
         let view = Camera {
@@ -60,11 +60,7 @@ pub fn label_instances(world: &World, sequence: &Sequence, gt: &GroundTruth, rep
             };
             let instance = if frame.semantic[p] as i64 == class && frame.instance[p] != 0 {
                 labels.drawn += 1;
-                let a = albedo.entry(frame.instance[p] as i64).or_insert(([0.0; 3], 0));
-                for c in 0..3 {
-                    a.0[c] += frame.rgb[3 * p + c] as f64;
-                }
-                a.1 += 1;
+                albedo.entry(frame.instance[p] as i64).or_default().add([frame.rgb[3 * p], frame.rgb[3 * p + 1], frame.rgb[3 * p + 2]]);
                 frame.instance[p] as i64
             } else {
                 match box_of(report, class, gt.points[k]) {
@@ -87,12 +83,40 @@ pub fn label_instances(world: &World, sequence: &Sequence, gt: &GroundTruth, rep
     for &id in labels.per_point.iter().filter(|&&id| id != 0) {
         labels.instances.entry(id).or_default().points += 1;
     }
-    for (id, (sum, n)) in albedo {
+    for (id, tally) in albedo {
         if let Some(entry) = labels.instances.get_mut(&id) {
-            entry.albedo = Some(sum.map(|s| (s / n as f64 * 10.0).round() / 10.0));
+            entry.albedo = tally.dominant().map(|mean| mean.map(|v| (v * 10.0).round() / 10.0));
         }
     }
     Ok(labels)
+}
+
+/// The albedo an object shows, tallied by colour name: what the camera saw of a chair with a
+/// white seat and black legs is white, not the grey of their mean.
+#[derive(Debug, Default)]
+struct ColourTally {
+    /// Per colour name (`None`: between names), the sum of its texels and their number.
+    by_name: BTreeMap<Option<&'static str>, ([f64; 3], usize)>,
+    total: usize,
+}
+
+impl ColourTally {
+    fn add(&mut self, rgb: [u8; 3]) {
+        let rgb = rgb.map(f64::from);
+        let entry = self.by_name.entry(colour_name(rgb)).or_insert(([0.0; 3], 0));
+        for c in 0..3 {
+            entry.0[c] += rgb[c];
+        }
+        entry.1 += 1;
+        self.total += 1;
+    }
+
+    /// The mean albedo of the named colour that covers at least half of what was seen;
+    /// `None` when no colour does (a two-tone or patterned object has no one colour).
+    fn dominant(&self) -> Option<[f64; 3]> {
+        let (_, (sum, n)) = self.by_name.iter().filter(|(name, _)| name.is_some()).max_by_key(|(_, (_, n))| *n)?;
+        (2 * n >= self.total).then(|| sum.map(|s| s / *n as f64))
+    }
 }
 
 /// The object of class `class` whose box (with 5 cm to spare) holds `point`.

@@ -92,8 +92,11 @@ pub struct PredictedCoverage {
 }
 
 impl PredictedCoverage {
+    /// Whether the plan observes it enough: a prompted object from the goals' viewpoints
+    /// with their points, the room's dressing from one viewpoint with a third of them.
     pub fn satisfied(&self, goals: &CoverageGoals) -> bool {
-        self.viewpoints >= goals.views && self.points >= goals.points
+        let (views, points) = if self.prompted { (goals.views, goals.points) } else { (1, goals.points / 3.0) };
+        self.viewpoints >= views && self.points >= points
     }
 }
 
@@ -131,6 +134,10 @@ const VIEWPOINT_CLEARANCE: f64 = 0.3;
 const CROWDED_VIEW: f64 = 0.5;
 /// A frame facing a bare wall costs this many frames in choosing a viewpoint.
 const DEGENERATE_COST: f64 = 3.0;
+/// How much more a step costs in a nook whose every view is bare.
+const NOOK_PENALTY: f64 = 4.0;
+/// How far apart the walk to a viewpoint is looked along for bare views, metres.
+const PATH_SAMPLE: f64 = 0.25;
 /// Frames of an arrival facing the way the path came.
 const ARRIVAL_FRAMES: f64 = 20.0;
 
@@ -190,11 +197,21 @@ struct Tally {
 }
 
 impl Tally {
+    /// The viewpoints it needs: the goal's for a prompted object; one for the rest (the
+    /// room's dressing: a vase on a shelf need not be walked up to from two sides).
+    fn views_wanted(&self, goals: &CoverageGoals) -> usize {
+        if self.target.prompted { goals.views } else { 1 }
+    }
+    /// The ground-truth points it needs: the goal's for a prompted object, a third of them
+    /// for the rest.
+    fn points_wanted(&self, goals: &CoverageGoals) -> f64 {
+        if self.target.prompted { goals.points } else { goals.points / 3.0 }
+    }
     fn needs_view_at(&self, goals: &CoverageGoals, p: [f64; 2]) -> bool {
-        self.seen.viewpoints.len() < goals.views && self.seen.far_from_viewpoints(p, goals.separation)
+        self.seen.viewpoints.len() < self.views_wanted(goals) && self.seen.far_from_viewpoints(p, goals.separation)
     }
     fn satisfied(&self, goals: &CoverageGoals) -> bool {
-        self.seen.viewpoints.len() >= goals.views && self.seen.points >= goals.points
+        self.seen.viewpoints.len() >= self.views_wanted(goals) && self.seen.points >= self.points_wanted(goals)
     }
 }
 
@@ -204,8 +221,12 @@ pub fn plan(world: &World, grid: &NavGrid, sensor: &SensorSettings, motion: &Mot
     if region.is_empty() {
         return Plan::empty();
     }
-    let planner = Planner::new(world, grid, sensor, motion, goals, targets);
-    let candidates = planner.probe_candidates(&candidate_cells(grid, &region));
+    let candidates = Planner::new(world, grid, sensor, motion, goals, targets).probe_candidates(&candidate_cells(grid, &region));
+    let nearest_position = nearest_positions(grid, &candidates);
+    // Paths and viewpoints keep out of nooks where the camera sees only walls.
+    let grid = &grid.clone().with_penalty(nook_penalty(&candidates, &nearest_position));
+    let mut planner = Planner::new(world, grid, sensor, motion, goals, targets);
+    planner.nearest_position = nearest_position;
     let never_visible = planner.never_visible(targets, &candidates);
     let mut tallies: Vec<Tally> =
         targets.iter().map(|t| Tally { target: t.clone(), weight: if t.prompted { PROMPTED_WEIGHT } else { 1.0 }, seen: Observed::default() }).collect();
@@ -261,27 +282,63 @@ impl Tally {
     }
 }
 
-/// Candidate viewpoint cells: a lattice over the largest free `region`, keeping clearance
-/// where it can; the lattice alone, or the single clearest cell, where it cannot.
+/// Per cell, what a step onto it costs more where the views from the nearest probed
+/// position (`nearest`) are mostly bare: nothing while half or fewer of its headings are,
+/// up to [`NOOK_PENALTY`] where all are.
+fn nook_penalty(candidates: &[Candidate], nearest: &[usize]) -> Vec<f64> {
+    let bare_share: Vec<f64> = candidates.chunks(HEADINGS).map(|c| c.iter().filter(|c| c.view.bare()).count() as f64 / HEADINGS as f64).collect();
+    nearest.iter().map(|&p| bare_share.get(p).map_or(0.0, |s| NOOK_PENALTY * (2.0 * s - 1.0).max(0.0))).collect()
+}
+
+/// Per cell of `grid`, the index of the nearest of the probed positions (candidates come
+/// [`HEADINGS`] at a time).
+fn nearest_positions(grid: &NavGrid, candidates: &[Candidate]) -> Vec<usize> {
+    let positions: Vec<[f64; 2]> = candidates.chunks(HEADINGS).map(|c| c[0].position).collect();
+    (0..grid.width * grid.height)
+        .map(|i| {
+            let p = grid.centre(i);
+            let d2 = |q: &[f64; 2]| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+            (0..positions.len()).min_by(|&a, &b| d2(&positions[a]).total_cmp(&d2(&positions[b])).then(a.cmp(&b))).unwrap_or(usize::MAX)
+        })
+        .collect()
+}
+
+/// Candidate viewpoint cells: one per square of a lattice over the largest free `region`,
+/// the cell nearest the square's centre among those keeping [`VIEWPOINT_CLEARANCE`] (or
+/// as much clearance as the square has), so narrow passages between furniture get
+/// viewpoints too.
 fn candidate_cells(grid: &NavGrid, region: &[usize]) -> Vec<usize> {
     let area = region.len() as f64 * grid.cell_size * grid.cell_size;
     let spacing = (area / MAX_POSITIONS as f64).sqrt().max(0.35);
     let stride = ((spacing / grid.cell_size).round() as usize).max(1);
-    let on_lattice = |i: usize| (i % grid.width) % stride == stride / 2 && (i / grid.width) % stride == stride / 2;
-    let mut cells: Vec<usize> = region.iter().copied().filter(|&i| on_lattice(i) && grid.clearance[i] >= VIEWPOINT_CLEARANCE).collect();
-    if cells.is_empty() {
-        cells = region.iter().copied().filter(|&i| on_lattice(i)).collect();
+    let square = |i: usize| ((i % grid.width) / stride, (i / grid.width) / stride);
+    let off_centre = |i: usize| {
+        let from_centre = |v: usize| v as i64 - (v / stride * stride + stride / 2) as i64;
+        from_centre(i % grid.width).pow(2) + from_centre(i / grid.width).pow(2)
+    };
+    let mut best: std::collections::BTreeMap<(usize, usize), usize> = std::collections::BTreeMap::new();
+    for &i in region {
+        let better = |j: usize| {
+            let clear = |c: usize| grid.clearance[c].min(VIEWPOINT_CLEARANCE);
+            clear(i).total_cmp(&clear(j)).then(off_centre(j).cmp(&off_centre(i))).then(j.cmp(&i)).is_gt()
+        };
+        best.entry(square(i))
+            .and_modify(|j| {
+                if better(*j) {
+                    *j = i
+                }
+            })
+            .or_insert(i);
     }
-    if cells.is_empty() {
-        cells.push(*region.iter().max_by(|&&a, &&b| grid.clearance[a].total_cmp(&grid.clearance[b]).then(b.cmp(&a))).expect("non-empty"));
-    }
+    let mut cells: Vec<usize> = best.into_values().collect();
+    cells.sort_unstable();
     cells
 }
 
 /// The heading indices of candidate `k`'s position (candidates come HEADINGS at a time)
-/// whose probe view is degenerate.
-fn degenerate_headings(candidates: &[Candidate], k: usize) -> Vec<bool> {
-    candidates[k - k % HEADINGS..k - k % HEADINGS + HEADINGS].iter().map(|c| c.view.degenerate()).collect()
+/// whose probe view is bare (a wall, a floor, too little of any object).
+fn bare_headings(candidates: &[Candidate], k: usize) -> Vec<bool> {
+    candidates[k - k % HEADINGS..k - k % HEADINGS + HEADINGS].iter().map(|c| c.view.bare()).collect()
 }
 
 /// What the planner consults throughout: the scene, the probe, the motion, the goals and
@@ -298,6 +355,9 @@ struct Planner<'a> {
     good_pixels: f64,
     /// The index into the targets (and tallies) of each instance id.
     index: HashMap<u16, usize>,
+    /// Per navigation cell, the nearest candidate position (its index among the positions,
+    /// candidates coming [`HEADINGS`] at a time); `usize::MAX` before they are probed.
+    nearest_position: Vec<usize>,
 }
 
 /// Whether the walk is still covering objects, and how far it has yet to travel.
@@ -322,7 +382,7 @@ impl<'a> Planner<'a> {
         let dwell_gt_frames = ((4.0 * goals.sweep_degrees / (motion.turn_degrees / motion.sub_steps as f64)) / FRAME_STRIDE as f64).max(1.0);
         let good_pixels = (goals.points * POINT_STRIDE as f64 / dwell_gt_frames).max(view_pixels);
         let index = targets.iter().enumerate().map(|(i, t)| (t.instance_id, i)).collect();
-        Planner { grid, motion, goals, probe, rule, view_pixels, good_pixels, index }
+        Planner { grid, motion, goals, probe, rule, view_pixels, good_pixels, index, nearest_position: Vec::new() }
     }
 
     /// Probe views from every heading at each of `cells`, position by position.
@@ -372,7 +432,7 @@ impl<'a> Planner<'a> {
         let useful: Vec<bool> = at_start
             .iter()
             .map(|c| {
-                !c.view.degenerate()
+                !c.view.bare()
                     && c.view.objects.iter().any(|v| self.index.contains_key(&v.instance_id) && v.pixels as f64 * self.probe.scale >= self.view_pixels)
             })
             .collect();
@@ -410,6 +470,10 @@ impl<'a> Planner<'a> {
             let need = Need { covering, travel: (self.goals.min_travel - walker.travelled).max(0.0) };
             let Some((k, why)) = self.best_viewpoint(candidates, &used, &distances, walker, tallies, need) else { break };
             used[k] = true;
+            if why.is_empty() {
+                // A goal only for travel uses up its position: travel goes somewhere new.
+                used[k - k % HEADINGS..k - k % HEADINGS + HEADINGS].fill(true);
+            }
             let (arrived, view) = self.go_to_viewpoint(candidates, k, why, &distances, walker);
             viewpoints.push(view);
             crediting.credit_new_frames(self, walker, tallies);
@@ -435,7 +499,7 @@ impl<'a> Planner<'a> {
         let mut best: Option<(f64, usize, Vec<u16>)> = None;
         for picky in [true, false] {
             for (k, c) in candidates.iter().enumerate() {
-                if used[k] || (picky && (c.view.degenerate() || c.view.largest_object_fraction > CROWDED_VIEW)) {
+                if used[k] || (picky && (c.view.bare() || c.view.largest_object_fraction > CROWDED_VIEW)) {
                     continue;
                 }
                 let length = distances.length[c.cell];
@@ -443,10 +507,10 @@ impl<'a> Planner<'a> {
                     continue;
                 }
                 let (g, why) = self.gain(c, length, tallies, need);
-                if g <= 0.0 {
+                if g <= 0.0 || (picky && why.is_empty() && self.arrives_facing_bare(candidates, k, length, walker)) {
                     continue;
                 }
-                let score = g / self.cost(candidates, k, length, walker, why.is_empty());
+                let score = g / self.cost(candidates, k, distances, walker, why.is_empty());
                 if best.as_ref().is_none_or(|b| score > b.0) {
                     best = Some((score, k, why));
                 }
@@ -477,7 +541,7 @@ impl<'a> Planner<'a> {
                     0.0
                 } else {
                     let view = (pixels >= self.view_pixels && tally.needs_view_at(self.goals, c.position)) as u8 as f64;
-                    let points = if tally.seen.points < self.goals.points { (pixels / self.good_pixels).min(1.0) } else { 0.0 };
+                    let points = if tally.seen.points < tally.points_wanted(self.goals) { (pixels / self.good_pixels).min(1.0) } else { 0.0 };
                     view + points
                 }
             } else {
@@ -495,47 +559,74 @@ impl<'a> Planner<'a> {
         (gain, why)
     }
 
-    /// The frames candidate `k`, `length` metres away, costs: its travel, its turns, its
-    /// sweep and a fixed cost, with frames facing bare walls (arriving towards one, turning
-    /// past them) costing more. A goal `only_for_travel` is not turned to or swept.
-    fn cost(&self, candidates: &[Candidate], k: usize, length: f64, walker: &Walker, only_for_travel: bool) -> f64 {
+    /// The frames candidate `k` costs: its travel, its turn to the candidate's heading, its
+    /// sweep and a fixed cost, with frames facing bare walls (on the way there, arriving
+    /// towards one, turning past them) costing more. A goal `only_for_travel` is turned to
+    /// its heading (so it ends on a view of something) but not swept.
+    fn cost(&self, candidates: &[Candidate], k: usize, distances: &Distances, walker: &Walker, only_for_travel: bool) -> f64 {
         let c = &candidates[k];
+        let length = distances.length[c.cell];
+        let on_the_way = DEGENERATE_COST * self.bare_frames_on_the_way(candidates, distances, c.cell);
         let (step_m, turn_rad) = (self.motion.step_per_frame(), self.motion.turn_per_frame());
         let travel_heading = if length > 0.1 { heading_towards(walker.position(), c.position) } else { walker.yaw };
-        let walls = degenerate_headings(candidates, k);
+        let walls = bare_headings(candidates, k);
         let arrival = heading_index(travel_heading);
         let arrival_walls = if length > 0.1 && walls[arrival] { ARRIVAL_FRAMES } else { 0.0 };
-        if only_for_travel {
-            length / step_m + wrap(travel_heading - walker.yaw).abs() / turn_rad + FIXED_COST + DEGENERATE_COST * arrival_walls
-        } else {
-            let sweep_frames = 4.0 * self.goals.sweep_degrees.to_radians() / turn_rad;
-            let frames_per_heading = std::f64::consts::TAU / HEADINGS as f64 / turn_rad;
-            let turns = wrap(travel_heading - walker.yaw).abs() + wrap(c.heading - travel_heading).abs();
-            let (_, passed) = turn_direction(&walls, arrival, k % HEADINGS);
-            let degenerate_frames = arrival_walls + passed as f64 * frames_per_heading;
-            length / step_m + turns / turn_rad + sweep_frames + FIXED_COST + DEGENERATE_COST * degenerate_frames
-        }
+        let sweep_frames = if only_for_travel { 0.0 } else { 4.0 * self.goals.sweep_degrees.to_radians() / turn_rad };
+        let frames_per_heading = std::f64::consts::TAU / HEADINGS as f64 / turn_rad;
+        let turns = wrap(travel_heading - walker.yaw).abs() + wrap(c.heading - travel_heading).abs();
+        let (_, passed) = turn_direction(&walls, arrival, k % HEADINGS);
+        let degenerate_frames = arrival_walls + passed as f64 * frames_per_heading;
+        length / step_m + on_the_way + turns / turn_rad + sweep_frames + FIXED_COST + DEGENERATE_COST * degenerate_frames
     }
 
-    /// Walk to candidate `k` as a new goal: its path, then (unless it is only for travel)
-    /// a turn to its heading and a sweep. Returns whether it got there, and the viewpoint.
+    /// Whether walking `length` metres to candidate `k` ends facing a bare view (a goal only
+    /// for travel is not worth walking up to a wall for).
+    fn arrives_facing_bare(&self, candidates: &[Candidate], k: usize, length: f64, walker: &Walker) -> bool {
+        length > 0.1 && bare_headings(candidates, k)[heading_index(heading_towards(walker.position(), candidates[k].position))]
+    }
+
+    /// How many of the frames walking to `cell` would face a bare view: along the path, the
+    /// probe of the nearest candidate position in the walking direction, every
+    /// [`PATH_SAMPLE`] metres.
+    fn bare_frames_on_the_way(&self, candidates: &[Candidate], distances: &Distances, cell: usize) -> f64 {
+        let Some(path) = self.grid.path_to(distances, cell) else { return 0.0 };
+        let frames_per_sample = PATH_SAMPLE / self.motion.step_per_frame();
+        let mut bare = 0.0;
+        for w in path.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let length = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let heading = heading_towards(a, b);
+            let samples = (length / PATH_SAMPLE).ceil() as usize;
+            for s in 0..samples {
+                let t = (s as f64 + 0.5) / samples as f64;
+                let Some(at) = self.grid.cell_of(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])) else { continue };
+                let position = self.nearest_position[at];
+                if position != usize::MAX && candidates[position * HEADINGS + heading_index(heading)].view.bare() {
+                    bare += frames_per_sample * (length / samples as f64) / PATH_SAMPLE;
+                }
+            }
+        }
+        bare
+    }
+
+    /// Walk to candidate `k` as a new goal: its path, a turn to its heading and (unless it
+    /// is only for travel) a sweep. Returns whether it got there, and the viewpoint.
     fn go_to_viewpoint(&self, candidates: &[Candidate], k: usize, why: Vec<u16>, distances: &Distances, walker: &mut Walker) -> (bool, PlannedView) {
         let c = &candidates[k];
         walker.goal += 1;
         let path = self.grid.path_to(distances, c.cell).unwrap_or_default();
-        let walls = degenerate_headings(candidates, k);
+        let walls = bare_headings(candidates, k);
         // Within a heading step the short way; further, the way past fewer bare walls.
+        // A goal only for travel still ends facing its heading, a view of something.
         let arrived = walker.follow(&path)
-            && if why.is_empty() {
-                true
-            } else if heading_index(walker.yaw) == k % HEADINGS {
+            && if heading_index(walker.yaw) == k % HEADINGS {
                 walker.turn_to(c.heading)
             } else {
                 walker.turn_towards(c.heading, turn_direction(&walls, heading_index(walker.yaw), k % HEADINGS).0)
             }
             && (why.is_empty() || walker.sweep(self.goals.sweep_degrees.to_radians()));
-        let heading_deg = if why.is_empty() { wrap(walker.yaw).to_degrees() } else { c.heading.to_degrees() };
-        (arrived, PlannedView { goal: walker.goal, position: c.position, heading_deg, for_instances: why })
+        (arrived, PlannedView { goal: walker.goal, position: c.position, heading_deg: c.heading.to_degrees(), for_instances: why })
     }
 }
 

@@ -7,30 +7,11 @@ use nalgebra::{Matrix4, Point3, Quaternion, UnitQuaternion, Vector3};
 use osmab_evaluator::{InputError, Result};
 use serde_json::Value;
 
+use std::sync::Arc;
+
+use super::light_bake::LightBake;
+pub use super::surface::{MipMaps, Surface, Triangle};
 use crate::convert::gltf::{Texture, read_gltf};
-
-/// How a surface is coloured.
-#[derive(Debug, Clone)]
-pub struct Surface {
-    /// Base colour (linear 0..1).
-    pub color: [f32; 3],
-    /// Base-colour texture, sampled with the vertices' UVs.
-    pub texture: Option<std::sync::Arc<Texture>>,
-}
-
-/// One triangle.
-#[derive(Debug, Clone, Copy)]
-pub struct Triangle {
-    pub positions: [[f32; 3]; 3],
-    pub normals: [[f32; 3]; 3],
-    pub uvs: [[f32; 2]; 3],
-    /// Index into `World::surfaces`.
-    pub surface: u32,
-    /// Class id written to semantic images.
-    pub class_id: u16,
-    /// The object instance it belongs to (the template's `semantic_id`; 0 for none).
-    pub instance_id: u16,
-}
 
 /// Everything a camera can see: triangles, their surfaces, and runs of one object's
 /// consecutive triangles with their bounding boxes, which the renderer tests against the
@@ -43,7 +24,16 @@ pub struct World {
     /// Each triangle's vertex positions again, packed: all that transforming a triangle
     /// reads, in a third of the memory `triangles` takes.
     positions: Vec<[[f32; 3]; 3]>,
+    /// Ambient occlusion and the static lights' shadows, once baked ([`World::with_light_bake`]).
+    light_bake: Option<Arc<LightBake>>,
 }
+
+/// Triangles of objects longer than this along any edge are split (metres) when a scene is
+/// loaded, so the light baked into their vertices resolves a vase's shadow on a table top
+/// (the room's floor, walls and ceiling get light maps instead: [`SHELL_SURFACES`]).
+pub const MAX_EDGE: f32 = 0.25;
+/// The classes of the room's large flat surfaces, which are lit from light maps.
+pub const SHELL_SURFACES: [&str; 3] = ["floor", "wall", "ceiling"];
 
 /// Triangles a cluster holds at most: a piece of an object small enough for its box to
 /// leave the view when the object is half out of it.
@@ -90,7 +80,20 @@ impl World {
     pub(crate) fn with_cluster_size(triangles: Vec<Triangle>, surfaces: Vec<Surface>, size: usize) -> World {
         let clusters = clusters(&triangles, size.max(1));
         let positions = triangles.iter().map(|t| t.positions).collect();
-        World { triangles, surfaces, clusters, positions }
+        World { triangles, surfaces, clusters, positions, light_bake: None }
+    }
+
+    /// This world with its light baked for the static lights at `lights`: triangles of
+    /// `fixture_class` cast no shadows (the ceiling's light fixtures), those of
+    /// `planar_classes` (floor, walls, ceiling) get light maps.
+    pub fn with_light_bake(mut self, lights: &[[f32; 3]], fixture_class: Option<u16>, planar_classes: &[u16]) -> World {
+        self.light_bake = Some(Arc::new(LightBake::bake(&self.triangles, lights, fixture_class, planar_classes)));
+        self
+    }
+
+    /// Its baked light, if baked.
+    pub fn light_bake(&self) -> Option<&LightBake> {
+        self.light_bake.as_deref()
     }
 
     pub fn triangles(&self) -> &[Triangle] {
@@ -136,8 +139,59 @@ impl World {
                 builder.add_gltf(&asset, &placement, ids)?;
             }
         }
-        Ok(World::new(builder.triangles, builder.surfaces))
+        let surfaces = shell_surface_ids();
+        let (planar, objects): (Vec<Triangle>, Vec<Triangle>) = builder.triangles.into_iter().partition(|t| surfaces.contains(&t.class_id));
+        let mut triangles = planar;
+        triangles.extend(subdivide(objects, MAX_EDGE));
+        Ok(World::new(triangles, builder.surfaces))
     }
+}
+
+/// The class ids of [`SHELL_SURFACES`].
+pub fn shell_surface_ids() -> Vec<u16> {
+    SHELL_SURFACES.iter().filter_map(|c| crate::convert::lexicon::class_id(c)).map(|id| id as u16).collect()
+}
+
+/// `triangles` with each one longer than `max_edge` split, its longest edge halved again and
+/// again until no edge is longer (positions, normals and texture coordinates interpolated):
+/// the same surfaces, in pieces small enough for light baked into vertices, without a
+/// thin strip (a wall box's top) becoming thousands of slivers. Two triangles sharing an edge
+/// halve it at the same point; where a T-junction remains, the rasteriser's coverage
+/// tolerance closes the seam.
+pub fn subdivide(triangles: Vec<Triangle>, max_edge: f32) -> Vec<Triangle> {
+    let length2 = |a: [f32; 3], b: [f32; 3]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2);
+    let limit = max_edge * max_edge;
+    let mut out = Vec::with_capacity(triangles.len());
+    let mut stack = Vec::new();
+    for t in triangles {
+        stack.push(t);
+        while let Some(t) = stack.pop() {
+            let p = t.positions;
+            let edges = [length2(p[0], p[1]), length2(p[1], p[2]), length2(p[2], p[0])];
+            let longest = (0..3).max_by(|&a, &b| edges[a].total_cmp(&edges[b]).then(b.cmp(&a))).expect("three edges");
+            if !(edges[longest] > limit) || !edges[longest].is_finite() {
+                out.push(t);
+                continue;
+            }
+            // Halve edge (i, j) at m: (i, m, k) and (m, j, k), k the third, keep the winding.
+            let (i, j) = (longest, (longest + 1) % 3);
+            let mid3 = |v: [[f32; 3]; 3]| std::array::from_fn::<f32, 3, _>(|c| (v[i][c] + v[j][c]) / 2.0);
+            let mid2 = |v: [[f32; 2]; 3]| std::array::from_fn::<f32, 2, _>(|c| (v[i][c] + v[j][c]) / 2.0);
+            let (mp, mn, mu) = (mid3(t.positions), mid3(t.normals), mid2(t.uvs));
+            let mut first = t;
+            first.positions[j] = mp;
+            first.normals[j] = mn;
+            first.uvs[j] = mu;
+            let mut second = t;
+            second.positions[i] = mp;
+            second.normals[i] = mn;
+            second.uvs[i] = mu;
+            // The second is drawn after the first.
+            stack.push(second);
+            stack.push(first);
+        }
+    }
+    out
 }
 
 /// The class and instance of an object's triangles.
@@ -184,22 +238,48 @@ impl Placement {
     }
 }
 
+/// `texture` with `occlusion`'s red channel (at the nearest of its texels, which may be
+/// fewer) in its alpha: one fetch gives a pixel both.
+fn occlusion_in_alpha(texture: &Texture, occlusion: &Texture) -> Texture {
+    let (w, h) = (texture.width as usize, texture.height as usize);
+    let (ow, oh) = (occlusion.width as usize, occlusion.height as usize);
+    let mut rgba = texture.rgba.clone();
+    for y in 0..h {
+        let oy = (y * oh / h).min(oh - 1);
+        for x in 0..w {
+            let ox = (x * ow / w).min(ow - 1);
+            rgba[4 * (y * w + x) + 3] = occlusion.rgba[4 * (oy * ow + ox)];
+        }
+    }
+    Texture { width: texture.width, height: texture.height, rgba }
+}
+
 /// A world's triangles and surfaces as its objects are added, with the textures loaded so far.
 #[derive(Default)]
 struct WorldBuilder {
     triangles: Vec<Triangle>,
     surfaces: Vec<Surface>,
-    texture_cache: Vec<(String, Option<std::sync::Arc<Texture>>)>,
+    texture_cache: Vec<(String, Option<std::sync::Arc<MipMaps>>)>,
 }
 
 impl WorldBuilder {
+    /// `texture` shared under `key`: loaded once per asset and material.
+    fn cached(&mut self, key: String, texture: &Option<Texture>) -> Option<Arc<MipMaps>> {
+        if let Some((_, t)) = self.texture_cache.iter().find(|(k, _)| *k == key) {
+            return t.clone();
+        }
+        let t = texture.clone().map(|t| Arc::new(MipMaps::of(t)));
+        self.texture_cache.push((key, t.clone()));
+        t
+    }
+
     /// An OBJ asset's materials and triangles, with flat faces: the face normal, so boxes
     /// keep sharp edges.
     fn add_obj(&mut self, asset: &Path, placement: &Placement, ids: ObjectIds) -> Result<()> {
         let obj = super::obj::read_obj(asset)?;
         let base = self.surfaces.len() as u32;
         for m in &obj.materials {
-            self.surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(std::sync::Arc::new) });
+            self.surfaces.push(Surface { color: m.color, texture: m.texture.clone().map(|t| Arc::new(MipMaps::of(t))), occlusion_in_alpha: false });
         }
         for (corners, material) in &obj.triangles {
             let p = corners.map(|(k, _)| placement.place(obj.positions[k as usize]));
@@ -220,20 +300,14 @@ impl WorldBuilder {
         let gltf = read_gltf(asset)?;
         let base = self.surfaces.len() as u32;
         for (m, material) in gltf.materials.iter().enumerate() {
-            let key = format!("{}#{m}", asset.display());
-            let texture = match self.texture_cache.iter().find(|(k, _)| *k == key) {
-                Some((_, t)) => t.clone(),
-                None => {
-                    let t = material.texture.clone().map(std::sync::Arc::new);
-                    self.texture_cache.push((key, t.clone()));
-                    t
-                }
-            };
+            let with_occlusion = material.texture.as_ref().zip(material.occlusion.as_ref()).map(|(t, ao)| occlusion_in_alpha(t, ao));
+            let occlusion_in_alpha = with_occlusion.is_some();
+            let texture = self.cached(format!("{}#{m}", asset.display()), &with_occlusion.or_else(|| material.texture.clone()));
             let c = material.base_color;
-            self.surfaces.push(Surface { color: [c[0], c[1], c[2]], texture });
+            self.surfaces.push(Surface { color: [c[0], c[1], c[2]], texture, occlusion_in_alpha });
         }
         let fallback = self.surfaces.len() as u32;
-        self.surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None });
+        self.surfaces.push(Surface { color: [0.7, 0.7, 0.7], texture: None, occlusion_in_alpha: false });
         for mesh in &gltf.meshes {
             let surface = mesh.material.filter(|&m| m < gltf.materials.len()).map_or(fallback, |m| base + m as u32);
             for tri in mesh.indices.chunks_exact(3) {

@@ -2,9 +2,12 @@
 //! Habitat-style scene along a trajectory planned for coverage, with Habitat's
 //! lighting model.
 
+mod bvh;
 pub mod camera;
 pub mod coverage;
 mod edges;
+pub mod light;
+pub mod light_bake;
 pub mod loaders;
 pub mod mesh;
 pub mod navigation;
@@ -12,6 +15,7 @@ pub mod obj;
 pub mod raster;
 mod screen;
 pub mod sequence;
+pub mod surface;
 pub mod trajectory;
 pub mod view;
 
@@ -21,7 +25,7 @@ use osmab_evaluator::formats::classes::{ClassEntry, ClassList};
 use osmab_evaluator::{InputError, Result};
 
 use crate::convert::habitat::ConversionReport;
-use crate::convert::lexicon::{SHELL_CLASSES, normalise_name};
+use crate::convert::lexicon::{is_shell_class, normalise_name};
 use camera::SensorSettings;
 use coverage::{CoverageGoals, Plan, Target};
 use navigation::NavGrid;
@@ -42,7 +46,7 @@ pub fn scene_targets(report: &ConversionReport, prompted: &[String]) -> Vec<Targ
     report
         .objects
         .iter()
-        .filter(|o| !SHELL_CLASSES.contains(&o.class.as_str()))
+        .filter(|o| !is_shell_class(&o.class))
         .map(|o| Target { instance_id: o.instance_id.clamp(0, u16::MAX as i64) as u16, class: o.class.clone(), prompted: prompted.contains(&o.class.as_str()) })
         .collect()
 }
@@ -79,21 +83,46 @@ pub fn render_scene(
     states: &[AgentState],
     out: &Path,
 ) -> Result<Vec<(String, SequenceSummary)>> {
-    let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
+    let mut settings_of = Vec::new();
+    for lighting in lightings {
+        let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
+        let lights: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?)
+            .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
+        settings_of.push(lights);
+    }
+    let world = lit_world(mesh::World::load_habitat_scene(habitat_dir, scene)?, &settings_of);
     let grid = NavGrid::read(habitat_dir, scene)?;
     let classes_path = habitat_dir.join("semantics/classes.json");
     let classes = ClassList::read(&classes_path)?;
     let classes = ClassList::new(classes.entries().into_iter().map(|c| ClassEntry { name: c.name, id: c.id })).expect("unique");
     let settings = serde_json::json!({"scene_name": scene, "sensor": sensor});
     let mut out_list = Vec::new();
-    for lighting in lightings {
-        let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
-        let lights: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?)
-            .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
+    for (lighting, lights) in lightings.iter().zip(&settings_of) {
         let mut settings = settings.clone();
         settings["label"] = serde_json::json!(lighting);
-        let summary = render_sequence(&world, states, grid.floor_height, sensor, &lights, &classes, &settings, &out.join(lighting).join(scene))?;
+        let summary = render_sequence(&world, states, grid.floor_height, sensor, lights, &classes, &settings, &out.join(lighting).join(scene))?;
         out_list.push((lighting.to_string(), summary));
     }
     Ok(out_list)
+}
+
+/// `world` with its light baked for the static lights of the HaDaGe light settings
+/// `lightings` (all their positions, whatever goals they shine in), when any of them is lit:
+/// ambient occlusion and shadows. The ceiling's fixtures cast no shadow.
+pub fn lit_world(world: mesh::World, lightings: &[serde_json::Value]) -> mesh::World {
+    if lightings.iter().all(sequence::has_no_lights) {
+        return world;
+    }
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    for settings in lightings {
+        for light in settings["lights"].as_object().into_iter().flat_map(|l| l.values()) {
+            let p = &light["position"];
+            let position = [0, 1, 2].map(|k| p[k].as_f64().unwrap_or(0.0) as f32);
+            if light["type"] != "camera" && !positions.contains(&position) {
+                positions.push(position);
+            }
+        }
+    }
+    let fixtures = crate::convert::lexicon::class_id("ceiling").map(|id| id as u16);
+    world.with_light_bake(&positions, fixtures, &mesh::shell_surface_ids())
 }

@@ -22,6 +22,9 @@ pub struct NavGrid {
     /// Per cell, the distance in metres to the nearest blocked cell or the map's edge
     /// (0 for blocked cells).
     pub clearance: Vec<f64>,
+    /// Per cell, how much more a step onto it costs beyond its closeness to obstacles
+    /// (empty: nothing more): what a planner wants walked around.
+    pub penalty: Vec<f64>,
 }
 
 #[derive(Deserialize)]
@@ -69,7 +72,7 @@ impl NavGrid {
 
     /// A grid from its cells (255 navigable).
     pub fn new(origin_xz: [f64; 2], cell_size: f64, width: usize, height: usize, floor_height: f64, cells: Vec<u8>) -> Self {
-        let mut grid = Self { origin_xz, cell_size, width, height, floor_height, cells, clearance: Vec::new() };
+        let mut grid = Self { origin_xz, cell_size, width, height, floor_height, cells, clearance: Vec::new(), penalty: Vec::new() };
         grid.clearance = grid.clearances();
         grid
     }
@@ -192,7 +195,13 @@ impl NavGrid {
     /// The cost of one step onto cell `j` of length `step` metres.
     fn step_cost(&self, j: usize, step: f64) -> f64 {
         let closeness = ((COMFORTABLE_CLEARANCE - self.clearance[j]) / COMFORTABLE_CLEARANCE).clamp(0.0, 1.0);
-        step * (1.0 + CLOSE_PENALTY * closeness)
+        step * (1.0 + CLOSE_PENALTY * closeness + self.penalty.get(j).copied().unwrap_or(0.0))
+    }
+
+    /// This grid with `penalty` (per cell) added to the cost of every step onto a cell.
+    pub fn with_penalty(mut self, penalty: Vec<f64>) -> Self {
+        self.penalty = penalty;
+        self
     }
 
     /// Shortest paths (Dijkstra, 8-connected, no corner cutting) from cell `start` to

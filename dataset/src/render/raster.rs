@@ -13,13 +13,17 @@ use nalgebra::Matrix4;
 use rayon::prelude::*;
 
 use super::edges::{Edges, Row, column, distance_at};
+use std::sync::Arc;
+
+pub use super::light::{AMBIENT, Light};
+use super::light_bake::{BakedLight, LightBake, LightPlane, SampleLight};
 use super::mesh::{Cluster, Surface, Triangle, World};
 use super::screen::{BAND, Part, Screen, ScreenTriangle};
 
 /// A pinhole camera: intrinsics (pixel centres at integer coordinates, as HaDaGe's
 /// `c = (size − 1)/2` implies) and a camera-to-world pose in OpenCV axes
 /// (x right, y down, z forward) in the Habitat world.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Camera {
     pub width: u32,
     pub height: u32,
@@ -30,17 +34,6 @@ pub struct Camera {
     pub pose: Matrix4<f64>,
 }
 
-/// A light as Habitat applies it: colour already scaled by intensity (×2.5, or ×0.1
-/// for negative, darkening lights); attenuated by 1/(1 + d²) as Magnum's PhongGL does
-/// for an unbounded range.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Light {
-    /// World position, or offset from the camera for camera lights.
-    pub position: [f32; 3],
-    pub color: [f32; 3],
-    pub attached_to_camera: bool,
-}
-
 /// No lights: albedo as it is (Habitat's flat shading); lights: Phong diffuse with
 /// ambient 0.4.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,8 +42,6 @@ pub enum Shading {
     Lit(Vec<Light>),
 }
 
-/// Habitat's hard-coded ambient term of its Phong shading.
-pub const AMBIENT: f32 = 0.4;
 const INV_255: f32 = 1.0 / 255.0;
 
 /// The fractional part of `x` (in [0, 1)), without libm's `floorf` (a call on baseline
@@ -87,6 +78,48 @@ pub struct Frame {
     pub(super) screen: Screen,
     /// Time spent in each pass, summed over the frames rendered into this one.
     pub pass_times: PassTimes,
+    /// The camera light's shadow map of the last frame rendered with one, kept for reuse.
+    pub(super) shadow: Option<Box<ShadowMap>>,
+}
+
+/// Depth seen from a light attached to the camera, and where that light is.
+#[derive(Debug, Clone, Default)]
+pub(super) struct ShadowMap {
+    /// The light's camera: the frame's orientation, at the light.
+    camera: Camera,
+    /// The light's offset from the camera, OpenCV camera axes.
+    offset: [f32; 3],
+    depth: Frame,
+}
+
+impl ShadowMap {
+    /// How much of the light reaches the camera-space point `p` (x right, y down, z
+    /// forward), 0–1: bilinear over the four nearest samples of the map, each lit when
+    /// nothing lies nearer the light there (with a bias growing with distance).
+    #[inline(always)]
+    fn visibility(&self, p: [f32; 3]) -> f32 {
+        let q = [p[0] - self.offset[0], p[1] - self.offset[1], p[2] - self.offset[2]];
+        if q[2] <= 0.0 {
+            return 1.0;
+        }
+        let c = &self.camera;
+        let u = c.fx as f32 * q[0] / q[2] + c.cx as f32;
+        let v = c.fy as f32 * q[1] / q[2] + c.cy as f32;
+        let (w, h) = (c.width as usize, c.height as usize);
+        if !(u >= 0.0 && v >= 0.0 && u < (w - 1) as f32 && v < (h - 1) as f32) {
+            return 1.0;
+        }
+        let (x, y) = (u as usize, v as usize);
+        let (fx, fy) = (u - x as f32, v - y as f32);
+        let bias = 0.015 + 0.012 * q[2];
+        let lit = |xx: usize, yy: usize| {
+            let d = self.depth.depth[yy * w + xx];
+            if d == 0.0 || d >= q[2] - bias { 1.0 } else { 0.0 }
+        };
+        let top = lit(x, y) * (1.0 - fx) + lit(x + 1, y) * fx;
+        let bottom = lit(x, y + 1) * (1.0 - fx) + lit(x + 1, y + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
 }
 
 /// Wall-clock time of each pass of the renderer (each pass runs on all cores), summed over
@@ -145,13 +178,13 @@ const CLUSTERS_PER_TASK: usize = 128;
 /// vertices are convex combinations of the box's corners, so the same linear tests hold
 /// for them, with room to spare for their single-precision rounding). That argument
 /// needs finite coordinates, which the scene loaders (`read_gltf`, `read_obj`) enforce.
-fn may_be_seen(cluster: &Cluster, world_to_camera: &Matrix4<f64>, camera: &Camera) -> bool {
+fn may_be_seen(cluster: &Cluster, world_to_camera: &Matrix4<f64>, camera: &Camera, near: f32) -> bool {
     let corners: [[f64; 3]; 8] = std::array::from_fn(|k| {
         let pick = |axis: usize| if k >> axis & 1 == 0 { cluster.min[axis] } else { cluster.max[axis] } as f64;
         let v = world_to_camera * nalgebra::Vector4::new(pick(0), pick(1), pick(2), 1.0);
         [v.x, v.y, v.z]
     });
-    let near = NEAR as f64;
+    let near = near as f64;
     if corners.iter().all(|p| p[2] < near - 1e-6) {
         return false;
     }
@@ -169,8 +202,8 @@ fn may_be_seen(cluster: &Cluster, world_to_camera: &Matrix4<f64>, camera: &Camer
 }
 
 /// Clip a camera-space triangle against the near plane and project it.
-fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut Vec<ScreenTriangle>) {
-    let inside = cam.map(|p| p[2] >= NEAR);
+fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, near: f32, source: u32, out: &mut Vec<ScreenTriangle>) {
+    let inside = cam.map(|p| p[2] >= near);
     if !inside.iter().any(|&i| i) {
         return;
     }
@@ -190,7 +223,7 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
             vertices += 1;
         }
         if ia != ib {
-            let t = (NEAR - a.0[2]) / (b.0[2] - a.0[2]);
+            let t = (near - a.0[2]) / (b.0[2] - a.0[2]);
             let lerp = |x: [f32; 3], y: [f32; 3]| [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1]), x[2] + t * (y[2] - x[2])];
             poly[vertices] = (lerp(a.0, b.0), lerp(a.1, b.1));
             vertices += 1;
@@ -216,25 +249,52 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, source: u32, out: &mut
 
 /// Render `world` seen by `camera` into `frame`: colour, depth, classes and instances.
 pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
-    rasterize(world, camera, frame);
-    resolve(world, camera, Some(shading), frame);
+    rasterize(world, camera, NEAR, frame);
+    let shadow = camera_light_shadow(world, camera, shading, frame);
+    resolve(world, camera, Some(shading), shadow.as_deref(), frame);
+    frame.shadow = shadow;
     frame.pass_times.frames += 1;
+}
+
+/// The shadow map of the first light attached to the camera, when the world's light is
+/// baked (a world rendered with shadows): depth seen from the light, looking where the
+/// camera looks, at half the frame's size; what lies nearer the light than the camera
+/// itself (a wall behind it) casts no shadow into the view. Reuses the frame's last one.
+fn camera_light_shadow(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) -> Option<Box<ShadowMap>> {
+    let Shading::Lit(lights) = shading else { return None };
+    let offset = lights.iter().find(|l| l.attached_to_camera)?.position;
+    world.light_bake()?;
+    let mut map = frame.shadow.take().unwrap_or_default();
+    // Habitat's camera frame (y up, z backward) in OpenCV's (y down, z forward).
+    map.offset = [offset[0], -offset[1], -offset[2]];
+    let (w, h) = ((camera.width / 2).max(1), (camera.height / 2).max(1));
+    let scale = w as f64 / camera.width as f64;
+    let translation = nalgebra::Vector4::new(map.offset[0] as f64, map.offset[1] as f64, map.offset[2] as f64, 0.0);
+    let mut pose = camera.pose;
+    let origin = camera.pose * translation;
+    for k in 0..3 {
+        pose[(k, 3)] += origin[k];
+    }
+    map.camera = Camera { width: w, height: h, fx: camera.fx * scale, fy: camera.fy * scale, cx: (w as f64 - 1.0) / 2.0, cy: (h as f64 - 1.0) / 2.0, pose };
+    let near = (map.offset[0] * map.offset[0] + map.offset[1] * map.offset[1] + map.offset[2] * map.offset[2]).sqrt() + NEAR;
+    rasterize(world, &map.camera, near, &mut map.depth);
+    Some(map)
 }
 
 /// Depth, classes and instances of what `camera` sees, without colour: what a planner
 /// needs to know before choosing a view (the colour image is left as it was).
 pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
-    rasterize(world, camera, frame);
-    resolve(world, camera, None, frame);
+    rasterize(world, camera, NEAR, frame);
+    resolve(world, camera, None, None, frame);
     frame.pass_times.frames += 1;
 }
 
 /// Visibility: the nearest triangle of every pixel (`frame.hit`, `frame.weights`,
 /// `frame.depth`), and in `frame.screen` the clipped, projected triangles the hits index.
-fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
+fn rasterize(world: &World, camera: &Camera, near: f32, frame: &mut Frame) {
     let start = Instant::now();
     frame.resize(camera.width, camera.height);
-    project_triangles(world, camera, &mut frame.screen);
+    project_triangles(world, camera, near, &mut frame.screen);
     let transformed = Instant::now();
     frame.pass_times.transform += transformed - start;
     let screen = &frame.screen;
@@ -252,15 +312,15 @@ fn rasterize(world: &World, camera: &Camera, frame: &mut Frame) {
 
 /// Into `screen`: the triangles of the clusters `camera` may see, in camera space,
 /// clipped, projected and binned by band, part by part.
-fn project_triangles(world: &World, camera: &Camera, screen: &mut Screen) {
+fn project_triangles(world: &World, camera: &Camera, near: f32, screen: &mut Screen) {
     let world_to_camera = camera.pose.try_inverse().expect("camera poses are rigid");
     screen.parts.resize_with(world.clusters().len().div_ceil(CLUSTERS_PER_TASK), Part::default);
     world.clusters().par_chunks(CLUSTERS_PER_TASK).zip(screen.parts.par_iter_mut()).for_each(|(clusters, part)| {
         part.triangles.clear();
-        for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera)) {
+        for cluster in clusters.iter().filter(|c| may_be_seen(c, &world_to_camera, camera, near)) {
             for (i, positions) in world.positions()[cluster.triangles.clone()].iter().enumerate() {
                 let cam = positions.map(|p| to_camera(&world_to_camera, p));
-                clip_and_project(&cam, camera, (cluster.triangles.start + i) as u32, &mut part.triangles);
+                clip_and_project(&cam, camera, near, (cluster.triangles.start + i) as u32, &mut part.triangles);
             }
         }
         part.bin(camera.width, camera.height);
@@ -388,16 +448,22 @@ impl RowDraw {
     }
 }
 
-/// One row's surface attributes, for shading it all at once: albedo, world position and
-/// unit normal (facing the camera) of each pixel, structure-of-arrays, so the loop over
-/// lights runs across pixels (independent, vectorisable) rather than as one long chain
-/// per pixel.
+/// Pixels of a row resolved together.
+const CHUNK: usize = 128;
+
+/// One chunk of a row's surface attributes, for shading it all at once: albedo, the light
+/// each pixel starts from (ambient and what is baked), and — when a light moves with the
+/// camera — world position, unit normal (facing the camera) and how much of that light
+/// reaches it; structure-of-arrays, so the loop over lights runs across pixels
+/// (independent, vectorisable) rather than as one long chain per pixel.
 #[derive(Default)]
 struct RowScratch {
     albedo: [Vec<f32>; 3],
     position: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
     light: [Vec<f32>; 3],
+    /// How much of the camera light reaches the pixel.
+    shadow: Vec<f32>,
 }
 
 impl RowScratch {
@@ -405,15 +471,16 @@ impl RowScratch {
         for v in self.albedo.iter_mut().chain(&mut self.position).chain(&mut self.normal).chain(&mut self.light) {
             v.resize(w, 0.0);
         }
+        self.shadow.resize(w, 1.0);
     }
 }
 
 /// Per pixel, from what is visible: depth (0 for no hit), class, instance and, with a
-/// shading, colour.
-fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mut Frame) {
+/// shading, colour (with `shadow`, the camera light's shadows).
+fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, shadow: Option<&ShadowMap>, frame: &mut Frame) {
     let start = Instant::now();
     let w = camera.width as usize;
-    let resolver = Resolver::new(world, &frame.screen, camera, shading);
+    let resolver = Resolver::new(world, &frame.screen, camera, shading, shadow);
     frame
         .rgb
         .par_chunks_mut(w * 3)
@@ -429,22 +496,19 @@ fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, frame: &mu
 
 /// The lights of `shading` in world coordinates (a camera light's offset placed by the
 /// camera `pose`); none without lights.
-fn world_lights(shading: Option<&Shading>, pose: &Matrix4<f64>) -> Vec<Light> {
-    match shading {
-        None | Some(Shading::Flat) => Vec::new(),
-        Some(Shading::Lit(lights)) => lights
-            .iter()
-            .map(|l| {
-                if l.attached_to_camera {
-                    // Offsets are in Habitat's camera frame (y up, z backward); the pose is OpenCV's.
-                    let p = pose * nalgebra::Vector4::new(l.position[0] as f64, -l.position[1] as f64, -l.position[2] as f64, 1.0);
-                    Light { position: [p.x as f32, p.y as f32, p.z as f32], ..*l }
-                } else {
-                    *l
-                }
-            })
-            .collect(),
-    }
+fn world_lights(lights: &[Light], pose: &Matrix4<f64>) -> Vec<Light> {
+    lights
+        .iter()
+        .map(|l| {
+            if l.attached_to_camera {
+                // Offsets are in Habitat's camera frame (y up, z backward); the pose is OpenCV's.
+                let p = pose * nalgebra::Vector4::new(l.position[0] as f64, -l.position[1] as f64, -l.position[2] as f64, 1.0);
+                Light { position: [p.x as f32, p.y as f32, p.z as f32], ..*l }
+            } else {
+                *l
+            }
+        })
+        .collect()
 }
 
 /// One row of a frame: its outputs, and the visibility they are resolved from.
@@ -463,7 +527,14 @@ struct Resolver<'a> {
     world: &'a World,
     screen: &'a Screen,
     w: usize,
+    /// Lights lit per pixel: those that move with the camera, and static ones the world's
+    /// bake does not hold.
     lights: Vec<Light>,
+    /// Whether each of `lights` is the shadowed camera light.
+    shadowed: Vec<bool>,
+    /// Light baked for this frame's static lights, per sample of the bake.
+    baked: Option<(Arc<BakedLight>, &'a LightBake)>,
+    shadow: Option<&'a ShadowMap>,
     lit: bool,
     coloured: bool,
     /// The camera pose's rotation and translation, and its origin.
@@ -477,13 +548,25 @@ struct Resolver<'a> {
 
 impl<'a> Resolver<'a> {
     /// The resolver of `camera`'s frame of `world`, whose visible triangles are `screen`.
-    fn new(world: &'a World, screen: &'a Screen, camera: &Camera, shading: Option<&Shading>) -> Self {
+    fn new(world: &'a World, screen: &'a Screen, camera: &Camera, shading: Option<&Shading>, shadow: Option<&'a ShadowMap>) -> Self {
         let pose = camera.pose;
+        let lit_lights: &[Light] = match shading {
+            Some(Shading::Lit(lights)) => lights,
+            _ => &[],
+        };
+        let bake = world.light_bake().filter(|_| matches!(shading, Some(Shading::Lit(_))));
+        let (static_baked, per_pixel): (Vec<Light>, Vec<Light>) =
+            lit_lights.iter().partition(|l| !l.attached_to_camera && bake.is_some_and(|b| b.has_light(l.position)));
+        let first_camera_light = per_pixel.iter().position(|l| l.attached_to_camera);
+        let shadowed = (0..per_pixel.len()).map(|i| shadow.is_some() && Some(i) == first_camera_light).collect();
         Resolver {
             world,
             screen,
             w: camera.width as usize,
-            lights: world_lights(shading, &pose),
+            lights: world_lights(&per_pixel, &pose),
+            shadowed,
+            baked: bake.map(|b| (b.sample_light(&static_baked), b)),
+            shadow,
             lit: matches!(shading, Some(Shading::Lit(_))),
             coloured: shading.is_some(),
             r: std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32)),
@@ -495,29 +578,50 @@ impl<'a> Resolver<'a> {
         }
     }
 
-    /// Resolve row `py` into `out`, with `row` as scratch.
+    /// Resolve row `py` into `out`, with `row` as scratch, [`CHUNK`] pixels at a time (so
+    /// the scratch a chunk's passes share stays in the nearest cache).
     fn row(&self, py: usize, row: &mut RowScratch, out: RowOut) {
-        row.resize(self.w);
-        self.gather_surfaces(row, out.semantic, out.instance, out.depth, out.hit, out.weights);
-        if self.lit {
-            self.positions_and_normals(py, row, out.depth);
+        row.resize(CHUNK);
+        for x0 in (0..self.w).step_by(CHUNK) {
+            let n = CHUNK.min(self.w - x0);
+            let span = x0..x0 + n;
+            let (semantic, instance, depth) = (&mut out.semantic[span.clone()], &mut out.instance[span.clone()], &mut out.depth[span.clone()]);
+            self.gather_surfaces(row, n, semantic, instance, depth, &out.hit[span.clone()], &out.weights[span.clone()]);
+            if !self.coloured {
+                continue;
+            }
+            if !self.lights.is_empty() {
+                self.positions_and_normals(py, x0, n, row, depth);
+                self.light(row, n);
+            }
+            colour(row, &mut out.rgb[3 * x0..3 * (x0 + n)], n);
         }
-        if !self.coloured {
-            return;
-        }
-        self.light(row);
-        colour(row, out.rgb, self.w);
     }
 
     /// 1. What each pixel shows: class, instance, depth and (when coloured) its albedo and
-    ///    interpolated normal (gathered from its triangle).
-    fn gather_surfaces(&self, row: &mut RowScratch, semantic: &mut [u16], instance: &mut [u16], depth: &mut [f32], hit: &[u32], weights: &[[f32; 2]]) {
-        let w = self.w;
+    ///    the light it starts from: flat, none to add; lit, the ambient term (darkened by the
+    ///    texture's occlusion) and the static lights' light baked for the side it shows, read
+    ///    from its plane's light map or interpolated from its triangle's vertices; and, for
+    ///    lights lit per pixel, its interpolated normal.
+    #[allow(clippy::too_many_arguments)]
+    fn gather_surfaces(
+        &self,
+        row: &mut RowScratch,
+        w: usize,
+        semantic: &mut [u16],
+        instance: &mut [u16],
+        depth: &mut [f32],
+        hit: &[u32],
+        weights: &[[f32; 2]],
+    ) {
         let mut finder = self.screen.finder();
-        // Neighbouring pixels mostly show the same triangle: it is looked up once a run.
-        let mut showing: Option<(u32, &ScreenTriangle, &Triangle)> = None;
+        // Neighbouring pixels mostly show the same triangle: it is looked up once a run,
+        // with the side of it the camera sees.
+        let mut showing: Option<Showing> = None;
         let [ar, ag, ab] = row.albedo.each_mut().map(|v| &mut v[..w]);
         let [nx, ny, nz] = row.normal.each_mut().map(|v| &mut v[..w]);
+        let [lr, lg, lb] = row.light.each_mut().map(|v| &mut v[..w]);
+        let per_pixel = !self.lights.is_empty();
         let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
         for px in 0..w {
             if hit[px] == u32::MAX {
@@ -526,17 +630,18 @@ impl<'a> Resolver<'a> {
                 depth[px] = 0.0;
                 (ar[px], ag[px], ab[px]) = (0.0, 0.0, 0.0);
                 (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
+                (lr[px], lg[px], lb[px]) = (0.0, 0.0, 0.0);
                 continue;
             }
-            let (st, tri) = match showing {
-                Some((shown, st, tri)) if shown == hit[px] => (st, tri),
+            let run = match showing {
+                Some(run) if run.hit == hit[px] => run,
                 _ => {
-                    let st = finder.triangle(hit[px]);
-                    let tri: &Triangle = &self.world.triangles()[st.source as usize];
-                    showing = Some((hit[px], st, tri));
-                    (st, tri)
+                    let run = self.showing(hit[px], finder.triangle(hit[px]));
+                    showing = Some(run);
+                    run
                 }
             };
+            let (st, tri) = (run.screen, run.triangle);
             let [w1, w2] = weights[px];
             let w0 = 1.0 - w1 - w2;
             // Barycentrics in the source triangle.
@@ -546,28 +651,74 @@ impl<'a> Resolver<'a> {
             if !self.coloured {
                 continue;
             }
-            let albedo = albedo_at(&self.world.surfaces()[tri.surface as usize], tri, b);
-            (ar[px], ag[px], ab[px]) = (albedo[0], albedo[1], albedo[2]);
-            if self.lit {
+            let [red, green, blue, occlusion] = albedo_at(run.surface, tri, b, run.lod.level(depth[px]));
+            (ar[px], ag[px], ab[px]) = (red, green, blue);
+            if !self.lit {
+                (lr[px], lg[px], lb[px]) = (1.0, 1.0, 1.0);
+                continue;
+            }
+            let [ambient, r, g, bl] = match run.baked {
+                Baked::Plane(plane, texels) => {
+                    plane.sample(texels, std::array::from_fn(|k| b[0] * tri.positions[0][k] + b[1] * tri.positions[1][k] + b[2] * tri.positions[2][k]))
+                }
+                Baked::Vertices(v, side) => {
+                    let channel = |c: usize| b[0] * v[0][c] + b[1] * v[1][c] + b[2] * v[2][c];
+                    [channel(side), channel(2 + 3 * side), channel(3 + 3 * side), channel(4 + 3 * side)]
+                }
+                Baked::None => [AMBIENT, 0.0, 0.0, 0.0],
+            };
+            let ambient = ambient * occlusion;
+            (lr[px], lg[px], lb[px]) = (ambient + r, ambient + g, ambient + bl);
+            if per_pixel {
                 let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
                 (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
             }
         }
     }
 
-    /// 1b. Lit: world positions from depth, and the normals turned to the camera's side
-    ///     (two-sided) and made unit length — across the row, branch-free, so it
-    ///     vectorises. A pixel without a hit has a zero normal: it gets no light.
-    fn positions_and_normals(&self, py: usize, row: &mut RowScratch, depth: &[f32]) {
-        let w = self.w;
+    /// What a run of pixels showing the (clipped) triangle numbered `hit` shares.
+    #[inline(always)]
+    fn showing<'s>(&'s self, hit: u32, screen: &'s ScreenTriangle) -> Showing<'s> {
+        let t = screen.source as usize;
+        let triangle = &self.world.triangles()[t];
+        let surface = &self.world.surfaces()[triangle.surface as usize];
+        let lod = if self.coloured { Lod::of(screen, triangle, surface) } else { Lod::default() };
+        let baked = match &self.baked {
+            Some((light, bake)) if self.lit => match bake.plane_of(t) {
+                Some(plane) => Baked::Plane(plane, &light.texels),
+                None => Baked::Vertices(bake.corners()[t].map(|k| &light.samples[k as usize]), self.side_seen(triangle)),
+            },
+            _ => Baked::None,
+        };
+        Showing { hit, screen, triangle, surface, lod, baked }
+    }
+
+    /// The side of `tri` the camera sees: 0, the side its vertex normals point to; 1, the other.
+    #[inline(always)]
+    fn side_seen(&self, tri: &Triangle) -> usize {
+        let [a, b, c] = tri.positions;
+        let (e1, e2) = ([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [c[0] - a[0], c[1] - a[1], c[2] - a[2]]);
+        let face = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        let to_camera = [self.camera_origin[0] - a[0], self.camera_origin[1] - a[1], self.camera_origin[2] - a[2]];
+        let normals: [f32; 3] = std::array::from_fn(|k| tri.normals[0][k] + tri.normals[1][k] + tri.normals[2][k]);
+        let dot = |u: [f32; 3], v: [f32; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+        usize::from((dot(face, to_camera) >= 0.0) != (dot(face, normals) >= 0.0))
+    }
+
+    /// 1b. Lights lit per pixel: world positions from depth, and the normals turned to the
+    ///     camera's side (two-sided) and made unit length — across the chunk, branch-free,
+    ///     so it vectorises — and, with a shadow map, how much of the camera light reaches
+    ///     each pixel. A pixel without a hit has a zero normal: it gets no light.
+    fn positions_and_normals(&self, py: usize, x0: usize, w: usize, row: &mut RowScratch, depth: &[f32]) {
         let (r, camera_origin) = (&self.r, self.camera_origin);
-        let [px_, py_, pz_] = row.position.each_mut().map(|v| &mut v[..w]);
-        let [nx, ny, nz] = row.normal.each_mut().map(|v| &mut v[..w]);
+        let RowScratch { position, normal, shadow, .. } = row;
+        let [px_, py_, pz_] = position.each_mut().map(|v| &mut v[..w]);
+        let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
         let depth = &depth[..w];
         let y = (py as f32 - self.cy) * self.inv_fy;
         for px in 0..w {
             let z = depth[px];
-            let cam = [(column(px) - self.cx) * self.inv_fx * z, y * z, z];
+            let cam = [(column(x0 + px) - self.cx) * self.inv_fx * z, y * z, z];
             let p: [f32; 3] = std::array::from_fn(|i| r[i][0] * cam[0] + r[i][1] * cam[1] + r[i][2] * cam[2] + r[i][3]);
             let n = [nx[px], ny[px], nz[px]];
             let to_camera = [camera_origin[0] - p[0], camera_origin[1] - p[1], camera_origin[2] - p[2]];
@@ -576,26 +727,32 @@ impl<'a> Resolver<'a> {
             (px_[px], py_[px], pz_[px]) = (p[0], p[1], p[2]);
             (nx[px], ny[px], nz[px]) = (n[0] * unit, n[1] * unit, n[2] * unit);
         }
+        if let Some(map) = self.shadow {
+            let shadow = &mut shadow[..w];
+            for px in 0..w {
+                let z = depth[px];
+                shadow[px] = if z > 0.0 { map.visibility([(column(x0 + px) - self.cx) * self.inv_fx * z, y * z, z]) } else { 1.0 };
+            }
+        }
     }
 
-    /// 2. Light: ambient plus, light by light across the row, Lambert (n·d / |d|) times
-    ///    Magnum PhongGL's attenuation 1/(1 + |d|²) for an unbounded range; a light behind
-    ///    the surface adds nothing.
-    fn light(&self, row: &mut RowScratch) {
-        let w = self.w;
-        let RowScratch { position, normal, light, .. } = row;
-        for c in light.iter_mut() {
-            c.fill(if self.lit { AMBIENT } else { 1.0 });
-        }
-        for l in &self.lights {
+    /// 2. Lights lit per pixel, added light by light across the chunk to what each pixel
+    ///    starts from (1): Lambert (n·d / |d|) times Magnum PhongGL's attenuation
+    ///    1/(1 + |d|²) for an unbounded range, the camera light times its shadow; a light
+    ///    behind the surface adds nothing.
+    fn light(&self, row: &mut RowScratch, w: usize) {
+        let RowScratch { position, normal, light, shadow, .. } = row;
+        for (l, &shadowed) in self.lights.iter().zip(&self.shadowed) {
             // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
             let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
             let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
+            let shadow = &shadow[..w];
             for i in 0..w {
                 let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
                 let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
                 let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let factor = facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
+                let reach = if shadowed { shadow[i] } else { 1.0 };
+                let factor = reach * facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
                 lr[i] += factor * l.color[0];
                 lg[i] += factor * l.color[1];
                 lb[i] += factor * l.color[2];
@@ -604,23 +761,87 @@ impl<'a> Resolver<'a> {
     }
 }
 
-/// The albedo of `surface` at barycentrics `b` of `tri`: its colour, times its texture's
-/// texel there when it has one.
-#[inline(always)]
-fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3]) -> [f32; 3] {
-    let mut albedo = surface.color;
-    if let Some(tex) = &surface.texture {
-        let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
-        let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
-        // Through u32, which converts in one instruction where usize takes
-        // several; the values are the same (the product is below the width).
-        let (tw, th) = (tex.width as usize, tex.height as usize);
-        let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
-        let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
-        let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 3];
-        albedo = [albedo[0] * t[0] as f32 * INV_255, albedo[1] * t[1] as f32 * INV_255, albedo[2] * t[2] as f32 * INV_255];
+/// What the pixels of a run showing one (clipped) triangle share: the triangle, its
+/// surface, its level of detail and where its baked light is read.
+#[derive(Clone, Copy)]
+struct Showing<'a> {
+    hit: u32,
+    screen: &'a ScreenTriangle,
+    triangle: &'a Triangle,
+    surface: &'a Surface,
+    lod: Lod,
+    baked: Baked<'a>,
+}
+
+/// Where a triangle's baked light is read: its plane's light map (and the texels' light),
+/// or its three vertices' light and the side seen; none without a bake.
+#[derive(Clone, Copy)]
+enum Baked<'a> {
+    Plane(&'a LightPlane, &'a [[f32; 4]]),
+    Vertices([&'a SampleLight; 3], usize),
+    None,
+}
+
+/// Which mipmap level a triangle's pixels read: log2 of how many texels a pixel covers,
+/// measured over the triangle's (clipped) piece at its mean depth and scaled, pixel by
+/// pixel, by the pixel's depth against that mean (a floor seen from 1 m reads finer texels
+/// near the camera than far away).
+#[derive(Debug, Clone, Copy, Default)]
+struct Lod {
+    /// The level at the mean depth.
+    at_mean: f32,
+    /// 1 / that depth.
+    inv_mean_depth: f32,
+}
+
+impl Lod {
+    /// The level of detail of `st` (a piece of `tri`) with `surface`'s texture.
+    fn of(st: &ScreenTriangle, tri: &Triangle, surface: &Surface) -> Lod {
+        let Some(tex) = &surface.texture else { return Lod::default() };
+        let cross2 = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs();
+        let screen = cross2(st.xy[0], st.xy[1], st.xy[2]);
+        let uv = |k: usize| [tri.uvs[k][0] as f64, tri.uvs[k][1] as f64];
+        let bary = |k: usize| [st.bary[k][1] as f64, st.bary[k][2] as f64];
+        // The piece's share of the source triangle (its area in barycentric coordinates,
+        // of which the whole triangle's is 1/2) times the source's texture area in texels.
+        let level0 = &tex.levels[0];
+        let texels = cross2(uv(0), uv(1), uv(2)) * cross2(bary(0), bary(1), bary(2)) * level0.width as f64 * level0.height as f64;
+        if !(screen > 1e-9 && texels > 0.0) {
+            return Lod::default();
+        }
+        let mean_inv_z = (st.inv_z[0] + st.inv_z[1] + st.inv_z[2]) / 3.0;
+        Lod { at_mean: (0.5 * (texels / screen).log2()) as f32, inv_mean_depth: 1.0 / mean_inv_z.max(1e-6) }
     }
-    albedo
+
+    /// The level at depth `z` (rounded down).
+    #[inline(always)]
+    fn level(self, z: f32) -> usize {
+        // log2 by the float's bits: the exponent plus the mantissa as a fraction (within 0.09).
+        let ratio = (z * self.inv_mean_depth).max(1e-6);
+        let log2 = ratio.to_bits() as f32 * (1.0 / (1u32 << 23) as f32) - 127.0;
+        (self.at_mean + log2).max(0.0) as usize
+    }
+}
+
+/// The albedo of `surface` at barycentrics `b` of `tri` — its colour, times its texture's
+/// texel there (of mipmap `level`, or the smallest) when it has one — and the ambient
+/// occlusion the texel carries (its alpha, when the surface keeps one there:
+/// [`Surface::occlusion_in_alpha`]; else 1).
+#[inline(always)]
+fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3], level: usize) -> [f32; 4] {
+    let c = surface.color;
+    let Some(mips) = &surface.texture else { return [c[0], c[1], c[2], 1.0] };
+    let tex = &mips.levels[level.min(mips.levels.len() - 1)];
+    let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
+    let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
+    // Through u32, which converts in one instruction where usize takes
+    // several; the values are the same (the product is below the width).
+    let (tw, th) = (tex.width as usize, tex.height as usize);
+    let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
+    let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
+    let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 4];
+    let occlusion = if surface.occlusion_in_alpha { t[3] as f32 * INV_255 } else { 1.0 };
+    [c[0] * t[0] as f32 * INV_255, c[1] * t[1] as f32 * INV_255, c[2] * t[2] as f32 * INV_255, occlusion]
 }
 
 /// 3. Colour: albedo times light, clipped, rounded half up (without libm's roundf, which
@@ -654,7 +875,7 @@ mod tests {
         let ahead = [[-1.0, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]];
         let behind_the_camera = [[0.0, 0.0, -5.0], [1.0, 0.0, -5.0], [0.0, 1.0, -5.0]];
         let camera = Camera { width: 64, height: 48, fx: 40.0, fy: 40.0, cx: 31.5, cy: 23.5, pose: Matrix4::identity() };
-        let surfaces = vec![Surface { color: [1.0; 3], texture: None }];
+        let surfaces = vec![Surface { color: [1.0; 3], texture: None, occlusion_in_alpha: false }];
         // The same triangle twice, next to each other or 300 one-triangle clusters apart
         // (in another task of the transform), in either order of their classes.
         for (between, first, second) in [(0, 1, 2), (0, 2, 1), (300, 1, 2), (300, 2, 1)] {
@@ -674,7 +895,7 @@ mod tests {
     fn each_pass_time_is_summed_over_the_frames_rendered_into_a_frame() {
         let positions = [[-1.0, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]];
         let triangle = Triangle { positions, normals: [[0.0, 0.0, -1.0]; 3], uvs: [[0.0; 2]; 3], surface: 0, class_id: 1, instance_id: 1 };
-        let world = World::new(vec![triangle], vec![crate::render::mesh::Surface { color: [1.0; 3], texture: None }]);
+        let world = World::new(vec![triangle], vec![crate::render::mesh::Surface { color: [1.0; 3], texture: None, occlusion_in_alpha: false }]);
         let camera = Camera { width: 64, height: 48, fx: 40.0, fy: 40.0, cx: 31.5, cy: 23.5, pose: Matrix4::identity() };
         let mut frame = Frame::default();
         let clock = Instant::now();
@@ -714,7 +935,7 @@ mod tests {
                 });
             }
         }
-        let surfaces = vec![Surface { color: [0.5, 0.25, 1.0], texture: None }];
+        let surfaces = vec![Surface { color: [0.5, 0.25, 1.0], texture: None, occlusion_in_alpha: false }];
         let clustered = World::with_cluster_size(triangles.clone(), surfaces.clone(), 8);
         assert_eq!(clustered.clusters().len(), 400 * 4, "a cluster never holds two objects");
         // The reference: one instance, one cluster, whose box holds the camera (never culled).
@@ -728,12 +949,12 @@ mod tests {
             let pose = Matrix4::new(c, 0.0, -s, 0.1, 0.0, -1.0, 0.0, 0.2, -s, 0.0, -c, 0.0, 0.0, 0.0, 0.0, 1.0);
             let camera = Camera { width: 160, height: 120, fx: 80.0, fy: 80.0, cx: 79.5, cy: 59.5, pose };
             let world_to_camera = pose.try_inverse().unwrap();
-            culled += clustered.clusters().iter().filter(|c| !may_be_seen(c, &world_to_camera, &camera)).count();
+            culled += clustered.clusters().iter().filter(|c| !may_be_seen(c, &world_to_camera, &camera, NEAR)).count();
             let (mut a, mut b) = (Frame::default(), Frame::default());
             render(&clustered, &camera, &Shading::Flat, &mut a);
             render(&whole, &camera, &Shading::Flat, &mut b);
             drawn += b.semantic.iter().filter(|&&s| s != 0).count();
-            assert!(whole.clusters().iter().all(|c| may_be_seen(c, &world_to_camera, &camera)));
+            assert!(whole.clusters().iter().all(|c| may_be_seen(c, &world_to_camera, &camera, NEAR)));
             assert_eq!((a.depth, a.semantic, a.rgb), (b.depth, b.semantic, b.rgb), "view {view}");
         }
         let clusters = 24 * clustered.clusters().len();

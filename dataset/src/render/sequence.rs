@@ -70,6 +70,9 @@ pub struct FrameMeasures {
     /// images as written ([`super::view::visible_classes`]).
     #[serde(default)]
     pub classes: u16,
+    /// The share of the image objects (classes not of the room's shell) cover.
+    #[serde(default)]
+    pub object_coverage: f32,
     /// Digests of the colour image and of the depth and semantic images, as written:
     /// two lightings of one trajectory must share the second and may differ in the first.
     pub colour_digest: u64,
@@ -216,6 +219,7 @@ fn encode_frame(dir: &Path, sensor: &SensorSettings, rule: &ViewpointRule, i: us
         valid_depth: view.valid_fraction as f32,
         objects: view.objects.iter().filter(|v| v.pixels as f64 >= rule.min_pixels).count().min(u16::MAX as usize) as u16,
         classes: visible_classes(&f.semantic, &depth, rule.min_pixels),
+        object_coverage: view.object_fraction as f32,
         colour_digest: digest64(&f.rgb),
         geometry_digest: digest64(&geometry),
     };
@@ -261,6 +265,7 @@ pub fn summarize_sequence(dir: &Path) -> Result<SequenceSummary> {
             valid_depth: (valid as f64 / n as f64) as f32,
             objects: classes,
             classes,
+            object_coverage: (per_class.iter().filter(|(c, _)| !super::view::is_shell_id(**c as usize)).map(|(_, n)| n).sum::<u64>() as f64 / n as f64) as f32,
             colour_digest: digest64(&colour.pixels),
             geometry_digest: digest64(&geometry),
         });

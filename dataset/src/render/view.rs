@@ -4,6 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use std::sync::LazyLock;
+
 use super::raster::Frame;
 use osmab_evaluator::ground_truth::{FRAME_STRIDE, POINT_STRIDE};
 
@@ -13,6 +15,15 @@ pub const DOMINANT_CLASS_LIMIT: f64 = 0.85;
 pub const MIN_VALID_DEPTH: f64 = 0.5;
 /// A pixel is saturated when all three channels are at least this.
 pub const SATURATED_LEVEL: u8 = 250;
+/// A view is bare when objects (anything but the room's shell) cover less than this share
+/// of it: a wall, a floor, an empty corner. Such a frame teaches a mapper nothing.
+pub const BARE_OBJECT_FRACTION: f64 = 0.10;
+
+/// Whether class id `id` is one of the room's shell (the class table's).
+pub(crate) fn is_shell_id(id: usize) -> bool {
+    static SHELL: LazyLock<Vec<bool>> = LazyLock::new(|| crate::classes::table().classes().iter().map(|c| c.role == crate::classes::Role::Shell).collect());
+    SHELL.get(id).copied().unwrap_or(false)
+}
 
 /// One object instance in a view.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +45,8 @@ pub struct View {
     pub valid_fraction: f64,
     /// The largest share of the image one object instance covers.
     pub largest_object_fraction: f64,
+    /// The share of the image objects (classes not of the room's shell) cover.
+    pub object_fraction: f64,
 }
 
 impl View {
@@ -72,7 +85,13 @@ impl View {
             dominant_fraction: classes.iter().copied().max().unwrap_or(0) as f64 / n as f64,
             valid_fraction: valid as f64 / n as f64,
             largest_object_fraction: instances.iter().map(|i| i.0).max().unwrap_or(0) as f64 / n as f64,
+            object_fraction: classes.iter().enumerate().filter(|(c, _)| !is_shell_id(*c)).map(|(_, n)| *n as u64).sum::<u64>() as f64 / n as f64,
         }
+    }
+
+    /// Whether the view is degenerate or bare: no view to choose, or to turn past.
+    pub fn bare(&self) -> bool {
+        self.degenerate() || self.object_fraction < BARE_OBJECT_FRACTION
     }
 
     /// Whether the frame is dominated by one class or has too little depth.

@@ -147,7 +147,7 @@ pub fn write_asset_gltf(asset: &Asset, dir: &Path, stem: &str) -> Result<()> {
             normals,
             uvs: Some(&geometry.uvs),
             indices: &geometry.indices,
-            material: OutMaterial { name: material.name, color: [1.0; 4], texture: Some(texture) },
+            material: OutMaterial { name: material.name, color: [1.0; 4], texture: Some(texture), occlusion: None },
         })
         .collect();
     write_gltf(dir, stem, &asset.category, "osmab procedural assets", &primitives)

@@ -13,6 +13,8 @@ pub struct OutMaterial<'a> {
     pub color: [f32; 4],
     /// The image's file name (PNG or JPEG), relative to the `.gltf`.
     pub texture: Option<&'a str>,
+    /// An ambient-occlusion image's file name (its red channel), relative to the `.gltf`.
+    pub occlusion: Option<&'a str>,
 }
 
 /// One material's triangles, already in glTF's Y-up frame.
@@ -57,12 +59,17 @@ pub fn write_gltf(dir: &Path, stem: &str, name: &str, generator: &str, primitive
         out_primitives.push(json!({"attributes": attributes, "indices": base + 2, "material": materials.len(), "mode": 4}));
         let m = &primitive.material;
         let mut pbr = json!({"baseColorFactor": m.color, "metallicFactor": 0.0, "roughnessFactor": 0.8});
+        let mime = |file: &str| if file.ends_with(".png") { "image/png" } else { "image/jpeg" };
         if let Some(texture) = m.texture {
             pbr["baseColorTexture"] = json!({"index": images.len()});
-            let mime = if texture.ends_with(".png") { "image/png" } else { "image/jpeg" };
-            images.push(json!({"uri": texture, "mimeType": mime}));
+            images.push(json!({"uri": texture, "mimeType": mime(texture)}));
         }
-        materials.push(json!({"name": m.name, "pbrMetallicRoughness": pbr}));
+        let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
+        if let Some(occlusion) = m.occlusion {
+            material["occlusionTexture"] = json!({"index": images.len()});
+            images.push(json!({"uri": occlusion, "mimeType": mime(occlusion)}));
+        }
+        materials.push(material);
     }
     let mut doc = json!({
         "asset": {"version": "2.0", "generator": generator},

@@ -22,6 +22,8 @@ pub struct PlacedObject {
     pub yaw_deg: f64,
     /// The object it rests on, in or under.
     pub host: Option<String>,
+    /// Part of the room's dressing ([`super::dressing`]), not named by the prompt.
+    pub dressing: bool,
 }
 
 impl PlacedObject {

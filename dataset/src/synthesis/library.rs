@@ -1,7 +1,8 @@
 //! Procedural assets: every furniture and manipuland category as a recognisable shape
 //! assembled from boxes and cylinders, each part with its own material, in the
 //! SceneSmith object frame (Drake axes: up +Z, front +Y; bottom at z = 0, centred in
-//! x and y). Sizes vary with the seed within each category's plausible range.
+//! x and y). Sizes vary with the seed within each class's plausible range of the class
+//! table (`dataset/classes.toml`); the main material takes a finish of the class's palette.
 //!
 //! One file, over 400 lines, on purpose: it is a catalogue, one short builder per category,
 //! read like a table.
@@ -9,6 +10,9 @@
 use std::path::PathBuf;
 
 use osmab_evaluator::synthetic::Rng;
+
+use super::finishes::finish_drawn;
+use crate::classes::{self, Finish};
 
 /// A material: a name and a base colour.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,25 +34,12 @@ pub const GREEN_GLASS: Material = Material { name: "green_glass", color: [0.20, 
 pub const CARDBOARD: Material = Material { name: "cardboard", color: [0.70, 0.55, 0.36, 1.0] };
 pub const PAPER: Material = Material { name: "paper", color: [0.96, 0.94, 0.86, 1.0] };
 pub const STONE: Material = Material { name: "stone", color: [0.80, 0.79, 0.76, 1.0] };
-
-/// The finishes an instance's main material is drawn from, one per colour name the
-/// questions use: every class draws from the same list with the same odds, so a class
-/// says nothing of an instance's colour. Muted, as furniture is painted or upholstered
-/// (burgundy, terracotta, mustard, sage, navy, plum, walnut): saturated primaries made
-/// rooms look like toys and detectors trained on photographs found fewer objects
-/// (docs/performance.md). Each is named by its own name with room to spare (a test).
-pub const FINISHES: [Material; 10] = [
-    Material { name: "finish_red", color: [0.54, 0.14, 0.12, 1.0] },
-    Material { name: "finish_orange", color: [0.82, 0.45, 0.18, 1.0] },
-    Material { name: "finish_yellow", color: [0.82, 0.73, 0.26, 1.0] },
-    Material { name: "finish_green", color: [0.28, 0.45, 0.26, 1.0] },
-    Material { name: "finish_blue", color: [0.17, 0.26, 0.46, 1.0] },
-    Material { name: "finish_purple", color: [0.36, 0.22, 0.45, 1.0] },
-    Material { name: "finish_white", color: [0.90, 0.89, 0.86, 1.0] },
-    Material { name: "finish_black", color: [0.08, 0.08, 0.09, 1.0] },
-    Material { name: "finish_grey", color: [0.48, 0.48, 0.49, 1.0] },
-    Material { name: "finish_brown", color: [0.42, 0.27, 0.16, 1.0] },
-];
+pub const SCREEN: Material = Material { name: "screen", color: [0.05, 0.06, 0.08, 1.0] };
+pub const SHADE: Material = Material { name: "shade", color: [0.92, 0.88, 0.78, 1.0] };
+pub const LEAVES: Material = Material { name: "leaves", color: [0.22, 0.36, 0.20, 1.0] };
+pub const DOOR_LEAF: Material = Material { name: "door_leaf", color: [0.86, 0.85, 0.82, 1.0] };
+pub const DAYLIGHT: Material = Material { name: "daylight", color: [0.82, 0.87, 0.92, 1.0] };
+pub const CANVAS: Material = Material { name: "canvas", color: [0.55, 0.60, 0.66, 1.0] };
 
 /// A pack mesh an asset is drawn with.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,8 +48,8 @@ pub struct PackMesh {
     pub file: PathBuf,
     /// The uniform scale from the pack's size to the instance's.
     pub scale: f64,
-    /// The colour its texture is recoloured in; `None` keeps its own colours.
-    pub finish: Option<Material>,
+    /// The finish its texture's main material is recoloured in; `None` keeps its own colours.
+    pub finish: Option<&'static Finish>,
     /// Where the geometry comes from ("infinigen", "scan", …) and what made it.
     pub source: String,
     pub generator: String,
@@ -110,6 +101,31 @@ pub struct Asset {
     pub description: String,
     /// The pack mesh it is drawn with (then `parts` is empty).
     pub mesh: Option<PackMesh>,
+}
+
+impl Asset {
+    /// The asset scaled uniformly by `f`: its parts or mesh, size, surfaces and free floor.
+    pub fn scaled(mut self, f: f64) -> Asset {
+        for part in &mut self.parts {
+            part.shape = match part.shape {
+                Shape::Box { center, size } => Shape::Box { center: center.map(|v| v * f), size: size.map(|v| v * f) },
+                Shape::Cylinder { base, radius, height } => Shape::Cylinder { base: base.map(|v| v * f), radius: radius * f, height: height * f },
+            };
+        }
+        self.size = self.size.map(|v| v * f);
+        for s in &mut self.supports {
+            s.height *= f;
+            s.min = s.min.map(|v| v * f);
+            s.max = s.max.map(|v| v * f);
+            s.clear_height *= f;
+        }
+        self.clearance *= f;
+        self.under = self.under.map(|(lo, hi)| (lo.map(|v| v * f), hi.map(|v| v * f)));
+        if let Some(mesh) = &mut self.mesh {
+            mesh.scale *= f;
+        }
+        self
+    }
 }
 
 fn bx(center: [f64; 3], size: [f64; 3], material: Material) -> Part {
@@ -213,9 +229,9 @@ fn cabinet(category: &str, w: f64, d: f64, h: f64, body: Material, handle: Mater
     }
 }
 
-/// A chair: seat on four legs, backrest at the back (+y).
-fn chair(category: &str, rng: &mut Rng, seat: Material, frame: Material) -> Asset {
-    let (w, d, h, seat_h) = (vary(rng, 0.42, 0.5), vary(rng, 0.44, 0.52), vary(rng, 0.82, 0.95), 0.46);
+/// A chair of `size`: seat on four legs, backrest at the back (+y).
+fn chair(category: &str, [w, d, h]: [f64; 3], seat: Material, frame: Material) -> Asset {
+    let seat_h = 0.46;
     let mut parts = vec![bx([0.0, 0.0, seat_h - 0.03], [w, d, 0.06], seat), bx([0.0, d / 2.0 - 0.03, (seat_h + h) / 2.0], [w, 0.05, h - seat_h], frame)];
     parts.extend(legs(w, d, seat_h - 0.06, 0.04, frame));
     Asset {
@@ -231,12 +247,11 @@ fn chair(category: &str, rng: &mut Rng, seat: Material, frame: Material) -> Asse
 }
 
 /// A sofa or armchair: base, back cushion and two arms.
-fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> Asset {
-    let h = 0.85;
+fn sofa(category: &str, [w, d, h]: [f64; 3], fabric: Material, cushion: Material) -> Asset {
     let parts = vec![
         bx([0.0, 0.0, 0.2], [w, d, 0.4], fabric),
         bx([0.0, -0.05, 0.45], [w - 0.3, d - 0.25, 0.1], cushion),
-        bx([0.0, d / 2.0 - 0.1, 0.62], [w, 0.2, 0.46], fabric),
+        bx([0.0, d / 2.0 - 0.1, (0.4 + h) / 2.0], [w, 0.2, h - 0.4], fabric),
         bx([-(w - 0.15) / 2.0, 0.0, 0.5], [0.15, d, 0.2], fabric),
         bx([(w - 0.15) / 2.0, 0.0, 0.5], [0.15, d, 0.2], fabric),
     ];
@@ -259,17 +274,21 @@ fn sofa(category: &str, w: f64, d: f64, fabric: Material, cushion: Material) -> 
     }
 }
 
-/// Make the asset of `category`, sized by `rng`, its main material a finish drawn from the
-/// state of `rng` (see [`FINISHES`]), facing +y (SceneSmith's front).
+/// Make the asset of `category`, sized by `rng` within the class table's range, its main
+/// material a finish of the class's palette drawn from the state of `rng`
+/// ([`finish_drawn`]), facing +y (SceneSmith's front).
 pub fn make_asset(category: &str, rng: &mut Rng) -> Option<Asset> {
     let asset = build(category, rng)?;
-    Some(face_plus_y(with_finish(asset, finish_drawn(rng))))
+    Some(face_plus_y(match finish_drawn(category, rng) {
+        Some(finish) => with_finish(asset, Material { name: finish.name.as_str(), color: [finish.colour[0], finish.colour[1], finish.colour[2], 1.0] }),
+        None => asset,
+    }))
 }
 
-/// An instance's finish, drawn evenly from [`FINISHES`] off the state of `rng` without
-/// advancing it: sizes and layouts stay those of the seed.
-pub fn finish_drawn(rng: &Rng) -> Material {
-    FINISHES[Rng::new(rng.clone().next_u64() ^ 0xF1_215E).below(FINISHES.len())]
+/// Width, depth and height of a new `category`, drawn within the class table's range.
+fn drawn_size(category: &str, rng: &mut Rng) -> [f64; 3] {
+    let range = classes::table().class(category).and_then(|c| c.size).unwrap_or([[0.3, 0.3], [0.3, 0.3], [0.3, 0.3]]);
+    range.map(|[lo, hi]| vary(rng, lo, hi))
 }
 
 /// The surface area of a part (a box's six faces, a cylinder's side and caps).
@@ -320,28 +339,38 @@ fn face_plus_y(mut asset: Asset) -> Asset {
 
 /// A new asset of `category` from the procedural library, if it has one.
 fn build(category: &str, rng: &mut Rng) -> Option<Asset> {
-    tables_and_desks(category, rng).or_else(|| seats_and_beds(category, rng)).or_else(|| storage_furniture(category, rng)).or_else(|| manipuland(category, rng))
+    tables_and_desks(category, rng)
+        .or_else(|| seats_and_beds(category, rng))
+        .or_else(|| storage_furniture(category, rng))
+        .or_else(|| manipuland(category, rng))
+        .or_else(|| decor(category, rng))
 }
 
 /// A table, desk, workbench or counter of `category`.
 fn tables_and_desks(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(
+        category,
+        "dining table" | "conference table" | "coffee table" | "console table" | "table" | "desk" | "workbench" | "kitchen island" | "counter"
+    ) {
+        return None;
+    }
+    let [w, d, h] = drawn_size(category, rng);
     let a = match category {
-        "dining table" => table(category, vary(rng, 1.4, 2.0), vary(rng, 0.85, 1.0), 0.76, WOOD, WOOD),
-        "conference table" => table(category, vary(rng, 2.2, 3.0), vary(rng, 1.0, 1.3), 0.75, DARK_WOOD, METAL),
-        "coffee table" => table(category, vary(rng, 0.9, 1.2), vary(rng, 0.5, 0.7), 0.42, WOOD, DARK_WOOD),
-        "console table" => table(category, vary(rng, 1.0, 1.4), vary(rng, 0.32, 0.4), 0.8, DARK_WOOD, DARK_WOOD),
-        "table" => table(category, vary(rng, 0.9, 1.4), vary(rng, 0.7, 0.9), 0.75, WOOD, METAL),
-        "desk" | "reception desk" => {
-            let (w, d, h) = (vary(rng, 1.2, 1.6), vary(rng, 0.6, 0.75), 0.75);
+        "dining table" => table(category, w, d, h, WOOD, WOOD),
+        "conference table" => table(category, w, d, h, DARK_WOOD, METAL),
+        "coffee table" => table(category, w, d, h, WOOD, DARK_WOOD),
+        "console table" => table(category, w, d, h, DARK_WOOD, DARK_WOOD),
+        "table" => table(category, w, d, h, WOOD, METAL),
+        "desk" => {
             let mut a = table(category, w, d, h, WOOD, WOOD);
             a.parts.push(bx([w / 2.0 - 0.2, 0.0, h / 2.0], [0.38, d - 0.06, h - 0.06], WOOD));
             a.under = Some(([-w / 2.0 + 0.08, -d / 2.0 + 0.08], [w / 2.0 - 0.45, d / 2.0 - 0.08]));
             a.description = format!("A {category} with a drawer unit.");
             a
         }
-        "workbench" => table(category, vary(rng, 1.6, 2.2), vary(rng, 0.7, 0.8), 0.9, WOOD, METAL),
-        "kitchen island" | "counter" => {
-            let (w, d, h) = (vary(rng, 1.5, 2.4), vary(rng, 0.6, if category == "counter" { 0.65 } else { 1.0 }), 0.9);
+        "workbench" => table(category, w, d, h, WOOD, METAL),
+        _ => {
+            let (w, d) = (w - 0.04, d - 0.04);
             let mut a = cabinet(category, w, d, h - 0.04, WHITE, METAL, 1, false);
             a.parts.push(bx([0.0, 0.0, h - 0.02], [w + 0.04, d + 0.04, 0.04], STONE));
             a.size = [w + 0.04, d + 0.04, h];
@@ -350,166 +379,287 @@ fn tables_and_desks(category: &str, rng: &mut Rng) -> Option<Asset> {
             a.description = format!("A {category} with a stone top over cabinets.");
             a
         }
-        _ => return None,
     };
     Some(a)
 }
 
 /// A chair, sofa, bench or bed of `category`.
 fn seats_and_beds(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(category, "dining chair" | "chair" | "office chair" | "armchair" | "sofa" | "bench" | "bed") {
+        return None;
+    }
+    let [w, d, h] = drawn_size(category, rng);
     let a = match category {
-        "dining chair" | "chair" => chair(category, rng, WOOD, WOOD),
-        "office chair" => {
-            let (w, h) = (0.55, vary(rng, 0.95, 1.1));
-            Asset {
-                category: category.into(),
-                parts: vec![
-                    cyl([0.0, 0.0, 0.0], 0.3, 0.06, BLACK),
-                    cyl([0.0, 0.0, 0.06], 0.03, 0.38, METAL),
-                    bx([0.0, 0.0, 0.47], [w, 0.5, 0.08], FABRIC),
-                    bx([0.0, 0.22, (0.51 + h) / 2.0], [w - 0.05, 0.06, h - 0.51], FABRIC),
-                ],
-                size: [0.6, 0.6, h],
-                supports: vec![],
-                clearance: 0.0,
-                under: None,
-                description: "A swivel office chair on a five-star base.".into(),
-                mesh: None,
-            }
-        }
-        "armchair" => sofa(category, vary(rng, 0.8, 0.95), vary(rng, 0.8, 0.9), FABRIC, CUSHION),
-        "sofa" => sofa(category, vary(rng, 1.8, 2.3), vary(rng, 0.85, 0.95), FABRIC, CUSHION),
+        "dining chair" | "chair" => chair(category, [w, d, h], WOOD, WOOD),
+        "office chair" => Asset {
+            category: category.into(),
+            parts: vec![
+                cyl([0.0, 0.0, 0.0], w / 2.0, 0.06, BLACK),
+                cyl([0.0, 0.0, 0.06], 0.03, 0.38, METAL),
+                bx([0.0, 0.0, 0.47], [w - 0.05, d - 0.1, 0.08], FABRIC),
+                bx([0.0, d / 2.0 - 0.08, (0.51 + h) / 2.0], [w - 0.1, 0.06, h - 0.51], FABRIC),
+            ],
+            size: [w, d, h],
+            supports: vec![],
+            clearance: 0.0,
+            under: None,
+            description: "A swivel office chair on a five-star base.".into(),
+            mesh: None,
+        },
+        "armchair" | "sofa" => sofa(category, [w, d, h], FABRIC, CUSHION),
         "bench" => {
-            let (w, d, h) = (vary(rng, 1.0, 1.5), vary(rng, 0.35, 0.45), 0.45);
             let mut a = table(category, w, d, h, WOOD, DARK_WOOD);
             a.description = "A wooden bench.".into();
             a
         }
-        "bed" => {
-            let (w, d) = (vary(rng, 1.4, 1.9), vary(rng, 2.0, 2.15));
-            Asset {
-                category: category.into(),
-                parts: vec![
-                    bx([0.0, 0.0, 0.15], [w, d, 0.3], DARK_WOOD),
-                    bx([0.0, -0.05, 0.4], [w - 0.06, d - 0.12, 0.2], WHITE),
-                    bx([0.0, d / 2.0 - 0.04, 0.55], [w, 0.08, 1.1], DARK_WOOD),
-                    bx([0.0, d / 2.0 - 0.3, 0.56], [w - 0.3, 0.35, 0.12], CUSHION),
-                ],
-                size: [w, d, 1.1],
-                supports: vec![SupportSurface {
-                    height: 0.5,
-                    min: [-w / 2.0 + 0.1, -d / 2.0 + 0.1],
-                    max: [w / 2.0 - 0.1, d / 2.0 - 0.5],
-                    inside: false,
-                    open: true,
-                    clear_height: f64::INFINITY,
-                }],
-                clearance: 0.0,
-                under: None,
-                description: "A bed with a headboard.".into(),
-                mesh: None,
-            }
-        }
-        _ => return None,
+        _ => Asset {
+            category: category.into(),
+            parts: vec![
+                bx([0.0, 0.0, 0.15], [w, d, 0.3], DARK_WOOD),
+                bx([0.0, -0.05, 0.4], [w - 0.06, d - 0.12, 0.2], WHITE),
+                bx([0.0, d / 2.0 - 0.04, h / 2.0], [w, 0.08, h], DARK_WOOD),
+                bx([0.0, d / 2.0 - 0.3, 0.56], [w - 0.3, 0.35, 0.12], CUSHION),
+            ],
+            size: [w, d, h],
+            supports: vec![SupportSurface {
+                height: 0.5,
+                min: [-w / 2.0 + 0.1, -d / 2.0 + 0.1],
+                max: [w / 2.0 - 0.1, d / 2.0 - 0.5],
+                inside: false,
+                open: true,
+                clear_height: f64::INFINITY,
+            }],
+            clearance: 0.0,
+            under: None,
+            description: "A bed with a headboard.".into(),
+            mesh: None,
+        },
     };
     Some(a)
 }
 
 /// A cabinet, shelf or other storage furniture of `category`.
 fn storage_furniture(category: &str, rng: &mut Rng) -> Option<Asset> {
-    let a = match category {
-        "nightstand" => cabinet(category, vary(rng, 0.4, 0.5), 0.4, vary(rng, 0.5, 0.6), WOOD, METAL, 1, false),
-        "dresser" => cabinet(category, vary(rng, 1.0, 1.4), 0.5, vary(rng, 0.8, 1.0), WOOD, METAL, 2, false),
-        "wardrobe" => cabinet(category, vary(rng, 1.0, 1.5), 0.6, vary(rng, 1.9, 2.1), WHITE, METAL, 3, false),
-        "cabinet" | "storage cabinet" | "sideboard" | "credenza" | "tv stand" => {
-            let (w, h) = match category {
-                "sideboard" | "credenza" => (vary(rng, 1.4, 1.9), 0.8),
-                "tv stand" => (vary(rng, 1.4, 1.8), 0.5),
-                _ => (vary(rng, 0.8, 1.2), vary(rng, 0.9, 1.8)),
-            };
-            cabinet(category, w, vary(rng, 0.4, 0.5), h, if category == "storage cabinet" { METAL } else { DARK_WOOD }, METAL, 1, false)
-        }
-        "filing cabinet" => cabinet(category, 0.45, 0.6, vary(rng, 0.7, 1.3), METAL, BLACK, 2, false),
-        "bookshelf" | "shelf" => cabinet(category, vary(rng, 0.8, 1.2), 0.35, vary(rng, 1.6, 2.0), WOOD, METAL, 4, true),
-        "storage rack" => cabinet(category, vary(rng, 1.0, 1.5), 0.5, vary(rng, 1.7, 2.0), METAL, METAL, 3, true),
+    let (body, shelves, open) = match category {
+        "nightstand" => (WOOD, 1, false),
+        "dresser" => (WOOD, 2, false),
+        "wardrobe" => (WHITE, 3, false),
+        "cabinet" | "sideboard" | "credenza" | "tv stand" => (DARK_WOOD, 1, false),
+        "storage cabinet" => (METAL, 1, false),
+        "filing cabinet" => (METAL, 2, false),
+        "bookshelf" | "shelf" => (WOOD, 4, true),
+        "storage rack" => (METAL, 3, true),
         _ => return None,
     };
-    Some(a)
+    let [w, d, h] = drawn_size(category, rng);
+    Some(cabinet(category, w, d, h, body, if category == "filing cabinet" { BLACK } else { METAL }, shelves, open))
 }
 
-/// A small object of `category` that can be picked up.
+/// A small object of `category` that can be picked up: tableware, books, boxes.
 fn manipuland(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(category, "mug" | "book" | "laptop" | "plate" | "bowl" | "bottle" | "can" | "box" | "bucket") {
+        return soft_goods_and_bags(category, rng);
+    }
+    let [w, d, h] = drawn_size(category, rng);
+    let r = w.min(d) / 2.0;
     let a = match category {
         "mug" => small_object(
             category,
-            vec![cyl([0.0, 0.0, 0.0], 0.04, 0.1, CERAMIC), bx([0.055, 0.0, 0.05], [0.02, 0.012, 0.06], CERAMIC)],
-            [0.12, 0.08, 0.1],
+            vec![cyl([-0.01, 0.0, 0.0], r * 0.8, h, CERAMIC), bx([w / 2.0 - 0.015, 0.0, h / 2.0], [0.02, 0.012, h * 0.6], CERAMIC)],
+            [w, d, h],
             "A ceramic mug with a handle.",
         ),
-        "book" => {
-            let (w, d, h) = (vary(rng, 0.15, 0.22), vary(rng, 0.2, 0.28), vary(rng, 0.02, 0.05));
-            small_object(
-                category,
-                vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)],
-                [w, d, h],
-                "A hardcover book.",
-            )
-        }
+        "book" => small_object(
+            category,
+            vec![bx([0.0, 0.0, h / 2.0], [w, d, h], RED), bx([0.005, 0.0, h / 2.0], [w - 0.01, d - 0.01, h - 0.006], PAPER)],
+            [w, d, h],
+            "A hardcover book.",
+        ),
         "laptop" => small_object(
             category,
-            vec![bx([0.0, 0.0, 0.01], [0.34, 0.24, 0.02], METAL), bx([0.0, 0.12, 0.13], [0.34, 0.01, 0.22], BLACK)],
-            [0.34, 0.25, 0.24],
+            vec![bx([0.0, 0.0, 0.01], [w, d, 0.02], METAL), bx([0.0, d / 2.0 - 0.005, h / 2.0 + 0.01], [w, 0.01, h - 0.02], BLACK)],
+            [w, d, h],
             "An open laptop.",
         ),
-        "plate" => small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.12, 0.02, CERAMIC)], [0.24, 0.24, 0.02], "A round plate."),
+        "plate" => small_object(category, vec![cyl([0.0, 0.0, 0.0], r, h, CERAMIC)], [2.0 * r, 2.0 * r, h], "A round plate."),
         "bowl" => small_object(
             category,
-            vec![cyl([0.0, 0.0, 0.0], 0.05, 0.02, CERAMIC), cyl([0.0, 0.0, 0.02], 0.08, 0.05, CERAMIC)],
-            [0.16, 0.16, 0.07],
+            vec![cyl([0.0, 0.0, 0.0], r * 0.6, h * 0.3, CERAMIC), cyl([0.0, 0.0, h * 0.3], r, h * 0.7, CERAMIC)],
+            [2.0 * r, 2.0 * r, h],
             "A ceramic bowl.",
         ),
         "bottle" => small_object(
             category,
-            vec![cyl([0.0, 0.0, 0.0], 0.035, 0.2, GREEN_GLASS), cyl([0.0, 0.0, 0.2], 0.013, 0.08, GREEN_GLASS)],
-            [0.07, 0.07, 0.28],
+            vec![cyl([0.0, 0.0, 0.0], r, h * 0.7, GREEN_GLASS), cyl([0.0, 0.0, h * 0.7], r * 0.4, h * 0.3, GREEN_GLASS)],
+            [2.0 * r, 2.0 * r, h],
             "A glass bottle.",
         ),
-        "can" => small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.033, 0.12, RED)], [0.066, 0.066, 0.12], "A metal can."),
-        "box" => {
-            let s = [vary(rng, 0.25, 0.45), vary(rng, 0.2, 0.35), vary(rng, 0.15, 0.3)];
-            small_object(category, vec![bx([0.0, 0.0, s[2] / 2.0], s, CARDBOARD)], s, "A cardboard box.")
-        }
-        "bucket" => small_object(
+        "can" => small_object(category, vec![cyl([0.0, 0.0, 0.0], r, h, RED)], [2.0 * r, 2.0 * r, h], "A metal can."),
+        "box" => small_object(category, vec![bx([0.0, 0.0, h / 2.0], [w, d, h], CARDBOARD)], [w, d, h], "A cardboard box."),
+        _ => small_object(
             category,
-            vec![cyl([0.0, 0.0, 0.0], 0.14, 0.3, METAL), bx([0.0, 0.0, 0.33], [0.28, 0.01, 0.01], BLACK)],
-            [0.28, 0.28, 0.34],
+            vec![cyl([0.0, 0.0, 0.0], r, h - 0.04, METAL), bx([0.0, 0.0, h - 0.01], [2.0 * r, 0.01, 0.01], BLACK)],
+            [2.0 * r, 2.0 * r, h],
             "A metal bucket with a handle.",
         ),
-        "towel" => small_object(category, vec![bx([0.0, 0.0, 0.03], [0.3, 0.2, 0.06], WHITE)], [0.3, 0.2, 0.06], "A folded towel."),
-        "pillow" => small_object(category, vec![bx([0.0, 0.0, 0.06], [0.5, 0.35, 0.12], CUSHION)], [0.5, 0.35, 0.12], "A pillow."),
-        "blanket" => small_object(category, vec![bx([0.0, 0.0, 0.04], [0.6, 0.4, 0.08], FABRIC)], [0.6, 0.4, 0.08], "A folded blanket."),
+    };
+    Some(a)
+}
+
+/// Towels, pillows, blankets, bags, helmets and clocks.
+fn soft_goods_and_bags(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(category, "towel" | "pillow" | "blanket" | "backpack" | "suitcase" | "helmet" | "clock") {
+        return None;
+    }
+    let [w, d, h] = drawn_size(category, rng);
+    let r = w.min(d) / 2.0;
+    let a = match category {
+        "towel" => small_object(category, vec![bx([0.0, 0.0, h / 2.0], [w, d, h], WHITE)], [w, d, h], "A folded towel."),
+        "pillow" => small_object(category, vec![bx([0.0, 0.0, h / 2.0], [w, d, h], CUSHION)], [w, d, h], "A pillow."),
+        "blanket" => small_object(category, vec![bx([0.0, 0.0, h / 2.0], [w, d, h], FABRIC)], [w, d, h], "A folded blanket."),
         "backpack" => small_object(
             category,
-            vec![bx([0.0, 0.0, 0.22], [0.3, 0.18, 0.44], FABRIC), bx([0.0, -0.1, 0.15], [0.24, 0.04, 0.2], BLACK)],
-            [0.3, 0.22, 0.44],
+            vec![bx([0.0, 0.02, h / 2.0], [w, d - 0.04, h], FABRIC), bx([0.0, -d / 2.0 + 0.02, h * 0.35], [w * 0.8, 0.04, h * 0.45], BLACK)],
+            [w, d, h],
             "A backpack with a front pocket.",
         ),
         "suitcase" => small_object(
             category,
-            vec![bx([0.0, 0.0, 0.33], [0.42, 0.25, 0.66], BLACK), bx([0.0, 0.0, 0.7], [0.15, 0.03, 0.06], METAL)],
-            [0.42, 0.25, 0.72],
+            vec![bx([0.0, 0.0, (h - 0.06) / 2.0], [w, d, h - 0.06], BLACK), bx([0.0, 0.0, h - 0.03], [0.15, 0.03, 0.06], METAL)],
+            [w, d, h],
             "A hard-shell suitcase.",
         ),
-        "helmet" => {
-            small_object(category, vec![cyl([0.0, 0.0, 0.0], 0.12, 0.12, RED), cyl([0.0, 0.0, 0.12], 0.08, 0.06, RED)], [0.24, 0.24, 0.18], "A helmet.")
-        }
-        "clock" => small_object(
+        "helmet" => small_object(
             category,
-            vec![bx([0.0, 0.0, 0.1], [0.2, 0.06, 0.2], WHITE), bx([0.0, -0.031, 0.1], [0.16, 0.002, 0.16], PAPER)],
-            [0.2, 0.06, 0.2],
+            vec![cyl([0.0, 0.0, 0.0], r, h * 0.65, RED), cyl([0.0, 0.0, h * 0.65], r * 0.7, h * 0.35, RED)],
+            [2.0 * r, 2.0 * r, h],
+            "A helmet.",
+        ),
+        _ => small_object(
+            category,
+            vec![bx([0.0, 0.0, h / 2.0], [w, d, h], WHITE), bx([0.0, -d / 2.0 - 0.001, h / 2.0], [w * 0.8, 0.002, h * 0.8], PAPER)],
+            [w, d + 0.002, h],
             "A desk clock.",
         ),
-        _ => return None,
+    };
+    Some(a)
+}
+
+/// Screens, lamps, plants and the room's dressing: what the pack usually draws, kept here
+/// so no class is ever drawn as a stand-in box.
+fn decor(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(category, "monitor" | "television" | "printer" | "lamp" | "plant" | "vase" | "rug" | "picture" | "curtain") {
+        return openings(category, rng);
+    }
+    let [w, d, h] = drawn_size(category, rng);
+    let a = match category {
+        "monitor" | "television" => small_object(
+            category,
+            vec![
+                bx([0.0, 0.0, 0.01], [w * 0.3, d, 0.02], BLACK),
+                bx([0.0, 0.0, 0.08], [0.04, 0.03, 0.14], BLACK),
+                bx([0.0, 0.0, h * 0.6], [w, 0.03, h * 0.8], SCREEN),
+            ],
+            [w, d, h],
+            "A flat screen on a stand.",
+        ),
+        "printer" => small_object(
+            category,
+            vec![bx([0.0, 0.0, h / 2.0], [w, d, h], WHITE), bx([0.0, -d / 2.0, h * 0.3], [w * 0.6, 0.02, 0.02], BLACK)],
+            [w, d + 0.02, h],
+            "A desktop printer.",
+        ),
+        "lamp" => {
+            let r = w.min(d) / 2.0;
+            small_object(
+                category,
+                vec![cyl([0.0, 0.0, 0.0], r * 0.6, 0.03, METAL), cyl([0.0, 0.0, 0.03], 0.012, h * 0.7, METAL), cyl([0.0, 0.0, h * 0.72], r, h * 0.28, SHADE)],
+                [2.0 * r, 2.0 * r, h],
+                "A lamp with a shade.",
+            )
+        }
+        "plant" => {
+            let r = w.min(d) / 2.0;
+            small_object(
+                category,
+                vec![cyl([0.0, 0.0, 0.0], r * 0.6, h * 0.3, CERAMIC), cyl([0.0, 0.0, h * 0.3], r, h * 0.7, LEAVES)],
+                [2.0 * r, 2.0 * r, h],
+                "A potted plant.",
+            )
+        }
+        "vase" => {
+            let r = w.min(d) / 2.0;
+            small_object(
+                category,
+                vec![cyl([0.0, 0.0, 0.0], r, h * 0.8, CERAMIC), cyl([0.0, 0.0, h * 0.8], r * 0.6, h * 0.2, CERAMIC)],
+                [2.0 * r, 2.0 * r, h],
+                "A vase.",
+            )
+        }
+        "rug" => small_object(
+            category,
+            vec![bx([0.0, 0.0, h / 2.0], [w, d, h], FABRIC), bx([0.0, 0.0, h + 0.0005], [w * 0.8, d * 0.8, 0.001], CUSHION)],
+            [w, d, h + 0.001],
+            "A rug.",
+        ),
+        "picture" => small_object(
+            category,
+            vec![bx([0.0, 0.0, h / 2.0], [w, d, h], DARK_WOOD), bx([0.0, -d / 2.0 - 0.0005, h / 2.0], [w - 0.08, 0.001, h - 0.08], CANVAS)],
+            [w, d + 0.001, h],
+            "A framed picture.",
+        ),
+        _ => {
+            // Pleats: slim vertical slabs set alternately forward and back.
+            let folds = ((w / 0.12).round() as usize).max(3);
+            let step = w / folds as f64;
+            let parts = (0..folds)
+                .map(|k| bx([-w / 2.0 + step * (k as f64 + 0.5), if k % 2 == 0 { -d / 4.0 } else { d / 4.0 }, h / 2.0], [step * 1.05, d / 2.0, h], FABRIC))
+                .collect();
+            small_object(category, parts, [w, d, h], "A curtain.")
+        }
+    };
+    Some(a)
+}
+
+/// A door in its casing, or a window with its sill: the room's openings.
+fn openings(category: &str, rng: &mut Rng) -> Option<Asset> {
+    if !matches!(category, "door" | "window") {
+        return None;
+    }
+    let [w, d, h] = drawn_size(category, rng);
+    let a = match category {
+        "door" => {
+            // Casing around a leaf with two raised panels and a handle, front at −y.
+            let c = 0.06;
+            let mut parts = vec![
+                bx([-(w - c) / 2.0, 0.0, h / 2.0], [c, d, h], WHITE),
+                bx([(w - c) / 2.0, 0.0, h / 2.0], [c, d, h], WHITE),
+                bx([0.0, 0.0, h - c / 2.0], [w, d, c], WHITE),
+                bx([0.0, 0.005, (h - c) / 2.0], [w - 2.0 * c, d - 0.01, h - c], DOOR_LEAF),
+            ];
+            let panel_w = w - 2.0 * c - 0.16;
+            let lower = (h - c) * 0.45;
+            for (z, ph) in [(0.1 + lower / 2.0, lower - 0.1), (lower + 0.1 + (h - c - lower - 0.2) / 2.0, h - c - lower - 0.3)] {
+                parts.push(bx([0.0, -d / 2.0, z], [panel_w, 0.012, ph], DOOR_LEAF));
+            }
+            parts.push(bx([w / 2.0 - c - 0.08, -d / 2.0 - 0.03, 1.0], [0.12, 0.05, 0.025], METAL));
+            small_object(category, parts, [w, d + 0.05, h], "A panelled door in its casing.")
+        }
+        _ => {
+            // A frame with a cross of mullions over a bright pane, a sill below, front at −y.
+            let f = 0.06;
+            let parts = vec![
+                bx([0.0, 0.01, h / 2.0], [w - 2.0 * f, 0.01, h - 2.0 * f], DAYLIGHT),
+                bx([-(w - f) / 2.0, 0.0, h / 2.0], [f, d, h], WHITE),
+                bx([(w - f) / 2.0, 0.0, h / 2.0], [f, d, h], WHITE),
+                bx([0.0, 0.0, h - f / 2.0], [w, d, f], WHITE),
+                bx([0.0, 0.0, f / 2.0], [w, d, f], WHITE),
+                bx([0.0, -0.005, h / 2.0], [0.03, d - 0.01, h - 2.0 * f], WHITE),
+                bx([0.0, -0.005, h * 0.6], [w - 2.0 * f, d - 0.01, 0.03], WHITE),
+                bx([0.0, -d / 2.0 - 0.03, -0.01], [w + 0.08, 0.08, 0.02], WHITE),
+            ];
+            small_object(category, parts, [w + 0.08, d + 0.06, h], "A window with a sill.")
+        }
     };
     Some(a)
 }

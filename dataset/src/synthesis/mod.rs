@@ -2,13 +2,16 @@
 //! both the built-in synthesizer and SceneSmith itself (or any external command that
 //! writes the same format).
 
+pub mod dressing;
 pub mod export;
 pub mod external;
+pub mod finishes;
 pub mod gltf_out;
 pub mod layout;
 pub mod library;
 pub mod placement;
 pub mod relations;
+pub mod room;
 pub mod source;
 pub mod textured;
 pub mod writer;
@@ -31,8 +34,8 @@ pub fn synthesize(prompt: &ScenePrompt, seed: u64, dir: &Path, ceiling: bool, as
     // A grammar prompt describes a layout it placed: reproduce it from the primary
     // relations and its seed. Other prompts are placed honouring every relation.
     let layout = match prompt.layout_seed {
-        Some(layout_seed) => placement::place(&prompt.spec.primary_only(), layout_seed, assets),
-        None => placement::place(&prompt.spec, seed, assets),
+        Some(layout_seed) => dressing::furnished(&prompt.spec.primary_only(), layout_seed, assets),
+        None => dressing::furnished(&prompt.spec, seed, assets),
     };
     let unmet = relations::unmet_relations(&prompt.spec, &layout);
     let shell = assets.room_shell(seed);

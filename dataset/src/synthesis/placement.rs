@@ -17,12 +17,12 @@ pub const MAX_REST_HEIGHT: f64 = 1.25;
 const REST_HEIGHT: f64 = 0.75;
 const TRIES: usize = 200;
 
-fn overlaps(a: ([f64; 2], [f64; 2]), b: ([f64; 2], [f64; 2])) -> bool {
+pub(super) fn overlaps(a: ([f64; 2], [f64; 2]), b: ([f64; 2], [f64; 2])) -> bool {
     a.0[0] < b.1[0] - 1e-6 && b.0[0] < a.1[0] - 1e-6 && a.0[1] < b.1[1] - 1e-6 && b.0[1] < a.1[1] - 1e-6
 }
 
 /// Yaw (degrees, multiple of 90) whose front points most along `dir`.
-fn yaw_towards(dir: [f64; 2]) -> f64 {
+pub(super) fn yaw_towards(dir: [f64; 2]) -> f64 {
     let angle = (-dir[0]).atan2(dir[1]).to_degrees();
     (angle / 90.0).round() * 90.0
 }
@@ -184,6 +184,7 @@ impl Placer<'_> {
                     position: [p[0], p[1], 0.0],
                     yaw_deg: yaw,
                     host: None,
+                    dressing: false,
                 };
                 if self.free(&candidate) {
                     if self.honours_others(&candidate) {
@@ -216,6 +217,7 @@ impl Placer<'_> {
                     position: [p[0], p[1], 0.0],
                     yaw_deg: yaw,
                     host: None,
+                    dressing: false,
                 };
                 if self.free(&c) {
                     return c;
@@ -296,6 +298,7 @@ impl Placer<'_> {
                     position: p,
                     yaw_deg: host.yaw_deg + turn,
                     host: Some(host.object_id.clone()),
+                    dressing: false,
                 };
                 let fp = candidate.footprint();
                 let clash = self
@@ -341,11 +344,12 @@ fn placement_order(spec: &SceneSpec) -> Vec<(String, u32)> {
 }
 
 /// Place `spec` in a room sized for it (starting over in a larger room when it is
-/// too crowded). Which relations the result leaves unmet is for the caller to check
+/// too crowded): the prompt's objects only ([`super::dressing::furnished`] adds what else
+/// the room holds). Which relations the result leaves unmet is for the caller to check
 /// ([`super::relations::unmet_relations`]) against the spec it cares about.
 pub fn place(spec: &SceneSpec, seed: u64, assets: &AssetSource) -> Layout {
     let sizing_rng = Rng::new(seed ^ 0xA55E_7);
-    // Room area: about four times the furniture's footprint, at least 3.5 m a side.
+    // The room's floor: its type's plausible size, fitted to its furniture's footprint.
     let footprint: f64 = spec
         .objects
         .iter()
@@ -353,9 +357,7 @@ pub fn place(spec: &SceneSpec, seed: u64, assets: &AssetSource) -> Layout {
         .map(|o| assets.make(&o.category, &mut sizing_rng.clone()).map_or(0.5, |a| a.size[0] * a.size[1]) * o.count as f64)
         .sum();
     let mut rng = Rng::new(seed);
-    let area = (footprint * 4.0).max(12.0);
-    let aspect = rng.range(0.8, 1.3);
-    let (mut width, mut depth) = ((((area * aspect).sqrt() * 10.0).round() / 10.0).max(3.5), (((area / aspect).sqrt() * 10.0).round() / 10.0).max(3.5));
+    let (mut width, mut depth) = super::room::fitted_floor(&spec.room, footprint, &mut rng);
     let order = placement_order(spec);
     for attempt in 0.. {
         let mut asset_rng = Rng::new(seed ^ 0xA55E_7);

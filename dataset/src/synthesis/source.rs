@@ -1,9 +1,9 @@
 //! Where the built-in synthesizer takes each object from: a variant of an asset pack
 //! ([`crate::assets`]: real-looking, textured meshes forged from Infinigen, or an operator's
 //! own) when the pack has the class, else the procedural library ([`super::library`]).
-//! Either way an instance gets a finish drawn evenly from [`FINISHES`], so a class says
-//! nothing of an instance's colour: a pack mesh's texture is recoloured in it when the scene
-//! is written ([`super::textured`]), keeping its pattern and shading.
+//! Either way an instance gets a finish of its class's palette ([`super::finishes`]), so a
+//! class says nothing of an instance's colour: a pack mesh's texture is recoloured in it when
+//! the scene is written ([`super::textured`]), keeping its grain, weave and print.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -11,17 +11,15 @@ use std::sync::Arc;
 use osmab_evaluator::Result;
 use osmab_evaluator::synthetic::Rng;
 
-use super::library::{Asset, Material, PackMesh, SupportSurface, finish_drawn, make_asset};
+use super::finishes::finish_drawn;
+use super::library::{Asset, PackMesh, SupportSurface, make_asset};
 use crate::assets::{AssetPack, ObjectEntry, ShellKind};
+use crate::classes::Finish;
 
 /// The largest uniform change of a pack variant's size, either way: the forge brought it
 /// into its class's plausible range already; this only keeps two instances of one variant
 /// from being twins.
 const SIZE_JITTER: f64 = 0.06;
-
-/// Classes whose look is their colour's meaning (a screen, leaves, a clock face): they keep
-/// their texture's own colours, and the questions ask no colour of them.
-pub const OWN_COLOURS: [&str; 5] = ["television", "monitor", "laptop", "plant", "clock"];
 
 /// A room-shell texture: the image and the side of the square it covers.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,10 +84,10 @@ impl AssetSource {
         let Some(pack) = self.pack.as_deref().filter(|_| !variants.is_empty()) else {
             return make_asset(category, rng);
         };
-        let finish = finish_drawn(rng);
+        let finish = finish_drawn(category, rng);
         let entry = variants[rng.below(variants.len())];
         let scale = ((1.0 + rng.range(-SIZE_JITTER, SIZE_JITTER)) * 1000.0).round() / 1000.0;
-        Some(pack_asset(pack, entry, scale, (!OWN_COLOURS.contains(&category)).then_some(finish)))
+        Some(pack_asset(pack, entry, scale, finish))
     }
 
     /// The floor and wall textures of a room, drawn from `seed`; `None` without a pack or
@@ -110,7 +108,7 @@ impl AssetSource {
 
 /// `entry` of `pack` as an asset at `scale`: its size, surfaces and free floor from the
 /// catalogue, scaled.
-fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<Material>) -> Asset {
+fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<&'static Finish>) -> Asset {
     let s2 = |v: [f64; 2]| v.map(|x| x * scale);
     let supports = entry
         .supports
@@ -129,7 +127,7 @@ fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<
         None => (0.0, None),
     };
     let look = match finish {
-        Some(f) => format!("{} ", f.name.trim_start_matches("finish_")),
+        Some(f) => format!(" in {}", f.name.replace('_', " ")),
         None => String::new(),
     };
     Asset {
@@ -139,7 +137,7 @@ fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<
         supports,
         clearance,
         under,
-        description: format!("A {look}{} ({} variant {}).", entry.class, entry.source, entry.variant),
+        description: format!("A {}{look} ({} variant {}).", entry.class, entry.source, entry.variant),
         mesh: Some(PackMesh { file: pack.path(&entry.path), scale, finish, source: entry.source.clone(), generator: entry.generator.clone() }),
     }
 }

@@ -11,11 +11,19 @@ use super::export::to_gltf;
 use super::gltf_out::{OutMaterial, OutPrimitive, write_gltf};
 use super::library::PackMesh;
 use super::source::ShellTexture;
+use crate::classes::{Finish, MaterialKind};
 use crate::convert::gltf::{Texture, TriangleMesh, read_gltf};
 
-/// How much of a recoloured texel's brightness follows the original's pattern (grain,
-/// weave, print); the rest is the finish, so the main material's mean is the finish.
-const PATTERN: f32 = 0.6;
+/// The largest relative brightness a texture's pattern may give a recoloured texel, either
+/// way: a dark texture's faint highlights would otherwise become a light finish's bright
+/// specks (the "starfield" of black pack textures recoloured light).
+const MAX_DEVIATION: f32 = 0.45;
+/// Brightness (0–255) below which a texture's pattern is measured against this instead:
+/// the pattern's contrast, not its ratio to near-black.
+const PATTERN_FLOOR: f32 = 70.0;
+/// A main material whose brightness varies less than this (standard deviation, 0–255) has
+/// lost its pattern in the bake: it gets one of its finish's material instead.
+const FLAT: f32 = 4.0;
 
 /// Write the pack mesh `mesh` of an instance of `category` as `dir/stem.gltf` (+ `.bin`
 /// and one PNG per textured material).
@@ -32,12 +40,22 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
         };
         let users: Vec<&TriangleMesh> = asset.meshes.iter().filter(|m| m.material == Some(k)).collect();
         let rgb = match mesh.finish {
-            Some(finish) => recolour(texture, &users, [finish.color[0], finish.color[1], finish.color[2]]),
+            Some(finish) => recolour(texture, &users, finish),
             None => texture.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
         };
         let name = format!("{stem}_{k}.png");
         write_png_rgb(&dir.join(&name), &RgbImage { width: texture.width, height: texture.height, pixels: rgb })?;
-        names.push(Some(name));
+        // The forge's ambient occlusion, as it is (a finish recolours, it does not relight).
+        let occlusion = match &material.occlusion {
+            Some(ao) => {
+                let ao_name = format!("{stem}_{k}_ao.png");
+                let grey: Vec<u8> = ao.rgba.chunks_exact(4).flat_map(|p| [p[0]; 3]).collect();
+                write_png_rgb(&dir.join(&ao_name), &RgbImage { width: ao.width, height: ao.height, pixels: grey })?;
+                Some(ao_name)
+            }
+            None => None,
+        };
+        names.push(Some((name, occlusion)));
     }
     let primitives: Vec<OutPrimitive> = asset
         .meshes
@@ -45,7 +63,8 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
         .zip(&positions)
         .map(|(m, positions)| {
             let material = m.material.and_then(|k| asset.materials.get(k).map(|mat| (k, mat)));
-            let texture = material.and_then(|(k, _)| names[k].as_deref());
+            let texture = material.and_then(|(k, _)| names[k].as_ref()).map(|(t, _)| t.as_str());
+            let occlusion = material.and_then(|(k, _)| names[k].as_ref()).and_then(|(_, o)| o.as_deref());
             OutPrimitive {
                 positions,
                 normals: &m.normals,
@@ -55,6 +74,7 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
                     name: material.map_or("default", |(_, mat)| mat.name.as_str()),
                     color: if texture.is_some() { [1.0; 4] } else { material.map_or([0.8, 0.8, 0.8, 1.0], |(_, mat)| mat.base_color) },
                     texture,
+                    occlusion,
                 },
             }
         })
@@ -67,27 +87,83 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
 const MAIN_NEAR: f32 = 45.0;
 const MAIN_FAR: f32 = 85.0;
 
-/// `texture` with its main material recoloured in `finish` (0–1 sRGB values), as the
-/// procedural library gives an asset's main material its finish. The main material is the
-/// colour covering most of what `meshes` show of the texture (area-weighted, the texel at each
-/// triangle's centre; an atlas's unused corners do not count); its texels keep their
-/// brightness relative to it (grain, weave, print stay), so it averages to the finish, and
-/// texels of other colours (a chair's black legs, a desk's white frame) keep theirs.
-fn recolour(texture: &Texture, meshes: &[&TriangleMesh], finish: [f32; 3]) -> Vec<u8> {
+/// `texture` with its main material recoloured in `finish`, as the procedural library gives
+/// an asset's main material its finish. The main material is the colour covering most of
+/// what `meshes` show of the texture (area-weighted, the texel at each triangle's centre; an
+/// atlas's unused corners do not count). Its texels keep their brightness relative to it as
+/// far as the finish's material shows a pattern (wood its grain, fabric its weave, lacquer
+/// little), bounded either way so no texel turns into a speck; a main material the bake left
+/// flat gets a fine pattern of its finish's material. It averages to the finish; texels of
+/// other colours (a chair's black legs, a desk's white frame) keep theirs.
+fn recolour(texture: &Texture, meshes: &[&TriangleMesh], finish: &Finish) -> Vec<u8> {
     let samples = shown_texels(texture, meshes);
     let main = main_colour(&samples);
-    let luminance = |p: [f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let main_luminance = luminance(main).max(8.0);
+    let main_luminance = luminance(main);
+    let flat = brightness_spread(&samples, main) < FLAT;
+    let strength = finish.material.pattern();
+    let width = texture.width as usize;
     texture
         .rgba
         .chunks_exact(4)
-        .flat_map(|p| {
+        .enumerate()
+        .flat_map(|(i, p)| {
             let texel = [p[0], p[1], p[2]].map(f32::from);
             let weight = ((MAIN_FAR - distance(texel, main)) / (MAIN_FAR - MAIN_NEAR)).clamp(0.0, 1.0);
-            let gain = (1.0 - PATTERN) + PATTERN * (luminance(texel) / main_luminance).min(2.5);
-            std::array::from_fn::<u8, 3, _>(|c| (weight * finish[c] * gain * 255.0 + (1.0 - weight) * texel[c]).round().clamp(0.0, 255.0) as u8)
+            let deviation = if flat {
+                material_pattern(finish.material, i % width, i / width)
+            } else {
+                ((luminance(texel) - main_luminance) / main_luminance.max(PATTERN_FLOOR)).clamp(-MAX_DEVIATION, MAX_DEVIATION)
+            };
+            let gain = 1.0 + strength * deviation;
+            std::array::from_fn::<u8, 3, _>(|c| (weight * finish.colour[c] * gain * 255.0 + (1.0 - weight) * texel[c]).round().clamp(0.0, 255.0) as u8)
         })
         .collect()
+}
+
+fn luminance(p: [f32; 3]) -> f32 {
+    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+}
+
+/// The standard deviation of the brightness of the samples of the main colour `main`.
+fn brightness_spread(samples: &[([f32; 3], f32)], main: [f32; 3]) -> f32 {
+    let near: Vec<(f32, f32)> = samples.iter().filter(|(c, _)| distance(*c, main) < MAIN_NEAR).map(|(c, a)| (luminance(*c), *a)).collect();
+    let total: f32 = near.iter().map(|(_, a)| a).sum();
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let mean = near.iter().map(|(l, a)| l * a).sum::<f32>() / total;
+    (near.iter().map(|(l, a)| (l - mean).powi(2) * a).sum::<f32>() / total).sqrt()
+}
+
+/// A seamless-enough pattern of `material` at texel (x, y), as a relative brightness in
+/// about ±0.5: wood streaks along the texture's rows, fabric a soft mottle, the rest a faint
+/// mottle. Deterministic (hashed lattice noise).
+fn material_pattern(material: MaterialKind, x: usize, y: usize) -> f32 {
+    let (x, y) = (x as f32, y as f32);
+    match material {
+        MaterialKind::Wood => 0.7 * value_noise(x / 48.0, y / 3.0, 11) + 0.3 * value_noise(x / 6.0, y / 1.5, 12),
+        // No texel-sized component: textures are sampled nearest, and a weave one texel fine
+        // is magnified into a mosaic of squares on a sofa seen from a metre.
+        MaterialKind::Fabric | MaterialKind::Leather => 0.2 * value_noise(x / 3.0, y / 3.0, 21) + 0.5 * value_noise(x / 14.0, y / 14.0, 22),
+        _ => 0.4 * value_noise(x / 24.0, y / 24.0, 31),
+    }
+}
+
+/// Smooth value noise in about [-1, 1] on an integer lattice hashed with `seed`.
+fn value_noise(x: f32, y: f32, seed: u32) -> f32 {
+    let hash = |i: i32, j: i32| {
+        let mut h = (i as u32).wrapping_mul(0x8DA6_B343) ^ (j as u32).wrapping_mul(0xD816_3841) ^ seed.wrapping_mul(0xCB1A_B31F);
+        h ^= h >> 13;
+        h = h.wrapping_mul(0x5BD1_E995);
+        h ^= h >> 15;
+        (h & 0xFFFF) as f32 / 32767.5 - 1.0
+    };
+    let (i, j) = (x.floor() as i32, y.floor() as i32);
+    let (tx, ty) = (x - x.floor(), y - y.floor());
+    let (sx, sy) = (tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty));
+    let top = hash(i, j) * (1.0 - sx) + hash(i + 1, j) * sx;
+    let bottom = hash(i, j + 1) * (1.0 - sx) + hash(i + 1, j + 1) * sx;
+    top * (1.0 - sy) + bottom * sy
 }
 
 fn distance(a: [f32; 3], b: [f32; 3]) -> f32 {
@@ -188,7 +264,7 @@ pub fn write_shell_box(shell: &ShellTexture, size: [f64; 3], dir: &Path, stem: &
         normals: &normals,
         uvs: Some(&uvs),
         indices: &indices,
-        material: OutMaterial { name: &shell.name, color: [1.0; 4], texture: Some(&image) },
+        material: OutMaterial { name: &shell.name, color: [1.0; 4], texture: Some(&image), occlusion: None },
     };
     write_gltf(dir, stem, stem, "osmab room shell", &[primitive])
 }

@@ -14,6 +14,7 @@ use super::export::write_asset_gltf;
 use super::placement::Layout;
 use super::source::RoomShell;
 use super::textured::{write_pack_gltf, write_shell_box};
+use crate::convert::lighting::{FIXTURE_HEIGHT, ceiling_light_positions};
 use crate::spec::{ObjectKind, SceneSpec};
 
 fn write(path: &Path, text: impl AsRef<[u8]>) -> Result<()> {
@@ -42,35 +43,99 @@ fn title(category: &str) -> String {
         .join(" ")
 }
 
-/// The room's floor, four walls and (optionally) ceiling as SceneSmith's room-geometry
-/// SDF: boxes, or with a `shell` textured meshes of the same boxes written beside it
-/// (`room_geometry/<part>.gltf`). SceneSmith itself writes no ceiling.
-fn write_room(dir: &Path, layout: &Layout, ceiling: bool, shell: Option<&RoomShell>) -> Result<String> {
+/// Skirting boards: height and thickness, metres, and their paint.
+const SKIRTING: (f64, f64) = (0.08, 0.015);
+const SKIRTING_PAINT: [f64; 3] = [0.92, 0.91, 0.88];
+/// A ceiling fixture's radius, metres, and its diffuser's colour.
+const FIXTURE_RADIUS: f64 = 0.17;
+const FIXTURE_WHITE: [f64; 3] = [0.97, 0.96, 0.93];
+
+/// A room-geometry visual: its name (which decides its class), centre, and a box of a size,
+/// or a vertical cylinder, with its own colour when it has no texture.
+struct RoomPart {
+    name: String,
+    center: [f64; 3],
+    shape: RoomShape,
+    colour: Option<[f64; 3]>,
+}
+
+enum RoomShape {
+    Box([f64; 3]),
+    Cylinder { radius: f64, length: f64 },
+}
+
+/// The room's parts: floor, four walls, their skirting and (optionally) a ceiling with a
+/// fixture where each ceiling light of the converter's grid shines from.
+fn room_parts(layout: &Layout, ceiling: bool) -> Vec<RoomPart> {
     let (w, d, h, t) = (layout.width, layout.depth, layout.wall_height, 0.1);
-    let mut visuals = vec![("floor", [0.0, 0.0, -0.05], [w, d, 0.1])];
+    let part = |name: &str, center: [f64; 3], size: [f64; 3]| RoomPart { name: name.into(), center, shape: RoomShape::Box(size), colour: None };
+    let mut parts = vec![part("floor", [0.0, 0.0, -0.05], [w, d, 0.1])];
     if ceiling {
-        visuals.push(("ceiling", [0.0, 0.0, h + 0.05], [w, d, 0.1]));
+        parts.push(part("ceiling", [0.0, 0.0, h + 0.05], [w, d, 0.1]));
     }
-    visuals.push(("left_wall", [-w / 2.0, 0.0, h / 2.0], [t, d, h]));
-    visuals.push(("right_wall", [w / 2.0, 0.0, h / 2.0], [t, d, h]));
-    visuals.push(("back_wall", [0.0, -d / 2.0, h / 2.0], [w, t, h]));
-    visuals.push(("front_wall", [0.0, d / 2.0, h / 2.0], [w, t, h]));
+    parts.push(part("left_wall", [-w / 2.0, 0.0, h / 2.0], [t, d, h]));
+    parts.push(part("right_wall", [w / 2.0, 0.0, h / 2.0], [t, d, h]));
+    parts.push(part("back_wall", [0.0, -d / 2.0, h / 2.0], [w, t, h]));
+    parts.push(part("front_wall", [0.0, d / 2.0, h / 2.0], [w, t, h]));
+    // Skirting along each wall's inner face (named as walls: they are part of them).
+    let (sh, st) = SKIRTING;
+    let inner = t / 2.0 + st / 2.0;
+    for (name, center, size) in [
+        ("wall_skirting_left", [-w / 2.0 + inner, 0.0, sh / 2.0], [st, d - t, sh]),
+        ("wall_skirting_right", [w / 2.0 - inner, 0.0, sh / 2.0], [st, d - t, sh]),
+        ("wall_skirting_back", [0.0, -d / 2.0 + inner, sh / 2.0], [w - t - 2.0 * st, st, sh]),
+        ("wall_skirting_front", [0.0, d / 2.0 - inner, sh / 2.0], [w - t - 2.0 * st, st, sh]),
+    ] {
+        parts.push(RoomPart { name: name.into(), center, shape: RoomShape::Box(size), colour: Some(SKIRTING_PAINT) });
+    }
+    if ceiling {
+        // The converter lays its lights out on the floor's bounds in Habitat axes (x, y up, z = −y).
+        let floor = ([-w / 2.0, -0.1, -d / 2.0], [w / 2.0, 0.0, d / 2.0]);
+        for (k, p) in ceiling_light_positions(floor, h).into_iter().enumerate() {
+            parts.push(RoomPart {
+                name: format!("ceiling_light_{k}"),
+                center: [p[0], -p[2], h - FIXTURE_HEIGHT / 2.0],
+                shape: RoomShape::Cylinder { radius: FIXTURE_RADIUS, length: FIXTURE_HEIGHT },
+                colour: Some(FIXTURE_WHITE),
+            });
+        }
+    }
+    parts
+}
+
+/// The room as SceneSmith's room-geometry SDF: boxes, or with a `shell` the floor and walls
+/// as textured meshes of the same boxes written beside it (`room_geometry/<part>.gltf`).
+/// SceneSmith itself writes no ceiling.
+fn write_room(dir: &Path, layout: &Layout, ceiling: bool, shell: Option<&RoomShell>) -> Result<String> {
     let mut out =
         String::from("<sdf xmlns:drake=\"drake.mit.edu\" version=\"1.7\">\n  <model name=\"room_geometry\">\n    <link name=\"room_geometry_body_link\">\n");
     let box_geometry = |s: [f64; 3]| format!("<box>\n            <size>{} {} {}</size>\n          </box>", num(s[0]), num(s[1]), num(s[2]));
-    for (name, c, s) in visuals {
-        let texture = shell.map(|shell| if name == "floor" { &shell.floor } else { &shell.wall }).filter(|_| name != "ceiling");
-        let visual = match texture {
-            Some(texture) => {
-                write_shell_box(texture, s, &dir.join("room_geometry"), name)?;
+    for part in room_parts(layout, ceiling) {
+        let name = part.name.as_str();
+        let primitive = match part.shape {
+            RoomShape::Box(s) => box_geometry(s),
+            RoomShape::Cylinder { radius, length } => {
+                format!("<cylinder>\n            <radius>{}</radius>\n            <length>{}</length>\n          </cylinder>", num(radius), num(length))
+            }
+        };
+        let is_surface = matches!(name, "floor" | "left_wall" | "right_wall" | "back_wall" | "front_wall");
+        let texture = shell.filter(|_| is_surface).map(|shell| if name == "floor" { &shell.floor } else { &shell.wall });
+        let visual = match (texture, &part.shape) {
+            (Some(texture), RoomShape::Box(s)) => {
+                write_shell_box(texture, *s, &dir.join("room_geometry"), name)?;
                 format!("<mesh>\n            <uri>{name}.gltf</uri>\n          </mesh>")
             }
-            None => box_geometry(s),
+            _ => primitive.clone(),
         };
-        for (kind, geometry) in [("visual", &visual), ("collision", &box_geometry(s))] {
+        let material = part.colour.map_or(String::new(), |c| {
+            format!("        <material>\n          <diffuse>{} {} {} 1</diffuse>\n        </material>\n", num(c[0]), num(c[1]), num(c[2]))
+        });
+        let c = part.center;
+        for (kind, geometry) in [("visual", &visual), ("collision", &primitive)] {
+            let material = if kind == "visual" { material.as_str() } else { "" };
             let _ = write!(
                 out,
-                "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          {geometry}\n        </geometry>\n        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
+                "      <{kind} name=\"{name}_{kind}\">\n        <geometry>\n          {geometry}\n        </geometry>\n{material}        <pose>{} {} {} 0 0 0</pose>\n      </{kind}>\n",
                 num(c[0]),
                 num(c[1]),
                 num(c[2])
@@ -161,7 +226,7 @@ pub fn write_scenesmith_scene(
                 "image_path": null,
                 "support_surfaces": o.asset.supports.iter().map(|s| json!({"height": s.height, "min": s.min, "max": s.max, "inside": s.inside})).collect::<Vec<_>>(),
                 "placement_info": o.host.as_ref().map(|h| json!({"parent_object": h})),
-                "metadata": {"asset_source": o.asset.mesh.as_ref().map_or("procedural", |m| m.source.as_str()), "category": o.category},
+                "metadata": {"asset_source": o.asset.mesh.as_ref().map_or("procedural", |m| m.source.as_str()), "category": o.category, "dressing": o.dressing},
                 "bbox_min": [-s[0] / 2.0, -s[1] / 2.0, 0.0],
                 "bbox_max": [s[0] / 2.0, s[1] / 2.0, s[2]],
                 "immutable": false,

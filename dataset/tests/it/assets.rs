@@ -127,3 +127,29 @@ fn hostile_packs_are_refused() {
     let message = refusal(pack.path());
     assert!(message.contains("book-0.glb"), "{message}");
 }
+
+/// Every class a scene can hold — what prompts may name (furniture and objects) and what
+/// the dressing adds (doors, windows, rugs, pictures, curtains) — has a model in the
+/// bundled pack or is deliberately drawn by the procedural library: no class silently
+/// becomes a stand-in box.
+#[test]
+fn every_class_a_scene_can_hold_has_a_pack_model_or_is_deliberately_procedural() {
+    use osmab_dataset::classes::{Role, table};
+    let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets");
+    let pack = AssetPack::open(&bundled).unwrap();
+    let mut missing = Vec::new();
+    for class in table().classes() {
+        let dressing = matches!(class.name.as_str(), "door" | "window");
+        if class.role == Role::Shell && !dressing {
+            continue;
+        }
+        let in_pack = pack.catalogue().variants(&class.name).next().is_some();
+        if !in_pack && !class.procedural {
+            missing.push(class.name.clone());
+        }
+        // What the synthesizer draws for it is never a stand-in.
+        let asset = osmab_dataset::synthesis::library::make_asset(&class.name, &mut osmab_evaluator::synthetic::Rng::new(1));
+        assert!(asset.is_some(), "{}: the procedural library cannot draw it", class.name);
+    }
+    assert!(missing.is_empty(), "classes with neither a pack model nor `procedural = true` in dataset/classes.toml: {missing:?}");
+}

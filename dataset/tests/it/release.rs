@@ -341,9 +341,15 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     for scene in report["per_scene"].as_array().unwrap() {
         let name = scene["scene"].as_str().unwrap();
         assert!(scene["full_match"].as_bool().unwrap(), "{name}");
-        for instance in scene["instances"].as_array().unwrap() {
+        // Prompted objects are mapped from two viewpoints; most of the room's dressing is
+        // mapped too (a book deep in a shelf may stay out of sight).
+        let instances = scene["instances"].as_array().unwrap();
+        for instance in instances.iter().filter(|i| i["prompted"] == true) {
             assert!(instance["gt_points"].as_u64().unwrap() >= 10 && instance["viewpoints"].as_u64().unwrap() >= 2, "{name}: {instance}");
         }
+        let dressing: Vec<_> = instances.iter().filter(|i| i["prompted"] == false).collect();
+        let mapped = dressing.iter().filter(|i| i["mapped"] == true).count();
+        assert!(mapped * 4 >= dressing.len() * 3, "{name}: {mapped} of {} dressing objects mapped", dressing.len());
         assert!(scene["degenerate_fraction"].as_f64().unwrap() <= 0.10, "{name}");
         assert!(scene["travelled_m"].as_f64().unwrap() >= 2.0, "{name}");
         let lightings = &scene["lightings"];

@@ -20,7 +20,13 @@ fn quad(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, surface: u32, class_id: u16)
 }
 
 fn world(triangles: Vec<Triangle>) -> World {
-    World::new(triangles, vec![Surface { color: [0.5, 0.25, 1.0], texture: None }, Surface { color: [0.2, 0.8, 0.4], texture: None }])
+    World::new(
+        triangles,
+        vec![
+            Surface { color: [0.5, 0.25, 1.0], texture: None, occlusion_in_alpha: false },
+            Surface { color: [0.2, 0.8, 0.4], texture: None, occlusion_in_alpha: false },
+        ],
+    )
 }
 
 #[test]

@@ -37,7 +37,9 @@ fn synthesized_scenes_round_trip_through_the_converter_with_their_spec_intact() 
             for (class, n) in &expected {
                 assert_eq!(counted.get(class), Some(n), "{class} in: {}", prompt.text);
             }
-            assert_eq!(counted.get("wall"), Some(&4));
+            assert_eq!(counted.get("wall"), Some(&8), "four walls and their skirting");
+            assert_eq!((counted.get("door"), counted.get("floor")), (Some(&1), Some(&1)), "a door, a floor");
+            assert!(counted.get("window").is_some_and(|n| *n >= 1), "at least one window in: {} {counted:?}", prompt.text);
             assert_eq!(scene.prompt.as_deref(), Some(prompt.text.as_str()));
         }
     }
@@ -153,11 +155,14 @@ fn grammar_prompts_get_the_layout_they_describe() {
 
 #[test]
 fn relations_a_layout_fails_are_reported() {
-    // Swap the subject of a "next to" relation for something placed far away.
+    // Ask the first object to stand both in a corner and in the centre of the room: no
+    // layout honours both.
     let mut prompt = grammar_pool(Regime::Furniture, 1, 4).accepted.remove(0);
     prompt.layout_seed = None;
     let anchor = prompt.spec.objects[0].category.clone();
-    prompt.spec.relations.push(osmab_dataset::spec::Relation { subject: anchor.clone(), kind: osmab_dataset::spec::RelationKind::InCorner, targets: vec![] });
+    for kind in [osmab_dataset::spec::RelationKind::InCorner, osmab_dataset::spec::RelationKind::CenterOfRoom] {
+        prompt.spec.relations.push(osmab_dataset::spec::Relation { subject: anchor.clone(), kind, targets: vec![] });
+    }
     let dir = tempfile::tempdir().unwrap();
     let unmet = synthesize(&prompt, 1, dir.path(), false, &AssetSource::procedural()).unwrap();
     let state: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("combined_house/house_state.json")).unwrap()).unwrap();

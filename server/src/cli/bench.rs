@@ -65,9 +65,13 @@ pub enum BenchCommand {
         /// Frames to render.
         #[arg(long, default_value_t = 60)]
         frames: usize,
-        /// Light the scene with the baseline layout (default: flat shading).
+        /// Light the scene (default: flat shading) with its lighting `--lighting`, shadows
+        /// and ambient occlusion baked first (the bake is timed apart).
         #[arg(long)]
         lit: bool,
+        /// The lighting `--lit` renders: baseline, camera or dynamic_lights (its first goal).
+        #[arg(long, default_value = "baseline")]
+        lighting: String,
         /// Write the last frame's RGB here (PNG).
         #[arg(long)]
         save: Option<PathBuf>,
@@ -185,7 +189,9 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             synth(SceneSpec { gt_points, map_points, objects, feature_dim, seed, map_covers_room }, random_order, &out)
         }
         BenchCommand::ReleaseEstimate { config, sample, timed_frames } => super::bench_dataset::release_estimate(&config, sample, timed_frames),
-        BenchCommand::Render { scenesmith, frames, lit, save } => super::bench_dataset::render_frames(&scenesmith, frames, lit, save.as_deref()),
+        BenchCommand::Render { scenesmith, frames, lit, lighting, save } => {
+            super::bench_dataset::render_frames(&scenesmith, frames, lit.then_some(lighting.as_str()), save.as_deref())
+        }
         BenchCommand::Scenes { furniture_pool, manipuland_pool, furniture, manipuland, scenesmith } => {
             super::bench_dataset::scenes(furniture_pool, manipuland_pool, furniture, manipuland, scenesmith.as_deref())
         }

@@ -4,6 +4,8 @@
 
 use std::time::Instant;
 
+use anyhow::Context;
+
 pub fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manipuland: usize, scenesmith: Option<&std::path::Path>) -> anyhow::Result<()> {
     use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
     use osmab_dataset::convert::scene::load_scene;
@@ -70,11 +72,13 @@ pub fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, m
     Ok(())
 }
 
-pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, save: Option<&std::path::Path>) -> anyhow::Result<()> {
+pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Option<&str>, save: Option<&std::path::Path>) -> anyhow::Result<()> {
     use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
     use osmab_dataset::convert::scene::load_scene;
+    use osmab_dataset::render::lit_world;
     use osmab_dataset::render::mesh::World;
-    use osmab_dataset::render::raster::{Camera, Frame, Light, Shading, render};
+    use osmab_dataset::render::raster::{Camera, Frame, Shading, render};
+    use osmab_dataset::render::sequence::lights_for_goal;
 
     let work = std::env::temp_dir().join(format!("osmab-bench-render-{}", std::process::id()));
     let scene = load_scene(scenesmith)?;
@@ -82,29 +86,19 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, sav
     let clock = Instant::now();
     let world = World::load_habitat_scene(&work, &scene.name)?;
     let load = clock.elapsed().as_secs_f64();
-    let shading = if lit {
-        let text = std::fs::read(work.join(format!("lighting_hadage/light_settings_{}_baseline.json", scene.name)))?;
-        let json: serde_json::Value = serde_json::from_slice(&text)?;
-        Shading::Lit(
-            json["lights"]
-                .as_object()
-                .into_iter()
-                .flatten()
-                .map(|(_, l)| {
-                    let v = |k: &str, i: usize| l[k][i].as_f64().unwrap_or(0.0) as f32;
-                    let intensity = l["intensity"].as_f64().unwrap_or(0.0) as f32;
-                    let scale = intensity * if intensity < 0.0 { 0.1 } else { 2.5 };
-                    Light {
-                        position: [v("position", 0), v("position", 1), v("position", 2)],
-                        color: [v("color", 0) * scale, v("color", 1) * scale, v("color", 2) * scale],
-                        attached_to_camera: false,
-                    }
-                })
-                .collect(),
-        )
-    } else {
-        Shading::Flat
+    let (world, shading, bake) = match lighting {
+        Some(lighting) => {
+            let path = work.join(format!("lighting_hadage/light_settings_{}_{lighting}.json", scene.name));
+            let settings: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: no such lighting", path.display()))?)?;
+            let clock = Instant::now();
+            let world = lit_world(world, std::slice::from_ref(&settings));
+            (world, Shading::Lit(lights_for_goal(&settings, 0)), Some(clock.elapsed().as_secs_f64()))
+        }
+        None => (world, Shading::Flat, None),
     };
+    if let Some(seconds) = bake {
+        println!("light bake (ambient occlusion, shadows of the static lights): {seconds:.2} s");
+    }
     let mut frame = Frame::default();
     let clock = Instant::now();
     for i in 0..frames {
@@ -120,7 +114,7 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lit: bool, sav
         "{} triangles (loaded in {load:.2} s); {frames} frames of 1200x680 in {seconds:.2} s: {:.1} frames/s ({})",
         world.triangles().len(),
         frames as f64 / seconds,
-        if lit { "lit" } else { "flat" }
+        lighting.unwrap_or("flat")
     );
     let passes = frame.pass_times;
     let per_frame = |d: std::time::Duration| 1e3 * d.as_secs_f64() / passes.frames.max(1) as f64;

@@ -569,32 +569,22 @@ fn decor(category: &str, rng: &mut Rng) -> Option<Asset> {
             [w, d + 0.02, h],
             "A desktop printer.",
         ),
-        "lamp" => {
+        // Round things: as wide as deep, stacked cylinders.
+        "lamp" | "plant" | "vase" => {
             let r = w.min(d) / 2.0;
-            small_object(
-                category,
-                vec![cyl([0.0, 0.0, 0.0], r * 0.6, 0.03, METAL), cyl([0.0, 0.0, 0.03], 0.012, h * 0.7, METAL), cyl([0.0, 0.0, h * 0.72], r, h * 0.28, SHADE)],
-                [2.0 * r, 2.0 * r, h],
-                "A lamp with a shade.",
-            )
-        }
-        "plant" => {
-            let r = w.min(d) / 2.0;
-            small_object(
-                category,
-                vec![cyl([0.0, 0.0, 0.0], r * 0.6, h * 0.3, CERAMIC), cyl([0.0, 0.0, h * 0.3], r, h * 0.7, LEAVES)],
-                [2.0 * r, 2.0 * r, h],
-                "A potted plant.",
-            )
-        }
-        "vase" => {
-            let r = w.min(d) / 2.0;
-            small_object(
-                category,
-                vec![cyl([0.0, 0.0, 0.0], r, h * 0.8, CERAMIC), cyl([0.0, 0.0, h * 0.8], r * 0.6, h * 0.2, CERAMIC)],
-                [2.0 * r, 2.0 * r, h],
-                "A vase.",
-            )
+            let (parts, description) = match category {
+                "lamp" => (
+                    vec![
+                        cyl([0.0, 0.0, 0.0], r * 0.6, 0.03, METAL),
+                        cyl([0.0, 0.0, 0.03], 0.012, h * 0.7, METAL),
+                        cyl([0.0, 0.0, h * 0.72], r, h * 0.28, SHADE),
+                    ],
+                    "A lamp with a shade.",
+                ),
+                "plant" => (vec![cyl([0.0, 0.0, 0.0], r * 0.6, h * 0.3, CERAMIC), cyl([0.0, 0.0, h * 0.3], r, h * 0.7, LEAVES)], "A potted plant."),
+                _ => (vec![cyl([0.0, 0.0, 0.0], r, h * 0.8, CERAMIC), cyl([0.0, 0.0, h * 0.8], r * 0.6, h * 0.2, CERAMIC)], "A vase."),
+            };
+            small_object(category, parts, [2.0 * r, 2.0 * r, h], description)
         }
         "rug" => small_object(
             category,

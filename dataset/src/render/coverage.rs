@@ -583,7 +583,9 @@ impl<'a> Planner<'a> {
     /// Whether walking `length` metres to candidate `k` ends facing a bare view (a goal only
     /// for travel is not worth walking up to a wall for).
     fn arrives_facing_bare(&self, candidates: &[Candidate], k: usize, length: f64, walker: &Walker) -> bool {
-        length > 0.1 && bare_headings(candidates, k)[heading_index(heading_towards(walker.position(), candidates[k].position))]
+        // The candidate at the same position facing the way the walk arrives.
+        let arriving = k - k % HEADINGS + heading_index(heading_towards(walker.position(), candidates[k].position));
+        length > 0.1 && candidates[arriving].view.bare()
     }
 
     /// How many of the frames walking to `cell` would face a bare view: along the path, the

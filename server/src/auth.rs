@@ -27,6 +27,22 @@ pub fn issue_token(scope: TokenScope, team_id: Option<&str>, expires_at: Option<
     (token, record)
 }
 
+/// The id prefix of console sessions: admin-scoped tokens the console issues at sign-in,
+/// which sign nobody in again (a session never renews itself past its sign-out).
+const SESSION_PREFIX: &str = "ses";
+
+/// A console session for an operator who signed in with the admin token, expiring at `expires_at`.
+pub fn issue_session(expires_at: i64) -> (String, TokenRecord) {
+    let (token, mut record) = issue_token(TokenScope::Admin, None, Some(expires_at));
+    record.id = new_id(SESSION_PREFIX);
+    (token, record)
+}
+
+/// Whether `record` is a console session ([`issue_session`]), not a token an administrator holds.
+pub fn is_session(record: &TokenRecord) -> bool {
+    record.id.strip_prefix(SESSION_PREFIX).is_some_and(|rest| rest.starts_with('_'))
+}
+
 /// Who made a request.
 #[derive(Debug, Clone)]
 pub enum Caller {

@@ -1,8 +1,14 @@
 //! `osmab backup --out DIR` and `osmab restore DIR`: everything a lost disk would take — the
 //! records (teams, tokens, submissions, scores, jobs), the stored blobs (archives, releases,
-//! results), the receipt keys, the split secret and the admin token — as one folder sealed by a
-//! manifest of every file's size and SHA-256, taken while the service runs, and put back into
-//! an empty data directory.
+//! results), the receipt keys, the split secret and the admin token — as one folder described
+//! by a manifest of every file's size and SHA-256, taken while the service runs, and put back
+//! into an empty data directory.
+//!
+//! The manifest is sealed with an HMAC-SHA-256 under the operator's backup key
+//! ([`BACKUP_KEY_VARIABLE`]), which is never in the backup: plain checksums would let anyone
+//! who can write the backup store swap the database, the receipt key, the split secret and
+//! the admin token, recompute the sums and have them restored. A restore verifies the seal
+//! before it reads anything else.
 //!
 //! The database is copied first (SQLite: `VACUUM INTO`, a consistent snapshot a running server
 //! does not notice; PostgreSQL: `pg_dump --format=custom`), the blobs after it: blobs are written
@@ -24,7 +30,14 @@ use crate::store::Store;
 
 /// The manifest's name and format.
 pub const MANIFEST: &str = "backup.json";
-pub const FORMAT: &str = "osmab-backup/1";
+pub const FORMAT: &str = "osmab-backup/2";
+/// The format of backups taken before they were sealed: restored only when the operator
+/// says the store they were kept in is trusted.
+const UNSEALED_FORMAT: &str = "osmab-backup/1";
+/// The environment variable holding the backup key.
+pub const BACKUP_KEY_VARIABLE: &str = "OSMAB_BACKUP_KEY";
+/// Characters a backup key needs at least.
+const MIN_KEY_CHARS: usize = 32;
 /// Where the database goes inside a backup.
 const SQLITE_FILE: &str = "database/osmab.db";
 const POSTGRES_FILE: &str = "database/osmab.pgdump";
@@ -52,6 +65,115 @@ pub struct BackupManifest {
     pub objects: Vec<StoredObject>,
     /// Every file of the backup but this manifest, sorted by path.
     pub files: Vec<BackedUpFile>,
+    /// The HMAC of everything above under the backup key (absent in backups before seals).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seal: Option<Seal>,
+}
+
+/// A manifest's seal: which key made it, and the HMAC-SHA-256 of the unsealed manifest's JSON.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Seal {
+    /// A public name of the key (an HMAC of a fixed text under it), so a wrong key is named.
+    pub key_id: String,
+    pub hmac_sha256: String,
+}
+
+/// The operator's backup key, kept apart from the backups (it is never written into one).
+pub struct BackupKey(Vec<u8>);
+
+impl std::fmt::Debug for BackupKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "BackupKey({})", self.id())
+    }
+}
+
+impl BackupKey {
+    /// The key in [`BACKUP_KEY_VARIABLE`], or why there is none to use.
+    pub fn from_env() -> anyhow::Result<Self> {
+        Self::from_env_if_set()?.ok_or_else(|| {
+            anyhow::anyhow!(
+                "{BACKUP_KEY_VARIABLE} is not set: backups are sealed with a key kept apart from them, so that whoever can write the backup store cannot \
+                 replace what it holds. Make one once (`openssl rand -hex 32`), keep it where the backups are not, and set it for `osmab backup` and `osmab restore`"
+            )
+        })
+    }
+
+    /// The key in [`BACKUP_KEY_VARIABLE`], if set.
+    pub fn from_env_if_set() -> anyhow::Result<Option<Self>> {
+        let text = std::env::var(BACKUP_KEY_VARIABLE).unwrap_or_default();
+        if text.trim().is_empty() {
+            return Ok(None);
+        }
+        Self::new(&text).map(Some)
+    }
+
+    fn new(text: &str) -> anyhow::Result<Self> {
+        let text = text.trim();
+        ensure!(
+            text.chars().count() >= MIN_KEY_CHARS && !text.chars().any(char::is_control),
+            "{BACKUP_KEY_VARIABLE}: a backup key is at least {MIN_KEY_CHARS} printable characters (e.g. `openssl rand -hex 32`)"
+        );
+        Ok(Self(text.as_bytes().to_vec()))
+    }
+
+    fn mac(&self) -> hmac::Hmac<Sha256> {
+        use hmac::KeyInit;
+        hmac::Hmac::<Sha256>::new_from_slice(&self.0).expect("HMAC takes a key of any length")
+    }
+
+    /// The key's public name.
+    pub fn id(&self) -> String {
+        use hmac::Mac;
+        let mut mac = self.mac();
+        mac.update(b"osmab backup key id");
+        hex(&mac.finalize().into_bytes())[..16].to_string()
+    }
+
+    /// `manifest` sealed: its seal made over the manifest without one.
+    fn seal(&self, mut manifest: BackupManifest) -> anyhow::Result<BackupManifest> {
+        use hmac::Mac;
+        manifest.seal = None;
+        let mut mac = self.mac();
+        mac.update(&serde_json::to_vec(&manifest)?);
+        manifest.seal = Some(Seal { key_id: self.id(), hmac_sha256: hex(&mac.finalize().into_bytes()) });
+        Ok(manifest)
+    }
+
+    /// Whether `manifest`'s seal was made with this key over exactly what it says; why not.
+    fn verify(&self, manifest: &BackupManifest, path: &Path) -> anyhow::Result<()> {
+        use hmac::Mac;
+        let Some(seal) = &manifest.seal else {
+            bail!(
+                "{}: the manifest has no seal; a backup of this format is always sealed, so it was changed after it was taken. Nothing was written",
+                path.display()
+            );
+        };
+        ensure!(
+            seal.key_id == self.id(),
+            "{}: sealed with backup key {}, but {BACKUP_KEY_VARIABLE} is key {}: set the key this backup was taken with. Nothing was written",
+            path.display(),
+            seal.key_id,
+            self.id()
+        );
+        let unsealed = BackupManifest { seal: None, ..manifest.clone() };
+        let mut mac = self.mac();
+        mac.update(&serde_json::to_vec(&unsealed)?);
+        let expected = unhex(&seal.hmac_sha256).unwrap_or_default();
+        ensure!(
+            mac.verify_slice(&expected).is_ok(),
+            "{}: the seal does not verify with the backup key: the manifest was changed (or re-sealed without the key) after the backup was taken. Nothing was written",
+            path.display()
+        );
+        Ok(())
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn unhex(text: &str) -> Option<Vec<u8>> {
+    (0..text.len()).step_by(2).map(|i| text.get(i..i + 2).and_then(|h| u8::from_str_radix(h, 16).ok())).collect()
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -61,8 +183,8 @@ pub struct BackedUpFile {
     pub sha256: String,
 }
 
-/// Take a backup of the service `settings` describe into `out` (absent or empty).
-pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupManifest> {
+/// Take a backup of the service `settings` describe into `out` (absent or empty), sealed with `key`.
+pub async fn backup(settings: &Settings, out: &Path, key: &BackupKey) -> anyhow::Result<BackupManifest> {
     ensure_empty(out, "--out")?;
     create_private_dir(out)?;
     let url = settings.database_url.expose();
@@ -110,16 +232,25 @@ pub async fn backup(settings: &Settings, out: &Path) -> anyhow::Result<BackupMan
         database: database.into(),
         objects,
         files,
+        seal: None,
     };
+    let manifest = key.seal(manifest)?;
     // Written last: a folder without it is an unfinished backup.
     std::fs::write(out.join(MANIFEST), serde_json::to_vec_pretty(&manifest)?).with_context(|| format!("{}: cannot write", out.join(MANIFEST).display()))?;
     Ok(manifest)
 }
 
+/// What vouches for a backup: the key that sealed it (where the operator has set one) and,
+/// for a backup taken before seals, the operator's word that the store it was kept in is trusted.
+pub struct Trust {
+    pub key: Option<BackupKey>,
+    pub unsealed_store: bool,
+}
+
 /// Restore the backup in `from` into the empty data directory (and database) of `settings`;
-/// every file is checked against the manifest before anything is written.
-pub async fn restore(settings: &Settings, from: &Path) -> anyhow::Result<BackupManifest> {
-    let manifest = check_backup(from)?;
+/// the seal and every file are checked against the manifest before anything is written.
+pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow::Result<BackupManifest> {
+    let manifest = check_backup(from, trust)?;
     let data = &settings.data_dir;
     ensure_empty(data, "the data directory (OSMAB_DATA_DIR)")?;
     let in_bucket = !manifest.objects.is_empty();
@@ -206,12 +337,24 @@ async fn check_bucket(blobs: &Blobs, objects: &[StoredObject]) -> anyhow::Result
 
 /// The manifest of the backup in `dir`, once every file it lists is there with its size and
 /// SHA-256 and nothing else is.
-pub fn check_backup(dir: &Path) -> anyhow::Result<BackupManifest> {
+pub fn check_backup(dir: &Path, trust: &Trust) -> anyhow::Result<BackupManifest> {
     let path = dir.join(MANIFEST);
     let manifest: BackupManifest =
         serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: cannot read (is this a backup?)", path.display()))?)
             .with_context(|| format!("{}: not a backup manifest", path.display()))?;
-    ensure!(manifest.format == FORMAT, "{}: format '{}', expected '{FORMAT}'", path.display(), manifest.format);
+    match (manifest.format.as_str(), trust) {
+        (FORMAT, Trust { key: Some(key), .. }) => key.verify(&manifest, &path)?,
+        (FORMAT, Trust { key: None, .. }) => {
+            bail!("{}: this backup is sealed; set {BACKUP_KEY_VARIABLE} to the key it was taken with. Nothing was written", path.display())
+        }
+        (UNSEALED_FORMAT, Trust { unsealed_store: true, .. }) => {}
+        (UNSEALED_FORMAT, _) => bail!(
+            "{}: format '{UNSEALED_FORMAT}', taken before backups were sealed: anyone who could write where it was kept could have replaced its keys, secrets \
+             and database. Restore it only if you trust that store, with --trust-unsealed-backup. Nothing was written",
+            path.display()
+        ),
+        (other, _) => bail!("{}: format '{other}', expected '{FORMAT}'", path.display()),
+    }
     let found = describe_files(dir)?;
     let listed: std::collections::BTreeMap<&str, &BackedUpFile> = manifest.files.iter().map(|f| (f.path.as_str(), f)).collect();
     for file in &found {
@@ -323,4 +466,90 @@ fn run(program: &str, args: &[&str]) -> anyhow::Result<()> {
         .with_context(|| format!("{program} could not be run (PostgreSQL's client tools, e.g. Debian's postgresql-client, of the server's major version)"))?;
     ensure!(output.status.success(), "{program} failed ({}): {}", output.status, String::from_utf8_lossy(&output.stderr).trim());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A backup folder of one file, its manifest sealed with `key` (or left unsealed as an
+    /// `osmab-backup/1` one).
+    fn a_backup(key: Option<&BackupKey>) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("admin-token"), "osmab_real").unwrap();
+        let manifest = BackupManifest {
+            format: if key.is_some() { FORMAT } else { UNSEALED_FORMAT }.into(),
+            created_at: "2026-11-27T00:00:00Z".into(),
+            osmab_version: "0".into(),
+            database: "sqlite".into(),
+            objects: Vec::new(),
+            files: describe_files(dir.path()).unwrap(),
+            seal: None,
+        };
+        let manifest = match key {
+            Some(key) => key.seal(manifest).unwrap(),
+            None => manifest,
+        };
+        std::fs::write(dir.path().join(MANIFEST), serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+        dir
+    }
+
+    fn key(text: &str) -> BackupKey {
+        BackupKey::new(text).unwrap()
+    }
+
+    fn with_key(text: &str) -> Trust {
+        Trust { key: Some(key(text)), unsealed_store: false }
+    }
+
+    const OPERATOR: &str = "operator-key-0123456789abcdef0123456789";
+
+    #[test]
+    fn a_sealed_backup_verifies_with_its_key_only() {
+        let backup = a_backup(Some(&key(OPERATOR)));
+        assert!(check_backup(backup.path(), &with_key(OPERATOR)).is_ok());
+        let wrong = check_backup(backup.path(), &with_key("another-key-0123456789abcdef0123456789")).unwrap_err().to_string();
+        assert!(wrong.contains(&format!("sealed with backup key {}", key(OPERATOR).id())) && wrong.contains("Nothing was written"), "{wrong}");
+        let none = check_backup(backup.path(), &Trust { key: None, unsealed_store: true }).unwrap_err().to_string();
+        assert!(none.contains(BACKUP_KEY_VARIABLE), "{none}");
+    }
+
+    #[test]
+    fn a_backup_re_sealed_without_the_key_is_refused() {
+        // Someone who can write the backup store swaps the admin token and recomputes every
+        // sum, keeping the old seal or making one with a key of their own under the same id.
+        let backup = a_backup(Some(&key(OPERATOR)));
+        std::fs::write(backup.path().join("admin-token"), "osmab_attacker").unwrap();
+        let path = backup.path().join(MANIFEST);
+        let mut manifest: BackupManifest = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        manifest.files = describe_files(backup.path()).unwrap();
+        std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+        let refused = check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
+        assert!(refused.contains("the seal does not verify"), "{refused}");
+
+        let mut forged = key("attacker-key-0123456789abcdef0123456789").seal(manifest.clone()).unwrap();
+        forged.seal.as_mut().unwrap().key_id = key(OPERATOR).id();
+        std::fs::write(&path, serde_json::to_vec_pretty(&forged).unwrap()).unwrap();
+        assert!(check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("the seal does not verify"));
+
+        manifest.seal = None;
+        std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+        assert!(check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("has no seal"));
+        manifest.format = UNSEALED_FORMAT.into();
+        std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+        let downgraded = check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
+        assert!(downgraded.contains("--trust-unsealed-backup"), "a seal stripped to an old format is refused unless the operator vouches: {downgraded}");
+    }
+
+    #[test]
+    fn an_unsealed_backup_of_before_restores_only_on_the_operators_word() {
+        let old = a_backup(None);
+        assert!(check_backup(old.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("taken before backups were sealed"));
+        assert!(check_backup(old.path(), &Trust { key: None, unsealed_store: true }).is_ok());
+    }
+
+    #[test]
+    fn a_short_key_is_refused() {
+        assert!(BackupKey::new("short").unwrap_err().to_string().contains("at least 32"));
+    }
 }

@@ -104,6 +104,10 @@ problem_codes! {
     ChecksumAlgorithm = "checksum_algorithm",
     /// The chunk's SHA-256 differs from its `Upload-Checksum` (status 460); nothing was kept, send it again.
     ChecksumMismatch = "checksum_mismatch",
+    /// Another PATCH of this resumable upload is still arriving at this server (409); wait for it, then continue from the offset HEAD reports.
+    UploadBusy = "upload_busy",
+    /// A PATCH that does not finish the upload carries fewer bytes than `minimum` (a sliver of the length, at least 64 KiB); send larger chunks.
+    ChunkTooSmall = "chunk_too_small",
     /// The resumable upload expired before it was complete; start a new one.
     UploadExpired = "upload_expired",
     /// The team holds `OSMAB_MAX_OPEN_UPLOADS` resumable uploads open (429); finish or DELETE one, or let it expire.

@@ -3,13 +3,61 @@
 //! address). Successful reads are cheap and cached, so they are not limited.
 
 use std::collections::HashMap;
+use std::net::IpAddr;
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// The bucket that failed authentications from `address` share: wrong tokens and console
-/// cookies that are no session alike.
-pub fn failed_authentication(address: Option<std::net::IpAddr>) -> String {
-    format!("failed authentication from {}", address.map_or_else(|| "unknown".to_string(), |a| a.to_string()))
+use axum::http::HeaderMap;
+
+use crate::proxies::TrustedProxies;
+
+/// The bucket that failed authentications from `client` ([`client_of`]) share: wrong
+/// tokens and console cookies that are no session alike.
+pub fn failed_authentication(client: &str) -> String {
+    format!("failed authentication from {client}")
+}
+
+/// The client a request counts against: the peer's address, or, when the peer is a trusted
+/// proxy, the right-most address of `X-Forwarded-For` that is not one (each proxy appends
+/// the address it saw; anything left of that was written by the client). Every loopback
+/// address is one client, and an IPv6 client is its /64 (one host holds a whole /64).
+pub fn client_of(headers: &HeaderMap, peer: Option<IpAddr>, trusted: &TrustedProxies) -> String {
+    let Some(peer) = peer else {
+        return "unknown".into();
+    };
+    let mut client = peer;
+    if trusted.contains(peer) {
+        let forwarded: Vec<&str> = headers.get_all("x-forwarded-for").iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(',')).collect();
+        for hop in forwarded.iter().rev() {
+            match hop.trim().parse::<IpAddr>() {
+                Ok(address) => {
+                    client = address;
+                    if !trusted.contains(address) {
+                        break;
+                    }
+                }
+                // What the first trusted proxy saw ends here: the rest is the client's writing.
+                Err(_) => break,
+            }
+        }
+    }
+    address_key(client)
+}
+
+/// The rate-limit key of one address (see [`client_of`]).
+fn address_key(address: IpAddr) -> String {
+    let address = match address {
+        IpAddr::V6(v6) => v6.to_ipv4_mapped().map_or(address, IpAddr::V4),
+        v4 => v4,
+    };
+    match address {
+        _ if address.is_loopback() => "loopback".into(),
+        IpAddr::V4(v4) => v4.to_string(),
+        IpAddr::V6(v6) => {
+            let s = v6.segments();
+            format!("{:x}:{:x}:{:x}:{:x}::/64", s[0], s[1], s[2], s[3])
+        }
+    }
 }
 
 /// Token buckets keyed by client.
@@ -64,5 +112,23 @@ mod tests {
         assert_eq!(limiter.admit(client(), t0), Err(1));
         assert!(limiter.admit(client(), t0 + Duration::from_millis(600)).is_ok());
         assert!(limiter.admit("10.0.0.1".into(), t0).is_ok());
+    }
+
+    #[test]
+    fn the_client_is_the_right_most_untrusted_forwarded_address_and_loopback_is_one() {
+        let trusted = TrustedProxies::parse("10.0.0.0/8").unwrap();
+        let headers =
+            |xff: &str| -> HeaderMap { [(axum::http::header::HeaderName::from_static("x-forwarded-for"), xff.parse().unwrap())].into_iter().collect() };
+        let proxy: Option<IpAddr> = Some("10.0.0.2".parse().unwrap());
+        let forged = headers("1.2.3.4, 198.51.100.7, 10.0.0.9");
+        assert_eq!(client_of(&forged, proxy, &trusted), "198.51.100.7", "what the client wrote left of its address is ignored");
+        assert_eq!(client_of(&headers("junk, 198.51.100.7"), proxy, &trusted), "198.51.100.7");
+        assert_eq!(client_of(&forged, Some("203.0.113.5".parse().unwrap()), &trusted), "203.0.113.5", "a stranger's header counts for nothing");
+        assert_eq!(client_of(&HeaderMap::new(), proxy, &trusted), "10.0.0.2", "a proxy that forwards nothing is the client");
+        for alias in ["127.0.0.1", "127.0.0.2", "127.9.9.9", "::1", "::ffff:127.0.0.5"] {
+            assert_eq!(client_of(&HeaderMap::new(), Some(alias.parse().unwrap()), &trusted), "loopback", "{alias}");
+        }
+        assert_eq!(client_of(&HeaderMap::new(), Some("2001:db8:1:2:aaaa::1".parse().unwrap()), &trusted), "2001:db8:1:2::/64");
+        assert_eq!(client_of(&HeaderMap::new(), Some("2001:db8:1:2:bbbb::9".parse().unwrap()), &trusted), "2001:db8:1:2::/64");
     }
 }

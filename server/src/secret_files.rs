@@ -21,6 +21,24 @@ pub fn write_new_owner_only(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     file.sync_all()
 }
 
+/// Create `dir` (and its parents) if missing and make it owner-only (mode 0700 on Unix),
+/// repairing a folder another user could read or enter; `Ok(true)` when its mode was
+/// repaired, so the caller can say so.
+pub fn owner_only_dir(dir: &Path) -> std::io::Result<bool> {
+    let existed = dir.is_dir();
+    std::fs::create_dir_all(dir)?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(dir)?.permissions().mode() & 0o777;
+        if mode != 0o700 {
+            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
+            return Ok(existed && mode & 0o077 != 0);
+        }
+    }
+    Ok(false)
+}
+
 /// Bring the shared folder `prefix` of the object store into `dir`; when it holds no secret
 /// yet (`has_one`), `generate` one here (the first start of the first node) and share it;
 /// then read the folder back, so every node ends with the same files, each owner-only.
@@ -33,6 +51,7 @@ pub async fn share_folder(
     has_one: impl Fn(&Path) -> anyhow::Result<bool>,
     generate: impl FnOnce(&Path) -> anyhow::Result<std::path::PathBuf>,
 ) -> anyhow::Result<()> {
+    owner_only_dir(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     blobs.pull_tree(prefix, dir).await.with_context(|| format!("cannot read the {what} from the object storage"))?;
     if !has_one(dir)? {
         generate(dir)?;
@@ -65,5 +84,18 @@ mod tests {
         let again = super::write_new_owner_only(&path, b"y").unwrap_err();
         assert_eq!(again.kind(), std::io::ErrorKind::AlreadyExists, "never overwritten");
         assert_eq!(std::fs::read(&path).unwrap(), b"x");
+    }
+
+    #[test]
+    #[cfg(unix)]
+    fn a_secret_folder_is_made_owner_only_and_a_readable_one_repaired() {
+        use std::os::unix::fs::PermissionsExt;
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("a/b");
+        assert!(!super::owner_only_dir(&dir).unwrap(), "a new folder needed no repair");
+        assert_eq!(std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777, 0o700);
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+        assert!(super::owner_only_dir(&dir).unwrap(), "0755 is repaired");
+        assert_eq!(std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777, 0o700);
     }
 }

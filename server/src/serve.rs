@@ -21,7 +21,7 @@ use crate::store::{Store, TokenRecord};
 
 /// Open the database (migrated) and the blob storage of `settings`.
 pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
-    std::fs::create_dir_all(&settings.data_dir).with_context(|| format!("cannot create the data directory {}", settings.data_dir.display()))?;
+    open_data_dir(&settings.data_dir)?;
     let url = settings.database_url.expose().to_string();
     let store = Store::connect(&url).await.with_context(|| format!("cannot open the database {}", redact_url(&url)))?;
     store.migrate().await.context("cannot apply the database migrations")?;
@@ -41,6 +41,24 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     }
     tracing::info!(database = %redact_url(&url), backend = store.backend(), data_dir = %settings.data_dir.display(), blobs = %blobs.describe(), "store opened");
     AppState::new(settings, store, blobs)
+}
+
+/// Create the data directory owner-only, or repair it and the secret folders in it: it
+/// holds the hidden test ground truth, the database, uploads and the keys, which no other
+/// local user may read.
+pub fn open_data_dir(data_dir: &std::path::Path) -> anyhow::Result<()> {
+    let owner_only =
+        |dir: &std::path::Path| crate::secret_files::owner_only_dir(dir).with_context(|| format!("cannot create or make owner-only {}", dir.display()));
+    if owner_only(data_dir)? {
+        tracing::warn!(dir = %data_dir.display(), "the data directory was readable by other users; made it owner-only (0700)");
+    }
+    for secrets in [RECEIPT_KEYS, crate::split_secret::SPLIT_SECRET_DIR] {
+        let dir = data_dir.join(secrets);
+        if dir.is_dir() && owner_only(&dir)? {
+            tracing::warn!(dir = %dir.display(), "a secret folder was readable by other users; made it owner-only (0700)");
+        }
+    }
+    Ok(())
 }
 
 /// Nodes that share only an object store share its receipt keys, so a receipt any server

@@ -31,7 +31,7 @@ fn secrets_in(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// Write a new random secret into `dir`.
 fn generate(dir: &Path) -> anyhow::Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    crate::secret_files::owner_only_dir(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let mut bytes = [0u8; 32];
     getrandom::fill(&mut bytes).map_err(|e| anyhow::anyhow!("the operating system's random generator failed: {e}"))?;
     let text: String = bytes.iter().map(|b| format!("{b:02x}")).collect();

@@ -26,6 +26,8 @@ pub struct AppState {
     pub receipts: Arc<ReceiptKeys>,
     /// The operator's secret that shapes the test scenes of the releases it builds.
     pub split_secret: SplitSecret,
+    /// Resumable uploads a PATCH is arriving for on this server (one at a time each).
+    pub uploads_in_flight: Arc<std::sync::Mutex<std::collections::HashSet<String>>>,
 }
 
 impl AppState {
@@ -45,6 +47,7 @@ impl AppState {
             validation: Arc::new(tokio::sync::Semaphore::new(2)),
             receipts,
             split_secret,
+            uploads_in_flight: Arc::default(),
         })
     }
 }

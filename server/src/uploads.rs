@@ -27,6 +27,34 @@ pub const TUS_EXTENSIONS: &str = "creation,checksum,termination,expiration";
 pub const TUS_CHECKSUMS: &str = "sha256";
 /// Longest `Upload-Metadata` kept.
 const MAX_METADATA: usize = 4096;
+/// The fewest bytes a PATCH that does not finish its upload may carry, and the most parts an
+/// upload is split into (each part is a blob and a line of the upload's record).
+const MIN_PART_BYTES: u64 = 64 << 10;
+const MAX_PARTS: u64 = 1024;
+
+/// The fewest bytes a PATCH of an upload of `length` bytes must carry unless it is the last:
+/// 64 KiB, or more for uploads over 64 MiB, so no upload has more than [`MAX_PARTS`] parts.
+pub fn min_part_bytes(length: u64) -> u64 {
+    MIN_PART_BYTES.max(length.div_ceil(MAX_PARTS))
+}
+
+/// This server receiving a PATCH of one upload; dropped when it ends. A second PATCH of the
+/// same upload meanwhile is refused, so concurrent PATCHes at one offset cannot each fill a
+/// scratch file with the upload's remaining bytes: at most one remainder per upload is in
+/// scratch, and that is within the open-upload bytes the team declared.
+struct InFlight<'a>(&'a std::sync::Mutex<std::collections::HashSet<String>>, String);
+
+impl<'a> InFlight<'a> {
+    fn claim(set: &'a std::sync::Mutex<std::collections::HashSet<String>>, id: &str) -> Option<Self> {
+        set.lock().expect("in-flight uploads").insert(id.to_string()).then(|| Self(set, id.to_string()))
+    }
+}
+
+impl Drop for InFlight<'_> {
+    fn drop(&mut self) {
+        self.0.lock().expect("in-flight uploads").remove(&self.1);
+    }
+}
 
 fn blob_prefix(id: &str) -> String {
     format!("uploads/{id}")
@@ -135,6 +163,14 @@ pub async fn append(state: &AppState, team: &Team, id: &str, offset: u64, body: 
     if offset != upload.upload_offset as u64 {
         return Err(offset_conflict(&upload, offset));
     }
+    let Some(_in_flight) = InFlight::claim(&state.uploads_in_flight, id) else {
+        return Err(Problem::new(
+            StatusCode::CONFLICT,
+            ProblemCode::UploadBusy,
+            "Upload busy",
+            format!("Another PATCH of upload '{id}' is still arriving; wait for it, then continue from the offset HEAD reports."),
+        ));
+    };
     let room = (upload.length - upload.upload_offset) as u64;
     let (part, _scratch) = receive(state, body, room).await.map_err(|problem| {
         if problem.status == StatusCode::PAYLOAD_TOO_LARGE {
@@ -160,6 +196,19 @@ pub async fn append(state: &AppState, team: &Team, id: &str, offset: u64, body: 
     }
     if part.size == 0 {
         return Ok(upload);
+    }
+    let minimum = min_part_bytes(upload.length as u64);
+    if part.size < minimum && part.size < room {
+        return Err(Problem::new(
+            StatusCode::BAD_REQUEST,
+            ProblemCode::ChunkTooSmall,
+            "Chunk too small",
+            format!(
+                "{} bytes sent for offset {offset}: a PATCH that does not finish the upload carries at least {minimum} bytes; nothing was kept.",
+                part.size
+            ),
+        )
+        .with("minimum", serde_json::json!(minimum)));
     }
     let key = format!("{}/{offset:020}-{}", blob_prefix(id), crate::clock::random_alphanumeric(8).to_ascii_lowercase());
     state.blobs.put_file(&key, &part.path).await.map_err(Problem::storage)?;

@@ -200,6 +200,13 @@ pub const LLM_KEY_VARIABLE: &str = "OSMAB_LLM_API_KEY";
 /// The environment variable holding the embeddings service's API key for release builds.
 pub const EMBEDDINGS_KEY_VARIABLE: &str = "OSMAB_EMBEDDINGS_API_KEY";
 
+/// Bounds of the sizes a release config sets ([`ReleaseConfig::size_beyond_bounds`]).
+const MAX_PROMPT_POOL: u64 = 5_000;
+const MAX_SCENES_PER_SUBSET: u64 = 200;
+const MAX_FRAMES: u64 = 100_000;
+const MAX_GOALS: u64 = 100;
+const MAX_TIMEOUT_SECS: u64 = 86_400;
+
 /// Everything a release build needs; the same config gives the same release.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -244,6 +251,25 @@ impl ReleaseConfig {
         super::manifest::hex(&<sha2::Sha256 as sha2::Digest>::digest(serde_json::to_vec(&content).expect("serialisable")))
     }
 
+    /// The first size this config sets beyond its bound, as (field, bound). The bounds are
+    /// far above the full release's (250 and 100 prompts, 24 and 16 scenes, 20,000 frames at
+    /// most, 5 and 10 goals) and stop a posted config from queueing work without end.
+    fn size_beyond_bounds(&self) -> Option<(&'static str, u64)> {
+        let sizes = [
+            ("prompts.furniture_pool", self.prompts.furniture_pool as u64, MAX_PROMPT_POOL),
+            ("prompts.manipuland_pool", self.prompts.manipuland_pool as u64, MAX_PROMPT_POOL),
+            ("selection.furniture", self.selection.furniture as u64, MAX_SCENES_PER_SUBSET),
+            ("selection.manipuland", self.selection.manipuland as u64, MAX_SCENES_PER_SUBSET),
+            ("render.max_frames", self.render.max_frames as u64, MAX_FRAMES),
+            ("render.goals_furniture", self.render.goals_furniture as u64, MAX_GOALS),
+            ("render.goals_manipuland", self.render.goals_manipuland as u64, MAX_GOALS),
+            ("render.timeout_secs", self.render.timeout_secs, MAX_TIMEOUT_SECS),
+            ("synthesis.timeout_secs", self.synthesis.timeout_secs, MAX_TIMEOUT_SECS),
+            ("quality.replacements", self.quality.replacements.unwrap_or(0) as u64, MAX_PROMPT_POOL),
+        ];
+        sizes.into_iter().find(|(_, size, bound)| size > bound).map(|(field, _, bound)| (field, bound))
+    }
+
     /// Check the config `text` (named `path` in errors).
     pub fn parse(text: &str, path: &Path) -> Result<(Self, String)> {
         let text = text.to_string();
@@ -277,6 +303,9 @@ impl ReleaseConfig {
         }
         if !(q.min_travel >= 0.0 && q.min_travel < 1000.0) {
             return bad("quality.min_travel", "metres in [0, 1000)");
+        }
+        if let Some((field, bound)) = config.size_beyond_bounds() {
+            return bad(field, &format!("at most {bound} (every size a release config sets is bounded, so a config cannot queue unbounded work)"));
         }
         if !(1..=8).contains(&config.render.frames_per_action) {
             return bad("render.frames_per_action", "1 to 8 frames per move or turn");

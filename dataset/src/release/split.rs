@@ -47,9 +47,14 @@ impl SplitsConfig {
     }
 }
 
-/// The operator's secret (from [`SPLIT_SECRET_VARIABLE`] or the server's data folder).
+/// PBKDF2 rounds of the secret's public id: a guess of an operator-chosen passphrase costs
+/// this many HMAC-SHA-256 evaluations (≈0.1 s here) instead of one hash.
+const ID_ROUNDS: u32 = 100_000;
+
+/// The operator's secret (from [`SPLIT_SECRET_VARIABLE`] or the server's data folder), and
+/// its public id once derived.
 #[derive(Clone)]
-pub struct SplitSecret(String);
+pub struct SplitSecret(String, std::sync::OnceLock<String>);
 
 impl std::fmt::Debug for SplitSecret {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -68,7 +73,7 @@ impl SplitSecret {
                 format!("a split secret is at least {MIN_SECRET_CHARS} printable characters (e.g. `openssl rand -hex 32`)"),
             ));
         }
-        Ok(Self(text.to_string()))
+        Ok(Self(text.to_string(), std::sync::OnceLock::new()))
     }
 
     /// The secret in [`SPLIT_SECRET_VARIABLE`], if set.
@@ -79,10 +84,12 @@ impl SplitSecret {
         }
     }
 
-    /// A public name of the secret (a hash; it reveals nothing of it): build stages record
-    /// it, so a build resumed under another secret redoes its test scenes.
+    /// A public name of the secret: build stages and manifests record it, so a build resumed
+    /// under another secret redoes its test scenes and a release tells which secret built it.
+    /// Derived slowly (PBKDF2-HMAC-SHA-256, [`ID_ROUNDS`] rounds): the id is published, and a
+    /// fast hash of it would let anyone test guesses of a passphrase at millions a second.
     pub fn id(&self) -> String {
-        hex(&Sha256::digest(format!("osmab split secret id\0{}", self.0).as_bytes()))[..16].to_string()
+        self.1.get_or_init(|| hex(&pbkdf2_sha256(self.0.as_bytes(), b"osmab split secret id", ID_ROUNDS))[..16].to_string()).clone()
     }
 
     /// The synthesis seed of test scene `index` of a release seeded with `seed`.
@@ -123,9 +130,42 @@ impl SplitSecret {
     }
 }
 
+/// PBKDF2 (RFC 8018) with HMAC-SHA-256, one 32-byte block.
+fn pbkdf2_sha256(password: &[u8], salt: &[u8], rounds: u32) -> [u8; 32] {
+    use hmac::{Hmac, KeyInit, Mac};
+    let keyed = Hmac::<Sha256>::new_from_slice(password).expect("HMAC takes a key of any length");
+    let mut mac = keyed.clone();
+    mac.update(salt);
+    mac.update(&1u32.to_be_bytes());
+    let mut block: [u8; 32] = mac.finalize().into_bytes().into();
+    let mut sum = block;
+    for _ in 1..rounds {
+        let mut mac = keyed.clone();
+        mac.update(&block);
+        block = mac.finalize().into_bytes().into();
+        sum.iter_mut().zip(block).for_each(|(s, b)| *s ^= b);
+    }
+    sum
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pbkdf2_is_the_standards_function() {
+        // RFC 7914 §11's PBKDF2-HMAC-SHA-256 vector ("passwd", "salt", 1 round), first 32 bytes.
+        assert_eq!(hex(&pbkdf2_sha256(b"passwd", b"salt", 1)), "55ac046e56e3089fec1691c22544b605f94185216dde0465e68b9d57c20dacbc");
+    }
+
+    #[test]
+    fn the_public_id_is_not_a_fast_hash_of_the_secret() {
+        let secret = SplitSecret::new("correct horse battery staple", "test").unwrap();
+        let fast = hex(&Sha256::digest("osmab split secret id\0correct horse battery staple".as_bytes()))[..16].to_string();
+        assert_ne!(secret.id(), fast, "a guess is no longer one SHA-256 away");
+        assert_eq!(secret.id(), hex(&pbkdf2_sha256(b"correct horse battery staple", b"osmab split secret id", ID_ROUNDS))[..16]);
+        assert_eq!(secret.id().len(), 16);
+    }
 
     #[test]
     fn test_scenes_are_spread_evenly_through_each_subset() {

@@ -34,8 +34,8 @@ impl Default for SensorSettings {
 impl SensorSettings {
     /// The first setting a camera cannot have, as (field, expectation).
     pub fn problem(&self) -> Option<(&'static str, &'static str)> {
-        if !(16..=8192).contains(&self.width) || !(16..=8192).contains(&self.height) {
-            Some(("width", "image sides must be 16..=8192"))
+        if !(16..=4096).contains(&self.width) || !(16..=4096).contains(&self.height) {
+            Some(("width", "image sides must be 16..=4096"))
         } else if !(self.hfov > 0.0 && self.hfov < 180.0) {
             Some(("hfov", "a horizontal field of view in degrees, in (0, 180)"))
         } else if !(self.sensor_height > 0.0 && self.sensor_height < 1.5) {

@@ -269,7 +269,13 @@ fn release_configs_with_secrets_or_impossible_cameras_are_rejected_by_field() {
         (secret.as_str(), "prompts.llm.api_key", "OSMAB_LLM_API_KEY"),
         (&TINY.replace("height = 48\n", "height = 48\nhfov = 180.0\n"), "render.hfov", "(0, 180)"),
         (&TINY.replace("height = 48\n", "height = 48\nsensor_height = 0.0\n"), "render.sensor_height", "(0, 1.5)"),
-        (&TINY.replace("width = 64", "width = 0"), "render.width", "16..=8192"),
+        (&TINY.replace("width = 64", "width = 0"), "render.width", "16..=4096"),
+        (&TINY.replace("width = 64", "width = 8192"), "render.width", "16..=4096"),
+        // Every size is bounded, the bound named: a posted config cannot queue unbounded work.
+        (&TINY.replace("furniture_pool = 6", "furniture_pool = 1000000000"), "prompts.furniture_pool", "at most 5000"),
+        (&TINY.replace("furniture = 1\n", "furniture = 100000\n"), "selection.furniture", "at most 200"),
+        (&TINY.replace("max_frames = 24", "max_frames = 1000000000"), "render.max_frames", "at most 100000"),
+        (&TINY.replace("goals_manipuland = 1", "goals_manipuland = 5000"), "render.goals_manipuland", "at most 100"),
         (&format!("{TINY}\n[splits]\ntest_furniture = 2\n"), "splits.test_furniture", "at most the subset's 1"),
         (
             &format!(

@@ -21,11 +21,33 @@ pub struct NpzReader {
 }
 
 impl NpzReader {
-    /// Open `path`, checking that it is a zip archive.
+    /// Open `path`, checking that it is a zip archive that starts where the file does, as
+    /// NumPy reads it: `np.load` takes a file for an `.npz` only by its first bytes (a zip
+    /// member's or an empty zip's signature), so data before the archive (a polyglot, an
+    /// `.npz` wrapped in a tar) is refused, though a zip reader that searches from the end
+    /// would find the archive inside.
     pub fn open(path: &Path, limits: ReadLimits) -> Result<Self> {
-        let file = File::open(path).map_err(|e| InputError::io(path, &e))?;
+        let mut file = File::open(path).map_err(|e| InputError::io(path, &e))?;
+        let mut start = [0u8; 4];
+        let read = std::io::Read::read(&mut file, &mut start).map_err(|e| InputError::io(path, &e))?;
+        if read < 4 || !(start == *b"PK\x03\x04" || start == *b"PK\x05\x06") {
+            return Err(InputError::new(
+                path,
+                "(archive)",
+                "not an .npz: it must start with a zip signature ('PK\\x03\\x04'), as np.load requires; this file has other data first \
+                 (another format, or an .npz inside another archive)",
+            ));
+        }
+        std::io::Seek::rewind(&mut file).map_err(|e| InputError::io(path, &e))?;
         let archive =
             ZipArchive::new(BufReader::new(file)).map_err(|e| InputError::new(path, "(archive)", format!("not a readable .npz (zip) archive: {e}")))?;
+        if archive.offset() != 0 {
+            return Err(InputError::new(
+                path,
+                "(archive)",
+                format!("not an .npz: its zip archive starts {} bytes into the file, after data np.load would not skip", archive.offset()),
+            ));
+        }
         Ok(Self { path: path.to_path_buf(), archive, limits, read_bytes: 0 })
     }
 

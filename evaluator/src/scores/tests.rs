@@ -1,4 +1,5 @@
 use super::*;
+use crate::semseg::report::MetricTriple;
 
 /// A score document as the untyped scorer wrote it (keys sorted, NaN as null), with
 /// segmentation, a subset, relative change and VQA with per-scene answers.
@@ -71,7 +72,6 @@ fn a_document_without_vqa_serialises_vqa_as_null() {
 /// A score of `split` with `scenes[l]` scenes under lighting `l` (furniture first, then
 /// manipuland, by `furniture`), and VQA pooled over `vqa_scenes` scenes.
 fn scored(split: Split, scenes: &[(Lighting, usize)], furniture: usize, vqa_scenes: usize) -> Scores {
-    use crate::semseg::report::MetricTriple;
     let triple = MetricTriple { fmiou: 0.5, macc: 0.5, miou: 0.5, ci95: None };
     let mut semseg = BTreeMap::new();
     for &(lighting, n) in scenes {
@@ -153,8 +153,11 @@ fn a_test_score_shows_no_number_that_depends_on_fewer_than_five_scenes() {
     let vqa = shown.vqa.as_ref().unwrap();
     assert!(vqa.lightings.is_empty() && vqa.scenes.is_empty(), "VQA only over all lightings, no per-scene answers");
     assert_eq!(vqa.all_lightings.overall.scenes, 20);
-    assert!(vqa.all_lightings.standard.categories.contains_key("Measurement"));
-    assert!(!vqa.all_lightings.standard.categories.contains_key("Comparison"), "a category of three scenes is withheld");
+    assert!(
+        vqa.all_lightings.standard.categories.is_empty(),
+        "a category of three scenes is withheld, and with it its partner: the set's overall minus one would tell the other"
+    );
+    assert!(vqa.all_lightings.standard.groups.is_empty(), "Comparison, which no group holds, pools three scenes: the set minus its groups would show it");
     assert_eq!(vqa.all_lightings.subsets.keys().copied().collect::<Vec<_>>(), [Regime::Furniture, Regime::Manipuland]);
     assert_eq!(shown.withheld.as_ref().map(|w| w.min_scenes), Some(MIN_TEST_SCENES));
 
@@ -165,4 +168,64 @@ fn a_test_score_shows_no_number_that_depends_on_fewer_than_five_scenes() {
     let six = scored(Split::Test, &[(Lighting::Baseline, 6)], 3, 6).disclosed();
     assert!(six.semseg[&Lighting::Baseline].subsets.is_empty());
     assert!(six.vqa.as_ref().unwrap().all_lightings.subsets.is_empty());
+}
+
+#[test]
+fn a_test_score_shows_every_fraction_to_the_boards_tenth_of_a_percent() {
+    let mut test = scored(Split::Test, &[(Lighting::Baseline, 20), (Lighting::Camera, 20)], 12, 20);
+    let camera = test.semseg.get_mut(&Lighting::Camera).unwrap();
+    camera.overall = MetricTriple::new(0.752_380_952_380_952_4, 0.412_345_6, f64::NAN);
+    test.vqa.as_mut().unwrap().all_lightings.overall.accuracy = Some(56.0 / 176.0);
+    let shown = test.disclosed();
+    let camera = &shown.semseg[&Lighting::Camera].overall;
+    assert_eq!((camera.miou, camera.fmiou), (0.752, 0.412), "79/105 is shown as the board shows it, 75.2 %");
+    assert!(camera.macc.is_nan(), "undefined stays undefined");
+    assert_eq!(shown.vqa.as_ref().unwrap().all_lightings.overall.accuracy, Some(0.318));
+    let change = &shown.relative_change[&Lighting::Camera].overall;
+    let baseline = shown.semseg[&Lighting::Baseline].overall.miou;
+    assert_eq!(change.miou, disclosure::rounded((0.752 - baseline) / baseline), "the relative change is made from the shown values");
+    let json = serde_json::to_string(&shown.semseg).unwrap();
+    assert!(!json.contains("0.75238"), "{json}");
+}
+
+#[test]
+fn two_lightings_that_differ_in_one_scene_tell_nothing_finer_than_the_rounding() {
+    // The differencing attack: maps equal under two lightings but in one scene, whose
+    // contribution to the pooled numbers is then the difference of the two lightings.
+    // Two such submissions whose one scene differs by less than the rounding show the same.
+    let attack = |scene_share: f64| {
+        let mut test = scored(Split::Test, &[(Lighting::Baseline, 20), (Lighting::Camera, 20)], 12, 20);
+        let camera = test.semseg.get_mut(&Lighting::Camera).unwrap();
+        camera.overall = MetricTriple::new(0.5 + scene_share / 20.0, 0.6 + scene_share / 20.0, 0.7 + scene_share / 20.0);
+        test
+    };
+    let (one, other) = (attack(0.123_456), attack(0.123_466));
+    assert_ne!(one, other, "the hidden values differ");
+    assert_eq!(one.disclosed(), other.disclosed(), "the shown ones do not");
+}
+
+#[test]
+fn the_parts_of_a_partition_are_shown_all_or_none() {
+    // Twelve furniture and three manipuland scenes: the manipuland subset is withheld, so
+    // the furniture one is too (the whole minus it would be the manipuland subset).
+    let test = scored(Split::Test, &[(Lighting::Baseline, 15)], 12, 15).disclosed();
+    assert!(test.semseg[&Lighting::Baseline].subsets.is_empty());
+    assert!(test.vqa.as_ref().unwrap().all_lightings.subsets.is_empty());
+    assert_eq!(test.semseg[&Lighting::Baseline].pooled, Some(15), "the whole is shown");
+}
+
+#[test]
+fn groups_are_withheld_when_the_categories_they_leave_out_pool_too_few_scenes() {
+    // The set's overall minus its groups is the ungrouped categories' accuracy.
+    let mut test = scored(Split::Test, &[(Lighting::Baseline, 20)], 12, 20);
+    let set = &mut test.vqa.as_mut().unwrap().all_lightings.standard;
+    set.categories = [("Measurement".to_string(), set.overall.clone())].into_iter().collect();
+    let few = Accuracy { accuracy: Some(0.5), ci95: None, correct: 1, scenes: 3, total: 2 };
+    set.categories.insert("Object Attributes".into(), few);
+    let shown = test.disclosed();
+    assert!(shown.vqa.as_ref().unwrap().all_lightings.standard.groups.is_empty(), "three scenes' ungrouped questions stay hidden");
+    let mut many = scored(Split::Test, &[(Lighting::Baseline, 20)], 12, 20);
+    let set = &mut many.vqa.as_mut().unwrap().all_lightings.standard;
+    set.categories.insert("Object Attributes".into(), set.overall.clone());
+    assert!(!many.disclosed().vqa.as_ref().unwrap().all_lightings.standard.groups.is_empty(), "twenty scenes' may show");
 }

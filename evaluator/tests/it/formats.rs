@@ -155,6 +155,36 @@ fn truncated_and_foreign_archives_are_rejected() {
 }
 
 #[test]
+fn an_npz_with_data_before_it_or_inside_another_archive_is_refused_as_numpy_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("map.npz");
+    write_arrays(&path, &[("points", points(100)), ("object_ids", NpyArray::from_i64(vec![0; 100])), ("labels", NpyArray::from_i64(vec![1]))]);
+    let npz = std::fs::read(&path).unwrap();
+    assert!(read_map(&path).is_ok());
+    // 1 MB of random-looking bytes, then the archive: a zip reader searching from the end finds it.
+    let mut polyglot: Vec<u8> = (0..1_000_000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8).collect();
+    polyglot.extend_from_slice(&npz);
+    std::fs::write(&path, &polyglot).unwrap();
+    let err = read_map(&path).unwrap_err();
+    assert!(err.message.contains("must start with a zip signature") && err.message.contains("np.load"), "{err}");
+    // The archive inside a tar.
+    let mut tar = tar::Builder::new(Vec::new());
+    let mut header = tar::Header::new_gnu();
+    header.set_size(npz.len() as u64);
+    header.set_mode(0o644);
+    header.set_cksum();
+    tar.append_data(&mut header, "map.npz", &npz[..]).unwrap();
+    std::fs::write(&path, tar.into_inner().unwrap()).unwrap();
+    assert!(read_map(&path).unwrap_err().message.contains("must start with a zip signature"));
+    // A zip signature first, and the real archive after other bytes: refused by where it starts.
+    let mut shifted = b"PK\x03\x04".to_vec();
+    shifted.extend_from_slice(&[0u8; 4096]);
+    shifted.extend_from_slice(&npz);
+    std::fs::write(&path, &shifted).unwrap();
+    assert!(read_map(&path).is_err());
+}
+
+#[test]
 fn arrays_larger_than_the_limit_are_refused_before_reading() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("big.npz");

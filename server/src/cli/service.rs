@@ -37,19 +37,25 @@ pub struct RestoreArgs {
     pub service: ServiceArgs,
     /// A folder written by `osmab backup`.
     pub backup: PathBuf,
+    /// Restore a backup taken before backups were sealed (format osmab-backup/1), trusting
+    /// the store it was kept in: nothing vouches for its keys, secrets and database.
+    #[arg(long)]
+    pub trust_unsealed_backup: bool,
 }
 
-/// `osmab backup --out DIR`.
+/// `osmab backup --out DIR`, sealed with `OSMAB_BACKUP_KEY`.
 pub fn backup(args: BackupArgs) -> anyhow::Result<()> {
     let settings = settings(&args.service)?;
-    let manifest = runtime()?.block_on(crate::backup::backup(&settings, &args.out))?;
+    let key = crate::backup::BackupKey::from_env()?;
+    let manifest = runtime()?.block_on(crate::backup::backup(&settings, &args.out, &key))?;
     let bytes: u64 = manifest.files.iter().map(|f| f.size).sum();
     println!(
-        "{}: backup of {} files ({bytes} bytes, {} database), sealed by {}",
+        "{}: backup of {} files ({bytes} bytes, {} database), listed in {} and sealed with backup key {}: keep that key apart from the backups",
         args.out.display(),
         manifest.files.len(),
         manifest.database,
-        crate::backup::MANIFEST
+        crate::backup::MANIFEST,
+        key.id()
     );
     Ok(())
 }
@@ -57,7 +63,8 @@ pub fn backup(args: BackupArgs) -> anyhow::Result<()> {
 /// `osmab restore DIR`.
 pub fn restore(args: RestoreArgs) -> anyhow::Result<()> {
     let settings = settings(&args.service)?;
-    let manifest = runtime()?.block_on(crate::backup::restore(&settings, &args.backup))?;
+    let trust = crate::backup::Trust { key: crate::backup::BackupKey::from_env_if_set()?, unsealed_store: args.trust_unsealed_backup };
+    let manifest = runtime()?.block_on(crate::backup::restore(&settings, &args.backup, &trust))?;
     println!(
         "{}: restored {} files of the backup taken {} into {}; start the service with `osmab serve`",
         args.backup.display(),

@@ -34,7 +34,7 @@ fn read_seed(path: &Path) -> anyhow::Result<SigningKey> {
 
 /// Write a new random key into `dir`; returns its file.
 pub fn generate(dir: &Path) -> anyhow::Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    crate::secret_files::owner_only_dir(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let mut seed = [0u8; 32];
     getrandom::fill(&mut seed).map_err(|e| anyhow::anyhow!("the operating system's random generator failed: {e}"))?;
     let key = SigningKey::from_bytes(&seed);

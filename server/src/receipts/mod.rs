@@ -39,6 +39,10 @@ pub struct ReceiptSummary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Receipt {
     pub evaluator_version: String,
+    /// The organisers' flag on the entry when the receipt was issued (its reason): a receipt
+    /// of a flagged entry says so, signed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flagged: Option<String>,
     /// Issued at: the time of scoring, in seconds since the epoch.
     pub iat: i64,
     /// `osmab`.
@@ -83,6 +87,8 @@ pub struct Facts<'a> {
     pub release_digest: &'a str,
     pub scored_at_ms: i64,
     pub scores: &'a Scores,
+    /// The organisers' flag on the entry, if any.
+    pub flagged: Option<&'a str>,
 }
 
 impl Receipt {
@@ -97,6 +103,7 @@ impl Receipt {
         };
         Receipt {
             evaluator_version: scores.evaluator_version.clone(),
+            flagged: facts.flagged.map(str::to_string),
             iat: facts.scored_at_ms / 1000,
             iss: facts.issuer.into(),
             method: facts.method.into(),
@@ -144,6 +151,7 @@ mod tests {
             release_digest: "cd",
             scored_at_ms: 1_700_000_000_123,
             scores: &scores,
+            flagged: None,
         };
         let receipt = Receipt::of(&facts);
         assert_eq!((receipt.iat, receipt.iss.as_str()), (1_700_000_000, "https://osmab.example.org"));
@@ -151,5 +159,8 @@ mod tests {
         let token = receipt.sign(&keys);
         assert_eq!(token, Receipt::of(&facts).sign(&keys), "deterministic");
         assert_eq!(Receipt::verify(&token, keys.published()).unwrap(), receipt);
+        assert!(!serde_json::to_string(&receipt).unwrap().contains("flagged"), "receipts of unflagged entries read as before");
+        let flagged = Receipt::of(&Facts { flagged: Some("maps copied from another team"), ..facts });
+        assert_eq!(Receipt::verify(&flagged.sign(&keys), keys.published()).unwrap().flagged.as_deref(), Some("maps copied from another team"));
     }
 }

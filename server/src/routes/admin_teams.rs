@@ -39,6 +39,15 @@ pub async fn new_team(state: &AppState, body: &NewTeam) -> ApiResult<CreatedTeam
     if body.daily_quota.is_some_and(|q| q < 0) {
         return Err(Problem::invalid_request("daily_quota: expected 0 or more"));
     }
+    // Between teams too, names are compared as visitors read them (UTS #39 skeletons):
+    // "TeamА" with a Cyrillic А, or "Team\u{a0}A", beside "TeamA" would pass for it.
+    if let Some(twin) = state.store.teams().await?.into_iter().find(|t| osmab_evaluator::text::impersonates(&name, &t.name, false)) {
+        return Err(Problem::conflict(if twin.name == name {
+            format!("A team named '{name}' exists.")
+        } else {
+            format!("name: '{name}' reads as '{}', an existing team's name, and visitors could not tell them apart; choose another", twin.name)
+        }));
+    }
     let team = Team { id: new_id("team"), name: name.clone(), daily_quota: body.daily_quota, created_at: now_ms() };
     match state.store.create_team(&team).await {
         Ok(()) => {}

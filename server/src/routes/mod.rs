@@ -68,14 +68,18 @@ async fn limit_requests(State(state): State<AppState>, request: Request, next: N
     if !write && !request.headers().contains_key(axum::http::header::AUTHORIZATION) {
         return next.run(request).await;
     }
-    let peer = crate::http::peer_ip(request.extensions());
-    let address = peer.map_or_else(|| "unknown".to_string(), |ip| ip.to_string());
+    if request.method() == Method::POST && request.uri().path() == crate::routes::pages::admin::LOGIN_PATH {
+        // The sign-in limits its own failures: the right admin token is never refused for
+        // what strangers did at the same address.
+        return next.run(request).await;
+    }
+    let address = crate::rate_limit::client_of(request.headers(), crate::http::peer_ip(request.extensions()), &state.settings.trusted_proxies);
     let (mut parts, body) = request.into_parts();
     let client = match crate::auth::caller_of(&mut parts, &state).await {
         Ok(crate::auth::Caller::Team(team)) => write.then(|| format!("team {}", team.id)),
         Ok(crate::auth::Caller::Admin) => write.then(|| "admin".to_string()),
         Ok(crate::auth::Caller::Anonymous) => write.then(|| format!("address {address}")),
-        Err(problem) if problem.status == StatusCode::UNAUTHORIZED => Some(crate::rate_limit::failed_authentication(peer)),
+        Err(problem) if problem.status == StatusCode::UNAUTHORIZED => Some(crate::rate_limit::failed_authentication(&address)),
         // The store is unavailable: the handler answers with its own error.
         Err(_) => None,
     };

@@ -64,6 +64,7 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
         release_digest: &release.digest,
         scored_at_ms,
         scores: &scores,
+        flagged: submission.flag.as_deref(),
     });
     let jws = receipt.sign(&state.receipts);
     let wants_jose = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("application/jose"));

@@ -1,11 +1,15 @@
 //! The restore drill: a backup taken while the service runs, restored into a fresh data
 //! directory and database, serves the same leaderboard byte for byte, every submission with
 //! its history, receipts that verify with the restored keys, and scores new submissions. A
-//! damaged backup or a data directory in use is refused.
+//! damaged backup, one re-sealed without the operator's backup key, or a data directory in
+//! use is refused.
 
 use serde_json::Value;
 
 use super::{Backend, Deployment, baseline_dir, on_both_backends, tar_of};
+
+/// The operator's backup key: set for `osmab backup` and `osmab restore`, never in a backup.
+const BACKUP_KEY: (&str, &str) = ("OSMAB_BACKUP_KEY", "e2e-backup-key-0123456789abcdef0123456789");
 
 fn said(output: &std::process::Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr))
@@ -25,15 +29,20 @@ fn a_scored_entry(server: &super::Server<'_>, team: &str) -> (String, String, St
 }
 
 fn a_backup_restores_the_service_as_it_was(backend: Backend) {
-    let original = Deployment::new(backend, &[]);
+    let original = Deployment::new(backend, &[BACKUP_KEY]);
     let server = original.serve();
     let (token, id, board) = a_scored_entry(&server, "Team Backup");
     let submission = server.get(&format!("/api/v1/submissions/{id}")).bearer_auth(&token).send().unwrap().text().unwrap();
     let receipt = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().text().unwrap();
     let results = server.get(&format!("/api/v1/submissions/{id}/results.json")).send().unwrap().bytes().unwrap();
 
-    // Taken while the server runs.
+    // Without the backup key: refused, naming it.
     let backups = tempfile::tempdir().unwrap();
+    let keyless = Deployment { env: original.env.iter().filter(|(k, _)| k != BACKUP_KEY.0).cloned().collect(), ..original.another_node() };
+    let refused = keyless.run(&["backup", "--out", backups.path().join("unsealed").to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("OSMAB_BACKUP_KEY is not set"), "{}", said(&refused));
+
+    // Taken while the server runs.
     let backup = backups.path().join("b1");
     let taken = original.run(&["backup", "--out", backup.to_str().unwrap()]);
     assert!(taken.status.success(), "{}", said(&taken));
@@ -50,7 +59,7 @@ fn a_backup_restores_the_service_as_it_was(backend: Backend) {
     assert!(!refused.status.success() && said(&refused).contains("is not empty"), "{}", said(&refused));
 
     // A damaged copy of the backup is refused naming the file, before anything is written.
-    let fresh = Deployment::new(backend, &[]);
+    let fresh = Deployment::new(backend, &[BACKUP_KEY]);
     let damaged = backups.path().join("damaged");
     copy_dir(&backup, &damaged);
     let key = std::fs::read_dir(damaged.join("receipt-keys")).unwrap().next().unwrap().unwrap().path();
@@ -59,6 +68,27 @@ fn a_backup_restores_the_service_as_it_was(backend: Backend) {
     std::fs::write(&key, bytes).unwrap();
     let refused = fresh.run(&["restore", damaged.to_str().unwrap()]);
     assert!(!refused.status.success() && said(&refused).contains("receipt-keys/") && said(&refused).contains("damaged"), "{}", said(&refused));
+    assert_eq!(std::fs::read_dir(fresh.data.path()).unwrap().count(), 0, "nothing written");
+
+    // Re-sealed: the receipt-signing key swapped for an attacker's and every sum recomputed,
+    // as someone who can write the backup store (but has not the operator's key) would.
+    // Refused, nothing written.
+    let resealed = backups.path().join("resealed");
+    copy_dir(&backup, &resealed);
+    let signing_key = std::fs::read_dir(resealed.join("receipt-keys")).unwrap().next().unwrap().unwrap().path();
+    std::fs::write(&signing_key, "09".repeat(32)).unwrap();
+    let mut manifest: Value = serde_json::from_slice(&std::fs::read(resealed.join("backup.json")).unwrap()).unwrap();
+    for file in manifest["files"].as_array_mut().unwrap() {
+        let bytes = std::fs::read(resealed.join(file["path"].as_str().unwrap())).unwrap();
+        file["size"] = bytes.len().into();
+        file["sha256"] = super::sha256_hex(&bytes).into();
+    }
+    std::fs::write(resealed.join("backup.json"), serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
+    let refused = fresh.run(&["restore", resealed.to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("the seal does not verify"), "{}", said(&refused));
+    let keyless_restore = Deployment { env: fresh.env.iter().filter(|(k, _)| k != BACKUP_KEY.0).cloned().collect(), ..Deployment::new(backend, &[]) };
+    let refused = keyless_restore.run(&["restore", backup.to_str().unwrap()]);
+    assert!(!refused.status.success() && said(&refused).contains("set OSMAB_BACKUP_KEY"), "{}", said(&refused));
     assert_eq!(std::fs::read_dir(fresh.data.path()).unwrap().count(), 0, "nothing written");
 
     // The restore: the same board, submission and receipt; new submissions score.
@@ -111,6 +141,7 @@ fn a_backup_of_a_bucket_deployment_lists_its_objects_and_restores_against_the_bu
     let in_bucket = |name: &str| storage_env(&relay, name);
     let kept_env = in_bucket(&kept);
     let env: Vec<(&str, &str)> = kept_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let env: Vec<(&str, &str)> = env.into_iter().chain([BACKUP_KEY]).collect();
     let original = Deployment::new(Backend::Postgres, &env);
     let server = original.serve();
     let (token, id, board) = a_scored_entry(&server, "Team Bucket");
@@ -131,6 +162,7 @@ fn a_backup_of_a_bucket_deployment_lists_its_objects_and_restores_against_the_bu
     // A bucket without the objects: refused, naming one, nothing written.
     let empty_env = in_bucket(&empty);
     let env: Vec<(&str, &str)> = empty_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let env: Vec<(&str, &str)> = env.into_iter().chain([BACKUP_KEY]).collect();
     let wrong = Deployment::new(Backend::Postgres, &env);
     let refused = wrong.run(&["restore", backup.to_str().unwrap()]);
     assert!(!refused.status.success() && said(&refused).contains("(missing)") && said(&refused).contains("nothing was written"), "{}", said(&refused));
@@ -138,6 +170,7 @@ fn a_backup_of_a_bucket_deployment_lists_its_objects_and_restores_against_the_bu
 
     // The bucket it was taken from: restored, the same board; new submissions score.
     let env: Vec<(&str, &str)> = kept_env.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let env: Vec<(&str, &str)> = env.into_iter().chain([BACKUP_KEY]).collect();
     let fresh = Deployment::new(Backend::Postgres, &env);
     let restored = fresh.run(&["restore", backup.to_str().unwrap()]);
     assert!(restored.status.success(), "{}", said(&restored));

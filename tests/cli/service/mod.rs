@@ -8,6 +8,7 @@ mod backup;
 mod cards;
 mod client;
 mod console;
+mod hardening;
 mod headers;
 mod hostile;
 mod journey;

@@ -117,4 +117,55 @@ pub fn a_receipt_verifies_offline_and_tampering_is_caught(server: &Server<'_>, i
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not the results document"), "{}", String::from_utf8_lossy(&out.stderr));
     let out = crate::osmab(&["client", "receipt", "../etc", "--url", &server.url]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("is not a submission id"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // A key file holding the service's key and an attacker's: with --issuer, the key that
+    // signed must be one the issuer publishes, so a receipt the attacker signed is refused.
+    let thumbprint = |key: &ed25519_dalek::VerifyingKey| {
+        use sha2::Digest;
+        B64.encode(sha2::Sha256::digest(format!(r#"{{"crv":"Ed25519","kty":"OKP","x":"{}"}}"#, B64.encode(key.as_bytes())).as_bytes()))
+    };
+    let attacker_kid = thumbprint(&attacker.verifying_key());
+    let mut both = jwks.clone();
+    both["keys"].as_array_mut().unwrap().push(serde_json::json!({"alg": "EdDSA", "crv": "Ed25519", "kid": attacker_kid, "kty": "OKP", "use": "sig", "x": B64.encode(attacker.verifying_key().as_bytes())}));
+    let both_file = write("both-keys.json", both.to_string().as_bytes());
+    let mut better = payload.clone();
+    better["summary"]["semseg"]["baseline"]["miou"] = serde_json::json!(1.0);
+    let header = B64.encode(serde_json::to_vec(&serde_json::json!({"alg": "EdDSA", "kid": attacker_kid, "typ": "JWT"})).unwrap());
+    let signing_input = format!("{header}.{}", B64.encode(serde_json::to_vec(&better).unwrap()));
+    let signature = ed25519_dalek::Signer::sign(&attacker, signing_input.as_bytes());
+    let forged_by_attacker = write("attacker.jws", format!("{signing_input}.{}", B64.encode(signature.to_bytes())).as_bytes());
+    let out = crate::osmab(&["client", "verify", crate::path(&forged_by_attacker), "--keys", crate::path(&both_file)]);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && said.contains("issuer was not checked") && said.contains("binds the receipt to no service"),
+        "a file alone binds nothing, and says so: {said}"
+    );
+    let out = crate::osmab(&["client", "verify", crate::path(&forged_by_attacker), "--keys", crate::path(&both_file), "--issuer", &server.url]);
+    let told = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && told.contains("does not publish that key") && told.contains(&attacker_kid), "{told}");
+    let out = crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", crate::path(&both_file), "--issuer", &server.url]);
+    assert!(out.status.success(), "the genuine receipt is the issuer's: {}", String::from_utf8_lossy(&out.stderr));
+
+    // Flagged: the receipt issued now says so, signed; one issued before says it is flagged now.
+    let flag =
+        server.admin(server.client.put(format!("{}/api/v1/admin/submissions/{id}/flag", server.url)).json(&serde_json::json!({"reason": "maps copied"})));
+    assert!(flag.status().is_success(), "{}", flag.text().unwrap());
+    let flagged: Value = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().json().unwrap();
+    assert_eq!(flagged["receipt"]["flagged"], "maps copied");
+    let flagged_file = write("flagged.json", flagged.to_string().as_bytes());
+    let out = crate::osmab(&["client", "verify", crate::path(&flagged_file), "--keys", crate::path(&keys_file)]);
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("FLAGGED by the organisers when this receipt was issued: maps copied"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let out = crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", &keys_url]);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && said.contains("FLAGGED now by the organisers: maps copied") && said.contains("Current:"), "{said}");
+    let cleared = server.admin(server.client.delete(format!("{}/api/v1/admin/submissions/{id}/flag", server.url)));
+    assert!(cleared.status().is_success());
+
+    // Unflagged again, the receipt is the entry's current one.
+    let out = crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", &keys_url]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Current: the issuer's receipt of this entry certifies the same results today"));
 }

@@ -307,6 +307,97 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
 
 on_both_backends!(a_test_split_release_hides_its_ground_truth_and_ranks_each_split_apart, super::a_test_split_keeps_its_ground_truth_on_the_server);
 
+/// The differencing attack of a hostile review, played against the service: a test
+/// submission whose maps are the same under every lighting but `camera` in one scene (all
+/// its points one class) makes the difference of the two lightings' numbers that scene's
+/// alone. A second submission whose one scene differs from the first's by a single point
+/// must show exactly the same numbers: what the attack reads is no finer than the board's
+/// 0.1 %. And no shown part of a partition leaves a withheld part to subtract.
+fn differencing_lightings_learns_nothing_finer_than_the_rounding(backend: Backend) {
+    use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
+    let deployment = Deployment::new(backend, &[("OSMAB_DAILY_QUOTA", "2")]);
+    let server = deployment.serve();
+    let request = server.post("/api/v1/admin/releases/import").timeout(std::time::Duration::from_secs(600));
+    let imported = server.admin(request.json(&json!({"path": split_release(), "publish": true})));
+    assert_eq!(imported.status(), 201, "{}", imported.text().unwrap());
+    let token = server.team("Team Difference");
+    let target = TEST_SCENES[2];
+
+    // `moved` points of the target scene under camera take another class than the rest.
+    let attack = |moved: usize| {
+        let dir = baseline_dir_of(split_release(), "oracle");
+        for test in TEST_SCENES {
+            for lighting in ["camera", "dynamic_lights", "no_lights"] {
+                std::fs::copy(dir.path().join(format!("maps/baseline/{test}.npz")), dir.path().join(format!("maps/{lighting}/{test}.npz"))).unwrap();
+            }
+        }
+        let path = dir.path().join(format!("maps/camera/{target}.npz"));
+        let mut map = PredictedMap::read(&path, Default::default()).unwrap();
+        let MapSemantics::ObjectLabels { object_ids, labels } = &mut map.semantics else { panic!("the oracle labels objects") };
+        let one = labels[0];
+        let other = *labels.iter().find(|l| **l != one).expect("two classes in the scene");
+        labels.iter_mut().for_each(|l| *l = one);
+        let odd = labels.len() as u32;
+        labels.push(other);
+        object_ids.iter_mut().take(moved).for_each(|id| *id = odd);
+        map.write(&path, true).unwrap();
+        let accepted = server.upload(&token, &tar_of(dir.path()), "?split=test");
+        assert_eq!(accepted.status(), 202);
+        let id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
+        let done = server.wait_done(&id, &token);
+        assert_eq!(done["state"], "scored", "{done}");
+        done["scores"].clone()
+    };
+    let (first, second) = (attack(0), attack(1));
+    assert!(first["semseg"]["camera"]["overall"]["miou"].as_f64().unwrap() < first["semseg"]["baseline"]["overall"]["miou"].as_f64().unwrap());
+
+    // Every shown fraction is a whole tenth of a percent (at full precision the two
+    // submissions differed in the fifth digit and the difference of the lightings told the
+    // scene's class fractions), and the two show the same numbers or, where the hidden value
+    // sits at a rounding boundary, numbers one tenth of a percent apart: nothing finer.
+    fn fractions(value: &Value, out: &mut Vec<f64>) {
+        match value {
+            Value::Number(n) if n.is_f64() => out.push(n.as_f64().unwrap()),
+            Value::Array(items) => items.iter().for_each(|v| fractions(v, out)),
+            Value::Object(map) => {
+                map.iter().filter(|(k, _)| !["correct", "total", "scenes", "pooled", "min_scenes"].contains(&k.as_str())).for_each(|(_, v)| fractions(v, out))
+            }
+            _ => {}
+        }
+    }
+    let (mut shown, mut other) = (Vec::new(), Vec::new());
+    fractions(&first["semseg"], &mut shown);
+    fractions(&first["relative_change"], &mut shown);
+    fractions(&second["semseg"], &mut other);
+    fractions(&second["relative_change"], &mut other);
+    let whole_tenths = |xs: &[f64]| xs.iter().all(|x| ((x * 1000.0).round() / 1000.0 - x).abs() < 1e-12);
+    assert!(shown.len() > 20 && whole_tenths(&shown) && whole_tenths(&other), "{shown:?}");
+    assert_eq!(shown.len(), other.len());
+    let steps: Vec<f64> = shown.iter().zip(&other).map(|(a, b)| (a - b).abs()).collect();
+    assert!(steps.iter().all(|d| *d < 0.001 + 1e-9), "{steps:?}");
+    assert!(steps.iter().filter(|d| **d > 0.0).count() <= 2, "a one-point change moves at most a number at a boundary: {steps:?}");
+    let mut all = Vec::new();
+    fractions(&first, &mut all);
+    assert!(whole_tenths(&all), "{all:?}");
+
+    // Categories and subsets: every part shown, or none (nothing to subtract); groups, which
+    // leave some categories out, never more than the set.
+    let cell = &first["vqa"]["all_lightings"];
+    for set in ["prompt_grounded", "standard"] {
+        let total = |partition: &str| -> u64 { cell[set][partition].as_object().unwrap().values().map(|a| a["total"].as_u64().unwrap()).sum() };
+        let overall = cell[set]["overall"]["total"].as_u64().unwrap();
+        assert!(cell[set]["categories"].as_object().unwrap().is_empty() || total("categories") == overall, "{set}: {cell}");
+        assert!(total("groups") <= overall, "{set}: {cell}");
+    }
+    let subsets = cell["subsets"].as_object().unwrap();
+    assert!(subsets.is_empty() || subsets.values().map(|s| s["overall"]["total"].as_u64().unwrap()).sum::<u64>() == cell["overall"]["total"].as_u64().unwrap());
+}
+
+on_both_backends!(
+    a_test_submission_differencing_two_lightings_reads_nothing_finer_than_the_board,
+    super::differencing_lightings_learns_nothing_finer_than_the_rounding
+);
+
 /// A sequence archive packed from the whole sequence folder (what imports did before
 /// archives followed the manifest): the test scene's semantic frames included.
 fn archive_of_the_whole_folder(lighting: &str, scene: &str, out: &Path) -> (u64, String) {

@@ -212,6 +212,7 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let keys = verify::KeySource::parse(&keys, issuer.as_deref())?;
             let checked = verify::verify(&receipt, &keys, results.as_deref())?;
             print!("{}", verify::describe(&checked, &keys, results.is_some()));
+            print!("{}", verify::describe_currency(&verify::currency(&checked, &keys, None)));
             Ok(())
         }
         ClientCommand::Receipt { id, out, verify, url } => {

@@ -3,6 +3,12 @@
 //! whose kids are not their keys' thumbprints), that it names as issuer the origin the keys
 //! came from, that a receipt file's readable copy is what is signed, and optionally that a
 //! results document is the one the receipt names — and print what it certifies.
+//!
+//! A key file binds nothing by itself: it may hold an attacker's key beside the service's.
+//! With `--issuer`, the key that signed the receipt must also be one the issuer publishes
+//! now (fetched from it); without, the output says that who issued it was not checked.
+//! Where the issuer is reachable, the entry's current receipt is read too, so a receipt of
+//! an entry rescored since (or flagged) says so.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -18,6 +24,17 @@ pub struct KeySource {
     /// The origin the receipt must name (`https://host[:port]`); none when keys come from a
     /// file and no --issuer is given.
     issuer: Option<String>,
+}
+
+/// What verifying a receipt found besides its signature.
+#[derive(Debug, Default)]
+pub struct Currency {
+    /// The issuer's current receipt of the entry certifies other results: it was rescored.
+    pub superseded_by: Option<String>,
+    /// The organisers' flag on the entry now, where it has one.
+    pub flagged_now: Option<String>,
+    /// Why the entry's current state could not be read, where it could not.
+    pub unknown: Option<String>,
 }
 
 enum KeyPlace {
@@ -93,6 +110,20 @@ pub fn verify(receipt: &Path, keys: &KeySource, results: Option<&Path>) -> anyho
     {
         bail!("the receipt names {} as its issuer, but the keys are {issuer}'s: it was not issued by the service these keys belong to", signed.iss);
     }
+    if let (KeyPlace::File(path), Some(issuer)) = (&keys.place, &keys.issuer) {
+        // The file's word is not the issuer's: the signing key must be one the issuer publishes.
+        let kid = signing_kid(&file.token)?;
+        let published = KeySource { place: KeyPlace::Url(format!("{issuer}/api/v1/keys")), issuer: Some(issuer.clone()) }.load().with_context(|| {
+            format!(
+                "--issuer {issuer}: its keys could not be read to check that the receipt's key is its own (without --issuer, nothing binds {} to a service)",
+                path.display()
+            )
+        })?;
+        let in_file = keys.load()?.keys.into_iter().find(|k| k.kid == kid);
+        if !published.keys.iter().any(|k| Some(k) == in_file.as_ref()) {
+            bail!("the receipt is signed by key {kid} of {}, but {issuer} does not publish that key: it was not issued by {issuer}", path.display());
+        }
+    }
     if let Some(copy) = &file.readable_copy {
         let signed_value = serde_json::to_value(&signed).expect("a receipt serialises");
         let differing = differing_fields(&signed_value, copy);
@@ -155,6 +186,46 @@ pub fn fetch_receipt(api: &super::api::Api, id: &str, out: &Path, verify_them: b
     Ok(saved + &describe(&checked, &source, true))
 }
 
+/// The `kid` in the header of the compact JWS `token`.
+fn signing_kid(token: &str) -> anyhow::Result<String> {
+    use base64::Engine;
+    let header = token.split('.').next().unwrap_or_default();
+    let bytes = base64::engine::general_purpose::URL_SAFE_NO_PAD.decode(header).context("the receipt's header is not base64url")?;
+    let value: serde_json::Value = serde_json::from_slice(&bytes).context("the receipt's header is not JSON")?;
+    value["kid"].as_str().map(str::to_string).context("the receipt's header names no kid")
+}
+
+/// Whether `receipt` is still the entry's current one at its issuer (only where the keys
+/// are the issuer's): the issuer's receipt now certifies the same results, or others (the
+/// entry was rescored). `token` is sent where given (a private entry's team).
+pub fn currency(receipt: &Receipt, keys: &KeySource, token: Option<&str>) -> Currency {
+    let Some(issuer) = &keys.issuer else {
+        return Currency { unknown: Some("the keys came from a file and no --issuer was given".into()), ..Currency::default() };
+    };
+    let url = format!("{issuer}/api/v1/submissions/{}/receipt", receipt.submission_id);
+    let fetched = reqwest::blocking::Client::builder().timeout(std::time::Duration::from_secs(30)).build().and_then(|client| {
+        let request = client.get(&url);
+        let request = match token {
+            Some(token) => request.bearer_auth(token),
+            None => request,
+        };
+        request.send()
+    });
+    let current: Option<serde_json::Value> = match fetched {
+        Ok(response) if response.status().is_success() => response.json().ok(),
+        Ok(response) => return Currency { unknown: Some(format!("{url} answers {}", response.status())), ..Currency::default() },
+        Err(e) => return Currency { unknown: Some(format!("{url}: {e}")), ..Currency::default() },
+    };
+    let Some(now) = current.as_ref().and_then(|c| c["receipt"]["results_sha256"].as_str()) else {
+        return Currency { unknown: Some(format!("{url} did not answer a receipt")), ..Currency::default() };
+    };
+    Currency {
+        superseded_by: (now != receipt.results_sha256).then(|| now.to_string()),
+        flagged_now: current.as_ref().and_then(|c| c["receipt"]["flagged"].as_str()).map(str::to_string),
+        unknown: None,
+    }
+}
+
 /// The top-level fields where `copy` differs from `signed` (missing, extra or changed).
 fn differing_fields(signed: &serde_json::Value, copy: &serde_json::Value) -> Vec<String> {
     let (Some(signed), Some(copy)) = (signed.as_object(), copy.as_object()) else {
@@ -181,10 +252,43 @@ pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> S
         if results_checked { " (matches the results file)" } else { "" }
     );
     if keys.issuer.is_none() {
-        out.push_str("The issuer was not checked: the keys came from a file (give --issuer ORIGIN, or --keys as the service's URL).\n");
+        out.push_str("The issuer was not checked: the keys came from a file, which binds the receipt to no service (give --issuer ORIGIN, or --keys as the service's URL).\n");
+    }
+    if let Some(reason) = &receipt.flagged {
+        out.push_str(&format!("FLAGGED by the organisers when this receipt was issued: {reason}\n"));
     }
     for (lighting, t) in &receipt.summary.semseg {
         out.push_str(&format!("  {lighting}: {}\n", super::view::pooled_line(t)));
     }
     out
+}
+
+/// Whether the receipt is still current, in words.
+pub fn describe_currency(currency: &Currency) -> String {
+    let flag = currency.flagged_now.as_ref().map(|reason| format!("FLAGGED now by the organisers: {reason}\n")).unwrap_or_default();
+    flag + &match (&currency.superseded_by, &currency.unknown) {
+        (Some(now), _) => format!(
+            "SUPERSEDED: the issuer's current receipt of this entry certifies other results (SHA-256 {now}): it was rescored since; this receipt's numbers are not its current ones.\n"
+        ),
+        (None, Some(why)) => format!("Whether the entry was rescored or flagged since was not checked ({why}).\n"),
+        (None, None) => "Current: the issuer's receipt of this entry certifies the same results today.\n".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_receipt_of_other_results_than_the_current_ones_reads_as_superseded() {
+        let superseded = Currency { superseded_by: Some("ab12".into()), flagged_now: None, unknown: None };
+        assert!(describe_currency(&superseded).starts_with("SUPERSEDED") && describe_currency(&superseded).contains("ab12"));
+        let flagged = Currency { flagged_now: Some("copied".into()), ..Currency::default() };
+        assert_eq!(
+            describe_currency(&flagged),
+            "FLAGGED now by the organisers: copied\nCurrent: the issuer's receipt of this entry certifies the same results today.\n"
+        );
+        let unknown = Currency { unknown: Some("offline".into()), ..Currency::default() };
+        assert!(describe_currency(&unknown).contains("was not checked (offline)"));
+    }
 }

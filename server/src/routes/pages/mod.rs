@@ -55,7 +55,7 @@ pub fn routes() -> Router<AppState> {
         .route("/about", get(about))
         .route("/static/{file}", get(static_file))
         .route("/admin", get(admin::console))
-        .route("/admin/login", get(admin::login_form).post(admin::login))
+        .route(admin::LOGIN_PATH, get(admin::login_form).post(admin::login))
         .route("/admin/logout", post(admin::logout))
         .route("/admin/regenerate", post(admin::regenerate))
         .route("/admin/jobs/{id}", get(admin::job))

@@ -19,7 +19,7 @@ use serde::de::DeserializeOwned;
 pub use actions::{create_team, flag, publish, refund, regenerate, set_quota, unflag};
 pub use console::{console, job};
 pub use quality::{file as release_file, quality};
-pub use session::{AdminSession, login, login_form, logout};
+pub use session::{AdminSession, LOGIN_PATH, login, login_form, logout};
 
 /// The sign-in page.
 #[derive(Template, WebTemplate)]

@@ -24,17 +24,23 @@ pub struct PageOrigin {
 impl PageOrigin {
     /// The origin of a request with `headers` from `peer`.
     pub fn of(headers: &HeaderMap, peer: Option<IpAddr>, settings: &Settings) -> Self {
-        let text = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).map(|v| v.split(',').next().unwrap_or("").trim().to_string());
+        let text = |name: &str| headers.get(name).and_then(|v| v.to_str().ok()).map(|v| v.trim().to_string());
+        // A forwarded header's value is the one the trusted proxy added: the last of its
+        // lines, and the last of that line's comma-separated values (what comes before was
+        // written by the client, or by a proxy the client chose).
+        let forwarded = |name: &str| {
+            headers.get_all(name).iter().filter_map(|v| v.to_str().ok()).next_back().and_then(|v| v.rsplit(',').next()).map(|v| v.trim().to_string())
+        };
         let trusted = peer.is_some_and(|peer| settings.trusted_proxies.contains(peer));
         let mut hosts: Vec<String> = text(header::HOST.as_str()).into_iter().collect();
         if trusted {
-            hosts.extend(text("x-forwarded-host"));
+            hosts.extend(forwarded("x-forwarded-host"));
         }
         if let Some(public) = &settings.public_url {
             hosts.extend(public.split_once("://").map(|(_, host)| host.to_string()));
         }
         hosts.retain(|h| !h.is_empty());
-        let https = trusted && text("x-forwarded-proto").is_some_and(|p| p.eq_ignore_ascii_case("https"));
+        let https = trusted && forwarded("x-forwarded-proto").is_some_and(|p| p.eq_ignore_ascii_case("https"));
         Self { hosts, https }
     }
 
@@ -75,6 +81,14 @@ mod tests {
         assert!(!stranger.admits("https://evil.example"));
         let proxy = PageOrigin::of(&forwarded, Some("10.1.2.3".parse().unwrap()), &settings("10.0.0.0/8", None));
         assert_eq!(proxy, PageOrigin { hosts: vec!["10.0.0.5:8080".into(), "evil.example".into()], https: true });
+        let chained = headers(&[("host", "10.0.0.5:8080"), ("x-forwarded-host", "evil.example, osmab.example.org"), ("x-forwarded-proto", "http, https")]);
+        let proxy_added = PageOrigin::of(&chained, Some("10.1.2.3".parse().unwrap()), &settings("10.0.0.0/8", None));
+        assert_eq!(
+            proxy_added,
+            PageOrigin { hosts: vec!["10.0.0.5:8080".into(), "osmab.example.org".into()], https: true },
+            "the value the proxy added: the last"
+        );
+        assert!(!proxy_added.admits("https://evil.example"));
         let public = PageOrigin::of(&headers(&[("host", "10.0.0.5:8080")]), None, &settings("", Some("https://bench.example")));
         assert!(public.admits("https://bench.example") && public.admits("http://10.0.0.5:8080") && !public.admits("https://other.example"));
     }

@@ -15,10 +15,12 @@ use sha2::{Digest, Sha256};
 
 use super::origin::PageOrigin;
 use super::{AdminMessage, LoginPage, parse_form};
-use crate::auth::{Caller, caller_with_token, issue_token};
+use crate::auth::{Caller, caller_with_token};
 use crate::clock::now_ms;
 use crate::state::AppState;
 
+/// Where the sign-in form is, and posts to.
+pub const LOGIN_PATH: &str = "/admin/login";
 /// The session cookie.
 pub const COOKIE: &str = "osmab_admin_session";
 /// How long a session lasts.
@@ -85,7 +87,7 @@ impl FromRequestParts<AppState> for AdminSession {
     type Rejection = Response;
 
     async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
-        let to_login = || Redirect::to("/admin/login").into_response();
+        let to_login = || Redirect::to(LOGIN_PATH).into_response();
         let Some(token) = cookie(&parts.headers, COOKIE) else {
             return Err(to_login());
         };
@@ -95,21 +97,24 @@ impl FromRequestParts<AppState> for AdminSession {
                 Ok(AdminSession { token: token.to_string(), token_id: record.id, origin: PageOrigin::of(&parts.headers, peer, &state.settings) })
             }
             // A cookie that is no session counts as a failed authentication, as a wrong
-            // token does: guessing sessions is limited per address like guessing tokens.
-            Ok(_) | Err(_) => match state.limiter.admit(crate::rate_limit::failed_authentication(peer), std::time::Instant::now()) {
-                Ok(()) => Err(to_login()),
-                Err(seconds) => {
-                    let mut page = AdminMessage::page(
-                        StatusCode::TOO_MANY_REQUESTS,
-                        "Too many attempts",
-                        &format!("Too many failed sign-ins from this address: retry in {seconds} s."),
-                    );
-                    page.headers_mut().insert(header::RETRY_AFTER, seconds.into());
-                    Err(page)
-                }
+            // token does: guessing sessions is limited per client like guessing tokens.
+            Ok(_) | Err(_) => match count_failure(state, &parts.headers, peer) {
+                None => Err(to_login()),
+                Some(too_many) => Err(too_many),
             },
         }
     }
+}
+
+/// Count a failed authentication against the client of a request; the "too many" page
+/// once its budget is spent.
+fn count_failure(state: &AppState, headers: &HeaderMap, peer: Option<std::net::IpAddr>) -> Option<Response> {
+    let client = crate::rate_limit::client_of(headers, peer, &state.settings.trusted_proxies);
+    let seconds = state.limiter.admit(crate::rate_limit::failed_authentication(&client), std::time::Instant::now()).err()?;
+    let mut page =
+        AdminMessage::page(StatusCode::TOO_MANY_REQUESTS, "Too many attempts", &format!("Too many failed sign-ins from this address: retry in {seconds} s."));
+    page.headers_mut().insert(header::RETRY_AFTER, seconds.into());
+    Some(page)
 }
 
 /// `GET /admin/login`.
@@ -129,20 +134,29 @@ fn session_cookie(value: &str, max_age_secs: i64, origin: &PageOrigin) -> String
     format!("{COOKIE}={value}; Path=/admin; HttpOnly; SameSite=Strict; Max-Age={max_age_secs}{}", if https { "; Secure" } else { "" })
 }
 
-/// `POST /admin/login` (`token`): start a session with an admin token.
-pub async fn login(State(state): State<AppState>, origin: PageOrigin, body: axum::body::Bytes) -> Response {
+/// `POST /admin/login` (`token`): start a session with an admin token. Failures are
+/// limited per client (the request limiter leaves this form alone), so the admin token
+/// signs in even while strangers at the same address are refused: tokens are too long to
+/// guess, and a budget shared with strangers would let them lock the operator out.
+pub async fn login(State(state): State<AppState>, origin: PageOrigin, parts: Parts, body: axum::body::Bytes) -> Response {
     let form: LoginForm = match parse_form(&body) {
         Ok(form) => form,
         Err(response) => return response,
     };
-    let refused = |message: String| (StatusCode::UNAUTHORIZED, LoginPage { error: Some(message) }).into_response();
+    let peer = crate::http::peer_ip(&parts.extensions);
+    let refused = |message: String| {
+        count_failure(&state, &parts.headers, peer).unwrap_or_else(|| (StatusCode::UNAUTHORIZED, LoginPage { error: Some(message) }).into_response())
+    };
     match caller_with_token(&state, form.token.trim()).await {
+        Ok((Caller::Admin, record)) if crate::auth::is_session(&record) => {
+            return refused("That is a console session, not the admin token: sign in with the admin token.".into());
+        }
         Ok((Caller::Admin, _)) => {}
         Ok(_) => return refused("That is a team token; the console needs the admin token.".into()),
         Err(problem) => return refused(problem.detail),
     }
     let expires = now_ms() + SESSION_HOURS * 3_600_000;
-    let (session, record) = issue_token(crate::store::TokenScope::Admin, None, Some(expires));
+    let (session, record) = crate::auth::issue_session(expires);
     if let Err(e) = state.store.insert_token(&record).await {
         return crate::problem::Problem::from(e).into_response();
     }
@@ -167,7 +181,7 @@ pub async fn logout(State(state): State<AppState>, session: AdminSession, header
     if let Err(e) = state.store.revoke_token(&session.token_id, now_ms()).await {
         return crate::problem::Problem::from(e).into_response();
     }
-    ([(header::SET_COOKIE, session_cookie("", 0, &session.origin))], Redirect::to("/admin/login")).into_response()
+    ([(header::SET_COOKIE, session_cookie("", 0, &session.origin))], Redirect::to(LOGIN_PATH)).into_response()
 }
 
 #[cfg(test)]

@@ -95,7 +95,15 @@ async fn resolve(parts: &Parts, state: &AppState) -> Result<Caller, Problem> {
         Some((scheme, token)) if scheme.eq_ignore_ascii_case("bearer") => token.trim(),
         _ => return Err(unauthenticated(ProblemCode::TokenInvalid, "Send the token as 'Authorization: Bearer osmab_…'.")),
     };
-    Ok(caller_with_token(state, token).await?.0)
+    let (caller, record) = caller_with_token(state, token).await?;
+    if is_session(&record) {
+        // A session cookie is for the console's pages: taken from a browser, it opens no API.
+        return Err(unauthenticated(
+            ProblemCode::TokenInvalid,
+            "This is a console session, which opens the pages under /admin only; the API takes the admin token.",
+        ));
+    }
+    Ok(caller)
 }
 
 /// Who holds `token`, and its record; a malformed, unknown, revoked or expired token is

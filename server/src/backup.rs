@@ -247,12 +247,18 @@ pub struct Trust {
     pub unsealed_store: bool,
 }
 
-/// Restore the backup in `from` into the empty data directory (and database) of `settings`;
-/// the seal and every file are checked against the manifest before anything is written.
+/// Restore the backup in `from` into the empty data directory (and database) of `settings`.
+/// The backup is first copied into a private staging folder in the data directory, and the
+/// seal and every file are checked there: what is restored is exactly what was checked,
+/// whatever happens to `from` meanwhile. A refused backup leaves nothing behind.
 pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow::Result<BackupManifest> {
-    let manifest = check_backup(from, trust)?;
     let data = &settings.data_dir;
     ensure_empty(data, "the data directory (OSMAB_DATA_DIR)")?;
+    create_private_dir(data)?;
+    let staged = Staging(data.join(".restore-staging"));
+    let (from_owned, staged_owned) = (from.to_path_buf(), staged.0.clone());
+    tokio::task::spawn_blocking(move || copy_tree(&from_owned, &staged_owned, &|_| true)).await??;
+    let manifest = check_backup(&staged.0, from, trust)?;
     let in_bucket = !manifest.objects.is_empty();
     match (&settings.storage, in_bucket) {
         (None, false) | (Some(_), true) => {}
@@ -265,6 +271,18 @@ pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow:
         let scratch = ScratchDir::new()?;
         check_bucket(&Blobs::object(&scratch.0, config.clone())?, &manifest.objects).await?;
     }
+    restore_database(settings, &staged.0, &manifest, from).await?;
+    for name in [BLOBS].into_iter().chain(SECRETS) {
+        let source = staged.0.join(name);
+        if source.exists() {
+            std::fs::rename(&source, data.join(name)).with_context(|| format!("moving {} into {}", name, data.display()))?;
+        }
+    }
+    Ok(manifest)
+}
+
+/// Put the checked database of the backup staged in `staged` into `settings`' (empty) one.
+async fn restore_database(settings: &Settings, staged: &Path, manifest: &BackupManifest, from: &Path) -> anyhow::Result<()> {
     let url = settings.database_url.expose();
     match manifest.database.as_str() {
         "sqlite" => {
@@ -273,8 +291,7 @@ pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow:
             };
             let target = PathBuf::from(target.split('?').next().unwrap_or(target));
             ensure!(!target.exists(), "{}: a database exists there; restore into a fresh one", target.display());
-            create_private_dir(data)?;
-            copy_file(&from.join(SQLITE_FILE), &target)?;
+            copy_file(&staged.join(SQLITE_FILE), &target)?;
         }
         "postgres" => {
             ensure!(!url.starts_with("sqlite:"), "the backup holds a PostgreSQL dump, but DATABASE_URL is a SQLite one");
@@ -283,14 +300,21 @@ pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow:
             store.close().await;
             let tables = tables?;
             ensure!(tables == 0, "the database of DATABASE_URL holds {tables} tables; restore into an empty database");
-            create_private_dir(data)?;
-            run("pg_restore", &["--no-owner", "--exit-on-error", "--dbname", url, path_text(&from.join(POSTGRES_FILE))?])?;
+            run("pg_restore", &["--no-owner", "--exit-on-error", "--dbname", url, path_text(&staged.join(POSTGRES_FILE))?])?;
         }
         other => bail!("{}: database '{other}' is neither sqlite nor postgres", from.join(MANIFEST).display()),
     }
-    let (from_owned, data_owned) = (from.to_path_buf(), data.clone());
-    tokio::task::spawn_blocking(move || -> anyhow::Result<()> { copy_entries(&from_owned, &data_owned, [BLOBS].into_iter().chain(SECRETS)) }).await??;
-    Ok(manifest)
+    Ok(())
+}
+
+/// The staging folder of a restore, removed when dropped (after a restore, what is left of it;
+/// after a refusal, all of it).
+struct Staging(PathBuf);
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// A folder of its own under the system's temporary directory, removed when dropped: where
@@ -335,12 +359,14 @@ async fn check_bucket(blobs: &Blobs, objects: &[StoredObject]) -> anyhow::Result
     Ok(())
 }
 
-/// The manifest of the backup in `dir`, once every file it lists is there with its size and
+/// The manifest of the copy in `dir` of the backup at `shown` (which messages name), once
+/// its seal verifies (see [`Trust`]) and every file it lists is there with its size and
 /// SHA-256 and nothing else is.
-pub fn check_backup(dir: &Path, trust: &Trust) -> anyhow::Result<BackupManifest> {
-    let path = dir.join(MANIFEST);
+fn check_backup(dir: &Path, shown: &Path, trust: &Trust) -> anyhow::Result<BackupManifest> {
+    let path = shown.join(MANIFEST);
+    let read_path = dir.join(MANIFEST);
     let manifest: BackupManifest =
-        serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: cannot read (is this a backup?)", path.display()))?)
+        serde_json::from_slice(&std::fs::read(&read_path).with_context(|| format!("{}: cannot read (is this a backup?)", path.display()))?)
             .with_context(|| format!("{}: not a backup manifest", path.display()))?;
     match (manifest.format.as_str(), trust) {
         (FORMAT, Trust { key: Some(key), .. }) => key.verify(&manifest, &path)?,
@@ -359,10 +385,10 @@ pub fn check_backup(dir: &Path, trust: &Trust) -> anyhow::Result<BackupManifest>
     let listed: std::collections::BTreeMap<&str, &BackedUpFile> = manifest.files.iter().map(|f| (f.path.as_str(), f)).collect();
     for file in &found {
         match listed.get(file.path.as_str()) {
-            None => bail!("{}: not listed in {MANIFEST}; the backup was changed after it was taken", dir.join(&file.path).display()),
+            None => bail!("{}: not listed in {MANIFEST}; the backup was changed after it was taken", shown.join(&file.path).display()),
             Some(expected) if *expected != file => bail!(
                 "{}: {} bytes with SHA-256 {}, the manifest says {} bytes with {}; the backup is damaged",
-                dir.join(&file.path).display(),
+                shown.join(&file.path).display(),
                 file.size,
                 file.sha256,
                 expected.size,
@@ -372,7 +398,7 @@ pub fn check_backup(dir: &Path, trust: &Trust) -> anyhow::Result<BackupManifest>
         }
     }
     if let Some(missing) = manifest.files.iter().find(|f| !found.iter().any(|g| g.path == f.path)) {
-        bail!("{}: listed in {MANIFEST} but missing; the backup is incomplete", dir.join(&missing.path).display());
+        bail!("{}: listed in {MANIFEST} but missing; the backup is incomplete", shown.join(&missing.path).display());
     }
     Ok(manifest)
 }
@@ -507,10 +533,10 @@ mod tests {
     #[test]
     fn a_sealed_backup_verifies_with_its_key_only() {
         let backup = a_backup(Some(&key(OPERATOR)));
-        assert!(check_backup(backup.path(), &with_key(OPERATOR)).is_ok());
-        let wrong = check_backup(backup.path(), &with_key("another-key-0123456789abcdef0123456789")).unwrap_err().to_string();
+        assert!(check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).is_ok());
+        let wrong = check_backup(backup.path(), backup.path(), &with_key("another-key-0123456789abcdef0123456789")).unwrap_err().to_string();
         assert!(wrong.contains(&format!("sealed with backup key {}", key(OPERATOR).id())) && wrong.contains("Nothing was written"), "{wrong}");
-        let none = check_backup(backup.path(), &Trust { key: None, unsealed_store: true }).unwrap_err().to_string();
+        let none = check_backup(backup.path(), backup.path(), &Trust { key: None, unsealed_store: true }).unwrap_err().to_string();
         assert!(none.contains(BACKUP_KEY_VARIABLE), "{none}");
     }
 
@@ -524,28 +550,28 @@ mod tests {
         let mut manifest: BackupManifest = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
         manifest.files = describe_files(backup.path()).unwrap();
         std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
-        let refused = check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
+        let refused = check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
         assert!(refused.contains("the seal does not verify"), "{refused}");
 
         let mut forged = key("attacker-key-0123456789abcdef0123456789").seal(manifest.clone()).unwrap();
         forged.seal.as_mut().unwrap().key_id = key(OPERATOR).id();
         std::fs::write(&path, serde_json::to_vec_pretty(&forged).unwrap()).unwrap();
-        assert!(check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("the seal does not verify"));
+        assert!(check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("the seal does not verify"));
 
         manifest.seal = None;
         std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
-        assert!(check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("has no seal"));
+        assert!(check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("has no seal"));
         manifest.format = UNSEALED_FORMAT.into();
         std::fs::write(&path, serde_json::to_vec_pretty(&manifest).unwrap()).unwrap();
-        let downgraded = check_backup(backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
+        let downgraded = check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).unwrap_err().to_string();
         assert!(downgraded.contains("--trust-unsealed-backup"), "a seal stripped to an old format is refused unless the operator vouches: {downgraded}");
     }
 
     #[test]
     fn an_unsealed_backup_of_before_restores_only_on_the_operators_word() {
         let old = a_backup(None);
-        assert!(check_backup(old.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("taken before backups were sealed"));
-        assert!(check_backup(old.path(), &Trust { key: None, unsealed_store: true }).is_ok());
+        assert!(check_backup(old.path(), old.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("taken before backups were sealed"));
+        assert!(check_backup(old.path(), old.path(), &Trust { key: None, unsealed_store: true }).is_ok());
     }
 
     #[test]

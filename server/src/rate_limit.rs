@@ -25,23 +25,30 @@ pub fn client_of(headers: &HeaderMap, peer: Option<IpAddr>, trusted: &TrustedPro
     let Some(peer) = peer else {
         return "unknown".into();
     };
+    if !trusted.contains(peer) {
+        return address_key(peer);
+    }
+    let forwarded: Vec<&str> = headers.get_all("x-forwarded-for").iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(',')).collect();
     let mut client = peer;
-    if trusted.contains(peer) {
-        let forwarded: Vec<&str> = headers.get_all("x-forwarded-for").iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(',')).collect();
-        for hop in forwarded.iter().rev() {
-            match hop.trim().parse::<IpAddr>() {
-                Ok(address) => {
-                    client = address;
-                    if !trusted.contains(address) {
-                        break;
-                    }
-                }
-                // What the first trusted proxy saw ends here: the rest is the client's writing.
-                Err(_) => break,
-            }
+    for hop in forwarded.iter().rev().map(|hop| hop.trim()) {
+        match hop_address(hop) {
+            Some(address) if trusted.contains(address) => client = address,
+            Some(address) => return address_key(address),
+            // A trusted proxy wrote what it saw, but not as an address ("unknown", an
+            // obfuscated name): that text is the client, never the proxy itself.
+            None => return format!("forwarded {}", hop.chars().take(64).collect::<String>()),
         }
     }
     address_key(client)
+}
+
+/// The address of one `X-Forwarded-For` entry: `1.2.3.4`, `1.2.3.4:5678`, `2001:db8::1` or
+/// `[2001:db8::1]:443`.
+fn hop_address(hop: &str) -> Option<IpAddr> {
+    hop.parse::<IpAddr>()
+        .ok()
+        .or_else(|| hop.parse::<std::net::SocketAddr>().ok().map(|s| s.ip()))
+        .or_else(|| hop.strip_prefix('[').and_then(|rest| rest.split_once(']')).and_then(|(address, _)| address.parse().ok()))
 }
 
 /// The rate-limit key of one address (see [`client_of`]).
@@ -123,6 +130,9 @@ mod tests {
         let forged = headers("1.2.3.4, 198.51.100.7, 10.0.0.9");
         assert_eq!(client_of(&forged, proxy, &trusted), "198.51.100.7", "what the client wrote left of its address is ignored");
         assert_eq!(client_of(&headers("junk, 198.51.100.7"), proxy, &trusted), "198.51.100.7");
+        assert_eq!(client_of(&headers("198.51.100.7:5678"), proxy, &trusted), "198.51.100.7", "a port is not part of the client");
+        assert_eq!(client_of(&headers("[2001:db8:1:2::5]:443"), proxy, &trusted), "2001:db8:1:2::/64");
+        assert_eq!(client_of(&headers("unknown"), proxy, &trusted), "forwarded unknown", "never the proxy, which every client shares");
         assert_eq!(client_of(&forged, Some("203.0.113.5".parse().unwrap()), &trusted), "203.0.113.5", "a stranger's header counts for nothing");
         assert_eq!(client_of(&HeaderMap::new(), proxy, &trusted), "10.0.0.2", "a proxy that forwards nothing is the client");
         for alias in ["127.0.0.1", "127.0.0.2", "127.9.9.9", "::1", "::ffff:127.0.0.5"] {

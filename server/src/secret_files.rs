@@ -32,8 +32,22 @@ pub fn owner_only_dir(dir: &Path) -> std::io::Result<bool> {
         use std::os::unix::fs::PermissionsExt;
         let mode = std::fs::metadata(dir)?.permissions().mode() & 0o777;
         if mode != 0o700 {
-            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
-            return Ok(existed && mode & 0o077 != 0);
+            match std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)) {
+                Ok(()) => return Ok(existed && mode & 0o077 != 0),
+                // Not ours to change (a volume another user owns): say so, and go on only
+                // where no one else can read it anyway.
+                Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied && mode & 0o077 == 0 => {
+                    tracing::warn!(dir = %dir.display(), mode = format!("{mode:o}"), "cannot make the folder 0700 (not its owner); others cannot read it");
+                }
+                Err(e) => {
+                    return Err(std::io::Error::new(
+                        e.kind(),
+                        format!(
+                            "{e}: it is readable by other users (mode {mode:o}) and could not be made owner-only; chown it to the service's user or chmod 700 it"
+                        ),
+                    ));
+                }
+            }
         }
     }
     Ok(false)

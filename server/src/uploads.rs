@@ -41,18 +41,19 @@ pub fn min_part_bytes(length: u64) -> u64 {
 /// This server receiving a PATCH of one upload; dropped when it ends. A second PATCH of the
 /// same upload meanwhile is refused, so concurrent PATCHes at one offset cannot each fill a
 /// scratch file with the upload's remaining bytes: at most one remainder per upload is in
-/// scratch, and that is within the open-upload bytes the team declared.
+/// a server's scratch, and that is within the open-upload bytes the team declared (per
+/// server: N servers of a deployment hold at most N remainders).
 struct InFlight<'a>(&'a std::sync::Mutex<std::collections::HashSet<String>>, String);
 
 impl<'a> InFlight<'a> {
     fn claim(set: &'a std::sync::Mutex<std::collections::HashSet<String>>, id: &str) -> Option<Self> {
-        set.lock().expect("in-flight uploads").insert(id.to_string()).then(|| Self(set, id.to_string()))
+        set.lock().unwrap_or_else(std::sync::PoisonError::into_inner).insert(id.to_string()).then(|| Self(set, id.to_string()))
     }
 }
 
 impl Drop for InFlight<'_> {
     fn drop(&mut self) {
-        self.0.lock().expect("in-flight uploads").remove(&self.1);
+        self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner).remove(&self.1);
     }
 }
 

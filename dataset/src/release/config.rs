@@ -206,6 +206,9 @@ const MAX_SCENES_PER_SUBSET: u64 = 200;
 const MAX_FRAMES: u64 = 100_000;
 const MAX_GOALS: u64 = 100;
 const MAX_TIMEOUT_SECS: u64 = 86_400;
+/// Scenes × lightings × max_frames × width × height at most: about ten times the full
+/// release's (40 × 4 × 20,000 × 1200 × 680 ≈ 2.6·10¹²).
+const MAX_RENDERED_PIXELS: u64 = 30_000_000_000_000;
 
 /// Everything a release build needs; the same config gives the same release.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -267,7 +270,20 @@ impl ReleaseConfig {
             ("synthesis.timeout_secs", self.synthesis.timeout_secs, MAX_TIMEOUT_SECS),
             ("quality.replacements", self.quality.replacements.unwrap_or(0) as u64, MAX_PROMPT_POOL),
         ];
-        sizes.into_iter().find(|(_, size, bound)| size > bound).map(|(field, _, bound)| (field, bound))
+        if let Some(found) = sizes.into_iter().find(|(_, size, bound)| size > bound) {
+            return Some((found.0, found.2));
+        }
+        // Each within its bound, the sizes could still multiply into years of rendering.
+        let pixels = [
+            (self.selection.furniture + self.selection.manipuland) as u64,
+            self.render.lightings.len() as u64,
+            self.render.max_frames as u64,
+            u64::from(self.render.width),
+            u64::from(self.render.height),
+        ]
+        .into_iter()
+        .try_fold(1u64, u64::checked_mul);
+        pixels.is_none_or(|p| p > MAX_RENDERED_PIXELS).then_some(("render.max_frames", MAX_RENDERED_PIXELS))
     }
 
     /// Check the config `text` (named `path` in errors).
@@ -305,7 +321,8 @@ impl ReleaseConfig {
             return bad("quality.min_travel", "metres in [0, 1000)");
         }
         if let Some((field, bound)) = config.size_beyond_bounds() {
-            return bad(field, &format!("at most {bound} (every size a release config sets is bounded, so a config cannot queue unbounded work)"));
+            let what = if bound == MAX_RENDERED_PIXELS { "scenes × lightings × max_frames × width × height " } else { "" };
+            return bad(field, &format!("{what}at most {bound} (every size a release config sets is bounded, so a config cannot queue unbounded work)"));
         }
         if !(1..=8).contains(&config.render.frames_per_action) {
             return bad("render.frames_per_action", "1 to 8 frames per move or turn");

@@ -276,6 +276,14 @@ fn release_configs_with_secrets_or_impossible_cameras_are_rejected_by_field() {
         (&TINY.replace("furniture = 1\n", "furniture = 100000\n"), "selection.furniture", "at most 200"),
         (&TINY.replace("max_frames = 24", "max_frames = 1000000000"), "render.max_frames", "at most 100000"),
         (&TINY.replace("goals_manipuland = 1", "goals_manipuland = 5000"), "render.goals_manipuland", "at most 100"),
+        (
+            &TINY
+                .replace("furniture = 1\nmanipuland = 1", "furniture = 200\nmanipuland = 200")
+                .replace("max_frames = 24", "max_frames = 100000")
+                .replace("width = 64\nheight = 48", "width = 4096\nheight = 4096"),
+            "render.max_frames",
+            "scenes × lightings × max_frames × width × height at most",
+        ),
         (&format!("{TINY}\n[splits]\ntest_furniture = 2\n"), "splits.test_furniture", "at most the subset's 1"),
         (
             &format!(

@@ -29,8 +29,8 @@ impl NpzReader {
     pub fn open(path: &Path, limits: ReadLimits) -> Result<Self> {
         let mut file = File::open(path).map_err(|e| InputError::io(path, &e))?;
         let mut start = [0u8; 4];
-        let read = std::io::Read::read(&mut file, &mut start).map_err(|e| InputError::io(path, &e))?;
-        if read < 4 || !(start == *b"PK\x03\x04" || start == *b"PK\x05\x06") {
+        let complete = std::io::Read::read_exact(&mut file, &mut start).is_ok();
+        if !complete || !(start == *b"PK\x03\x04" || start == *b"PK\x05\x06") {
             return Err(InputError::new(
                 path,
                 "(archive)",

@@ -27,7 +27,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Accuracy, QuestionSetScores, Scores, Split, VqaCell};
+use std::collections::{BTreeMap, BTreeSet};
+
+use super::{Accuracy, QuestionSet, QuestionSetScores, Scores, SetsScores, Split, VqaCell};
 use crate::semseg::report::{MetricIntervals, MetricTriple};
 
 /// The fewest test scenes a shown number of a test submission may depend on.
@@ -50,7 +52,8 @@ pub struct Withheld {
 
 /// `value` to the nearest multiple of [`SHOWN_RESOLUTION`] (undefined stays undefined).
 pub fn rounded(value: f64) -> f64 {
-    if value.is_finite() { (value * STEPS_PER_UNIT).round() / STEPS_PER_UNIT } else { value }
+    // `+ 0.0` turns a rounded -0.0 into 0.0.
+    if value.is_finite() { (value * STEPS_PER_UNIT).round() / STEPS_PER_UNIT + 0.0 } else { value }
 }
 
 fn rounded_pair(pair: [f64; 2]) -> [f64; 2] {
@@ -82,7 +85,7 @@ fn keep_accuracy(accuracy: &mut Accuracy, min: usize) {
 }
 
 /// The parts of a partition, all of them when every part pools `min` scenes, else none.
-fn keep_partition<K: Ord, V>(parts: &mut std::collections::BTreeMap<K, V>, scenes: impl Fn(&V) -> usize, min: usize) {
+fn keep_partition<K: Ord, V>(parts: &mut BTreeMap<K, V>, scenes: impl Fn(&V) -> usize, min: usize) {
     if parts.values().any(|part| scenes(part) < min) {
         parts.clear();
     }
@@ -102,16 +105,61 @@ fn keep_set(set: &mut QuestionSetScores, min: usize) {
     keep_accuracy(&mut set.overall, min);
 }
 
+/// Whether `accuracy` has questions but pools fewer than `min` scenes.
+fn withheld(accuracy: &Accuracy, min: usize) -> bool {
+    accuracy.total > 0 && accuracy.scenes < min
+}
+
+/// The two question sets split their overall: both shown, or neither (the overall minus one
+/// would be the other).
+fn keep_sets(overall: &mut Accuracy, prompt_grounded: &mut QuestionSetScores, standard: &mut QuestionSetScores, min: usize) {
+    keep_accuracy(overall, min);
+    if [&*prompt_grounded, &*standard].iter().any(|set| withheld(&set.overall, min)) {
+        *prompt_grounded = QuestionSetScores::default();
+        *standard = QuestionSetScores::default();
+    }
+    keep_set(prompt_grounded, min);
+    keep_set(standard, min);
+}
+
 fn keep_cell(cell: &mut VqaCell, min: usize) {
-    keep_accuracy(&mut cell.overall, min);
-    keep_set(&mut cell.prompt_grounded, min);
-    keep_set(&mut cell.standard, min);
+    keep_sets(&mut cell.overall, &mut cell.prompt_grounded, &mut cell.standard, min);
     keep_partition(&mut cell.subsets, |s| s.overall.scenes, min);
     for subset in cell.subsets.values_mut() {
-        keep_accuracy(&mut subset.overall, min);
-        keep_set(&mut subset.prompt_grounded, min);
-        keep_set(&mut subset.standard, min);
+        keep_sets(&mut subset.overall, &mut subset.prompt_grounded, &mut subset.standard, min);
     }
+    // The subsets split the whole too: a number shown for one subset but withheld for
+    // another would be the whole's minus the shown one. Each subset shows only what all do.
+    for set in [QuestionSet::PromptGrounded, QuestionSet::Standard] {
+        let everywhere = cell.subsets.values().all(|s| !withheld(&set_of(s, set).overall, min));
+        let groups = common_keys(cell.subsets.values().map(|s| &set_of(s, set).groups));
+        let categories = common_keys(cell.subsets.values().map(|s| &set_of(s, set).categories));
+        for subset in cell.subsets.values_mut() {
+            let shown = match set {
+                QuestionSet::PromptGrounded => &mut subset.prompt_grounded,
+                QuestionSet::Standard => &mut subset.standard,
+            };
+            if !everywhere {
+                *shown = QuestionSetScores::default();
+            }
+            shown.groups.retain(|group, _| groups.contains(group));
+            shown.categories.retain(|category, _| categories.contains(category));
+        }
+    }
+}
+
+/// The question set `set` of `scores`.
+fn set_of(scores: &SetsScores, set: QuestionSet) -> &QuestionSetScores {
+    match set {
+        QuestionSet::PromptGrounded => &scores.prompt_grounded,
+        QuestionSet::Standard => &scores.standard,
+    }
+}
+
+/// The keys every one of `maps` has.
+fn common_keys<'a, K: Ord + Clone + 'a, V: 'a>(mut maps: impl Iterator<Item = &'a BTreeMap<K, V>>) -> BTreeSet<K> {
+    let first: BTreeSet<K> = maps.next().map(|m| m.keys().cloned().collect()).unwrap_or_default();
+    maps.fold(first, |common, map| common.into_iter().filter(|k| map.contains_key(k)).collect())
 }
 
 impl Scores {
@@ -159,7 +207,7 @@ impl Scores {
 
 /// The relative change of each shown lighting against the shown baseline, made from the
 /// rounded values (so it tells nothing they do not) and rounded.
-fn shown_relative_change(shown: &Scores) -> std::collections::BTreeMap<super::Lighting, super::RelativeChange> {
+fn shown_relative_change(shown: &Scores) -> BTreeMap<super::Lighting, super::RelativeChange> {
     let Some(baseline) = shown.semseg.get(&super::Lighting::BASELINE) else {
         return Default::default();
     };

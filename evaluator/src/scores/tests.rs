@@ -229,3 +229,20 @@ fn groups_are_withheld_when_the_categories_they_leave_out_pool_too_few_scenes() 
     set.categories.insert("Object Attributes".into(), set.overall.clone());
     assert!(!many.disclosed().vqa.as_ref().unwrap().all_lightings.standard.groups.is_empty(), "twenty scenes' may show");
 }
+
+#[test]
+fn a_question_set_or_a_subsets_group_withheld_anywhere_leaves_nothing_to_subtract_elsewhere() {
+    let mut test = scored(Split::Test, &[(Lighting::Baseline, 20)], 12, 20);
+    let cell = &mut test.vqa.as_mut().unwrap().all_lightings;
+    cell.prompt_grounded.overall.scenes = 3;
+    let furniture = cell.subsets.get_mut(&Regime::Furniture).unwrap();
+    furniture.standard.groups.get_mut(&QuestionGroup::Measurements).unwrap().scenes = 3;
+    let shown = test.disclosed();
+    let cell = &shown.vqa.as_ref().unwrap().all_lightings;
+    assert_eq!(cell.standard.overall.accuracy, None, "the overall minus the standard set would be the three-scene PromptGT set");
+    assert_eq!(cell.overall.scenes, 20, "the whole is shown");
+    for subset in cell.subsets.values() {
+        assert!(!subset.standard.groups.contains_key(&QuestionGroup::Measurements), "withheld in one subset, so in all");
+    }
+    assert_eq!(disclosure::rounded(-0.0004).to_string(), "0", "no negative zero");
+}

@@ -19,6 +19,9 @@ pub struct ReceiptKeys {
     signing: SigningKey,
     kid: String,
     published: Jwks,
+    /// Derived from the oldest key, which is never removed: the claim codes of anonymous
+    /// entries stay the same across key rotations.
+    claim_key: [u8; 32],
 }
 
 fn read_seed(path: &Path) -> anyhow::Result<SigningKey> {
@@ -72,15 +75,31 @@ impl ReceiptKeys {
             }
             keys.push(key);
         }
+        let claim_key: [u8; 32] = {
+            use sha2::Digest;
+            let oldest = keys.first().expect("at least one key");
+            sha2::Sha256::new().chain_update(b"osmab claim key\0").chain_update(oldest.to_bytes()).finalize().into()
+        };
         let signing = keys.pop().expect("at least one key");
         let mut published: Vec<Jwk> = std::iter::once(&signing).chain(keys.iter().rev()).map(|k| Jwk::of(&k.verifying_key())).collect();
         published.dedup_by(|a, b| a.kid == b.kid);
-        Ok(ReceiptKeys { kid: thumbprint(&signing.verifying_key()), signing, published: Jwks { keys: published } })
+        Ok(ReceiptKeys { kid: thumbprint(&signing.verifying_key()), signing, published: Jwks { keys: published }, claim_key })
     }
 
     /// The key that signs, and its id.
     pub fn signing(&self) -> (&SigningKey, &str) {
         (&self.signing, &self.kid)
+    }
+
+    /// The claim code of submission `id`: shown to its team only, it proves an anonymous
+    /// entry theirs against the team commitment its receipt carries
+    /// ([`super::team_commitment`]), and tells nothing of the team's other entries.
+    pub fn claim_code(&self, id: &str) -> String {
+        use hmac::{KeyInit, Mac};
+        let mut mac = hmac::Hmac::<sha2::Sha256>::new_from_slice(&self.claim_key).expect("HMAC takes a key of any length");
+        mac.update(b"osmab claim\0");
+        mac.update(id.as_bytes());
+        mac.finalize().into_bytes().iter().take(16).map(|b| format!("{b:02x}")).collect()
     }
 
     /// Every public key, the signing one first.

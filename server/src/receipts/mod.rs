@@ -61,6 +61,11 @@ pub struct Receipt {
     pub submission_id: String,
     pub summary: ReceiptSummary,
     pub team: String,
+    /// Of an anonymous entry (`team` is "Anonymous"): SHA-256 of its team's name and the
+    /// entry's claim code ([`team_commitment`]), which only the team is shown, so the team
+    /// can prove the entry theirs and nobody else can claim it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub team_commitment: Option<String>,
     /// SHA-256 of the uploaded archive.
     pub upload_sha256: String,
 }
@@ -68,6 +73,11 @@ pub struct Receipt {
 /// The full results document of `scores`: the bytes the receipt's `results_sha256` names.
 pub fn results_document(scores: &Scores) -> String {
     serde_json::to_string(scores).expect("a score document serialises")
+}
+
+/// The commitment an anonymous entry's receipt carries to team `team` with claim code `code`.
+pub fn team_commitment(team: &str, code: &str) -> String {
+    sha256_hex(format!("osmab receipt team\0{team}\0{code}").as_bytes())
 }
 
 /// Lowercase hex SHA-256 of `bytes`.
@@ -89,6 +99,8 @@ pub struct Facts<'a> {
     pub scores: &'a Scores,
     /// The organisers' flag on the entry, if any.
     pub flagged: Option<&'a str>,
+    /// Of an anonymous entry, its team commitment.
+    pub team_commitment: Option<&'a str>,
 }
 
 impl Receipt {
@@ -116,6 +128,7 @@ impl Receipt {
             submission_id: facts.submission_id.into(),
             summary,
             team: facts.team.into(),
+            team_commitment: facts.team_commitment.map(str::to_string),
             upload_sha256: facts.upload_sha256.into(),
         }
     }
@@ -152,6 +165,7 @@ mod tests {
             scored_at_ms: 1_700_000_000_123,
             scores: &scores,
             flagged: None,
+            team_commitment: None,
         };
         let receipt = Receipt::of(&facts);
         assert_eq!((receipt.iat, receipt.iss.as_str()), (1_700_000_000, "https://osmab.example.org"));

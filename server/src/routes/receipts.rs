@@ -54,6 +54,7 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
     let release = state.store.release(&submission.release).await?;
     // An entry that stays anonymous gets an anonymous receipt (a new one once revealed).
     let team_name = if submission.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
+    let commitment = submission.anonymous.then(|| crate::receipts::team_commitment(&team.name, &state.receipts.claim_code(&submission.id)));
     let receipt = Receipt::of(&Facts {
         // `serve` sets it (to where it listens when not configured).
         issuer: state.settings.public_url.as_deref().unwrap_or("osmab"),
@@ -65,6 +66,7 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
         scored_at_ms,
         scores: &scores,
         flagged: submission.flag.as_deref(),
+        team_commitment: commitment.as_deref(),
     });
     let jws = receipt.sign(&state.receipts);
     let wants_jose = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("application/jose"));

@@ -75,6 +75,11 @@ pub struct ScoreLink {
 pub struct SubmissionView {
     pub archive: ArchiveView,
     pub baseline: bool,
+    /// Of an anonymous entry, shown to its team and the organisers only: the code that proves
+    /// the entry the team's against its receipt's `team_commitment`
+    /// (`osmab client verify RECEIPT --keys … --team NAME --claim-code CODE`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub claim_code: Option<String>,
     pub complete: bool,
     pub created_at: String,
     /// Why the organisers flagged the entry, if they did.
@@ -128,6 +133,7 @@ impl SubmissionView {
         Ok(SubmissionView {
             archive: ArchiveView { sha256: s.archive_sha256.clone(), size: s.archive_size },
             baseline: s.baseline,
+            claim_code: (s.anonymous && caller.can_see_team(&s.team_id)).then(|| state.receipts.claim_code(&s.id)),
             complete: s.complete,
             created_at: rfc3339(s.created_at),
             history,

@@ -51,6 +51,27 @@ fn cards_anonymity_and_flags(backend: Backend) {
     assert_eq!((own["team"].as_str(), own["method"]["paper_url"].as_str()), (Some("Team Card"), Some("https://example.org/our-paper")));
     let receipt: Value = server.get(&format!("/api/v1/submissions/{id}/receipt")).send().unwrap().json().unwrap();
     assert_eq!(receipt["receipt"]["team"], "Anonymous", "an anonymous entry's receipt does not name its team");
+
+    // But it binds one: the team proves the entry theirs with the claim code only it is shown;
+    // another team cannot claim it, nor the team with a wrong code.
+    assert!(public.get("claim_code").is_none(), "only the team sees the claim code: {public}");
+    let code = own["claim_code"].as_str().unwrap();
+    let files = tempfile::tempdir().unwrap();
+    let receipt_file = files.path().join("receipt.json");
+    std::fs::write(&receipt_file, receipt.to_string()).unwrap();
+    let keys = format!("{}/api/v1/keys", server.url);
+    let claim = |team: &str, code: &str| crate::osmab(&["client", "verify", crate::path(&receipt_file), "--keys", &keys, "--team", team, "--claim-code", code]);
+    let claimed = claim("Team Card", code);
+    let said = String::from_utf8_lossy(&claimed.stdout);
+    assert!(
+        claimed.status.success() && said.contains("Claimed: this anonymous entry is team Team Card's"),
+        "{said}{}",
+        String::from_utf8_lossy(&claimed.stderr)
+    );
+    for (team, code) in [("Team Impostor", code), ("Team Card", "0123456789abcdef0123456789abcdef")] {
+        let refused = claim(team, code);
+        assert!(!refused.status.success() && String::from_utf8_lossy(&refused.stderr).contains("do not match"), "{team}");
+    }
     let page = server.get("/").send().unwrap().text().unwrap();
     assert!(!page.contains("Team Card"), "the leaderboard page does not name the team");
 

@@ -50,6 +50,9 @@ fn a_console_session_signs_nobody_in_again() {
     let renewed = sign_in(&browser, &server.url, &session);
     assert_eq!(renewed.status(), 401, "a session posted as the token makes no new session");
     assert!(renewed.headers().get("set-cookie").is_none() && renewed.text().unwrap().contains("console session"));
+    let as_api_token = server.get("/api/v1/admin/teams").bearer_auth(&session).send().unwrap();
+    assert!(problem(as_api_token, 401, "token_invalid")["detail"].as_str().unwrap().contains("console session"), "a session opens the pages only");
+    assert_eq!(server.admin(server.get("/api/v1/admin/teams")).status(), 200, "the admin token does");
 }
 
 #[test]

@@ -136,6 +136,13 @@ pub enum ClientCommand {
         /// A results document (`GET /api/v1/submissions/{id}/results.json`) to check against the receipt.
         #[arg(long)]
         results: Option<PathBuf>,
+        /// Check that the entry is this team's: an anonymous entry's with --claim-code (shown to
+        /// its team by `GET /api/v1/submissions/{id}`), any other by the team the receipt names.
+        #[arg(long)]
+        team: Option<String>,
+        /// The entry's claim code, shown to its team only.
+        #[arg(long, requires = "team")]
+        claim_code: Option<String>,
     },
     /// Fetch a scored submission's signed receipt, the results document it certifies and the
     /// service's keys into --out; with --verify, check all three as `osmab client verify` does
@@ -208,10 +215,13 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             exit_unless_scored(watch, || Ok(state))
         }
         ClientCommand::Results { id, url } => view::results(&api(url.as_deref())?, &id),
-        ClientCommand::Verify { receipt, keys, issuer, results } => {
+        ClientCommand::Verify { receipt, keys, issuer, results, team, claim_code } => {
             let keys = verify::KeySource::parse(&keys, issuer.as_deref())?;
             let checked = verify::verify(&receipt, &keys, results.as_deref())?;
             print!("{}", verify::describe(&checked, &keys, results.is_some()));
+            if let Some(team) = team {
+                println!("{}", verify::claim(&checked, &team, claim_code.as_deref())?);
+            }
             print!("{}", verify::describe_currency(&verify::currency(&checked, &keys, None)));
             Ok(())
         }

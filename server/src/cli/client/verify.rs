@@ -189,7 +189,7 @@ pub fn fetch_receipt(api: &super::api::Api, id: &str, out: &Path, verify_them: b
 /// The `kid` in the header of the compact JWS `token`.
 fn signing_kid(token: &str) -> anyhow::Result<String> {
     use base64::Engine;
-    let header = token.split('.').next().unwrap_or_default();
+    let header = token.trim().split('.').next().unwrap_or_default();
     let bytes = base64::engine::general_purpose::URL_SAFE_NO_PAD.decode(header).context("the receipt's header is not base64url")?;
     let value: serde_json::Value = serde_json::from_slice(&bytes).context("the receipt's header is not JSON")?;
     value["kid"].as_str().map(str::to_string).context("the receipt's header names no kid")
@@ -216,14 +216,18 @@ pub fn currency(receipt: &Receipt, keys: &KeySource, token: Option<&str>) -> Cur
         Ok(response) => return Currency { unknown: Some(format!("{url} answers {}", response.status())), ..Currency::default() },
         Err(e) => return Currency { unknown: Some(format!("{url}: {e}")), ..Currency::default() },
     };
-    let Some(now) = current.as_ref().and_then(|c| c["receipt"]["results_sha256"].as_str()) else {
-        return Currency { unknown: Some(format!("{url} did not answer a receipt")), ..Currency::default() };
+    // The current receipt counts only as signed by the issuer's keys.
+    let signed_now =
+        current.as_ref().and_then(|c| c["jws"].as_str()).map(|jws| keys.load().and_then(|keys| Receipt::verify(jws, &keys).map_err(anyhow::Error::msg)));
+    let now = match signed_now {
+        Some(Ok(now)) => now,
+        Some(Err(e)) => return Currency { unknown: Some(format!("{url}: the current receipt does not verify ({e})")), ..Currency::default() },
+        None => return Currency { unknown: Some(format!("{url} did not answer a receipt")), ..Currency::default() },
     };
-    Currency {
-        superseded_by: (now != receipt.results_sha256).then(|| now.to_string()),
-        flagged_now: current.as_ref().and_then(|c| c["receipt"]["flagged"].as_str()).map(str::to_string),
-        unknown: None,
-    }
+    // Scored again (another scoring time), or the same scoring shown otherwise (a rule of
+    // what test scores show changed): either way this receipt's numbers are not today's.
+    let rescored = now.iat != receipt.iat || now.results_sha256 != receipt.results_sha256;
+    Currency { superseded_by: rescored.then(|| format!("{}, scored {}", now.results_sha256, now.scored_at)), flagged_now: now.flagged, unknown: None }
 }
 
 /// The top-level fields where `copy` differs from `signed` (missing, extra or changed).
@@ -254,6 +258,9 @@ pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> S
     if keys.issuer.is_none() {
         out.push_str("The issuer was not checked: the keys came from a file, which binds the receipt to no service (give --issuer ORIGIN, or --keys as the service's URL).\n");
     }
+    if receipt.team_commitment.is_some() {
+        out.push_str("The entry is anonymous: its team can prove it theirs with the claim code it is shown (--team NAME --claim-code CODE).\n");
+    }
     if let Some(reason) = &receipt.flagged {
         out.push_str(&format!("FLAGGED by the organisers when this receipt was issued: {reason}\n"));
     }
@@ -263,12 +270,26 @@ pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> S
     out
 }
 
+/// Whether `receipt` is team `team`'s entry, as its claim `code` proves against the
+/// receipt's team commitment (an anonymous entry) or as the receipt names it.
+pub fn claim(receipt: &Receipt, team: &str, code: Option<&str>) -> anyhow::Result<String> {
+    match &receipt.team_commitment {
+        Some(_) if code.is_none() => bail!("the receipt is of an anonymous entry: give --claim-code, the code its team is shown"),
+        Some(commitment) if *commitment == crate::receipts::team_commitment(team, code.unwrap_or_default().trim()) => {
+            Ok(format!("Claimed: this anonymous entry is team {team}'s (the claim code matches the receipt's signed team commitment)."))
+        }
+        Some(_) => bail!("the team name and claim code do not match this receipt's team commitment: it is not shown to be {team}'s"),
+        None if receipt.team == team => Ok(format!("The receipt names team {team} (no claim code is needed).")),
+        None => bail!("the receipt names team {}, not {team}, and carries no team commitment", receipt.team),
+    }
+}
+
 /// Whether the receipt is still current, in words.
 pub fn describe_currency(currency: &Currency) -> String {
     let flag = currency.flagged_now.as_ref().map(|reason| format!("FLAGGED now by the organisers: {reason}\n")).unwrap_or_default();
     flag + &match (&currency.superseded_by, &currency.unknown) {
         (Some(now), _) => format!(
-            "SUPERSEDED: the issuer's current receipt of this entry certifies other results (SHA-256 {now}): it was rescored since; this receipt's numbers are not its current ones.\n"
+            "SUPERSEDED: the issuer's current receipt of this entry certifies other results (SHA-256 {now}): it was rescored, or is shown otherwise, since; this receipt's numbers are not its current ones.\n"
         ),
         (None, Some(why)) => format!("Whether the entry was rescored or flagged since was not checked ({why}).\n"),
         (None, None) => "Current: the issuer's receipt of this entry certifies the same results today.\n".into(),

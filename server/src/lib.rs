@@ -3,6 +3,7 @@
 //! on a socket, and what in-process tests drive with tower's `oneshot`); [`cli`] is the
 //! command line the `osmab` binary runs.
 
+mod access_requests;
 mod auth;
 mod backup;
 mod blobs;

@@ -43,6 +43,27 @@ pub async fn open(settings: Settings) -> anyhow::Result<AppState> {
     AppState::new(settings, store, blobs)
 }
 
+/// The file in the data directory where `serve` writes the URL it answers at, so the
+/// admin commands on the same machine find it whatever `OSMAB_BIND` said.
+pub const LISTENING_FILE: &str = "listening";
+
+/// Write the URL this server answers at locally (an unspecified bind address as loopback).
+fn write_listening(data_dir: &std::path::Path, address: std::net::SocketAddr) {
+    let mut local = address;
+    if local.ip().is_unspecified() {
+        local.set_ip(if local.is_ipv4() { std::net::Ipv4Addr::LOCALHOST.into() } else { std::net::Ipv6Addr::LOCALHOST.into() });
+    }
+    if let Err(e) = std::fs::write(data_dir.join(LISTENING_FILE), format!("http://{local}\n")) {
+        tracing::warn!(error = %e, "cannot write where the service listens; admin commands need --url");
+    }
+}
+
+/// The URL a `serve` with this data directory said it answers at, if one did.
+pub fn listening_url(data_dir: &std::path::Path) -> Option<String> {
+    let text = std::fs::read_to_string(data_dir.join(LISTENING_FILE)).ok()?;
+    Some(text.trim().to_string()).filter(|url| url.starts_with("http://") && !url.contains(char::is_whitespace))
+}
+
 /// Create the data directory owner-only, or repair it and the secret folders in it: it
 /// holds the hidden test ground truth, the database, uploads and the keys, which no other
 /// local user may read.
@@ -214,6 +235,7 @@ pub async fn serve(mut settings: Settings) -> anyhow::Result<()> {
         let _ = stop.send(true);
     });
     tracing::info!(%address, workers = state.settings.workers, "serving");
+    write_listening(&state.settings.data_dir, address);
     println!("osmab listening on http://{address}");
     say_how_to_begin(&state).await;
     let _ = std::io::stdout().flush();
@@ -227,6 +249,7 @@ pub async fn serve(mut settings: Settings) -> anyhow::Result<()> {
     stop_workers(&state, workers).await;
     housekeeping.abort();
     state.store.close().await;
+    let _ = std::fs::remove_file(state.settings.data_dir.join(LISTENING_FILE));
     tracing::info!("stopped");
     Ok(())
 }

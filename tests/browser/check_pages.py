@@ -1106,7 +1106,56 @@ def main() -> int:
             expect(dumps and not missing, f"pages without a link to /about: {missing}")
             return f"{shot}; linked from all {len(dumps)} pages opened"
 
+        def take_part():
+            # A stranger asks for access on the page, as a user would.
+            page, dom, shot = load("/take-part", "30-take-part")
+            try:
+                for field, value in (("team_name", "Stranger Lab"), ("contact", "lead@stranger.example"), ("affiliation", "Stranger University"),
+                                     ("method_url", "https://stranger.example/paper")):
+                    page.type_into(f"#ask-access input[name={field}]", value)
+                page.click_and_wait("#ask-access button")
+                _, dom = page.dom()
+                code_node = dom.find(id="claim-code")
+                expect(code_node is not None and code_node.clean().startswith("osmab_claim_"), "asking shows no claim code")
+                code = code_node.clean()
+                aw, ah, _ = page.screenshot(out / "31-take-part-asked.png")
+                # The operator approves it in the console (signed in by the console check).
+                page.goto(f"{base}/admin")
+                _, dom = page.dom()
+                if dom.find(id="admin-access-requests") is None and dom.find("input", id="token") is not None:
+                    page.type_into("#token", os.environ.get("OSMAB_ADMIN_TOKEN") or (data_dir / "admin-token").read_text().strip())
+                    page.click_and_wait("form.admin-form button")
+                    _, dom = page.dom()
+                rows = dom.find(id="admin-access-requests").find("tbody").kids("tr")
+                expect(any("Stranger Lab" in r.clean() for r in rows), f"the console does not list the request: {[r.clean() for r in rows]}")
+                form = next(f for f in dom.find(id="admin-access-requests").find_all("form") if f.attrs.get("action", "").endswith("/approve"))
+                page.click_and_wait(f"form[action='{form.attrs['action']}'] button")
+                _, dom = page.dom()
+                expect("Stranger Lab is created" in dom.find("p", cls="notice").clean(), "no notice after approving")
+                # The stranger collects the token with the code, once; it works.
+                page.goto(f"{base}/take-part")
+                page.type_into("#collect-access input[name=claim_code]", code)
+                page.click_and_wait("#collect-access button")
+                _, dom = page.dom()
+                token_node = dom.find(id="team-token")
+                expect(token_node is not None, "collecting shows no token")
+                req = urllib.request.Request(f"{base}/api/v1/me", headers={"Authorization": f"Bearer {token_node.clean()}"})
+                with urllib.request.urlopen(req, timeout=30) as r:
+                    me = json.loads(r.read())
+                expect(me["team"]["name"] == "Stranger Lab", f"the collected token is not the team's: {me}")
+                cw, ch, _ = page.screenshot(out / "32-take-part-collected.png")
+            finally:
+                page.close()
+            phone, _, phone_shot = load("/take-part", "33-take-part-phone", width=PHONE_WIDTH)
+            try:
+                scroll, width = phone.overflow()
+                expect(scroll <= width + 1, f"the Take part page scrolls sideways at {PHONE_WIDTH} px ({scroll} > {width})")
+            finally:
+                phone.close()
+            return f"{shot}; asked, approved in the console, collected a working token; 31-take-part-asked.png {aw}x{ah}, 32-take-part-collected.png {cw}x{ch}; {phone_shot}"
+
         run("about page, linked from every page", about_page)
+        run("take part: ask, approve in the console, collect the token", take_part)
 
         def phone_width():
             # 390 x 844 CSS px, as an iPhone 12-15; signed in (the console's cookie), so the

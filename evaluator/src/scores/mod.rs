@@ -162,6 +162,23 @@ impl Scores {
         self.relative_change.get(&lighting)?.aggregate(aggregate).defined(metric)
     }
 
+    /// The document without its 95 % intervals: what a board that pools too few scenes for
+    /// them shows (pages, API and client alike).
+    pub fn without_intervals(mut self) -> Scores {
+        for lighting in self.semseg.values_mut() {
+            lighting.overall.ci95 = None;
+            for subset in lighting.subsets.values_mut() {
+                subset.overall.ci95 = None;
+            }
+        }
+        if let Some(vqa) = &mut self.vqa {
+            for cell in std::iter::once(&mut vqa.all_lightings).chain(vqa.lightings.values_mut()) {
+                cell.for_each_accuracy(&mut |a| a.ci95 = None);
+            }
+        }
+        self
+    }
+
     /// The document without its per-scene tables (scene counts stay): what a leaderboard
     /// carries; a submission's own page and API have the details.
     pub fn summary(mut self) -> Scores {

@@ -48,6 +48,27 @@ pub struct VqaCell {
     pub subsets: BTreeMap<Regime, SetsScores>,
 }
 
+impl QuestionSetScores {
+    fn for_each_accuracy(&mut self, f: &mut dyn FnMut(&mut Accuracy)) {
+        f(&mut self.overall);
+        self.groups.values_mut().chain(self.categories.values_mut()).for_each(|a| f(a));
+    }
+}
+
+impl VqaCell {
+    /// Apply `f` to every accuracy of the cell, its subsets' included.
+    pub fn for_each_accuracy(&mut self, f: &mut dyn FnMut(&mut Accuracy)) {
+        f(&mut self.overall);
+        self.prompt_grounded.for_each_accuracy(f);
+        self.standard.for_each_accuracy(f);
+        for subset in self.subsets.values_mut() {
+            f(&mut subset.overall);
+            subset.prompt_grounded.for_each_accuracy(f);
+            subset.standard.for_each_accuracy(f);
+        }
+    }
+}
+
 /// One question as answered and judged.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct AnswerRow {

@@ -10,7 +10,9 @@ use clap::{Args, Subcommand};
 use reqwest::blocking::{Client, RequestBuilder};
 use serde::de::DeserializeOwned;
 
+use crate::access_requests::AccessRequestView;
 use crate::config::Settings;
+use crate::routes::access_requests::RequestList;
 use crate::routes::admin_teams::{CreatedTeam, IssuedToken, TeamList, TeamView, TokenList};
 
 #[derive(Debug, Args)]
@@ -80,6 +82,31 @@ enum TeamCommand {
         #[command(flatten)]
         target: Target,
     },
+    /// List the requests for access from the "Take part" page (pending ones unless --all).
+    Requests {
+        /// Every request, decided ones too.
+        #[arg(long)]
+        all: bool,
+        #[command(flatten)]
+        target: Target,
+    },
+    /// Approve a request for access: its team is created, and the requester collects the
+    /// token with its claim code.
+    Approve {
+        /// The request's id (acc_…).
+        request: String,
+        #[command(flatten)]
+        target: Target,
+    },
+    /// Decline a request for access, with a reason the requester reads.
+    Decline {
+        /// The request's id (acc_…).
+        request: String,
+        #[arg(long)]
+        reason: String,
+        #[command(flatten)]
+        target: Target,
+    },
 }
 
 /// The admin API of one service.
@@ -87,14 +114,21 @@ struct AdminApi {
     url: String,
     token: String,
     client: Client,
+    /// Where the URL came from, for the message when nothing answers there.
+    found: String,
 }
 
 impl AdminApi {
     fn open(target: &Target) -> anyhow::Result<Self> {
         let settings = Settings::load(target.config.as_deref())?;
-        let url = match &target.url {
-            Some(url) => url.trim_end_matches('/').to_string(),
-            None => settings.public_url.clone().unwrap_or_else(|| format!("http://{}", settings.bind)),
+        let listening = crate::serve::listening_url(&settings.data_dir);
+        let (url, found) = match (&target.url, listening) {
+            (Some(url), _) => (url.trim_end_matches('/').to_string(), "--url".to_string()),
+            (None, Some(url)) => (url, format!("{} (written by `osmab serve` at start)", settings.data_dir.join(crate::serve::LISTENING_FILE).display())),
+            (None, None) => match &settings.public_url {
+                Some(url) => (url.clone(), "OSMAB_PUBLIC_URL".to_string()),
+                None => (format!("http://{}", settings.bind), "the settings' bind address (OSMAB_BIND)".to_string()),
+            },
         };
         let token = match &settings.admin_token {
             Some(token) => token.expose().to_string(),
@@ -109,14 +143,29 @@ impl AdminApi {
             }
         };
         let client = Client::builder().timeout(std::time::Duration::from_secs(60)).build()?;
-        Ok(Self { url, token, client })
+        Ok(Self { url, token, client, found })
     }
 
     fn send<T: DeserializeOwned>(&self, request: RequestBuilder) -> anyhow::Result<T> {
-        let response =
-            request.bearer_auth(&self.token).send().with_context(|| format!("{}: the service does not answer (is `osmab serve` running?)", self.url))?;
+        let response = request.bearer_auth(&self.token).send().with_context(|| {
+            format!(
+                "{}: the service does not answer (is `osmab serve` running?). The address came from {}; run this with the same OSMAB_DATA_DIR as \
+                 `serve`, or give --url http://HOST:PORT",
+                self.url, self.found
+            )
+        })?;
         let response = crate::cli::client::checked(response)?;
         response.json().context("the service's answer does not read")
+    }
+
+    /// Send `request`, expecting an answer without a body (null then).
+    fn send_empty(&self, request: RequestBuilder) -> anyhow::Result<serde_json::Value> {
+        let response = request
+            .bearer_auth(&self.token)
+            .send()
+            .with_context(|| format!("{}: the service does not answer (it came from {}; give --url)", self.url, self.found))?;
+        crate::cli::client::checked(response)?;
+        Ok(serde_json::Value::Null)
     }
 
     /// The team named `team` (or with that id).
@@ -131,8 +180,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
         AdminCommand::Team(command) => command,
         AdminCommand::Token(TokenCommand::Revoke { token_id, target }) => {
             let api = AdminApi::open(&target)?;
-            let response = api.client.delete(format!("{}/api/v1/admin/tokens/{token_id}", api.url)).bearer_auth(&api.token).send()?;
-            crate::cli::client::checked(response)?;
+            let _: serde_json::Value = api.send_empty(api.client.delete(format!("{}/api/v1/admin/tokens/{token_id}", api.url)))?;
             println!("token {token_id} revoked");
             return Ok(());
         }
@@ -175,6 +223,35 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
                 })
                 .collect();
             println!("Tokens of team {}\n{}", team.name, crate::cli::client::table_text(&header, &rows));
+        }
+        TeamCommand::Requests { all, target } => {
+            let api = AdminApi::open(&target)?;
+            let query = if all { "" } else { "?state=pending" };
+            let list: RequestList = api.send(api.client.get(format!("{}/api/v1/admin/access-requests{query}", api.url)))?;
+            let header: Vec<String> = ["id", "team", "contact", "affiliation", "method", "state", "asked"].iter().map(|s| s.to_string()).collect();
+            let rows: Vec<Vec<String>> = list
+                .requests
+                .iter()
+                .map(|r| {
+                    let method = r.method_url.clone().unwrap_or_default();
+                    vec![r.id.clone(), r.team_name.clone(), r.contact.clone(), r.affiliation.clone(), method, r.state.to_string(), r.created_at.clone()]
+                })
+                .collect();
+            println!("{}", crate::cli::client::table_text(&header, &rows));
+            if list.requests.is_empty() {
+                eprintln!("No request{}.", if all { "" } else { " waits" });
+            }
+        }
+        TeamCommand::Approve { request, target } => {
+            let api = AdminApi::open(&target)?;
+            let approved: AccessRequestView = api.send(api.client.post(format!("{}/api/v1/admin/access-requests/{request}/approve", api.url)))?;
+            println!("Team '{}' is created; its requester collects the token with the claim code it was shown.", approved.team_name);
+        }
+        TeamCommand::Decline { request, reason, target } => {
+            let api = AdminApi::open(&target)?;
+            let body = serde_json::json!({"reason": reason});
+            let declined: AccessRequestView = api.send(api.client.post(format!("{}/api/v1/admin/access-requests/{request}/decline", api.url)).json(&body))?;
+            println!("The request for team '{}' is declined; its requester reads the reason when collecting.", declined.team_name);
         }
         TeamCommand::Token { team, target } => {
             let api = AdminApi::open(&target)?;

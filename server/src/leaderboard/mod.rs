@@ -132,7 +132,7 @@ impl Leaderboard {
                     rank: 0,
                     rank_group: 0,
                     robustness: Robustness::of(&shown, &lightings),
-                    scores: shown.summary(),
+                    scores: if significance { shown.summary() } else { shown.summary().without_intervals() },
                     submission_id: row.submission_id,
                     submitted_at: crate::clock::rfc3339(row.created_at),
                     team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },

@@ -32,11 +32,21 @@ pub async fn create_team(State(state): State<AppState>, _: AdminCaller, ApiJson(
 
 /// Create the team `body` names with its first token (the API and the console's form).
 pub async fn new_team(state: &AppState, body: &NewTeam) -> ApiResult<CreatedTeam> {
-    let name = body.name.trim().to_string();
+    let team = create_team_record(state, &body.name, body.daily_quota).await?;
+    let (token, record) = issue_token(TokenScope::Team, Some(&team.id), None);
+    state.store.insert_token(&record).await?;
+    tracing::info!(team = %team.name, token = %record.hint, "team created");
+    Ok(CreatedTeam { daily_quota: team.daily_quota, id: team.id, name: team.name, token, token_id: record.id })
+}
+
+/// Create the team `name` (with its own `daily_quota`, if any) and no token: its name is
+/// checked as visitors read it, against the reserved names and every other team's.
+pub async fn create_team_record(state: &AppState, name: &str, daily_quota: Option<i64>) -> ApiResult<Team> {
+    let name = name.trim().to_string();
     if let Some(problem) = osmab_evaluator::text::display_name_problem(&name, 80).or_else(|| crate::reserved_names::team_name_problem(&name)) {
         return Err(Problem::invalid_request(format!("name: {problem}")));
     }
-    if body.daily_quota.is_some_and(|q| q < 0) {
+    if daily_quota.is_some_and(|q| q < 0) {
         return Err(Problem::invalid_request("daily_quota: expected 0 or more"));
     }
     // Between teams too, names are compared as visitors read them (UTS #39 skeletons):
@@ -48,16 +58,12 @@ pub async fn new_team(state: &AppState, body: &NewTeam) -> ApiResult<CreatedTeam
             format!("name: '{name}' reads as '{}', an existing team's name, and visitors could not tell them apart; choose another", twin.name)
         }));
     }
-    let team = Team { id: new_id("team"), name: name.clone(), daily_quota: body.daily_quota, created_at: now_ms() };
+    let team = Team { id: new_id("team"), name: name.clone(), daily_quota, created_at: now_ms() };
     match state.store.create_team(&team).await {
-        Ok(()) => {}
-        Err(StoreError::Conflict(_)) => return Err(Problem::conflict(format!("A team named '{name}' exists."))),
-        Err(e) => return Err(e.into()),
+        Ok(()) => Ok(team),
+        Err(StoreError::Conflict(_)) => Err(Problem::conflict(format!("A team named '{name}' exists."))),
+        Err(e) => Err(e.into()),
     }
-    let (token, record) = issue_token(TokenScope::Team, Some(&team.id), None);
-    state.store.insert_token(&record).await?;
-    tracing::info!(team = %team.name, token = %record.hint, "team created");
-    Ok(CreatedTeam { daily_quota: team.daily_quota, id: team.id, name: team.name, token, token_id: record.id })
 }
 
 /// A created team with its first token (shown once).

@@ -1,6 +1,7 @@
 //! The HTTP surface: one `router(state)` the server, the tests and the benchmarks share.
 //! Each module owns the routes, handlers and response shapes of one area.
 
+pub mod access_requests;
 pub mod admin;
 pub mod admin_teams;
 mod api_docs;
@@ -138,6 +139,7 @@ fn api() -> ApiRoutes {
         .merge(leaderboard::routes())
         .merge(jobs::routes())
         .merge(admin_teams::routes())
+        .merge(access_requests::routes())
         .merge(admin::routes())
         .merge(quota_policies::routes())
 }

@@ -3,6 +3,7 @@
 //! drivers accept; where the dialects differ (claiming a job) each backend has its own
 //! statement. Every query is runtime-checked, so building never needs a database.
 
+mod access_requests;
 mod error;
 mod jobs;
 mod models;
@@ -20,12 +21,13 @@ pub mod tests;
 mod tokens;
 mod uploads;
 
+pub use access_requests::AccessRequestRecord;
 pub use error::{StoreError, StoreResult};
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
 pub use queue::Standing;
 pub use quotas::QuotaPolicyRecord;
-pub use states::{JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
+pub use states::{AccessRequestState, JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
 pub use uploads::{OpenUploadLimits, OpenUploads, UploadPart, UploadRecord};
 
 use sqlx::{PgPool, SqlitePool};

@@ -111,3 +111,18 @@ state!(
         Archive = "archive",
     }
 );
+
+state!(
+    /// Where a request for access is: pending → approved (the team exists) → collected (its
+    /// first token was taken), or declined.
+    AccessRequestState {
+        /// Waiting for the operator.
+        Pending = "pending",
+        /// The team exists; its token waits for the claim code.
+        Approved = "approved",
+        /// Refused, with a reason.
+        Declined = "declined",
+        /// The requester took the team's first token.
+        Collected = "collected",
+    }
+);

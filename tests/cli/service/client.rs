@@ -123,6 +123,16 @@ fn a_team_downloads_validates_submits_and_follows_with_the_client() {
     assert_eq!(listed, all["overall"]["total"].as_u64().unwrap(), "{by_category}");
     let board = ok(&client(&config, &["leaderboard"]));
     assert!(board.contains("team-label-noise") && board.contains("Team Client"), "{board}");
+    // One rule for the client, the API and the pages: this board pools too few scenes for
+    // intervals and groups, and none of them shows any.
+    let json: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
+    assert_eq!(json["significance"], false, "{json}");
+    let entries = json["entries"].to_string();
+    assert!(!entries.contains("\"ci95\":[") && !entries.contains("\"ci95\":{"), "the JSON carries no interval: {json}");
+    let page = server.get("/").send().unwrap().text().unwrap();
+    assert!(board.contains("too few for intervals and significance groups") && page.contains("too few for intervals and significance"), "{board}");
+    let ranks: Vec<&str> = board.lines().filter(|l| l.contains("team-") || l.contains("baseline-")).map(|l| l.split_whitespace().nth(1).unwrap()).collect();
+    assert!(!ranks.is_empty() && ranks.iter().all(|g| *g == "–"), "no group in the client's table, as on the page: {board}");
     let quota = ok(&client(&config, &["quota"]));
     let header = quota.lines().find(|l| l.contains("split") && l.contains("remaining")).unwrap_or_else(|| panic!("{quota}"));
     assert!(header.trim_end().ends_with("default split"), "every column is labelled: {quota}");

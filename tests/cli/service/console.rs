@@ -165,6 +165,29 @@ fn console(backend: Backend) {
     let none = browser.get(format!("{}/admin/releases/nope/quality", server.url)).header("cookie", &cookie).send().unwrap();
     assert_eq!(none.status(), 404);
 
+    // A request for access waits in the console; approving it creates the team (no token shown here).
+    let asked: Value = server
+        .post("/api/v1/access-requests")
+        .json(&serde_json::json!({"team_name": "Console Lab", "contact": "c@lab.example", "affiliation": "Lab"}))
+        .send()
+        .unwrap()
+        .json()
+        .unwrap();
+    let id_of_request = asked["id"].as_str().unwrap();
+    let page = browser.get(format!("{}/admin", server.url)).header("cookie", &cookie).send().unwrap().text().unwrap();
+    assert!(
+        page.contains("id=\"admin-access-requests\"")
+            && page.contains("Console Lab")
+            && page.contains(&format!("/admin/access-requests/{id_of_request}/approve")),
+        "{page}"
+    );
+    let approved = form(&browser, &server, &format!("/admin/access-requests/{id_of_request}/approve"), &cookie, &[("form_token", &form_token)]);
+    assert_eq!(approved.status(), 303);
+    let teams: Value = server.admin(server.get("/api/v1/admin/teams")).json().unwrap();
+    assert!(teams.to_string().contains("Console Lab"), "{teams}");
+    let forged = form(&browser, &server, &format!("/admin/access-requests/{id_of_request}/decline"), &cookie, &[("form_token", "x"), ("reason", "r")]);
+    assert_eq!(forged.status(), 403, "a decision needs the session's form token");
+
     // Signing out revokes the session: the same cookie no longer opens the console.
     let out = form(&browser, &server, "/admin/logout", &cookie, &[("form_token", &form_token)]);
     assert_eq!((out.status().as_u16(), location(&out)), (303, "/admin/login"));

@@ -18,6 +18,7 @@ mod receipts;
 mod regeneration;
 mod schema;
 mod splits;
+mod take_part;
 mod workers;
 
 use std::io::{BufRead, BufReader};

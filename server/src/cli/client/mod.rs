@@ -207,7 +207,7 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
                 return report_dry_run(&serde_json::from_value(answer).context("the server's dry-run answer")?);
             }
             // A submission goes resumably.
-            let id = report_submitted(resumable::submit(&api, &packed, !private, split)?);
+            let id = report_submitted(resumable::submit(&api, &packed, !private, split)?, watch);
             exit_unless_scored(watch, || view::status(&api, &id, true))
         }
         ClientCommand::Status { id, watch, url } => {
@@ -276,8 +276,8 @@ fn report_dry_run(report: &DryRun) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Say what became of an upload; its submission's id.
-fn report_submitted(created: Created) -> String {
+/// Say what became of an upload (and, with `watch`, that it is followed); its submission's id.
+fn report_submitted(created: Created, watch: bool) -> String {
     let id = created.id;
     // The id alone on stdout for scripts (`ID=$(osmab client submit …)`); in a terminal
     // the sentence below says it once.
@@ -287,8 +287,9 @@ fn report_submitted(created: Created) -> String {
     if created.repeat {
         eprintln!("The server already had this archive as {id} ({}); no quota was used.", created.state);
     } else {
+        let next = if watch { "following it until it is scored:".to_string() } else { format!("follow it with `osmab client status {id} --watch`.") };
         eprintln!(
-            "Submitted to the {} split as {id} ({}); {} of {} left in the window; follow it with `osmab client status {id} --watch`.",
+            "Submitted to the {} split as {id} ({}); {} of {} left in the window; {next}",
             created.split, created.state, created.quota.remaining, created.quota.limit
         );
     }

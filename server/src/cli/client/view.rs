@@ -173,10 +173,12 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
             if !e.complete {
                 tags.push("incomplete");
             }
-            let spread = e.interval(lighting, None, Metric::Miou).map(|[lo, hi]| format!("{:.1}", 50.0 * (hi - lo))).unwrap_or_default();
+            // One rule with the pages: too few scenes pooled, no intervals and no groups.
+            let spread =
+                e.interval(lighting, None, Metric::Miou).filter(|_| board.significance).map(|[lo, hi]| format!("{:.1}", 50.0 * (hi - lo))).unwrap_or_default();
             vec![
                 (i + 1).to_string(),
-                if e.rank_group > 0 { e.rank_group.to_string() } else { String::new() },
+                if e.rank_group > 0 && board.significance { e.rank_group.to_string() } else { "–".to_string() },
                 e.method.clone(),
                 e.team.clone(),
                 metric(Metric::Miou),
@@ -189,8 +191,13 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
             ]
         })
         .collect();
+    let statistics = if board.significance {
+        "± half the 95 % interval; entries within noise share a group".to_string()
+    } else {
+        format!("{} scenes pooled: too few for intervals and significance groups", board.scenes)
+    };
     println!(
-        "Leaderboard of {}, {} split{} — {lighting} lighting, pooled (%), ± half the 95 % interval; entries within noise share a group; VQA accuracy (%)\n{}",
+        "Leaderboard of {}, {} split{} — {lighting} lighting, pooled (%), {statistics}; VQA accuracy (%)\n{}",
         board.release,
         board.split,
         match board.splits.iter().find(|s| **s != board.split) {

@@ -10,6 +10,7 @@ mod leaderboard;
 mod manifest;
 mod release;
 mod submission;
+mod take_part;
 mod vqa;
 
 use askama::Template;
@@ -53,6 +54,8 @@ pub fn routes() -> Router<AppState> {
         .route("/releases/{version}", get(release))
         .route("/submissions/{id}", get(submission))
         .route("/about", get(about))
+        .route("/take-part", get(take_part::take_part).post(take_part::ask))
+        .route("/take-part/collect", post(take_part::collect))
         .route("/static/{file}", get(static_file))
         .route("/admin", get(admin::console))
         .route(admin::LOGIN_PATH, get(admin::login_form).post(admin::login))
@@ -67,4 +70,6 @@ pub fn routes() -> Router<AppState> {
         .route("/admin/submissions/{id}/refund", post(admin::refund))
         .route("/admin/quotas", post(admin::set_quota))
         .route("/admin/teams", post(admin::create_team))
+        .route("/admin/access-requests/{id}/approve", post(admin::approve_access))
+        .route("/admin/access-requests/{id}/decline", post(admin::decline_access))
 }

@@ -35,7 +35,7 @@ macro_rules! form_with_token {
     };
 }
 
-form_with_token!(TokenOnly, RegenerateForm, FlagForm, QuotaForm, TeamForm);
+form_with_token!(TokenOnly, RegenerateForm, FlagForm, QuotaForm, TeamForm, DeclineForm);
 
 /// The console with a notice on top (sealed for this session).
 fn back(session: &AdminSession, notice: &str) -> Response {
@@ -182,6 +182,47 @@ pub async fn set_quota(State(state): State<AppState>, session: AdminSession, hea
     };
     match quota_policies::apply(&state, &form.split, &body).await {
         Ok(set) => back(&session, &format!("The {} split: {} submissions per team per {} hours.", set.split, set.limit, set.window_hours)),
+        Err(problem) => AdminMessage::problem(problem),
+    }
+}
+
+/// `POST /admin/access-requests/{id}/approve`: create the requested team; the requester
+/// collects its token with the claim code.
+pub async fn approve_access(
+    State(state): State<AppState>,
+    session: AdminSession,
+    headers: HeaderMap,
+    ApiPath(id): ApiPath<String>,
+    body: axum::body::Bytes,
+) -> Response {
+    token_form(&session, &headers, &body, async {
+        crate::access_requests::approve(&state, &id)
+            .await
+            .map(|r| format!("Team {} is created; its requester collects the token with the claim code.", r.team_name))
+    })
+    .await
+}
+
+#[derive(Deserialize)]
+struct DeclineForm {
+    form_token: String,
+    reason: String,
+}
+
+/// `POST /admin/access-requests/{id}/decline` (`reason`, which the requester reads).
+pub async fn decline_access(
+    State(state): State<AppState>,
+    session: AdminSession,
+    headers: HeaderMap,
+    ApiPath(id): ApiPath<String>,
+    body: axum::body::Bytes,
+) -> Response {
+    let form: DeclineForm = match checked(&session, &headers, &body) {
+        Ok(form) => form,
+        Err(refused) => return refused,
+    };
+    match crate::access_requests::decline(&state, &id, &form.reason).await {
+        Ok(r) => back(&session, &format!("The request for team {} is declined.", r.team_name)),
         Err(problem) => AdminMessage::problem(problem),
     }
 }

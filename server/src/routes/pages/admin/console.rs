@@ -70,6 +70,8 @@ pub struct ConsolePage {
     /// Every split's submission limit.
     pub quotas: Vec<crate::routes::quota_policies::PolicyView>,
     pub teams: Vec<TeamRow>,
+    /// Requests for access waiting for a decision, oldest first.
+    pub access_requests: Vec<crate::access_requests::AccessRequestView>,
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -122,9 +124,10 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
         let jobs = state.store.jobs(2000).await?;
         let submissions = state.store.submissions(None, 200).await?;
         let teams = state.store.teams().await?;
-        Ok::<_, StoreError>((releases, jobs, submissions, teams))
+        let pending = state.store.access_requests(Some(crate::store::AccessRequestState::Pending)).await?;
+        Ok::<_, StoreError>((releases, jobs, submissions, teams, pending))
     };
-    let (releases, jobs, submissions, teams) = match loaded.await {
+    let (releases, jobs, submissions, teams, pending) = match loaded.await {
         Ok(loaded) => loaded,
         Err(e) => return AdminMessage::problem(e.into()),
     };
@@ -173,6 +176,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
                 .collect(),
         ),
         quotas,
+        access_requests: pending.iter().map(crate::access_requests::AccessRequestView::from).collect(),
         teams: teams
             .iter()
             .map(|t| TeamRow {

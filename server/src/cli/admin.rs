@@ -224,6 +224,21 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
                 .collect();
             println!("Tokens of team {}\n{}", team.name, crate::cli::client::table_text(&header, &rows));
         }
+        TeamCommand::Requests { .. } | TeamCommand::Approve { .. } | TeamCommand::Decline { .. } => access_requests(command)?,
+        TeamCommand::Token { team, target } => {
+            let api = AdminApi::open(&target)?;
+            let team = api.team(&team)?;
+            let issued: IssuedToken = api.send(api.client.post(format!("{}/api/v1/admin/teams/{}/tokens", api.url, team.id)))?;
+            println!("{}", issued.token);
+            eprintln!("A new token ({}) for team '{}', shown this once; its earlier tokens stay valid until revoked.", issued.id, issued.team);
+        }
+    }
+    Ok(())
+}
+
+/// `osmab admin team requests|approve|decline`: the requests for access from the "Take part" page.
+fn access_requests(command: TeamCommand) -> anyhow::Result<()> {
+    match command {
         TeamCommand::Requests { all, target } => {
             let api = AdminApi::open(&target)?;
             let query = if all { "" } else { "?state=pending" };
@@ -253,13 +268,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
             let declined: AccessRequestView = api.send(api.client.post(format!("{}/api/v1/admin/access-requests/{request}/decline", api.url)).json(&body))?;
             println!("The request for team '{}' is declined; its requester reads the reason when collecting.", declined.team_name);
         }
-        TeamCommand::Token { team, target } => {
-            let api = AdminApi::open(&target)?;
-            let team = api.team(&team)?;
-            let issued: IssuedToken = api.send(api.client.post(format!("{}/api/v1/admin/teams/{}/tokens", api.url, team.id)))?;
-            println!("{}", issued.token);
-            eprintln!("A new token ({}) for team '{}', shown this once; its earlier tokens stay valid until revoked.", issued.id, issued.team);
-        }
+        _ => unreachable!("only the access-request commands come here"),
     }
     Ok(())
 }

@@ -44,6 +44,16 @@ impl Store {
         .await)?)
     }
 
+    /// The published releases' versions, newest first, each with whether it is the current one
+    /// (no manifests: what a board's release switcher needs).
+    pub async fn published_versions(&self) -> StoreResult<Vec<(String, bool)>> {
+        Ok(on_pool!(self, |pool| sqlx::query_as(
+            "SELECT version, is_current FROM releases WHERE state = 'published' ORDER BY published_at DESC, version DESC"
+        )
+        .fetch_all(pool)
+        .await)?)
+    }
+
     /// Release `version`.
     pub async fn release(&self, version: &str) -> StoreResult<ReleaseRecord> {
         Ok(on_pool!(self, |pool| sqlx::query_as(

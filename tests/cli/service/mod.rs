@@ -8,6 +8,7 @@ mod backup;
 mod cards;
 mod client;
 mod console;
+mod earlier_releases;
 mod hardening;
 mod headers;
 mod hostile;

@@ -4,6 +4,7 @@
 //! leaderboard. Server errors are shown as the problem's title, detail and what to do.
 
 mod api;
+mod currency;
 mod download;
 mod fetch_file;
 mod offline;
@@ -194,6 +195,11 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
         }
         ClientCommand::Validate { submission, release_dir, split, url } => {
             let api = if release_dir.is_none() { Some(api(url.as_deref())?) } else { None };
+            if let (Some(api), Some(release)) = (&api, currency::card_release(&submission))
+                && let Some(note) = currency::newer_release_note(api, &release, "this submission is for")
+            {
+                eprintln!("{note}");
+            }
             if offline::validate_offline(&submission, release_dir.as_deref(), split, api.as_ref())? { Ok(()) } else { std::process::exit(1) }
         }
         ClientCommand::Quota { url } => view::quota(&api(url.as_deref())?),
@@ -201,6 +207,9 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             let api = api(url.as_deref())?;
             let packed = submit::pack(&submission)?;
             eprintln!("{}: {} bytes, SHA-256 {}", submission.display(), packed.size, packed.sha256_hex());
+            if let Some(note) = currency::card_release(&submission).and_then(|release| currency::newer_release_note(&api, &release, "this submission is for")) {
+                eprintln!("{note}");
+            }
             if dry_run {
                 // A dry run sends the archive once and stores nothing.
                 let answer = submit::upload(&api, &packed, true, !private, split)?;

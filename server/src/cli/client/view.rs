@@ -206,6 +206,9 @@ pub fn leaderboard(api: &Api, release: Option<&str>, split: Option<Split>, light
         },
         table_text(&header, &rows)
     );
+    if let Some(note) = super::currency::newer_release_note(api, &board.release, "this is the board of") {
+        eprintln!("{note}");
+    }
     Ok(())
 }
 

@@ -153,6 +153,10 @@ pub struct LeaderboardPage {
     pub split_note: &'static str,
     /// The boards of the release's splits (empty with one split).
     pub boards: Vec<Choice>,
+    /// The boards of every published release (empty with one).
+    pub releases: Vec<Choice>,
+    /// The current release, when this board is of another.
+    pub current_release: Option<String>,
     pub lighting_groups: Vec<(&'static str, usize)>,
     pub columns: Vec<Column>,
     pub change_headers: Vec<&'static str>,
@@ -189,11 +193,20 @@ pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuer
         }
     };
     let view = View::of(&query, &rendered.board);
-    let page = match rendered.cached_page(&view.key()) {
+    // The release switcher: every published release's board stays reachable.
+    let published = state.store.published_versions().await.unwrap_or_default();
+    let key =
+        format!("{}|{}", view.key(), published.iter().map(|(v, current)| format!("{v}{}", if *current { "*" } else { "" })).collect::<Vec<_>>().join(","));
+    let page = match rendered.cached_page(&key) {
         Some(page) => page,
         None => {
             let frames = lighting_frames(&state, &rendered.board).await;
-            rendered.page(&view.key(), || board_page(&rendered.board, view, frames).render().unwrap_or_else(|e| format!("template error: {e}")))
+            rendered.page(&key, || {
+                let mut page = board_page(&rendered.board, view, frames);
+                page.releases = release_choices(&rendered.board, &published);
+                page.current_release = published.iter().find(|(_, current)| *current).map(|(v, _)| v.clone()).filter(|v| *v != rendered.board.release);
+                page.render().unwrap_or_else(|e| format!("template error: {e}"))
+            })
         }
     };
     ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], page).into_response()
@@ -226,6 +239,21 @@ async fn lighting_frames(state: &AppState, board: &Leaderboard) -> Vec<LightingF
     frames.into_iter().map(|f| LightingFrame { src: format!("/api/v1/releases/{}/files/{}", board.release, f.src), ..f }).collect()
 }
 
+/// A link to each published release's board (newest first), `board`'s marked.
+fn release_choices(board: &Leaderboard, published: &[(String, bool)]) -> Vec<Choice> {
+    if published.len() < 2 {
+        return Vec::new();
+    }
+    published
+        .iter()
+        .map(|(version, current)| Choice {
+            label: if *current { format!("{version} (current)").into() } else { version.clone().into() },
+            link: format!("/?release={version}"),
+            active: *version == board.release,
+        })
+        .collect()
+}
+
 /// The query naming `board`: its release and split.
 fn board_query(board: &Leaderboard) -> String {
     format!("release={}&split={}", board.release, board.split)
@@ -251,6 +279,8 @@ fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFram
         split: board.split,
         split_note,
         boards: split_choices(board, view),
+        releases: Vec::new(),
+        current_release: None,
         lighting_groups: board.lightings.iter().map(|l| (l.label(), view.metrics().len())).collect(),
         metric_choices: metric_choices(board, view),
         lighting_frames,

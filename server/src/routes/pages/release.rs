@@ -60,6 +60,9 @@ pub struct ReleasePage {
     pub val_scenes: usize,
     pub scenes: Vec<SceneView>,
     pub archives: Vec<ArchiveView>,
+    /// Every published release (newest first) with whether it is the current one: each has a
+    /// page and a board.
+    pub releases: Vec<(String, bool)>,
 }
 
 /// `GET /releases/{version}`: downloads, scenes with prompts and thumbnails.
@@ -120,6 +123,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
         val_scenes,
         scenes,
         archives,
+        releases: state.store.published_versions().await?,
     }
     .into_response())
 }

@@ -1157,6 +1157,25 @@ def main() -> int:
         run("about page, linked from every page", about_page)
         run("take part: ask, approve in the console, collect the token", take_part)
 
+        def not_found_page():
+            page = Page(browser)
+            try:
+                loaded = page.goto(base + "/release")
+                doc = loaded["document"]
+                expect(doc["status"] == 404 and doc.get("mimeType") == "text/html", f"a mistyped page answers {doc['status']} {doc.get('mimeType')}")
+                html_text, dom = page.dom()
+                (out / "34-not-found.html").write_text(html_text)
+                expect(dom.find("h1").clean() == "Not found" and dom.find("header", cls="site") is not None, f"a mistyped page shows {dom.find('h1').clean()!r}")
+                expect('rel="icon"' in html_text, "no favicon link")
+                w, h, _ = page.screenshot(out / "34-not-found.png")
+            finally:
+                page.close()
+            with urllib.request.urlopen(f"{base}/static/favicon.svg", timeout=30) as r:
+                expect(r.headers.get("content-type") == "image/svg+xml", f"the favicon answers {r.headers.get('content-type')}")
+            return f"34-not-found.png {w}x{h}: an HTML page with the site's navigation, not problem+json; favicon served"
+
+        run("a mistyped page: an HTML 404", not_found_page)
+
         def phone_width():
             # 390 x 844 CSS px, as an iPhone 12-15; signed in (the console's cookie), so the
             # operator's pages are checked too.
@@ -1191,6 +1210,10 @@ def main() -> int:
                         (tw, _), = page.boxes("#leaderboard")
                         ww = page.boxes(".table-wrap")[0][0]
                         expect(tw <= ww + 1, f"the board is {tw:.0f} px wide in a {ww:.0f} px wrapper at {PHONE_WIDTH} px")
+                    if path == "/?split=val":
+                        # Too few scenes for groups: the rank, not an empty group column, shows.
+                        ranks = page.boxes("#leaderboard tbody td.rank")
+                        expect(ranks and ranks[0][0] > 0, f"no rank visible on the val board at {PHONE_WIDTH} px: {ranks}")
                 finally:
                     page.close()
             expect(not wide, "wider than the phone: " + "; ".join(wide))

@@ -107,13 +107,18 @@ async fn close_after_refused_body(request: Request, next: Next) -> Response {
     response
 }
 
-async fn route_not_found(request: Request) -> Problem {
-    Problem::new(
-        StatusCode::NOT_FOUND,
-        ProblemCode::RouteNotFound,
-        "Not found",
-        format!("There is no {} {}; see /api/docs.", request.method(), request.uri().path()),
-    )
+/// An unknown route: problem+json, but a page for a browser asking for a page (a GET that
+/// accepts HTML, outside the API), so a mistyped link does not show raw JSON.
+async fn route_not_found(request: Request) -> Response {
+    let path = request.uri().path().to_string();
+    let wants_page = request.method() == Method::GET
+        && !path.starts_with("/api/")
+        && request.headers().get(axum::http::header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("text/html"));
+    if wants_page {
+        return (StatusCode::NOT_FOUND, pages::NotFoundPage { path }).into_response();
+    }
+    Problem::new(StatusCode::NOT_FOUND, ProblemCode::RouteNotFound, "Not found", format!("There is no {} {path}; see /api/docs.", request.method()))
+        .into_response()
 }
 
 async fn method_not_allowed(request: Request) -> Problem {

@@ -96,6 +96,12 @@ fn quotas_and_tokens(backend: Backend) {
 
     // Unknown routes and methods are problem+json too.
     problem(server.get("/api/v1/nothing").send().unwrap(), 404, "route_not_found");
+    // A browser asking for a page that does not exist gets a page; the API stays problem+json.
+    let page = server.get("/release").header("accept", "text/html,application/xhtml+xml").send().unwrap();
+    assert_eq!((page.status().as_u16(), page.headers()["content-type"].to_str().unwrap()), (404, "text/html; charset=utf-8"));
+    assert!(page.text().unwrap().contains("There is no page at <code>/release</code>"));
+    problem(server.get("/api/v1/nothing").header("accept", "text/html").send().unwrap(), 404, "route_not_found");
+    problem(server.get("/release").send().unwrap(), 404, "route_not_found");
     problem(server.client.delete(format!("{}/api/v1/leaderboard", server.url)).send().unwrap(), 405, "method_not_allowed");
 }
 

@@ -37,12 +37,21 @@ pub struct MessagePage {
     pub message: String,
 }
 
+/// The answer to a page that does not exist, for a browser.
+#[derive(Template, WebTemplate)]
+#[template(path = "not_found.html")]
+pub struct NotFoundPage {
+    pub path: String,
+}
+
 const STYLE: &str = include_str!("../../../../static/style.css");
+const FAVICON: &str = include_str!("../../../../static/favicon.svg");
 
 /// `GET /static/{file}`: the vendored assets.
 pub async fn static_file(ApiPath(file): ApiPath<String>) -> Response {
     match file.as_str() {
         "style.css" => ([(header::CONTENT_TYPE, "text/css; charset=utf-8"), (header::CACHE_CONTROL, "public, max-age=3600")], STYLE).into_response(),
+        "favicon.svg" => ([(header::CONTENT_TYPE, "image/svg+xml"), (header::CACHE_CONTROL, "public, max-age=86400")], FAVICON).into_response(),
         _ => Problem::not_found(format!("There is no static file '{file}'.")).into_response(),
     }
 }
@@ -57,6 +66,7 @@ pub fn routes() -> Router<AppState> {
         .route("/take-part", get(take_part::take_part).post(take_part::ask))
         .route("/take-part/collect", post(take_part::collect))
         .route("/static/{file}", get(static_file))
+        .route("/favicon.ico", get(|| async { axum::response::Redirect::permanent("/static/favicon.svg") }))
         .route("/admin", get(admin::console))
         .route(admin::LOGIN_PATH, get(admin::login_form).post(admin::login))
         .route("/admin/logout", post(admin::logout))

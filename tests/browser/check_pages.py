@@ -842,6 +842,7 @@ def main() -> int:
                     caption = figure.find("figcaption").clean()
                     label = state["labels"].get(lighting, lighting)
                     expect(caption.startswith(label) and len(caption) > len(label) + 20, f"{lighting}: caption {caption!r} does not explain {label}")
+                    expect(lighting in caption, f"{lighting}: the caption {caption!r} does not give the name the files and the client use")
                     src = figure.find("img").attrs["src"]
                     expect(f"/sequences/{lighting}/" in src, f"{lighting}: the frame {src} is not of that lighting")
                     frames.add(src.replace(f"/sequences/{lighting}/", "/sequences/*/"))

@@ -107,7 +107,9 @@ impl Lighting {
             Lighting::Camera => "Only a lamp riding with the camera: near surfaces bright, the far room dim, as a robot's headlight.",
             Lighting::CameraLights => "The scene's lights plus a lamp on the camera (OSMa-Bench).",
             Lighting::DynamicLights => "The ceiling lights in two zones, switched and dimmed goal by goal: the room brightens and darkens along the way.",
-            Lighting::NoLights => "No light at all, only the meshes' own colour (mesh emission): flat and bright, without shading.",
+            Lighting::NoLights => {
+                "No light sources: every surface shows its own colour at full strength (mesh emission), so the frame is flat and often the brightest, without shading or shadows."
+            }
             Lighting::Velocity => "Baseline lighting, the camera moving faster (OSMa-Bench).",
         }
     }

@@ -215,6 +215,8 @@ pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuer
 /// One frame of the release under one lighting, with what the lighting is.
 pub struct LightingFrame {
     pub label: &'static str,
+    /// The name the API, the files and the client use (`no_lights`).
+    pub name: &'static str,
     pub src: String,
     pub explanation: &'static str,
 }
@@ -231,7 +233,12 @@ async fn lighting_frames(state: &AppState, board: &Leaderboard) -> Vec<LightingF
     let frames: Vec<LightingFrame> = board
         .lightings
         .iter()
-        .map(|&lighting| LightingFrame { label: lighting.label(), src: format!("sequences/{lighting}/{rest}"), explanation: lighting.explanation() })
+        .map(|&lighting| LightingFrame {
+            label: lighting.label(),
+            name: lighting.name(),
+            src: format!("sequences/{lighting}/{rest}"),
+            explanation: lighting.explanation(),
+        })
         .collect();
     if !frames.iter().all(|f| manifest.has(&f.src)) {
         return Vec::new();

@@ -224,39 +224,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
                 .collect();
             println!("Tokens of team {}\n{}", team.name, crate::cli::client::table_text(&header, &rows));
         }
-        TeamCommand::Requests { .. } | TeamCommand::Approve { .. } | TeamCommand::Decline { .. } => access_requests(command)?,
-        TeamCommand::Token { team, target } => {
-            let api = AdminApi::open(&target)?;
-            let team = api.team(&team)?;
-            let issued: IssuedToken = api.send(api.client.post(format!("{}/api/v1/admin/teams/{}/tokens", api.url, team.id)))?;
-            println!("{}", issued.token);
-            eprintln!("A new token ({}) for team '{}', shown this once; its earlier tokens stay valid until revoked.", issued.id, issued.team);
-        }
-    }
-    Ok(())
-}
-
-/// `osmab admin team requests|approve|decline`: the requests for access from the "Take part" page.
-fn access_requests(command: TeamCommand) -> anyhow::Result<()> {
-    match command {
-        TeamCommand::Requests { all, target } => {
-            let api = AdminApi::open(&target)?;
-            let query = if all { "" } else { "?state=pending" };
-            let list: RequestList = api.send(api.client.get(format!("{}/api/v1/admin/access-requests{query}", api.url)))?;
-            let header: Vec<String> = ["id", "team", "contact", "affiliation", "method", "state", "asked"].iter().map(|s| s.to_string()).collect();
-            let rows: Vec<Vec<String>> = list
-                .requests
-                .iter()
-                .map(|r| {
-                    let method = r.method_url.clone().unwrap_or_default();
-                    vec![r.id.clone(), r.team_name.clone(), r.contact.clone(), r.affiliation.clone(), method, r.state.to_string(), r.created_at.clone()]
-                })
-                .collect();
-            println!("{}", crate::cli::client::table_text(&header, &rows));
-            if list.requests.is_empty() {
-                eprintln!("No request{}.", if all { "" } else { " waits" });
-            }
-        }
+        TeamCommand::Requests { all, target } => list_requests(all, &target)?,
         TeamCommand::Approve { request, target } => {
             let api = AdminApi::open(&target)?;
             let approved: AccessRequestView = api.send(api.client.post(format!("{}/api/v1/admin/access-requests/{request}/approve", api.url)))?;
@@ -268,7 +236,34 @@ fn access_requests(command: TeamCommand) -> anyhow::Result<()> {
             let declined: AccessRequestView = api.send(api.client.post(format!("{}/api/v1/admin/access-requests/{request}/decline", api.url)).json(&body))?;
             println!("The request for team '{}' is declined; its requester reads the reason when collecting.", declined.team_name);
         }
-        _ => unreachable!("only the access-request commands come here"),
+        TeamCommand::Token { team, target } => {
+            let api = AdminApi::open(&target)?;
+            let team = api.team(&team)?;
+            let issued: IssuedToken = api.send(api.client.post(format!("{}/api/v1/admin/teams/{}/tokens", api.url, team.id)))?;
+            println!("{}", issued.token);
+            eprintln!("A new token ({}) for team '{}', shown this once; its earlier tokens stay valid until revoked.", issued.id, issued.team);
+        }
+    }
+    Ok(())
+}
+
+/// `osmab admin team requests [--all]`: the requests for access from the "Take part" page.
+fn list_requests(all: bool, target: &Target) -> anyhow::Result<()> {
+    let api = AdminApi::open(target)?;
+    let query = if all { "" } else { "?state=pending" };
+    let list: RequestList = api.send(api.client.get(format!("{}/api/v1/admin/access-requests{query}", api.url)))?;
+    let header: Vec<String> = ["id", "team", "contact", "affiliation", "method", "state", "asked"].iter().map(|s| s.to_string()).collect();
+    let rows: Vec<Vec<String>> = list
+        .requests
+        .iter()
+        .map(|r| {
+            let method = r.method_url.clone().unwrap_or_default();
+            vec![r.id.clone(), r.team_name.clone(), r.contact.clone(), r.affiliation.clone(), method, r.state.to_string(), r.created_at.clone()]
+        })
+        .collect();
+    println!("{}", crate::cli::client::table_text(&header, &rows));
+    if list.requests.is_empty() {
+        eprintln!("No request{}.", if all { "" } else { " waits" });
     }
     Ok(())
 }

@@ -26,17 +26,20 @@ pub struct Rendered {
     /// Entity tags of the JSON and the CSV representation.
     pub etag_json: String,
     pub etag_csv: String,
+    /// Every published release's version, newest first, and whether it is the current one:
+    /// the board page's release switcher (read with the board, so it is as fresh).
+    pub published: Vec<(String, bool)>,
     /// Leaderboard pages already rendered from this board, by their normalised view.
     pages: Mutex<HashMap<String, Bytes>>,
 }
 
 impl Rendered {
-    fn new(board: Leaderboard) -> Self {
+    fn new(board: Leaderboard, published: Vec<(String, bool)>) -> Self {
         let json = Bytes::from(serde_json::to_string(&board).expect("a leaderboard serialises"));
         let csv = Bytes::from(board.to_csv());
         let tag = |text: &[u8]| format!("\"{}\"", sha2::Sha256::digest(text).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
         let (etag_json, etag_csv) = (tag(&json), tag(&csv));
-        Self { board, json, csv, etag_json, etag_csv, pages: Mutex::default() }
+        Self { board, json, csv, etag_json, etag_csv, published, pages: Mutex::default() }
     }
 
     /// The page of `view` (a normalised key of sort, aggregate and subset), rendered once.
@@ -136,7 +139,9 @@ impl LeaderboardCache {
             return Ok(rendered);
         }
         let rows = store.leaderboard_rows(&record.version).await?;
-        let rendered = Arc::new(Rendered::new(Leaderboard::new(&record.version, manifest_lightings(&record.manifest), split, splits, rows)));
+        let published = store.published_versions().await?;
+        let board = Leaderboard::new(&record.version, manifest_lightings(&record.manifest), split, splits, rows);
+        let rendered = Arc::new(Rendered::new(board, published));
         self.remember(&resolved, &rendered, generation);
         self.remember(key, &rendered, generation);
         Ok(rendered)

@@ -193,19 +193,12 @@ pub async fn leaderboard(State(state): State<AppState>, ApiQuery(query): ApiQuer
         }
     };
     let view = View::of(&query, &rendered.board);
-    // The release switcher: every published release's board stays reachable.
-    let published = state.store.published_versions().await.unwrap_or_default();
-    let key =
-        format!("{}|{}", view.key(), published.iter().map(|(v, current)| format!("{v}{}", if *current { "*" } else { "" })).collect::<Vec<_>>().join(","));
-    let page = match rendered.cached_page(&key) {
+    let page = match rendered.cached_page(&view.key()) {
         Some(page) => page,
         None => {
             let frames = lighting_frames(&state, &rendered.board).await;
-            rendered.page(&key, || {
-                let mut page = board_page(&rendered.board, view, frames);
-                page.releases = release_choices(&rendered.board, &published);
-                page.current_release = published.iter().find(|(_, current)| *current).map(|(v, _)| v.clone()).filter(|v| *v != rendered.board.release);
-                page.render().unwrap_or_else(|e| format!("template error: {e}"))
+            rendered.page(&view.key(), || {
+                board_page(&rendered.board, &rendered.published, view, frames).render().unwrap_or_else(|e| format!("template error: {e}"))
             })
         }
     };
@@ -267,7 +260,7 @@ fn board_query(board: &Leaderboard) -> String {
 }
 
 /// The leaderboard page of `board` for one view.
-fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFrame>) -> LeaderboardPage {
+fn board_page(board: &Leaderboard, published: &[(String, bool)], view: View, lighting_frames: Vec<LightingFrame>) -> LeaderboardPage {
     let (sort_lighting, sort_metric) = view.sort;
     let mut entries: Vec<&Entry> = board.entries.iter().collect();
     let key = |e: &Entry| view.value(e, sort_lighting, sort_metric).unwrap_or(f64::NEG_INFINITY);
@@ -286,8 +279,9 @@ fn board_page(board: &Leaderboard, view: View, lighting_frames: Vec<LightingFram
         split: board.split,
         split_note,
         boards: split_choices(board, view),
-        releases: Vec::new(),
-        current_release: None,
+        // The release switcher: every published release's board stays reachable.
+        releases: release_choices(board, published),
+        current_release: published.iter().find(|(_, current)| *current).map(|(v, _)| v.clone()).filter(|v| *v != board.release),
         lighting_groups: board.lightings.iter().map(|l| (l.label(), view.metrics().len())).collect(),
         metric_choices: metric_choices(board, view),
         lighting_frames,

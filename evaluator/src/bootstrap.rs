@@ -48,6 +48,15 @@ pub fn interval95(estimates: impl IntoIterator<Item = f64>) -> Option<[f64; 2]> 
     Some([percentile(&finite, 2.5), percentile(&finite, 97.5)])
 }
 
+/// The 95 % interval of the relative change `(b − a) / a` over the rounds of paired
+/// replicates `a` and `b` (rounds where either is undefined, or `a` is 0, left out).
+pub fn change_interval95(a: &[Option<f64>], b: &[Option<f64>]) -> Option<[f64; 2]> {
+    interval95(a.iter().zip(b).filter_map(|(x, y)| {
+        let (x, y) = ((*x)?, (*y)?);
+        (x != 0.0).then(|| (y - x) / x)
+    }))
+}
+
 /// The scene indices of each round when `n` scenes are resampled: the same for every
 /// caller with the same `n`.
 pub struct Resamples {
@@ -128,6 +137,16 @@ mod tests {
         assert_eq!(interval95(values), Some([2.5, 97.5]));
         assert_eq!(interval95([1.0, f64::NAN]), None, "one finite estimate is no interval");
         assert_eq!(percentile(&[0.0, 10.0], 25.0), 2.5);
+    }
+
+    #[test]
+    fn a_relative_change_interval_pairs_the_rounds_and_skips_undefined_ones() {
+        // Round by round the second lighting keeps 80 % of the first, then 90 %.
+        let a = [Some(0.5), Some(0.4), None, Some(0.0)];
+        let b = [Some(0.4), Some(0.36), Some(0.3), Some(0.1)];
+        let [low, high] = change_interval95(&a, &b).unwrap();
+        assert!((low - (-0.2 + 0.1 * 0.025)).abs() < 1e-12 && (high - (-0.2 + 0.1 * 0.975)).abs() < 1e-12, "{low} {high}");
+        assert_eq!(change_interval95(&a[..1], &b[..1]), None, "one round is no interval");
     }
 
     #[test]

@@ -15,6 +15,12 @@ pub const ANONYMOUS: &str = "Anonymous";
 /// Method names of the baselines start with this.
 pub const BASELINE_METHOD_PREFIX: &str = "baseline";
 
+/// Whether `method`, an entry of the baselines' team, is the reference mapper, which maps
+/// from the frames as a team's method does, rather than a control made from the ground truth.
+pub fn is_reference_mapper(method: &str) -> bool {
+    method == osmab_mapper::submission::method_name(osmab_mapper::FeatureSet::Seeing)
+}
+
 /// Why `name` may not be a team's name, if it may not.
 pub fn team_name_problem(name: &str) -> Option<String> {
     [(BASELINE_TEAM, "the reference baselines' team"), (ANONYMOUS, "what anonymous entries are shown as")]

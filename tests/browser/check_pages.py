@@ -3,7 +3,7 @@
 and take a screenshot of each.
 
 The script starts `osmab serve` on a free port with a fresh data directory (the demo
-release and its five scored baselines are built on start), loads every page in headless
+release with its reference mapper and five controls, scored, is built on start), loads every page in headless
 Chromium with JavaScript switched off, checks what the page shows against the JSON API,
 saves a full-page PNG of it, then stops the server (SIGTERM, expecting exit 0).
 
@@ -78,7 +78,8 @@ lightings = ["baseline", "camera", "dynamic_lights", "no_lights"]
 MIN_PNG_BYTES = 10 * 1024
 MAX_SHOT_HEIGHT = 8000
 METRICS = ["miou", "fmiou", "macc"]
-EXPECTED_ENTRIES = 5
+# The reference mapper and the five controls made from the ground truth.
+EXPECTED_ENTRIES = 6
 # Scenes of the demo release (configs/release-demo.toml: four furniture, three manipuland).
 DEMO_SCENES = 7
 
@@ -607,8 +608,11 @@ def check_board(page: Node, board: dict, agg: str, subset: str, sort: str, label
         want_group = str(e["rank_group"]) if significance else "–"
         expect(tds[1].clean() == want_group, f"{method}: rank group {tds[1].clean()!r}, expected {want_group} (the API says {e['rank_group']}, significance {significance})")
         expect(tds[2].find("a").attrs["href"] == f"/submissions/{e['submission_id']}", f"{method}: link {tds[2].find('a').attrs['href']}")
-        if e.get("baseline"):
-            expect("baseline" in tr.classes() and any(s.clean() == "baseline" for s in tds[2].find_all("span", cls="tag")), f"{method}: no baseline tag")
+        tags = [s.clean() for s in tds[2].find_all("span", cls="tag")]
+        if e.get("reference"):
+            expect("baseline" not in tr.classes() and "reference" in tags, f"{method}: the reference mapper is not tagged reference: {tags}")
+        elif e.get("baseline"):
+            expect("baseline" in tr.classes() and "control" in tags, f"{method}: a control made from the ground truth is not tagged control: {tags}")
         team = tds[2].find("span", cls="team")
         expect(team is not None and team.clean() == e["team"], f"{method}: team {team.clean() if team else None!r} under the method")
         cells = [td.clean() for td in tds[3 : 3 + len(lightings) * len(metrics)]]
@@ -655,7 +659,7 @@ def main() -> int:
     ap.add_argument("--keep", action="store_true", help="keep the temporary data dir (and Chromium profile) for debugging")
     ap.add_argument("--bin", help="osmab binary (default $OSMAB_BIN, else target/release/osmab or target/debug/osmab)")
     ap.add_argument("--chromium", help="Chromium binary (default $CHROMIUM, else chromium on PATH)")
-    ap.add_argument("--timeout", type=float, default=600, help="seconds to wait for the five scored baselines (default 600)")
+    ap.add_argument("--timeout", type=float, default=600, help="seconds to wait for the six scored reference entries (default 600)")
     args = ap.parse_args()
 
     started = time.monotonic()
@@ -745,7 +749,9 @@ def main() -> int:
                 summary += "; rank groups " + " ".join(groups)
                 svg = dom.find("svg", cls="chart")
                 expect(svg is not None, "no <svg class=chart>")
-                expect(len(svg.find_all("rect")) >= EXPECTED_ENTRIES, "the chart has no bars")
+                expect(len(svg.find_all("rect")) >= len(board["lightings"]) - 1, "the chart has no bars")
+                legend = svg.clean()
+                expect("baseline-perceive" in legend and "baseline-oracle" not in legend, f"the chart shows the reference mapper and no control: {legend[:300]}")
                 sw, sh = (page.boxes("svg.chart") or [(0, 0)])[0]  # the robustness chart comes first
                 expect(sw > 300 and sh > 100, f"the chart renders at {sw:.0f}x{sh:.0f} px")
                 (tw, _), = page.boxes("#leaderboard")

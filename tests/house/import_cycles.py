@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-CRATES = {"cpu": "cpu/src", "dataset": "dataset/src", "evaluator": "evaluator/src", "server": "server/src", "xtask": "xtask/src"}
+CRATES = {"cpu": "cpu/src", "dataset": "dataset/src", "evaluator": "evaluator/src", "mapper": "mapper/src", "server": "server/src", "xtask": "xtask/src"}
 
 
 def modules_of(src: Path) -> dict[str, Path]:

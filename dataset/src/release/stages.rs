@@ -525,10 +525,16 @@ impl Build {
                 replaced.push(Replaced { prompt_id: candidate.id.clone(), problems: misses });
             }
             let tried: Vec<String> = replaced.iter().map(|r| format!("{}: {}", r.prompt_id, r.problems.join(" / "))).collect();
+            let hints = settings_that_help(&self.config, &replaced.iter().flat_map(|r| r.problems.iter().cloned()).collect::<Vec<_>>());
             Err(InputError::new(
                 &path,
                 "quality",
-                format!("no prompt for {scene} passes the quality check; tried all {} candidates: {}", tried.len(), tried.join(" | ")),
+                format!(
+                    "no prompt for {scene} passes the quality check; tried all {} candidates: {}. Settings that would help: {}",
+                    tried.len(),
+                    tried.join(" | "),
+                    hints.join("; ")
+                ),
             ))
         })?;
         read_json(&path)
@@ -727,3 +733,54 @@ impl Build {
 pub const INSTANCES_NPY: &str = "instances.npy";
 /// Per instance, its ground-truth points and albedo, and how the points were labelled.
 pub const INSTANCES_JSON: &str = "instances.json";
+
+/// The settings of `config` that would let a scene pass, given what its candidates missed
+/// (`problems`, as [`planned_problems`] words them): the most specific first, then the
+/// ones that help any miss.
+fn settings_that_help(config: &ReleaseConfig, problems: &[String]) -> Vec<String> {
+    let (render, quality) = (&config.render, &config.quality);
+    let missed = |what: &str| problems.iter().any(|p| p.contains(what));
+    let mut hints = Vec::new();
+    if missed("camera travel") {
+        hints.push(format!(
+            "more goals for the camera (render.goals_furniture = {}, render.goals_manipuland = {}) or a lower quality.min_travel (now {} m)",
+            render.goals_furniture, render.goals_manipuland, quality.min_travel
+        ));
+    }
+    if missed("(planned)") {
+        hints.push(format!(
+            "more goals or frames so the camera sees every prompted object (render.goals_furniture = {}, render.goals_manipuland = {}, render.max_frames = {})",
+            render.goals_furniture, render.goals_manipuland, render.max_frames
+        ));
+    }
+    if missed("degenerate frames") {
+        hints.push(format!("a higher quality.max_degenerate_fraction (now {})", quality.max_degenerate_fraction));
+    }
+    if missed("relation not met") {
+        hints.push(format!("more placements per prompt (quality.placements = {})", quality.placements));
+    }
+    hints.push(format!(
+        "more spare prompts (prompts.furniture_pool = {}, prompts.manipuland_pool = {}{})",
+        config.prompts.furniture_pool,
+        config.prompts.manipuland_pool,
+        quality.replacements.map_or(String::new(), |n| format!(", quality.replacements = {n}"))
+    ));
+    hints.push("for a test build only, quality.enforce = false builds anyway and lists the misses in the quality report".into());
+    hints
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scene_that_no_candidate_settles_names_the_settings_that_would_help() {
+        let text = include_str!("../../../configs/release-demo.toml");
+        let (config, _) = ReleaseConfig::parse(text, Path::new("release-demo.toml")).unwrap();
+        let hints = settings_that_help(&config, &["camera travel: 1.38 m planned (at least 2 m)".into(), "relation not met: cup on table".into()]);
+        assert!(hints[0].contains("render.goals_furniture = 3") && hints[0].contains("quality.min_travel (now 2 m)"), "{hints:?}");
+        assert!(hints[1].contains("quality.placements = 4"), "{hints:?}");
+        assert!(hints[2].contains("prompts.furniture_pool = 40") && hints.last().unwrap().contains("quality.enforce = false"), "{hints:?}");
+        assert!(!hints.iter().any(|h| h.contains("max_degenerate_fraction")), "only what was missed: {hints:?}");
+    }
+}

@@ -49,7 +49,7 @@ enum Command {
     /// Build ground truth from rendered sequences.
     #[command(subcommand)]
     Gt(gt::GtCommand),
-    /// Write a reference submission from a release's ground truth (oracle or a degraded variant).
+    /// Write a reference submission: perceive (the reference mapper, from the frames alone) or a control made from the ground truth.
     Baseline(baseline::BaselineArgs),
     /// Build and verify releases.
     #[command(subcommand)]

@@ -3,6 +3,7 @@
 //! in success, a [`JobError`] that says whether retrying can help, or a wait.
 
 pub mod progress;
+pub mod reference_entries;
 pub mod release_build;
 pub mod scoring;
 pub mod warmup;
@@ -83,12 +84,20 @@ pub struct JobContext {
     pub state: AppState,
     pub job: ClaimedJob,
     pub owner: String,
+    /// When this attempt began (ms since the epoch; for a build taken up again while it
+    /// waits for its render jobs, when it first began).
+    pub started_at: i64,
 }
 
 impl JobContext {
-    /// Record `progress` on the job (visible in `GET /api/v1/jobs/{id}`).
+    /// Record `progress` on the job (visible in `GET /api/v1/jobs/{id}`), with the worker
+    /// and the time this attempt began (a build waiting for its render jobs keeps the
+    /// start of the attempt that began it).
     pub async fn progress(&self, progress: &Progress) {
-        let text = serde_json::to_string(progress).expect("progress serialises");
+        let mut progress = progress.clone();
+        progress.worker.get_or_insert_with(|| self.owner.clone());
+        progress.started_at.get_or_insert(self.started_at);
+        let text = serde_json::to_string(&progress).expect("progress serialises");
         if let Err(e) = self.state.store.set_job_progress(&self.job.id, &self.owner, &text, now_ms()).await {
             tracing::warn!(job = %self.job.id, error = %e, "could not record progress");
         }

@@ -11,21 +11,15 @@
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 
-use osmab_dataset::baselines::{BASELINES, write_baseline};
 use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_sequence};
-use osmab_evaluator::scores::Split;
-use osmab_evaluator::submission::pack_directory;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use super::progress::{Progress, Stage};
 use super::{Job, JobContext, JobError};
-use crate::blobs::Scratch;
-use crate::clock::{new_id, now_ms};
-use crate::intake::Upload;
+use crate::clock::now_ms;
 use crate::releases::{Imported, Provenance, import_release};
 use crate::state::AppState;
-use crate::store::{JobKind, JobRecord, JobState, StoreError, SubmissionState, Team};
+use crate::store::{JobKind, JobRecord, JobState, StoreError};
 
 /// How long a build job waits between looks at its render jobs.
 const WAIT_FOR_RENDERING: std::time::Duration = std::time::Duration::from_secs(2);
@@ -255,7 +249,7 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
         let Some(release) = state.blobs.release(&version).await.map_err(JobError::retryable)? else {
             return Err(JobError::Retryable(format!("release {version} is missing from the blob store")));
         };
-        let queued = queue_baselines(state, &version, &release).await?;
+        let queued = super::reference_entries::queue_reference_entries(state, &version, &release).await?;
         ctx.progress(&Progress::at(Stage::Baselines, format!("{queued} baseline submissions queued for scoring"))).await;
     }
     ctx.progress(&Progress::at(Stage::Done, format!("release {version} ready"))).await;
@@ -280,58 +274,4 @@ async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError
     .await
     .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;
     push_build(&ctx.state, &request.version).await
-}
-
-/// The team that owns the baselines (created on first use).
-pub async fn baseline_team(state: &AppState) -> Result<Team, StoreError> {
-    match state.store.team_by_name(BASELINE_TEAM).await {
-        Ok(team) => Ok(team),
-        Err(StoreError::NotFound) => {
-            let team = Team { id: new_id("team"), name: BASELINE_TEAM.into(), daily_quota: Some(0), created_at: now_ms() };
-            match state.store.create_team(&team).await {
-                Ok(()) => Ok(team),
-                Err(StoreError::Conflict(_)) => state.store.team_by_name(BASELINE_TEAM).await,
-                Err(e) => Err(e),
-            }
-        }
-        Err(e) => Err(e),
-    }
-}
-
-/// Submit every reference baseline of `version` (built in `release`) to every split of
-/// the release, where it is not there yet: the oracle of a test split exists only here.
-pub async fn queue_baselines(state: &AppState, version: &str, release: &std::path::Path) -> Result<usize, JobError> {
-    let team = baseline_team(state).await?;
-    let existing = state.store.submissions(Some(&team.id), 1000).await?;
-    let splits = osmab_evaluator::submission::ReleaseIndex::read(release).map_err(|e| JobError::Retryable(e.to_string()))?.splits();
-    let mut queued = 0;
-    let runs: Vec<(&str, Split)> = BASELINES.iter().flat_map(|name| splits.iter().map(|split| (*name, *split))).collect();
-    for (name, split) in runs {
-        let method = format!("baseline-{name}");
-        if existing.iter().any(|s| s.release == version && s.method_name == method && s.split == split && s.state != SubmissionState::Failed) {
-            continue;
-        }
-        let (dir, archive) = (Scratch(state.blobs.scratch("baseline")), Scratch(state.blobs.scratch("baseline-tar")));
-        let (release, dir_path, archive_path) = (release.to_path_buf(), dir.0.clone(), archive.0.clone());
-        let (size, sha256) = tokio::task::spawn_blocking(move || -> Result<(u64, [u8; 32]), JobError> {
-            write_baseline(name, &release, &dir_path).map_err(|e| JobError::Permanent(e.to_string()))?;
-            pack_directory(&dir_path, &archive_path).map_err(|e| JobError::Permanent(e.to_string()))?;
-            let bytes = std::fs::read(&archive_path).map_err(JobError::retryable)?;
-            Ok((bytes.len() as u64, Sha256::digest(&bytes).into()))
-        })
-        .await
-        .map_err(JobError::retryable)??;
-        let upload = Upload { path: archive.0.clone(), size, sha256, received_at: now_ms() };
-        let request = crate::intake::Request { public: true, baseline: true, release: Some(version.to_string()), split: Some(split), ..Default::default() };
-        match crate::intake::accept(state, &team, &upload, &request).await {
-            Ok(_) => {}
-            // The baselines come from the release itself: one that does not validate is a defect of the build.
-            Err(e @ (crate::intake::Error::Invalid(_) | crate::intake::Error::InvalidArchive(_))) => {
-                return Err(JobError::Permanent(format!("baseline {name}: {}", crate::problem::Problem::from(e).detail)));
-            }
-            Err(e) => return Err(JobError::Retryable(format!("baseline {name}: {}", crate::problem::Problem::from(e).detail))),
-        }
-        queued += 1;
-    }
-    Ok(queued)
 }

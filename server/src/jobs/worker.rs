@@ -55,13 +55,19 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch
         return;
     }
     // One line per job, at INFO for the jobs a person follows (a build fans out into many
-    // render jobs, which say so at DEBUG).
+    // render jobs, which say so at DEBUG, and takes itself up again every few seconds while
+    // it waits for them, which is no new start).
+    let earlier = super::progress::Progress::read(&job.progress);
+    let resumed = earlier.waiting_for.is_some();
     if job.kind == JobKind::RenderSequence {
         tracing::debug!(attempt = job.attempts, "render job started");
+    } else if resumed {
+        tracing::debug!(attempt = job.attempts, "{} job resumed", job.kind);
     } else {
         tracing::info!("{} job started (attempt {} of {})", job.kind, job.attempts, job.max_attempts);
     }
-    let Some(result) = run_leased(state, owner, &job, shutdown).await else {
+    let started_at = if resumed { earlier.started_at.unwrap_or_else(now_ms) } else { now_ms() };
+    let Some(result) = run_leased(state, owner, &job, started_at, shutdown).await else {
         let now = now_ms();
         match state.store.release_job(&job.id, owner, now, now).await {
             Ok(_) => tracing::warn!("released the unfinished job for another worker"),
@@ -75,9 +81,9 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch
 /// Run `job`, renewing its lease meanwhile; `None` when shutdown's grace period ended
 /// before the job did. Until shutdown there is no deadline; then the running job has the
 /// grace period, and the lease is still renewed so no other worker takes the job over.
-async fn run_leased(state: &AppState, owner: &str, job: &ClaimedJob, mut shutdown: watch::Receiver<bool>) -> Option<Result<(), JobError>> {
+async fn run_leased(state: &AppState, owner: &str, job: &ClaimedJob, started_at: i64, mut shutdown: watch::Receiver<bool>) -> Option<Result<(), JobError>> {
     let lease = Duration::from_secs(state.settings.job_lease_secs);
-    let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string() };
+    let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string(), started_at };
     let mut work = tokio::spawn(run_job(ctx));
     let mut heartbeat = tokio::time::interval(lease / 3);
     heartbeat.tick().await;

@@ -29,7 +29,13 @@ pub struct Entry {
     /// The team has not revealed itself yet: `team` is "Anonymous" and there are no links.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub anonymous: bool,
+    /// An entry the service makes itself: the reference mapper or a control.
     pub baseline: bool,
+    /// The project's reference mapper, which maps from the frames alone as a team's method
+    /// does. An entry with `baseline` and not `reference` is a control made from the
+    /// ground truth: it shows the scale, not what lighting does to a method.
+    #[serde(default)]
+    pub reference: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub code_url: Option<String>,
     pub complete: bool,
@@ -121,6 +127,7 @@ impl Leaderboard {
                         .map(|l| l.bootstrap_miou.clone())
                         .unwrap_or_default(),
                 };
+                let reference = row.baseline && crate::reserved_names::is_reference_mapper(&row.method_name);
                 let entry = Entry {
                     anonymous: row.anonymous,
                     baseline: row.baseline,
@@ -131,6 +138,7 @@ impl Leaderboard {
                     paper_url: row.paper_url.filter(|_| !row.anonymous),
                     rank: 0,
                     rank_group: 0,
+                    reference,
                     robustness: Robustness::of(&shown, &lightings),
                     scores: if significance { shown.summary() } else { shown.summary().without_intervals() },
                     submission_id: row.submission_id,

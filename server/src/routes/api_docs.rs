@@ -14,7 +14,9 @@ use crate::problem::ProblemCode;
 
 pub struct OperationView {
     pub method: String,
-    pub path: String,
+    /// The path as HTML: escaped, with a line-break opportunity after each `/` (a narrow
+    /// screen breaks a long path between its segments, never inside one).
+    pub path_html: String,
     pub auth: &'static str,
     /// The summary as HTML: escaped, with `code` spans.
     pub summary_html: String,
@@ -165,7 +167,7 @@ pub async fn docs_page(Extension(Served(operations)): Extension<Served>) -> Docs
             .iter()
             .map(|o| OperationView {
                 method: o.verb.as_str().to_uppercase(),
-                path: o.path(),
+                path_html: inline_code(&o.path()).replace('/', "/<wbr>"),
                 auth: o.auth.label(),
                 summary_html: inline_code(o.summary),
                 takes_html: body_of(o, "takes"),

@@ -87,17 +87,28 @@ fn a_resumable_upload_takes_one_patch_at_a_time_and_no_slivers() {
     // A PATCH still arriving holds the upload: a second one at the same offset is refused
     // instead of filling a scratch file of its own.
     let address = server.url.strip_prefix("http://").unwrap();
-    let mut slow = std::net::TcpStream::connect(address).unwrap();
-    write!(
-        slow,
-        "PATCH {path} HTTP/1.1\r\nHost: {address}\r\nAuthorization: Bearer {token}\r\nTus-Resumable: 1.0.0\r\nContent-Type: application/offset+octet-stream\r\nUpload-Offset: 0\r\nContent-Length: 200000\r\n\r\n"
-    )
-    .unwrap();
-    slow.write_all(&[b'y'; 1000]).unwrap();
-    slow.flush().unwrap();
+    let open_slow_patch = || {
+        let mut slow = std::net::TcpStream::connect(address).unwrap();
+        write!(
+            slow,
+            "PATCH {path} HTTP/1.1\r\nHost: {address}\r\nAuthorization: Bearer {token}\r\nTus-Resumable: 1.0.0\r\nContent-Type: application/offset+octet-stream\r\nUpload-Offset: 0\r\nContent-Length: 200000\r\n\r\n"
+        )
+        .unwrap();
+        slow.write_all(&[b'y'; 1000]).unwrap();
+        slow.flush().unwrap();
+        slow.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+        slow
+    };
+    let answered = |slow: &std::net::TcpStream| {
+        let mut first = [0u8; 1];
+        slow.peek(&mut first).is_ok_and(|read| read > 0)
+    };
+    let mut slow = open_slow_patch();
     // The probe is a sliver, which stores nothing when it gets through (400) before the slow
-    // PATCH holds the upload; once it does, the probe is refused as busy.
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    // PATCH holds the upload. A probe that held the upload at the moment the slow PATCH arrived
+    // made that one busy instead (it has an answer): open it again. Once the slow PATCH holds
+    // the upload, the probe is refused as busy.
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
     loop {
         let second = server.tus_patch(&token, &path, 0, b"z");
         if second.status() == 409 {
@@ -106,6 +117,9 @@ fn a_resumable_upload_takes_one_patch_at_a_time_and_no_slivers() {
         }
         assert_eq!(second.status(), 400, "a sliver that got through is refused and stores nothing");
         assert!(std::time::Instant::now() < deadline, "the slow PATCH never held the upload");
+        if answered(&slow) {
+            slow = open_slow_patch();
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
     drop(slow);

@@ -178,17 +178,17 @@ fn journey(backend: Backend) {
     let csv = server.get("/api/v1/leaderboard").header("accept", "text/csv").send().unwrap().text().unwrap();
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert!(header.join(",").starts_with("rank,rank_group,submission_id,team,method,baseline,complete,worst_lighting,worst_lighting_miou,largest_drop_lighting,largest_drop,baseline_overall_miou,baseline_overall_fmiou,baseline_overall_macc,baseline_overall_miou_ci95_low"));
+    assert!(header.join(",").starts_with("rank,rank_group,submission_id,team,method,baseline,reference,complete,worst_lighting,worst_lighting_miou,largest_drop_lighting,largest_drop,baseline_overall_miou,baseline_overall_fmiou,baseline_overall_macc,baseline_overall_miou_ci95_low"));
     // The oracle's row: first, every score 1 (f-mIoU sums the classes' shares as NumPy's
     // pairwise sum does, so it may print an ulp below 1).
     let oracle_row: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!(oracle_row[..11].join(","), format!("1,1,{oracle_id},Team Journey,team-oracle,false,true,baseline,1,camera,0"));
-    for (column, value) in oracle_row[11..20].iter().enumerate() {
-        if header[11 + column].contains("ci95") {
-            assert_eq!(*value, "", "no interval on a board of two scenes: {}", header[11 + column]);
+    assert_eq!(oracle_row[..12].join(","), format!("1,1,{oracle_id},Team Journey,team-oracle,false,false,true,baseline,1,camera,0"));
+    for (column, value) in oracle_row[12..21].iter().enumerate() {
+        if header[12 + column].contains("ci95") {
+            assert_eq!(*value, "", "no interval on a board of two scenes: {}", header[12 + column]);
             continue;
         }
-        assert!((1.0 - value.parse::<f64>().unwrap()).abs() < 1e-12, "score column {} of the oracle's row: {value}", 11 + column);
+        assert!((1.0 - value.parse::<f64>().unwrap()).abs() < 1e-12, "score column {} of the oracle's row: {value}", 12 + column);
     }
     assert_eq!(server.get("/api/v1/leaderboard.csv").send().unwrap().text().unwrap(), csv);
 

@@ -16,6 +16,7 @@ mod journey;
 mod multinode;
 mod object_store;
 mod receipts;
+mod reference_mapper;
 mod regeneration;
 mod schema;
 mod splits;

@@ -28,8 +28,8 @@ fn split_config() -> String {
 }
 
 /// The scenes of the split release: the val one, and the test ones.
-const VAL_SCENE: &str = "scene_001";
-const TEST_SCENES: [&str; 5] = ["scene_000", "scene_002", "scene_003", "scene_004", "scene_005"];
+pub(super) const VAL_SCENE: &str = "scene_001";
+pub(super) const TEST_SCENES: [&str; 5] = ["scene_000", "scene_002", "scene_003", "scene_004", "scene_005"];
 
 fn build(config: &Path, out: &Path, secret: Option<&str>) -> Output {
     let mut command = Command::new(env!("CARGO_BIN_EXE_osmab"));
@@ -41,7 +41,7 @@ fn build(config: &Path, out: &Path, secret: Option<&str>) -> Output {
 }
 
 /// The split release (see [`split_config`]), built once per test run.
-fn split_release() -> &'static Path {
+pub(super) fn split_release() -> &'static Path {
     static RELEASE: OnceLock<PathBuf> = OnceLock::new();
     RELEASE.get_or_init(|| {
         let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-split-release");

@@ -103,6 +103,7 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Op
         for (lighting, table) in &scores.semseg {
             println!("  {lighting}: {}", super::view::pooled_line(&table.overall));
         }
+        print_lighting_changes(&scores);
         for (lighting, v) in scores.vqa.iter().flat_map(|v| &v.lightings) {
             println!("  {lighting}: VQA accuracy {:.1} % ({} of {} questions)", v.overall.accuracy.unwrap_or(0.0) * 100.0, v.overall.correct, v.overall.total);
         }
@@ -114,4 +115,17 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Op
         println!("(The test split's ground truth is hidden: its scores are computed on the server only.)");
     }
     Ok(true)
+}
+
+/// Each lighting's relative change of pooled mIoU against the baseline lighting, with the
+/// 95 % interval of the paired bootstrap over scenes (every lighting resamples the same scenes).
+fn print_lighting_changes(scores: &osmab_evaluator::scores::Scores) {
+    use osmab_evaluator::scores::{Aggregate, Lighting, Metric};
+    let Some(base) = scores.semseg.get(&Lighting::Baseline) else { return };
+    for (lighting, table) in scores.semseg.iter().filter(|(l, _)| **l != Lighting::Baseline) {
+        let Some(change) = scores.change_against_baseline(*lighting, None, Aggregate::Overall, Metric::Miou) else { continue };
+        let interval = osmab_evaluator::bootstrap::change_interval95(&base.bootstrap_miou, &table.bootstrap_miou)
+            .map_or(String::new(), |[low, high]| format!(" (95 %: {:+.1} to {:+.1} %)", low * 100.0, high * 100.0));
+        println!("  {lighting} against baseline: pooled mIoU {:+.1} %{interval}", change * 100.0);
+    }
 }

@@ -126,7 +126,10 @@ pub struct Row {
     pub team: String,
     pub method: String,
     pub paper_url: Option<String>,
-    pub baseline: bool,
+    /// A control made from the ground truth (shown muted, tagged "control").
+    pub control: bool,
+    /// The project's reference mapper (tagged "reference").
+    pub reference: bool,
     pub complete: bool,
     /// Why the organisers flagged it.
     pub flagged: Option<String>,
@@ -339,7 +342,8 @@ fn row(rank: usize, e: &Entry, board: &Leaderboard, view: View, cells_of: &[(Lig
         team: e.team.clone(),
         method: e.method.clone(),
         paper_url: e.paper_url.clone(),
-        baseline: e.baseline,
+        control: e.baseline && !e.reference,
+        reference: e.reference,
         complete: e.complete,
         flagged: e.flagged.clone(),
         rank_group: e.rank_group,
@@ -387,7 +391,13 @@ fn change_chart(board: &Leaderboard, view: View, others: &[Lighting], size: Size
         title: format!("Relative change of pooled {} against the baseline lighting", Metric::Miou.label()),
         groups: others.iter().map(|&l| label(l).to_string()).collect(),
         group_titles: others.iter().map(|l| l.label().to_string()).collect(),
-        series: board.entries.iter().map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() }).collect(),
+        // Controls are left out: their change under a lighting is set by how they were made, not measured.
+        series: board
+            .entries
+            .iter()
+            .filter(|e| !e.baseline || e.reference)
+            .map(|e| Series { name: e.method.clone(), values: others.iter().map(|&l| view.change(e, l)).collect() })
+            .collect(),
         axis: Axis::Change,
         size,
     }

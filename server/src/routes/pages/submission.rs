@@ -57,7 +57,9 @@ pub struct SubmissionPage {
     pub reason: Option<String>,
     /// Where it stands in the queue, in words (queued or being scored).
     pub queue: Option<String>,
+    /// Made by the service: the reference mapper, or (when not `reference`) a control.
     pub baseline: bool,
+    pub reference: bool,
     pub complete: bool,
     pub history: Vec<EventRow>,
     pub results: Vec<LightingResult>,
@@ -158,6 +160,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         view.method.name, view.team, view.release, view.split, view.id, view.id
     );
     let chart = scores.map_or_else(String::new, |scores| metrics_chart(scores, &order));
+    let reference = view.baseline && crate::reserved_names::is_reference_mapper(&view.method.name);
     Ok(SubmissionPage {
         metric_labels: Metric::COLUMNS.iter().map(|m| m.label()).collect(),
         split: view.split,
@@ -186,6 +189,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         release: view.release,
         reason: view.reason,
         queue: view.queue.as_ref().map(|q| q.sentence()),
+        reference,
         baseline: view.baseline,
         complete: view.complete,
     }

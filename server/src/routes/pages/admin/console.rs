@@ -264,17 +264,22 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
     let mut renders: Vec<RenderRow> = jobs
         .iter()
         .filter(|j| j.kind == JobKind::RenderSequence && subject_version(&j.subject) == job.subject)
-        .map(|j| RenderRow {
-            subject: j.subject.clone(),
-            state: j.state.to_string(),
-            attempts: j.attempts,
-            worker: j.lease_owner.clone().unwrap_or_default(),
-            // A finished job's last progress line ("rendering camera") is history.
-            message: match j.state {
-                JobState::Succeeded => format!("rendered in {}", duration(j.updated_at - j.created_at)),
-                _ => progress_of(j).message,
-            },
-            error: j.error.clone().unwrap_or_default(),
+        .map(|j| {
+            let progress = progress_of(j);
+            RenderRow {
+                subject: j.subject.clone(),
+                state: j.state.to_string(),
+                attempts: j.attempts,
+                // The worker holding it, or the one that last reported on it.
+                worker: j.lease_owner.clone().or(progress.worker).unwrap_or_default(),
+                // A finished job's last progress line ("rendering camera") is history; its
+                // time is from when its worker began it, not from when it was queued.
+                message: match j.state {
+                    JobState::Succeeded => format!("rendered in {}", duration(j.updated_at - progress.started_at.unwrap_or(j.created_at))),
+                    _ => progress.message,
+                },
+                error: j.error.clone().unwrap_or_default(),
+            }
         })
         .collect();
     renders.sort_by(|a, b| a.subject.cmp(&b.subject));
@@ -309,6 +314,7 @@ fn build_status(job: &JobRecord, stage: &str, renders: &RenderCounts) -> String 
             if renders.failed > 0 { format!(", {} failed", renders.failed) } else { String::new() }
         ),
         (JobState::Queued, "") => "queued: waiting for a worker".to_string(),
+        (JobState::Running, "") => format!("starting (attempt {} of {})", job.attempts.max(1), job.max_attempts),
         (JobState::Queued | JobState::Running, stage) => format!("{stage} (attempt {} of {})", job.attempts.max(1), job.max_attempts),
         (state, _) => state.to_string(),
     }

@@ -111,26 +111,41 @@ async fn boards_of(state: &AppState, record: &ReleaseRecord) -> Result<Vec<Draft
         .collect())
 }
 
+/// How a measure of two releases is judged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Judged {
+    /// A quality: higher is better.
+    Higher,
+    /// A quality: lower is better.
+    Lower,
+    /// Set by the configuration (how many scenes, how long the paths): shown, never
+    /// flagged, since a smaller draft is no regression.
+    Configuration,
+}
+
 /// The summary numbers of a report, by name; `None` where the report has no such measure.
-fn summary(report: &QualityReport) -> Vec<(String, Option<f64>, bool)> {
-    // (name, value, higher is better)
+/// Counts that grow with the number of scenes are compared as shares of them, so a draft
+/// of fewer scenes is compared like with like.
+fn summary(report: &QualityReport) -> Vec<(String, Option<f64>, Judged)> {
+    let share = |count: Option<f64>| Some(count? / report.scenes.filter(|n| *n > 0.0)?);
     let mut rows = vec![
-        ("scenes".to_string(), report.scenes, true),
-        ("scenes passing the bar".to_string(), report.passed, true),
-        ("scenes matching their prompt fully".to_string(), report.full_match, true),
-        ("problems".to_string(), report.problems.as_ref().map(|p| p.len() as f64), false),
-        ("object instances mapped (share)".to_string(), report.mapped_share(), true),
-        ("frames per scene (mean)".to_string(), report.mean_over_scenes(|s| s.frames), true),
-        ("camera travel per scene, m (mean)".to_string(), report.mean_over_scenes(|s| s.travelled_m), true),
-        ("degenerate frames (mean share)".to_string(), report.mean_over_scenes(|s| s.degenerate_fraction), false),
+        ("scenes".to_string(), report.scenes, Judged::Configuration),
+        ("scenes passing the bar (share)".to_string(), share(report.passed), Judged::Higher),
+        ("scenes matching their prompt fully (share)".to_string(), share(report.full_match), Judged::Higher),
+        ("problems per scene".to_string(), share(report.problems.as_ref().map(|p| p.len() as f64)), Judged::Lower),
+        ("object instances mapped (share)".to_string(), report.mapped_share(), Judged::Higher),
+        ("frames per scene (mean)".to_string(), report.mean_over_scenes(|s| s.frames), Judged::Configuration),
+        ("camera travel per scene, m (mean)".to_string(), report.mean_over_scenes(|s| s.travelled_m), Judged::Configuration),
+        ("degenerate frames (mean share)".to_string(), report.mean_over_scenes(|s| s.degenerate_fraction), Judged::Lower),
     ];
     for lighting in report.lightings() {
         let measure = |of: fn(&LightingMeasures) -> Option<f64>| report.mean_over_scenes(|s| s.lightings.get(&lighting).and_then(of));
-        rows.push((format!("{lighting}: saturated pixels (median share, mean)"), measure(|l| l.median_saturated), false));
-        rows.push((format!("{lighting}: mean luma"), measure(|l| l.mean_luma), true));
+        rows.push((format!("{lighting}: saturated pixels (median share, mean)"), measure(|l| l.median_saturated), Judged::Lower));
+        // Brightness is the lighting's character, not a quality: shown, not judged.
+        rows.push((format!("{lighting}: mean luma"), measure(|l| l.mean_luma), Judged::Configuration));
     }
     for (category, accuracy) in &report.oracle_vqa {
-        rows.push((format!("oracle VQA accuracy, {category}"), Some(*accuracy), true));
+        rows.push((format!("oracle VQA accuracy, {category}"), Some(*accuracy), Judged::Higher));
     }
     rows
 }
@@ -145,25 +160,21 @@ fn shown(value: Option<f64>) -> String {
     }
 }
 
-/// `this` beside `current`, measure by measure (the union of both reports' measures).
+/// `this` beside `current`, measure by measure (the union of both reports' measures); a
+/// quality that got worse is marked, a difference of configuration is not.
 fn compare(this: &QualityReport, current: Option<&QualityReport>) -> Vec<Measure> {
     let ours = summary(this);
     let theirs = current.map(summary).unwrap_or_default();
-    let mut names: Vec<(String, bool)> = ours.iter().map(|(n, _, up)| (n.clone(), *up)).collect();
-    names.extend(theirs.iter().filter(|(n, _, _)| !ours.iter().any(|(m, _, _)| m == n)).map(|(n, _, up)| (n.clone(), *up)));
+    let mut names: Vec<(String, Judged)> = ours.iter().map(|(n, _, j)| (n.clone(), *j)).collect();
+    names.extend(theirs.iter().filter(|(n, _, _)| !ours.iter().any(|(m, _, _)| m == n)).map(|(n, _, j)| (n.clone(), *j)));
     names
         .into_iter()
-        .map(|(name, higher_is_better)| {
-            let of = |rows: &[(String, Option<f64>, bool)]| rows.iter().find(|(n, _, _)| *n == name).and_then(|(_, v, _)| *v);
+        .map(|(name, judged)| {
+            let of = |rows: &[(String, Option<f64>, Judged)]| rows.iter().find(|(n, _, _)| *n == name).and_then(|(_, v, _)| *v);
             let (a, b) = (of(&ours), of(&theirs));
-            let worse = match (a, b) {
-                (Some(a), Some(b)) => {
-                    if higher_is_better {
-                        a < b - 1e-9
-                    } else {
-                        a > b + 1e-9
-                    }
-                }
+            let worse = match (a, b, judged) {
+                (Some(a), Some(b), Judged::Higher) => a < b - 1e-9,
+                (Some(a), Some(b), Judged::Lower) => a > b + 1e-9,
                 _ => false,
             };
             Measure { this: shown(a), current: shown(b), worse, name }
@@ -280,11 +291,11 @@ mod tests {
         let current = report(2, [true, true], &[]);
         let measures = compare(&draft, Some(&current));
         let get = |name: &str| measures.iter().find(|m| m.name == name).unwrap();
-        let passing = get("scenes passing the bar");
-        assert_eq!((passing.this.as_str(), passing.current.as_str(), passing.worse), ("1", "2", true));
+        let passing = get("scenes passing the bar (share)");
+        assert_eq!((passing.this.as_str(), passing.current.as_str(), passing.worse), ("0.500", "1", true));
         let mapped = get("object instances mapped (share)");
         assert_eq!((mapped.this.as_str(), mapped.current.as_str(), mapped.worse), ("0.500", "1", true));
-        assert!(get("problems").worse, "more problems read as worse");
+        assert!(get("problems per scene").worse, "more problems read as worse");
         let travel = get("camera travel per scene, m (mean)");
         assert_eq!((travel.this.as_str(), travel.worse), ("10", false));
         assert_eq!(get("baseline: mean luma").this, "110");
@@ -293,5 +304,21 @@ mod tests {
         assert!(alone.iter().all(|m| m.current == "–" && !m.worse), "nothing to compare with");
         let rows = scene_rows(&draft);
         assert_eq!((rows[0].mapped.as_str(), rows[0].problems.len(), rows[1].mapped.as_str()), ("1/2", 1, "0/0"));
+    }
+
+    #[test]
+    fn a_smaller_draft_is_compared_like_with_like() {
+        // Half the scenes, all passing; fewer frames and a shorter path by configuration.
+        let small = json!({
+            "scenes": 1, "passed": 1, "full_match": 1, "problems": [],
+            "per_scene": [{"scene": "scene_000", "subset": "furniture", "frames": 40, "travelled_m": 3.0, "degenerate_fraction": 0.01,
+                           "instances": [{"mapped": true}], "problems": [], "lightings": {"baseline": {"median_saturated": 0.001, "mean_luma": 90.0}}}]
+        });
+        let small = QualityReport::parse(small.to_string().as_bytes(), "report").unwrap();
+        let current = report(2, [true, true], &[]);
+        let measures = compare(&small, Some(&current));
+        let flagged: Vec<&str> = measures.iter().filter(|m| m.worse).map(|m| m.name.as_str()).collect();
+        assert!(flagged.is_empty(), "differences of configuration are no regressions: {flagged:?}");
+        assert_eq!(measures.iter().find(|m| m.name == "scenes").map(|m| (m.this.as_str(), m.current.as_str())), Some(("1", "2")));
     }
 }

@@ -1,0 +1,27 @@
+//! The reference mapper: a complete semantic mapping method that uses only what a team
+//! downloads — colour and depth frames, camera poses and intrinsics, the class list and,
+//! to learn from, the val split's semantic frames. It never reads a scene's ground truth,
+//! prompt or questions, nor any test scene's semantics.
+//!
+//! - [`learn`]: a random forest classifies image regions ([`regions`]) by what their
+//!   pixels show and the geometry their depth gives ([`features`]), trained on the val
+//!   split's frames under baseline lighting.
+//! - [`voxels`]: every used frame's regions are classified, their pixels lifted with depth
+//!   and pose into a voxel map that votes per voxel, and objects cut as connected voxels
+//!   of one class.
+//! - [`submission`]: the maps and scene graphs in the submission format, for every scene
+//!   and lighting.
+
+pub mod features;
+pub mod frame;
+pub mod learn;
+pub mod public;
+pub mod regions;
+pub mod submission;
+pub mod voxels;
+
+pub use features::FeatureSet;
+pub use submission::{Perceived, perceive};
+
+/// Every how many frames of a sequence the mapper looks at (the ground truth uses every 5th).
+pub const FRAME_STRIDE: usize = 10;

@@ -143,9 +143,9 @@ impl RegionClassifier {
             .map(|t| {
                 let parameters = RandomForestClassifierParameters {
                     criterion: SplitCriterion::Gini,
-                    max_depth: Some(16),
-                    min_samples_leaf: 2,
-                    min_samples_split: 4,
+                    max_depth: Some(24),
+                    min_samples_leaf: 1,
+                    min_samples_split: 2,
                     n_trees: 1,
                     m: None,
                     keep_samples: false,
@@ -195,7 +195,7 @@ mod tests {
         let forest = RegionClassifier::fit(&rows, &classes, FeatureSet::GeometryOnly).unwrap();
         assert_eq!(forest.classify(&rows), classes);
         let again = RegionClassifier::fit(&rows, &classes, FeatureSet::GeometryOnly).unwrap();
-        let probe: Vec<Vec<f64>> = (0..50).map(|i| vec![i as f64 * 0.04; 10]).collect();
+        let probe: Vec<Vec<f64>> = (0..50).map(|i| vec![i as f64 * 0.04; FeatureSet::GeometryOnly.len()]).collect();
         assert_eq!(forest.classify(&probe), again.classify(&probe));
         assert_eq!(forest.examples, BTreeMap::from([(3, 100), (7, 100)]));
     }

@@ -45,6 +45,9 @@ pub struct TableTwoRow {
     #[serde(flatten)]
     pub lightings: BTreeMap<Lighting, Option<f64>>,
     pub method: String,
+    /// Why the row has blanks, in words (empty when it has none).
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub note: String,
     pub submission_id: String,
     pub subset: Regime,
 }
@@ -63,8 +66,29 @@ pub struct TableThreeRow {
     pub standard_ci95_high: Option<f64>,
     pub standard_ci95_low: Option<f64>,
     pub standard_questions: Option<u64>,
+    /// Why the row has blanks, in words (empty when it has none).
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub note: String,
     pub submission_id: String,
     pub subset: Regime,
+}
+
+/// Why a row of the tables of a `split` board with blanks has them: on a test board, what the disclosure
+/// rule withholds (a blank is withheld, not zero); on a val board, that the scenes shown hold
+/// no such question.
+pub fn blank_note(split: osmab_evaluator::scores::Split, per_lighting: bool) -> String {
+    let min = osmab_evaluator::scores::MIN_TEST_SCENES;
+    match split {
+        osmab_evaluator::scores::Split::Test if per_lighting => format!(
+            "withheld, not zero: a test board shows question answering pooled over all lightings only, and a subset or question group only where \
+             each of them pools at least {min} test scenes (a part beside its whole could be subtracted from it)"
+        ),
+        osmab_evaluator::scores::Split::Test => format!(
+            "withheld, not zero: a test board shows a subset or question group only where each of them pools at least {min} test scenes \
+             (a part beside its whole could be subtracted from it)"
+        ),
+        _ => "no question of this group in these scenes".to_string(),
+    }
 }
 
 /// The rows of both tables for every (subset, group, entry with VQA scores).
@@ -75,12 +99,11 @@ fn cells<'a>(board: &'a Leaderboard) -> impl Iterator<Item = (Regime, QuestionGr
 /// Table II.
 pub fn table_two(board: &Leaderboard) -> Vec<TableTwoRow> {
     cells(board)
-        .map(|(subset, group, entry)| TableTwoRow {
-            group,
-            lightings: board.lightings.iter().map(|&l| (l, accuracy(entry, l, Some(subset), QuestionSet::PromptGrounded, group))).collect(),
-            method: entry.method.clone(),
-            submission_id: entry.submission_id.clone(),
-            subset,
+        .map(|(subset, group, entry)| {
+            let lightings: BTreeMap<Lighting, Option<f64>> =
+                board.lightings.iter().map(|&l| (l, accuracy(entry, l, Some(subset), QuestionSet::PromptGrounded, group))).collect();
+            let note = if lightings.values().any(Option::is_none) { blank_note(board.split, true) } else { String::new() };
+            TableTwoRow { group, lightings, method: entry.method.clone(), note, submission_id: entry.submission_id.clone(), subset }
         })
         .collect()
 }
@@ -92,6 +115,7 @@ pub fn table_three(board: &Leaderboard) -> Vec<TableThreeRow> {
             let over = |set| entry.scores.vqa.as_ref().and_then(|v| v.over_lightings(subset, set, group));
             let (standard, prompt) = (over(QuestionSet::Standard), over(QuestionSet::PromptGrounded));
             let ci = |a: Option<&osmab_evaluator::scores::Accuracy>, k: usize| a.and_then(|a| a.ci95).map(|c| c[k]);
+            let blank = standard.and_then(|a| a.accuracy).is_none() || prompt.and_then(|a| a.accuracy).is_none();
             TableThreeRow {
                 group,
                 method: entry.method.clone(),
@@ -103,6 +127,7 @@ pub fn table_three(board: &Leaderboard) -> Vec<TableThreeRow> {
                 standard_ci95_high: ci(standard, 1),
                 standard_ci95_low: ci(standard, 0),
                 standard_questions: standard.map(|a| a.total),
+                note: if blank { blank_note(board.split, false) } else { String::new() },
                 submission_id: entry.submission_id.clone(),
                 subset,
             }
@@ -113,17 +138,23 @@ pub fn table_three(board: &Leaderboard) -> Vec<TableThreeRow> {
 /// Table II as CSV: subset, group, method, submission_id, then one column per lighting.
 pub fn table_two_csv(rows: &[TableTwoRow], lightings: &[Lighting]) -> String {
     let mut csv = CsvWriter::new(LineEnd::Lf);
-    csv.row(["subset", "group", "method", "submission_id"].into_iter().map(String::from).chain(lightings.iter().map(ToString::to_string)));
+    csv.row(
+        ["subset", "group", "method", "submission_id"]
+            .into_iter()
+            .map(String::from)
+            .chain(lightings.iter().map(ToString::to_string))
+            .chain(["note".to_string()]),
+    );
     for row in rows {
         let names =
             [row.subset.to_string(), row.group.to_string(), spreadsheet_safe(&row.method).into_owned(), spreadsheet_safe(&row.submission_id).into_owned()];
-        csv.row(names.into_iter().chain(lightings.iter().map(|l| cell(row.lightings.get(l).copied().flatten()))));
+        csv.row(names.into_iter().chain(lightings.iter().map(|l| cell(row.lightings.get(l).copied().flatten()))).chain([row.note.clone()]));
     }
     csv.finish()
 }
 
 /// The columns of Table III's CSV.
-pub const TABLE_THREE_COLUMNS: [&str; 12] = [
+pub const TABLE_THREE_COLUMNS: [&str; 13] = [
     "subset",
     "group",
     "method",
@@ -136,6 +167,7 @@ pub const TABLE_THREE_COLUMNS: [&str; 12] = [
     "prompt_grounded_ci95_low",
     "prompt_grounded_ci95_high",
     "prompt_grounded_questions",
+    "note",
 ];
 
 /// Table III as CSV with [`TABLE_THREE_COLUMNS`].
@@ -157,6 +189,7 @@ pub fn table_three_csv(rows: &[TableThreeRow]) -> String {
             cell(r.prompt_grounded_ci95_low),
             cell(r.prompt_grounded_ci95_high),
             count(r.prompt_grounded_questions),
+            r.note.clone(),
         ]);
     }
     csv.finish()
@@ -172,10 +205,11 @@ mod tests {
             group: QuestionGroup::Relations,
             lightings: [(Lighting::Baseline, Some(-0.25))].into(),
             method: "=HYPERLINK(\"http://evil\",\"x\")".into(),
+            note: String::new(),
             submission_id: "sub_1".into(),
             subset: Regime::Furniture,
         };
         let csv = table_two_csv(&[row], &[Lighting::Baseline]);
-        assert_eq!(csv, "subset,group,method,submission_id,baseline\nfurniture,Relations,\"'=HYPERLINK(\"\"http://evil\"\",\"\"x\"\")\",sub_1,-0.25\n");
+        assert_eq!(csv, "subset,group,method,submission_id,baseline,note\nfurniture,Relations,\"'=HYPERLINK(\"\"http://evil\"\",\"\"x\"\")\",sub_1,-0.25,\n");
     }
 }

@@ -34,7 +34,7 @@ pub async fn rendered(state: &AppState, release: Option<&str>, split: Option<Spl
         )),
         BoardError::NotPublished(Some(v)) => Problem::not_found(format!("There is no published release '{v}'; see GET /api/v1/releases.")),
         BoardError::NotPublished(None) => {
-            Problem::not_found("No release has been published yet; the demo release is built on first start and appears within a minute.")
+            Problem::not_found("No release has been published yet; the demo release is built on first start and appears in about four minutes (on 2 cores).")
         }
         BoardError::Store(e) => e.into(),
     })

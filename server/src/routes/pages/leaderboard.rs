@@ -163,6 +163,8 @@ pub struct LeaderboardPage {
     pub lighting_groups: Vec<(&'static str, usize)>,
     pub columns: Vec<Column>,
     pub change_headers: Vec<&'static str>,
+    /// Why some cells show "–", in words, where some do.
+    pub blank_note: Option<String>,
     pub rows: Vec<Row>,
     pub aggregates: Vec<Choice>,
     pub subsets: Vec<Choice>,
@@ -270,7 +272,7 @@ fn board_page(board: &Leaderboard, published: &[(String, bool)], view: View, lig
     entries.sort_by(|a, b| key(b).total_cmp(&key(a)));
     let (columns, cells_of) = columns(board, view);
     let others: Vec<Lighting> = board.lightings.iter().copied().filter(|&l| l != Lighting::BASELINE).collect();
-    let rows = entries.iter().enumerate().map(|(i, e)| row(i + 1, e, board, view, &cells_of, &others)).collect();
+    let rows: Vec<Row> = entries.iter().enumerate().map(|(i, e)| row(i + 1, e, board, view, &cells_of, &others)).collect();
     let (chart, chart_narrow) =
         (change_chart(board, view, &others, Size::Wide, Lighting::label), change_chart(board, view, &others, Size::Narrow, Lighting::short_label));
     let split_note = match board.split {
@@ -292,6 +294,7 @@ fn board_page(board: &Leaderboard, published: &[(String, bool)], view: View, lig
         scenes: board.scenes,
         columns,
         change_headers: others.iter().map(|l| l.short_label()).collect(),
+        blank_note: blank_note(board, &rows),
         rows,
         aggregates: Aggregate::ALL
             .iter()
@@ -309,9 +312,26 @@ fn board_page(board: &Leaderboard, published: &[(String, bool)], view: View, lig
         chart_narrow,
         csv_link: format!("/api/v1/leaderboard.csv?{}", board_query(board)),
         json_link: format!("/api/v1/leaderboard?{}", board_query(board)),
-        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split == Split::Test),
+        vqa: vqa::vqa_view(&board_query(board), &board.lightings, &entries, view.subset, board.split),
         ranking_lighting: board.lightings.first().copied().unwrap_or(Lighting::BASELINE).label(),
     }
+}
+
+/// Why some cells of the segmentation table show "–", in words, where some do: on a test
+/// board, what the disclosure rule withholds (a lighting, subset or aggregate of too few
+/// test scenes, or a part beside its whole); on a val board, a metric that is undefined.
+fn blank_note(board: &Leaderboard, rows: &[Row]) -> Option<String> {
+    if !rows.iter().any(|r| r.cells.iter().any(|c| c.value == "–")) {
+        return None;
+    }
+    let min = osmab_evaluator::scores::MIN_TEST_SCENES;
+    Some(match board.split {
+        Split::Test => format!(
+            "withheld, not zero: a test board shows a number only where it pools at least {min} test scenes, and a subset only when every subset \
+             does (a part beside its whole could be subtracted from it); choose All scenes for the pooled numbers"
+        ),
+        _ => "undefined: the scenes shown hold no class this metric can be computed on".to_string(),
+    })
 }
 
 /// The metric columns of the view (each lighting's metrics, each a link sorting by it),

@@ -172,7 +172,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
         state: view.state.to_string(),
         history: view.history.iter().map(|e| EventRow { state: e.state.to_string(), reason: e.reason.clone().unwrap_or_default(), at: e.at.clone() }).collect(),
         results,
-        vqa: submission_vqa(vqa, &order),
+        vqa: submission_vqa(vqa, &order, scores.is_some_and(|s| s.withheld.is_some())),
         vqa_sources: vqa_sources(vqa),
         withheld: scores.and_then(|s| s.withheld.as_ref()).map(|w| w.note.clone()),
         evaluator_version: scores.map(|s| s.evaluator_version.clone()).unwrap_or_default(),

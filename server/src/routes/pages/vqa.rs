@@ -3,7 +3,7 @@
 //! chart per (question set, group); on a submission's page, every group and category
 //! with its interval, and who answered and judged.
 
-use osmab_evaluator::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, Regime, VqaScores};
+use osmab_evaluator::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, Regime, Split, VqaScores};
 
 use super::chart::{Axis, BarChart, Series, Size};
 use super::format::{interval, percent};
@@ -23,6 +23,8 @@ pub struct VqaView {
     /// Column labels under each lighting.
     pub columns: Vec<String>,
     pub rows: Vec<VqaRow>,
+    /// Why some cells show "–", in words, where some do.
+    pub blank_note: Option<String>,
     pub charts: Vec<String>,
     pub table_two_csv: String,
     pub table_three_csv: String,
@@ -70,15 +72,16 @@ impl Columns {
 }
 
 /// The section for `entries` (in the page's order), over all scenes or one `subset`, per
-/// lighting or (`pooled`, a test board) over all lightings; `None` when no entry has VQA scores.
-pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>, pooled: bool) -> Option<VqaView> {
+/// lighting or (a test board's) over all lightings; `None` when no entry has VQA scores.
+pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], subset: Option<Regime>, split: Split) -> Option<VqaView> {
+    let pooled = split == Split::Test;
     let with_vqa: Vec<&Entry> = entries.iter().copied().filter(|e| e.scores.vqa.is_some()).collect();
     if with_vqa.is_empty() {
         return None;
     }
     let groups: Vec<Columns> = if pooled { vec![Columns::AllLightings] } else { lightings.iter().map(|&l| Columns::Lighting(l)).collect() };
     let columns: Vec<(QuestionSet, QuestionGroup)> = pairs().collect();
-    let rows = with_vqa
+    let rows: Vec<VqaRow> = with_vqa
         .iter()
         .map(|e| VqaRow {
             submission_id: e.submission_id.clone(),
@@ -87,6 +90,7 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
             cells: groups.iter().flat_map(|&g| columns.iter().map(move |&(set, group)| percent(g.accuracy(e, subset, set, group)))).collect(),
         })
         .collect();
+    let blank_note = rows.iter().any(|r| r.cells.iter().any(|c| c == "–")).then(|| crate::leaderboard::vqa::blank_note(split, pooled));
     let charts = columns
         .iter()
         .map(|&(set, group)| {
@@ -108,6 +112,7 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
         lighting_groups: groups.iter().map(|g| (g.label(), columns.len())).collect(),
         columns: columns.iter().map(|&(set, group)| column_label(set, group)).collect(),
         rows,
+        blank_note,
         charts,
         table_two_csv: format!("/api/v1/leaderboard/vqa.csv?table=2&{board_query}"),
         table_three_csv: format!("/api/v1/leaderboard/vqa.csv?table=3&{board_query}"),
@@ -134,9 +139,16 @@ fn category_row(name: String, cell: &Accuracy, group: bool) -> VqaCategoryRow {
     VqaCategoryRow { name, counts: format!("{} / {}", cell.correct, cell.total), accuracy: percent(cell.accuracy), interval: interval(cell.ci95), group }
 }
 
+/// The row of a question group a shown test score withholds (it pools too few test scenes
+/// beside the other groups), said as such rather than as "0 / 0".
+fn withheld_row(name: String) -> VqaCategoryRow {
+    VqaCategoryRow { name, counts: "withheld".into(), accuracy: "–".into(), interval: String::new(), group: true }
+}
+
 /// Per lighting (in `lightings` order), then over all lightings: each question set's
-/// groups, then its categories (a test submission's are over all lightings only).
-pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting]) -> Vec<VqaLighting> {
+/// groups, then its categories (a test submission's are over all lightings only). A group
+/// missing from a shown test score (`withheld`) is said to be withheld.
+pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting], withheld: bool) -> Vec<VqaLighting> {
     let Some(vqa) = vqa else { return Vec::new() };
     let none = Accuracy::default();
     lightings
@@ -148,7 +160,11 @@ pub fn submission_vqa(vqa: Option<&VqaScores>, lightings: &[Lighting]) -> Vec<Vq
             for set in QuestionSet::ALL {
                 let scores = at.set(set);
                 for group in QuestionGroup::ALL {
-                    rows.push(category_row(format!("{} {group}", set.label()), scores.group(group).unwrap_or(&none), true));
+                    let name = format!("{} {group}", set.label());
+                    rows.push(match scores.group(group) {
+                        None if withheld => withheld_row(name),
+                        cell => category_row(name, cell.unwrap_or(&none), true),
+                    });
                 }
                 for (category, cell) in &scores.categories {
                     rows.push(category_row(category.clone(), cell, false));

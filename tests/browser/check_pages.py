@@ -787,6 +787,10 @@ def main() -> int:
                                 checked += 1
                 groups = [th.clean() for th in table.find("thead").find_all("th", cls="group")]
                 expect(groups == (["All lightings"] if pooled else [state["labels"].get(l, l) for l in board["lightings"]]), f"VQA column groups {groups}")
+                # A blank is explained in words: on a test board, withheld (not zero).
+                blanks = any(td.clean() == "–" for tr in rows for td in tr.kids("td"))
+                note = dom.find(id="vqa-blanks")
+                expect(not blanks or (note is not None and ("withheld" in note.clean()) == pooled), f"'–' cells without a note saying why: {note.clean() if note else None}")
                 charts = page.boxes(".charts svg")
                 expect(len(charts) == 4 and all(w > 200 and h > 100 for w, h in charts), f"the VQA charts render at {charts}")
                 return f"{len(rows)} rows, {checked} cells equal to the API ({'over all lightings' if pooled else 'per lighting'}), 4 charts; {shot}"

@@ -121,7 +121,7 @@ fn a_release_built_with_its_reference_entries_ranks_the_mapper_as_the_reference_
         if board["entries"].as_array().is_some_and(|e| e.len() == 6) {
             break board;
         }
-        assert!(started.elapsed() < Duration::from_secs(400), "the reference entries were not all scored: {board}\n{}", deployment.log("serve"));
+        assert!(started.elapsed() < Duration::from_secs(600), "the reference entries were not all scored: {board}\n{}", deployment.log("serve"));
         std::thread::sleep(Duration::from_millis(200));
     };
     let entries = board["entries"].as_array().unwrap();

@@ -72,15 +72,22 @@ fn the_reference_mapper_reads_only_what_a_team_downloads_and_writes_the_same_byt
     assert_eq!(a.len(), 1 + 24 + 24, "submission.json, a map and a scene graph per scene and lighting");
     assert!(a == b, "the same bytes from the service's copy (with the test split's semantics) and from a team's copy");
 
-    // A submission as a team's: valid for both splits, every scene and lighting covered.
+    // A submission as a team's: valid for both splits, every scene and lighting covered; the
+    // whole score documents written where asked (the release folder has both splits' ground truth).
+    let documents = tempfile::tempdir().unwrap();
     for split in ["test", "val"] {
         let out = Command::new(env!("CARGO_BIN_EXE_osmab"))
             .args(["client", "validate", crate::path(on_team_copy.path()), "--release-dir", crate::path(release), "--split", split])
+            .args(["--scores-out", crate::path(documents.path())])
             .output()
             .unwrap();
         let said = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success() && said.contains("every scene and lighting covered"), "{split}: {said}{}", String::from_utf8_lossy(&out.stderr));
+        assert!(said.contains("camera against baseline: pooled mIoU") && said.contains("(95 %:"), "each lighting's change with its interval: {said}");
     }
+    let val: Value = serde_json::from_slice(&std::fs::read(documents.path().join("scores-val.json")).unwrap()).unwrap();
+    assert!(val["semseg"]["baseline"]["scenes"][VAL_SCENE]["miou"].is_number(), "per-scene rows in the whole document: {val}");
+    assert!(val["vqa"]["lightings"]["baseline"]["standard"]["categories"].as_object().is_some_and(|c| !c.is_empty()), "VQA categories: {val}");
     let card: Value = serde_json::from_slice(&std::fs::read(on_team_copy.path().join("submission.json")).unwrap()).unwrap();
     assert_eq!(card["release"], "e2e-split-1");
     assert_eq!(card["method"]["name"], "baseline-perceive");

@@ -84,6 +84,10 @@ pub enum ClientCommand {
         /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
         #[arg(long)]
         url: Option<String>,
+        /// Also write each scored split's whole score document (every scene, lighting, question
+        /// category) as `DIR/scores-<split>.json`.
+        #[arg(long, value_name = "DIR")]
+        scores_out: Option<PathBuf>,
     },
     /// Upload a submission (folder or archive) and print its id.
     Submit {
@@ -193,14 +197,15 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             println!("{fetched} downloads done, {skipped} files already present and verified; the release is in {}", out.display());
             Ok(())
         }
-        ClientCommand::Validate { submission, release_dir, split, url } => {
+        ClientCommand::Validate { submission, release_dir, split, url, scores_out } => {
             let api = if release_dir.is_none() { Some(api(url.as_deref())?) } else { None };
             if let (Some(api), Some(release)) = (&api, currency::card_release(&submission))
                 && let Some(note) = currency::newer_release_note(api, &release, "this submission is for")
             {
                 eprintln!("{note}");
             }
-            if offline::validate_offline(&submission, release_dir.as_deref(), split, api.as_ref())? { Ok(()) } else { std::process::exit(1) }
+            let valid = offline::validate_offline(&submission, release_dir.as_deref(), split, api.as_ref(), scores_out.as_deref())?;
+            if valid { Ok(()) } else { std::process::exit(1) }
         }
         ClientCommand::Quota { url } => view::quota(&api(url.as_deref())?),
         ClientCommand::Submit { submission, dry_run, private, watch, split, url } => {

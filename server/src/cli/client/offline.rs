@@ -42,7 +42,14 @@ fn named_release(root: &Path) -> Option<String> {
 
 /// Validate (and, with ground truth, score) `submission`; prints the report, returns
 /// whether it is valid.
-pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Option<Split>, api: Option<&Api>) -> anyhow::Result<bool> {
+/// With `scores_out`, each scored split's score document is written there too.
+pub fn validate_offline(
+    submission: &Path,
+    release_dir: Option<&Path>,
+    split: Option<Split>,
+    api: Option<&Api>,
+    scores_out: Option<&Path>,
+) -> anyhow::Result<bool> {
     let unpacked;
     let root = if submission.is_dir() {
         submission.to_path_buf()
@@ -104,6 +111,12 @@ pub fn validate_offline(submission: &Path, release_dir: Option<&Path>, split: Op
             println!("  {lighting}: {}", super::view::pooled_line(&table.overall));
         }
         print_lighting_changes(&scores);
+        if let Some(dir) = scores_out {
+            std::fs::create_dir_all(dir).with_context(|| format!("--scores-out {}", dir.display()))?;
+            let path = dir.join(format!("scores-{other}.json"));
+            std::fs::write(&path, serde_json::to_string_pretty(&scores)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+            println!("  (the whole score document: {})", path.display());
+        }
         for (lighting, v) in scores.vqa.iter().flat_map(|v| &v.lightings) {
             println!("  {lighting}: VQA accuracy {:.1} % ({} of {} questions)", v.overall.accuracy.unwrap_or(0.0) * 100.0, v.overall.correct, v.overall.total);
         }

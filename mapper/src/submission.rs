@@ -58,7 +58,7 @@ pub fn perceive(release: &Path, out: &Path, set: FeatureSet) -> Result<Perceived
     let submission = json!({
         "format": "osmab-submission/1",
         "release": index.version,
-        "method": {"name": method_name(set), "description": method_description(set), "code_url": "https://github.com/osmab/osmab/tree/main/mapper"},
+        "method": {"name": method_name(set), "description": method_description(set)},
     });
     write_json(&out.join("submission.json"), &submission, true)?;
     let mut maps = 0;

@@ -75,7 +75,7 @@ fn region_classes(frame: &Frame, regions: &Regions) -> Vec<u32> {
             *votes[r as usize].entry(c).or_default() += 1;
         }
     }
-    votes.iter().map(|v| v.iter().max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c))).map_or(0, |(c, _)| *c as u32)).collect()
+    votes.iter().map(crate::majority).collect()
 }
 
 /// The training regions of `release`: every region of the used frames of its val scenes
@@ -174,7 +174,7 @@ impl RegionClassifier {
                 *v.entry(c).or_default() += 1;
             }
         }
-        votes.iter().map(|v| v.iter().max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c))).map_or(0, |(c, _)| *c)).collect()
+        votes.iter().map(crate::majority).collect()
     }
 }
 

@@ -23,5 +23,11 @@ pub mod voxels;
 pub use features::FeatureSet;
 pub use submission::{Perceived, perceive};
 
+/// The class with the most votes, ties to the lowest id; 0 ("other") when nobody voted.
+/// (A region's class from its blocks, the forest's from its trees, a voxel's from its points.)
+pub fn majority<K: Copy + Ord + Into<u32>>(votes: &std::collections::BTreeMap<K, u32>) -> u32 {
+    votes.iter().max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c))).map_or(0, |(c, _)| (*c).into())
+}
+
 /// Every how many frames of a sequence the mapper looks at (the ground truth uses every 5th).
 pub const FRAME_STRIDE: usize = 10;

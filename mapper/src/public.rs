@@ -8,7 +8,6 @@ use osmab_evaluator::formats::camera::CameraParams;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
 use osmab_evaluator::scores::{Lighting, Split};
-use osmab_evaluator::submission::ReleaseIndex;
 use osmab_evaluator::{InputError, Result};
 
 /// A camera-to-world 4×4 pose (OpenCV camera axes), row-major.
@@ -48,9 +47,4 @@ impl PublicSequence {
     pub fn used_frames(&self) -> Vec<usize> {
         (0..self.poses.len()).step_by(crate::FRAME_STRIDE).collect()
     }
-}
-
-/// The scenes and lightings of a release, read from its public manifest.
-pub fn index(release: &Path) -> Result<ReleaseIndex> {
-    ReleaseIndex::read(release)
 }

@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 
 use crate::features::FeatureSet;
 use crate::learn::{RegionClassifier, see};
-use crate::public::{PublicSequence, index};
+use crate::public::PublicSequence;
 use crate::regions::NONE;
 use crate::voxels::{CutMap, GRAPH_MIN_VOXELS, VoxelMap};
 
@@ -52,7 +52,7 @@ fn method_description(set: FeatureSet) -> &'static str {
 
 /// Map the release in `release` with feature set `set` and write the submission to `out`.
 pub fn perceive(release: &Path, out: &Path, set: FeatureSet) -> Result<Perceived> {
-    let index = index(release)?;
+    let index = osmab_evaluator::submission::ReleaseIndex::read(release)?;
     let classifier = RegionClassifier::train(release, &index, set)?;
     std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
     let submission = json!({

@@ -78,7 +78,7 @@ impl VoxelMap {
         let mut keys: Vec<Key> = self.cells.keys().copied().collect();
         keys.sort_unstable();
         let position: HashMap<Key, usize> = keys.iter().enumerate().map(|(i, k)| (*k, i)).collect();
-        let class: Vec<u32> = keys.iter().map(|k| winner(&self.cells[k].votes)).collect();
+        let class: Vec<u32> = keys.iter().map(|k| crate::majority(&self.cells[k].votes)).collect();
         let mut object_of = vec![u32::MAX; keys.len()];
         let mut objects = Vec::new();
         let mut stack = Vec::new();
@@ -125,10 +125,6 @@ impl VoxelMap {
             rgb: rgb.map(|v| v / seen.max(1.0)),
         }
     }
-}
-
-fn winner(votes: &BTreeMap<u32, u32>) -> u32 {
-    votes.iter().max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c))).map_or(0, |(c, _)| *c)
 }
 
 fn neighbours(k: Key) -> impl Iterator<Item = Key> {

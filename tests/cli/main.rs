@@ -254,3 +254,15 @@ fn bench_submission_scores_a_generated_submission_stage_by_stage() {
     let without_cache_note = |line: String| line.rsplit_once("; ").unwrap().0.to_string();
     assert_eq!(without_cache_note(scores(&warmed)), without_cache_note(scores(&first)));
 }
+
+#[test]
+fn a_command_whose_reader_went_away_stops_quietly() {
+    // `osmab eval metrics DIR | head -0`: the pipe's reading end is closed before it prints.
+    let dir = fixtures().join("osmabench-v1/semseg-confusion/openscene/replica_cad/camera_lights");
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_osmab")).args(["eval", "metrics", path(&dir)]).stdout(writer).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked") && stderr.is_empty(), "no panic message: {stderr}");
+    assert_eq!(out.status.code(), Some(141), "the status of a tool stopped by SIGPIPE");
+}

@@ -5,8 +5,8 @@
 //! anyone can compute these odds; the questions are drawn so that they tell nothing
 //! ([`super::draw`]): a question whose answer the odds make likely is asked that much less.
 
-use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
+use std::sync::Mutex;
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
@@ -80,7 +80,7 @@ pub struct QuestionPriors<'a> {
     layouts: Vec<LayoutFacts<'a>>,
     lexicon: &'a [String],
     assets: &'a AssetSource,
-    memo: RefCell<HashMap<(String, Regime, String), f64>>,
+    memo: Mutex<HashMap<(String, Regime, String), f64>>,
 }
 
 /// The objects of a layout as the question generator sees a rendered scene's (every one
@@ -129,7 +129,7 @@ impl<'a> QuestionPriors<'a> {
     pub fn new(layouts: &'a PoolLayouts, lexicon: &'a [String]) -> Self {
         let facts =
             layouts.scenes.iter().map(|s| LayoutFacts { room: &s.room, regime: s.regime, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) }).collect();
-        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: RefCell::new(HashMap::new()) }
+        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: Mutex::new(HashMap::new()) }
     }
 
     /// How many layouts the odds come from.
@@ -153,12 +153,14 @@ impl<'a> QuestionPriors<'a> {
         (yes, settled)
     }
 
+    /// The odds of `key`, counted once: scenes assembled at once share the memo, and the
+    /// odds of a key are the same whoever counts them first.
     fn memoised(&self, key: (String, Regime, String), odds: impl FnOnce() -> f64) -> f64 {
-        if let Some(&p) = self.memo.borrow().get(&key) {
+        if let Some(&p) = self.memo.lock().expect("no panic while holding the memo").get(&key) {
             return p;
         }
         let p = odds();
-        self.memo.borrow_mut().insert(key, p);
+        self.memo.lock().expect("no panic while holding the memo").insert(key, p);
         p
     }
 

@@ -10,6 +10,7 @@ pub mod contact;
 pub mod front_matter;
 pub mod instances;
 pub mod manifest;
+pub mod pipeline;
 pub mod publication;
 pub mod quality;
 pub mod quality_report;
@@ -37,7 +38,7 @@ use osmab_evaluator::scores::Split;
 use osmab_evaluator::vqa::{SceneQuestions, is_prompt_grounded};
 use quality::{Rendered, SceneQuality, oracle_ceiling};
 use split::SplitSecret;
-use stages::{Build, INSTANCES_JSON, Selection, read_json, scene_name, write_json};
+use stages::{Build, INSTANCES_JSON, SettledScene, read_json, scene_name, write_json};
 pub use stages::{SequenceUnit, WORK, packed_sequence_archive};
 
 pub use publication::GROUND_TRUTH;
@@ -97,12 +98,17 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let layouts = build.pool_layouts()?;
     let priors = QuestionPriors::new(&layouts, &lexicon);
     progress(&format!("questions: odds from {} simulated layouts of the prompt pool", priors.layouts()));
-    let assembly = SceneAssembly { build: &build, out, lightings: &lightings, lexicon: &lexicon, priors: &priors, progress };
+    let assembly = SceneAssembly { build: &build, out, lightings: &lightings, lexicon: &lexicon, priors: &priors };
+    let scenes = pipeline::assemble_in_order(
+        selection.scenes.len(),
+        |i, say| build.settle_scene(i, &selection, say),
+        |i, settled, say| assembly.assemble(i, &settled, say),
+        progress,
+    )?;
     let mut quality = Vec::new();
     let mut scenes_json = Vec::new();
     let mut previews: Vec<(String, usize)> = Vec::new();
-    for i in 0..selection.scenes.len() {
-        let scene = assembly.assemble(i, &selection)?;
+    for scene in scenes {
         scenes_json.push(scene.entry);
         previews.push(scene.preview);
         quality.push(scene.quality);
@@ -156,7 +162,6 @@ struct SceneAssembly<'a> {
     lightings: &'a [&'a str],
     lexicon: &'a [String],
     priors: &'a QuestionPriors<'a>,
-    progress: &'a dyn Fn(&str),
 }
 
 /// One assembled scene: its manifest entry, its preview frame and its measured quality.
@@ -175,16 +180,15 @@ struct SceneTruth {
 }
 
 impl SceneAssembly<'_> {
-    /// Stages 3–6 of scene `i` and what the release says of it: its sequences, ground
-    /// truth, prompt, questions and measured quality.
-    fn assemble(&self, i: usize, selection: &Selection) -> Result<AssembledScene> {
+    /// Stages 5 and 6 of `settled` scene `i` and what the release says of it: its
+    /// sequences, ground truth, prompt, questions and measured quality.
+    fn assemble(&self, i: usize, settled: &SettledScene, progress: &dyn Fn(&str)) -> Result<AssembledScene> {
         let build = self.build;
         let scene = scene_name(i);
-        let settled = build.settle_scene(i, selection, self.progress)?;
         let split = build.split_of(i);
         let prompt = &settled.prompt;
-        let summaries = self.render_sequences(i, &scene)?;
-        let gt_dir = build.ground_truth(i, self.progress)?;
+        let summaries = self.render_sequences(i, &scene, progress)?;
+        let gt_dir = build.ground_truth(i, progress)?;
         // A test scene's prompt tells its prompt-grounded answers: it stays with the ground truth.
         let open = publication::publishes_prompt_and_questions(split);
         let prompt_root = if open { self.out.to_path_buf() } else { self.out.join(GROUND_TRUTH) };
@@ -209,17 +213,17 @@ impl SceneAssembly<'_> {
             lexicon: self.lexicon,
         };
         let measured = SceneQuality::measure(&scene, &prompt.id, settled.replaced.clone(), &rendered, &build.config.quality);
-        (self.progress)(&scene_progress_line(&scene, &measured, &questions, &truth.objects));
+        progress(&scene_progress_line(&scene, &measured, &questions, &truth.objects));
         Ok(AssembledScene { entry, preview: (scene, preview), quality: measured })
     }
 
     /// Stage 5 of scene `i`: its sequence under every lighting with its contact sheet;
     /// returns each sequence's summary by lighting.
-    fn render_sequences(&self, i: usize, scene: &str) -> Result<BTreeMap<String, SequenceSummary>> {
+    fn render_sequences(&self, i: usize, scene: &str, progress: &dyn Fn(&str)) -> Result<BTreeMap<String, SequenceSummary>> {
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
         for lighting in self.lightings {
             let unit = SequenceUnit { scene_index: i, scene: scene.to_string(), lighting: lighting.to_string() };
-            let summary = self.build.render_sequence(&unit, self.progress)?;
+            let summary = self.build.render_sequence(&unit, progress)?;
             self.build.contact_sheet(&unit, &summary)?;
             summaries.insert(lighting.to_string(), summary);
         }

@@ -36,6 +36,12 @@ fn build(dir: &Path, out: &str) -> serde_json::Value {
     build_release(&config, &dir.join(out), None, &|_| {}).unwrap()
 }
 
+/// [`build`] with `threads` threads: one builds one scene after another, several build
+/// scenes side by side.
+fn build_on_threads(threads: usize, dir: &Path, out: &str) -> serde_json::Value {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| build(dir, out))
+}
+
 #[test]
 fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
     let dir = tempfile::tempdir().unwrap();
@@ -156,11 +162,14 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
 }
 
 #[test]
-fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume() {
+fn the_same_config_gives_a_byte_identical_release_on_one_thread_or_several_and_interrupted_builds_resume() {
     let dir = tempfile::tempdir().unwrap();
-    let first = build(dir.path(), "a");
-    let second = build(dir.path(), "b");
+    let first = build_on_threads(1, dir.path(), "a");
+    let second = build_on_threads(4, dir.path(), "b");
     assert_eq!(first["digest"], second["digest"]);
+    assert_eq!(first, second, "the same manifest");
+    let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
+    assert_eq!(gt_manifest("a"), gt_manifest("b"), "the same hidden ground truth");
 
     // Interrupt a stage: its marker gone and its output half written.
     let b = dir.path().join("b");
@@ -177,7 +186,6 @@ fn the_same_config_gives_a_byte_identical_release_and_interrupted_builds_resume(
     let repaired = build(dir.path(), "b");
     assert_eq!(repaired["digest"], first["digest"]);
     assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
-    let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
     assert_eq!(gt_manifest("a"), gt_manifest("b"), "the ground truth is rebuilt too");
 
     // A sequence the config does not build (left from a build with more lightings) is not published.

@@ -1,0 +1,177 @@
+//! The scenes of a release built several at a time. One thread settles the scenes in
+//! order (a scene's candidate prompts depend on what the scenes before it took), while
+//! [`scenes_at_once`] workers each take the next settled scene through everything that
+//! depends on it alone: its sequences, ground truth, questions and quality. A scene in a
+//! stretch of serial work (its ground truth, its questions) leaves the cores to the
+//! others' rendering, and on many cores several scenes render side by side.
+//!
+//! Each worker (and the settling thread) has a pool of its own, as large as the caller's:
+//! a scene in a serial stretch leaves the cores to the other scenes' pools, and the last
+//! scene of a build has every core. (One shared pool serialises them instead: a thread
+//! waiting inside one scene's parallel loop takes up another whole scene and finishes it
+//! first.) A build inside a one-thread pool runs one scene after another; a scene's
+//! output depends on its inputs alone, so the release is the same to the byte on any
+//! number of threads.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, mpsc};
+
+use osmab_evaluator::{InputError, Result};
+
+/// Scenes in flight at once on `threads` threads: one on one thread (a sequential build);
+/// else half as many as threads, at least two (one renders while the other is in a serial
+/// stretch) and at most eight (each holds its world and frame buffers: a few hundred MB
+/// at 1200×680).
+pub fn scenes_at_once(threads: usize) -> usize {
+    if threads <= 1 { 1 } else { (threads / 2).clamp(2, 8) }
+}
+
+/// `assemble` every scene of `0..count` once `settle` (called in order, one scene at a
+/// time) has settled it; returns what `assemble` made of each, in order. Both report
+/// through `say`, whose lines reach `progress` on the calling thread. The first scene
+/// that fails (settling or assembling) stops the build: no scene after it is started, the
+/// ones in flight finish (their stages stay for a resumed build), and the error of the
+/// lowest failed scene is returned, as a build of one scene at a time would return it.
+pub fn assemble_in_order<S: Send, T: Send>(
+    count: usize,
+    settle: impl Fn(usize, &dyn Fn(&str)) -> Result<S> + Sync,
+    assemble: impl Fn(usize, S, &dyn Fn(&str)) -> Result<T> + Sync,
+    progress: &dyn Fn(&str),
+) -> Result<Vec<T>> {
+    let threads = rayon::current_num_threads();
+    let workers = scenes_at_once(threads).min(count.max(1));
+    let pool = |role: &'static str| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(move |i| format!("release-{role}-{i}"))
+            .build()
+            .map_err(|e| InputError::new("(release build)", "threads", format!("cannot start {threads} threads: {e}")))
+    };
+    let settling_pool = pool("settle")?;
+    let worker_pools: Vec<rayon::ThreadPool> = (0..workers).map(|_| pool("scene")).collect::<Result<_>>()?;
+    let failed = AtomicBool::new(false);
+    let results: Mutex<Vec<Option<Result<T>>>> = Mutex::new((0..count).map(|_| None).collect());
+    let record = |index: usize, result: Result<T>| {
+        if result.is_err() {
+            failed.store(true, Ordering::SeqCst);
+        }
+        results.lock().expect("no thread panics holding the results")[index] = Some(result);
+    };
+    // At most one settled scene waits for each worker.
+    let (settled_tx, settled_rx) = mpsc::sync_channel::<(usize, S)>(workers);
+    let settled_rx = Mutex::new(settled_rx);
+    let (say_tx, say_rx) = mpsc::channel::<String>();
+    std::thread::scope(|scope| {
+        let (say_settling, pool, failed, settle, record) = (say_tx.clone(), &settling_pool, &failed, &settle, &record);
+        scope.spawn(move || {
+            let say = |line: &str| drop(say_settling.send(line.to_owned()));
+            for index in 0..count {
+                if failed.load(Ordering::SeqCst) {
+                    break;
+                }
+                match pool.install(|| settle(index, &say)) {
+                    Ok(settled) => {
+                        if settled_tx.send((index, settled)).is_err() {
+                            break;
+                        }
+                    }
+                    Err(e) => {
+                        record(index, Err(e));
+                        break;
+                    }
+                }
+            }
+        });
+        for pool in &worker_pools {
+            let (say_assembling, settled_rx, assemble) = (say_tx.clone(), &settled_rx, &assemble);
+            scope.spawn(move || {
+                let say = |line: &str| drop(say_assembling.send(line.to_owned()));
+                loop {
+                    let next = settled_rx.lock().expect("no thread panics holding the receiver").recv();
+                    let Ok((index, settled)) = next else { break };
+                    // After a failure the queue is drained, so the settling thread never waits on it.
+                    if !failed.load(Ordering::SeqCst) {
+                        record(index, pool.install(|| assemble(index, settled, &say)));
+                    }
+                }
+            });
+        }
+        drop(say_tx);
+        for line in say_rx {
+            progress(&line);
+        }
+    });
+    let mut assembled = Vec::with_capacity(count);
+    let results = results.into_inner().expect("every thread has ended");
+    let first_error = results.iter().position(|r| matches!(r, Some(Err(_))));
+    for result in results {
+        match result {
+            Some(Ok(scene)) if first_error.is_none() => assembled.push(scene),
+            Some(Err(e)) => return Err(e),
+            _ => {}
+        }
+    }
+    Ok(assembled)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn on_threads<R: Send>(threads: usize, work: impl FnOnce() -> R + Send) -> R {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(work)
+    }
+
+    #[test]
+    fn scenes_come_back_in_order_with_every_line_said_whatever_the_threads() {
+        for threads in [1, 2, 5] {
+            let lines = Mutex::new(Vec::new());
+            let scenes = on_threads(threads, || {
+                assemble_in_order(
+                    9,
+                    |i, say| {
+                        say(&format!("settled {i}"));
+                        Ok(i * 10)
+                    },
+                    |i, settled, say| {
+                        // Later scenes finish first when several are in flight.
+                        std::thread::sleep(std::time::Duration::from_millis(((9 - i) * 3) as u64));
+                        say(&format!("assembled {i}"));
+                        Ok(format!("scene {i} from {settled}"))
+                    },
+                    &|line| lines.lock().unwrap().push(line.to_string()),
+                )
+            })
+            .unwrap();
+            assert_eq!(scenes, (0..9).map(|i| format!("scene {i} from {}", i * 10)).collect::<Vec<_>>(), "{threads} threads");
+            let lines = lines.into_inner().unwrap();
+            assert_eq!(lines.len(), 18, "{lines:?}");
+            let settled: Vec<&String> = lines.iter().filter(|l| l.starts_with("settled")).collect();
+            assert_eq!(settled, (0..9).map(|i| format!("settled {i}")).collect::<Vec<_>>().iter().collect::<Vec<_>>(), "settled in order");
+        }
+    }
+
+    #[test]
+    fn the_lowest_failed_scene_stops_the_build_and_nothing_after_it_starts() {
+        for threads in [1, 4] {
+            let started = Mutex::new(Vec::new());
+            let err = on_threads(threads, || {
+                assemble_in_order(
+                    12,
+                    |i, _| if i == 9 { Err(InputError::new("scene_009", "quality", "no prompt settles")) } else { Ok(i) },
+                    |i, _, _| {
+                        started.lock().unwrap().push(i);
+                        std::thread::sleep(std::time::Duration::from_millis(if i == 3 { 40 } else { 1 }));
+                        if i == 3 || i == 5 { Err(InputError::new(format!("scene_00{i}"), "render", "failed")) } else { Ok(i) }
+                    },
+                    &|_| {},
+                )
+            })
+            .unwrap_err();
+            assert_eq!(err.file, "scene_003", "{threads} threads: {err}");
+            let started = started.into_inner().unwrap();
+            assert!(started.iter().all(|&i| i < 9), "{threads} threads: nothing after a failure starts: {started:?}");
+            assert!(started.contains(&3), "{started:?}");
+        }
+    }
+}

@@ -97,7 +97,7 @@ pub struct Settings {
     /// Connections served at once (`OSMAB_MAX_CONNECTIONS`); more wait in the listen queue.
     pub max_connections: usize,
     /// `text` or `json` logs (`OSMAB_LOG_FORMAT`).
-    pub log_format: String,
+    pub log_format: LogFormat,
     /// OpenAI-compatible endpoint and model of the optional VQA answerer and judge
     /// (`OSMAB_LLM_URL`, `OSMAB_LLM_MODEL`; the key in `OSMAB_LLM_API_KEY`, never in files).
     pub llm_url: Option<String>,
@@ -118,6 +118,28 @@ pub struct Settings {
     /// Reverse proxies whose `X-Forwarded-Host` and `X-Forwarded-Proto` count
     /// (`OSMAB_TRUSTED_PROXIES`, comma-separated addresses or CIDR networks; none when unset).
     pub trusted_proxies: crate::proxies::TrustedProxies,
+}
+
+/// How the service writes its log lines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LogFormat {
+    /// Plain text, one event a line (what a terminal or a plain collector reads).
+    Text,
+    /// JSON lines.
+    Json,
+}
+
+impl std::str::FromStr for LogFormat {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "text" => Ok(LogFormat::Text),
+            "json" => Ok(LogFormat::Json),
+            other => Err(format!("the log format is 'text' or 'json', not '{other}'")),
+        }
+    }
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -146,7 +168,7 @@ struct FileSettings {
     header_timeout_secs: Option<u64>,
     body_idle_timeout_secs: Option<u64>,
     max_connections: Option<usize>,
-    log_format: Option<String>,
+    log_format: Option<LogFormat>,
     llm_url: Option<String>,
     llm_model: Option<String>,
     storage_url: Option<String>,
@@ -253,7 +275,7 @@ impl Settings {
             header_timeout_secs: layer!("OSMAB_HEADER_TIMEOUT_SECS", from_file.header_timeout_secs, 30),
             body_idle_timeout_secs: layer!("OSMAB_BODY_IDLE_TIMEOUT_SECS", from_file.body_idle_timeout_secs, 60),
             max_connections: layer!("OSMAB_MAX_CONNECTIONS", from_file.max_connections, 1024),
-            log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format.clone(), "text".to_string()),
+            log_format: layer!("OSMAB_LOG_FORMAT", from_file.log_format, LogFormat::Text),
             llm_url: env("OSMAB_LLM_URL").filter(|s| !s.trim().is_empty()).or(from_file.llm_url.clone()),
             llm_model: env("OSMAB_LLM_MODEL").filter(|s| !s.trim().is_empty()).or(from_file.llm_model.clone()),
             storage,
@@ -284,7 +306,6 @@ impl Settings {
             self.max_upload_bytes
         );
         anyhow::ensure!(self.max_connections >= 1, "max_connections must be at least 1");
-        anyhow::ensure!(["text", "json"].contains(&self.log_format.as_str()), "log_format must be 'text' or 'json', found '{}'", self.log_format);
         anyhow::ensure!(self.llm_url.is_some() == self.llm_model.is_some(), "llm_url and llm_model go together (OSMAB_LLM_URL, OSMAB_LLM_MODEL)");
         if let Some(token) = &self.admin_token {
             crate::token::check_configured(token.expose()).map_err(|why| anyhow::anyhow!("OSMAB_ADMIN_TOKEN {why}"))?;
@@ -339,6 +360,19 @@ mod tests {
         assert!(Settings::load_from(Some(&file), &env(&[])).unwrap_err().to_string().contains("bnd"));
         let err = Settings::load_from(None, &env(&[("OSMAB_WORKERS", "many")])).unwrap_err().to_string();
         assert!(err.contains("OSMAB_WORKERS") && err.contains("many"), "{err}");
+    }
+
+    #[test]
+    fn a_log_format_is_text_or_json_and_a_typo_is_refused() {
+        assert_eq!(Settings::load_from(None, &env(&[])).unwrap().log_format, LogFormat::Text);
+        assert_eq!(Settings::load_from(None, &env(&[("OSMAB_LOG_FORMAT", "json")])).unwrap().log_format, LogFormat::Json);
+        let err = Settings::load_from(None, &env(&[("OSMAB_LOG_FORMAT", "jsno")])).unwrap_err().to_string();
+        assert!(err.contains("OSMAB_LOG_FORMAT") && err.contains("'text' or 'json', not 'jsno'"), "{err}");
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("osmab.toml");
+        std::fs::write(&file, "log_format = \"JSON\"\n").unwrap();
+        let err = format!("{:#}", Settings::load_from(Some(&file), &env(&[])).unwrap_err());
+        assert!(err.contains("log_format") || err.contains("JSON"), "{err}");
     }
 
     #[test]

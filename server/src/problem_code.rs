@@ -23,6 +23,14 @@ macro_rules! problem_codes {
                 }
             }
 
+            /// The code a client read from a problem body, if it is one of these.
+            pub fn from_code(code: &str) -> Option<ProblemCode> {
+                match code {
+                    $($code => Some(ProblemCode::$variant),)+
+                    _ => None,
+                }
+            }
+
             /// What the code means and what to do.
             pub fn meaning(self) -> &'static str {
                 match self {
@@ -138,5 +146,13 @@ mod tests {
         }
         assert_eq!(ProblemCode::QuotaExceeded.as_str(), "quota_exceeded");
         assert!(ProblemCode::QuotaExceeded.meaning().starts_with("The team's submissions"));
+    }
+
+    #[test]
+    fn a_code_read_back_is_the_code_sent_and_an_unknown_one_is_none() {
+        for &code in ProblemCode::ALL {
+            assert_eq!(ProblemCode::from_code(code.as_str()), Some(code));
+        }
+        assert_eq!(ProblemCode::from_code("quota_exceded"), None);
     }
 }

@@ -6,9 +6,11 @@ use std::io::IsTerminal;
 
 use tracing_subscriber::EnvFilter;
 
+use crate::config::LogFormat;
+
 /// Install the global subscriber (once per process).
-pub fn init(format: &str) {
+pub fn init(format: LogFormat) {
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,sqlx=warn,tower_http=warn"));
     let builder = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).with_ansi(std::io::stderr().is_terminal());
-    let _ = if format == "json" { builder.json().try_init() } else { builder.try_init() };
+    let _ = if format == LogFormat::Json { builder.json().try_init() } else { builder.try_init() };
 }

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use nalgebra::Matrix4;
 use osmab_evaluator::formats::classes::ClassList;
-use osmab_evaluator::formats::image::{GrayImage16, RgbImage, write_jpeg_rgb, write_png_gray16};
+use osmab_evaluator::formats::image::{GrayImage16, Packing, RgbImage, write_jpeg_rgb, write_png_gray16, write_png_gray16_packed};
 use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
@@ -223,7 +223,7 @@ fn encode_frame(dir: &Path, sensor: &SensorSettings, rule: &ViewpointRule, i: us
         colour_digest: digest64(&f.rgb),
         geometry_digest: digest64(&geometry),
     };
-    write_png_gray16(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth })?;
+    write_png_gray16_packed(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth }, Packing::Gradients)?;
     write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })?;
     Ok((measures, view))
 }

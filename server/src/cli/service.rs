@@ -82,7 +82,7 @@ pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 fn settings(args: &ServiceArgs) -> anyhow::Result<Settings> {
     let settings = Settings::load(args.config.as_deref())?;
-    crate::telemetry::init(&settings.log_format);
+    crate::telemetry::init(settings.log_format);
     Ok(settings)
 }
 

@@ -10,6 +10,7 @@ use reqwest::blocking::{Client, RequestBuilder, Response};
 use serde_json::Value;
 
 use super::session::Session;
+use crate::problem_code::ProblemCode;
 
 /// A connection to one server.
 pub struct Api {
@@ -18,16 +19,15 @@ pub struct Api {
 }
 
 /// What to do about an error code, beyond the server's own words.
-fn advice(code: &str) -> Option<&'static str> {
+fn advice(code: ProblemCode) -> Option<&'static str> {
+    use ProblemCode::*;
     Some(match code {
-        "token_expired" | "token_revoked" | "token_invalid" | "unauthenticated" => {
-            "ask the organisers for a new team token, then run `osmab client login --token …`"
-        }
-        "quota_exceeded" => "wait until the time in Retry-After, or validate offline meanwhile with `osmab client validate` (free)",
-        "invalid_submission" => "fix the files listed and run `osmab client validate` before submitting again",
-        "digest_mismatch" | "upload_incomplete" => "the upload was damaged in transit; submit again",
-        "payload_too_large" => "store features as float32 and leave out background points, or ask the organisers",
-        "rate_limited" => "wait a moment and try again",
+        TokenExpired | TokenRevoked | TokenInvalid | Unauthenticated => "ask the organisers for a new team token, then run `osmab client login --token …`",
+        QuotaExceeded => "wait until the time in Retry-After, or validate offline meanwhile with `osmab client validate` (free)",
+        InvalidSubmission => "fix the files listed and run `osmab client validate` before submitting again",
+        DigestMismatch | UploadIncomplete => "the upload was damaged in transit; submit again",
+        PayloadTooLarge => "store features as float32 and leave out background points, or ask the organisers",
+        RateLimited => "wait a moment and try again",
         _ => return None,
     })
 }
@@ -59,7 +59,7 @@ pub fn problem_message(status: StatusCode, body: &str, retry_after: Option<&str>
     if let Some(at) = retry_after {
         message.push_str(&format!("\n  (retry after {at} s)"));
     }
-    if let Some(todo) = advice(code) {
+    if let Some(todo) = ProblemCode::from_code(code).and_then(advice) {
         message.push_str(&format!("\n  What to do: {todo}."));
     }
     if !code.is_empty() {

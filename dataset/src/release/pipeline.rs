@@ -13,6 +13,7 @@
 //! output depends on its inputs alone, so the release is the same to the byte on any
 //! number of threads.
 
+use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, mpsc};
 
@@ -40,60 +41,24 @@ pub fn assemble_in_order<S: Send, T: Send>(
 ) -> Result<Vec<T>> {
     let threads = rayon::current_num_threads();
     let workers = scenes_at_once(threads).min(count.max(1));
-    let pool = |role: &'static str| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .thread_name(move |i| format!("release-{role}-{i}"))
-            .build()
-            .map_err(|e| InputError::new("(release build)", "threads", format!("cannot start {threads} threads: {e}")))
-    };
-    let settling_pool = pool("settle")?;
-    let worker_pools: Vec<rayon::ThreadPool> = (0..workers).map(|_| pool("scene")).collect::<Result<_>>()?;
-    let failed = AtomicBool::new(false);
-    let results: Mutex<Vec<Option<Result<T>>>> = Mutex::new((0..count).map(|_| None).collect());
-    let record = |index: usize, result: Result<T>| {
-        if result.is_err() {
-            failed.store(true, Ordering::SeqCst);
-        }
-        results.lock().expect("no thread panics holding the results")[index] = Some(result);
-    };
+    let settling_pool = pool(threads, "settle")?;
+    let worker_pools: Vec<rayon::ThreadPool> = (0..workers).map(|_| pool(threads, "scene")).collect::<Result<_>>()?;
+    let outcomes = Outcomes::new(count);
     // At most one settled scene waits for each worker.
     let (settled_tx, settled_rx) = mpsc::sync_channel::<(usize, S)>(workers);
     let settled_rx = Mutex::new(settled_rx);
     let (say_tx, say_rx) = mpsc::channel::<String>();
     std::thread::scope(|scope| {
-        let (say_settling, pool, failed, settle, record) = (say_tx.clone(), &settling_pool, &failed, &settle, &record);
+        let (say, outcomes, settle) = (say_tx.clone(), &outcomes, &settle);
         scope.spawn(move || {
-            let say = |line: &str| drop(say_settling.send(line.to_owned()));
-            for index in 0..count {
-                if failed.load(Ordering::SeqCst) {
-                    break;
-                }
-                match pool.install(|| settle(index, &say)) {
-                    Ok(settled) => {
-                        if settled_tx.send((index, settled)).is_err() {
-                            break;
-                        }
-                    }
-                    Err(e) => {
-                        record(index, Err(e));
-                        break;
-                    }
-                }
-            }
+            let say = |line: &str| drop(say.send(line.to_owned()));
+            outcomes.settle_in_order(&settling_pool, settle, &settled_tx, &say);
         });
         for pool in &worker_pools {
-            let (say_assembling, settled_rx, assemble) = (say_tx.clone(), &settled_rx, &assemble);
+            let (say, settled_rx, assemble) = (say_tx.clone(), &settled_rx, &assemble);
             scope.spawn(move || {
-                let say = |line: &str| drop(say_assembling.send(line.to_owned()));
-                loop {
-                    let next = settled_rx.lock().expect("no thread panics holding the receiver").recv();
-                    let Ok((index, settled)) = next else { break };
-                    // After a failure the queue is drained, so the settling thread never waits on it.
-                    if !failed.load(Ordering::SeqCst) {
-                        record(index, pool.install(|| assemble(index, settled, &say)));
-                    }
-                }
+                let say = |line: &str| drop(say.send(line.to_owned()));
+                outcomes.assemble_settled(pool, assemble, settled_rx, &say);
             });
         }
         drop(say_tx);
@@ -101,17 +66,111 @@ pub fn assemble_in_order<S: Send, T: Send>(
             progress(&line);
         }
     });
-    let mut assembled = Vec::with_capacity(count);
-    let results = results.into_inner().expect("every thread has ended");
-    let first_error = results.iter().position(|r| matches!(r, Some(Err(_))));
-    for result in results {
-        match result {
-            Some(Ok(scene)) if first_error.is_none() => assembled.push(scene),
-            Some(Err(e)) => return Err(e),
-            _ => {}
+    outcomes.into_scenes()
+}
+
+/// A pool of `threads` threads named for their `role`.
+fn pool(threads: usize, role: &'static str) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(move |i| format!("release-{role}-{i}"))
+        .build()
+        .map_err(|e| InputError::new("(release build)", "threads", format!("cannot start {threads} threads: {e}")))
+}
+
+/// What became of every scene, shared by the threads of a build.
+struct Outcomes<T> {
+    /// Set by the first failure (or panic): no scene is started after it.
+    failed: AtomicBool,
+    results: Mutex<Vec<Option<Result<T>>>>,
+    /// A worker that panics keeps draining the queue like the others (else the settling
+    /// thread could wait on a full queue for ever); the panic is raised again at the end.
+    panicked: Mutex<Option<Box<dyn std::any::Any + Send>>>,
+}
+
+impl<T: Send> Outcomes<T> {
+    fn new(count: usize) -> Self {
+        Self { failed: AtomicBool::new(false), results: Mutex::new((0..count).map(|_| None).collect()), panicked: Mutex::new(None) }
+    }
+
+    fn failed(&self) -> bool {
+        self.failed.load(Ordering::SeqCst)
+    }
+
+    fn record(&self, index: usize, result: Result<T>) {
+        if result.is_err() {
+            self.failed.store(true, Ordering::SeqCst);
+        }
+        self.results.lock().expect("no thread panics holding the results")[index] = Some(result);
+    }
+
+    /// The settling thread: every scene in order onto the queue, until one fails.
+    fn settle_in_order<S: Send>(
+        &self,
+        pool: &rayon::ThreadPool,
+        settle: impl Fn(usize, &dyn Fn(&str)) -> Result<S> + Sync,
+        queue: &mpsc::SyncSender<(usize, S)>,
+        say: &(dyn Fn(&str) + Sync),
+    ) {
+        let count = self.results.lock().expect("no thread panics holding the results").len();
+        for index in 0..count {
+            if self.failed() {
+                return;
+            }
+            match pool.install(|| settle(index, say)) {
+                Ok(settled) => {
+                    if queue.send((index, settled)).is_err() {
+                        return;
+                    }
+                }
+                Err(e) => return self.record(index, Err(e)),
+            }
         }
     }
-    Ok(assembled)
+
+    /// A worker: the next settled scene from the queue, assembled on its own `pool`,
+    /// until the queue ends. After a failure the queue is drained, so the settling thread
+    /// never waits on it.
+    fn assemble_settled<S: Send>(
+        &self,
+        pool: &rayon::ThreadPool,
+        assemble: impl Fn(usize, S, &dyn Fn(&str)) -> Result<T> + Sync,
+        queue: &Mutex<mpsc::Receiver<(usize, S)>>,
+        say: &(dyn Fn(&str) + Sync),
+    ) {
+        loop {
+            let next = queue.lock().expect("no thread panics holding the queue").recv();
+            let Ok((index, settled)) = next else { return };
+            if self.failed() {
+                continue;
+            }
+            match std::panic::catch_unwind(AssertUnwindSafe(|| pool.install(|| assemble(index, settled, say)))) {
+                Ok(result) => self.record(index, result),
+                Err(panic) => {
+                    self.failed.store(true, Ordering::SeqCst);
+                    self.panicked.lock().expect("no thread panics holding it").get_or_insert(panic);
+                }
+            }
+        }
+    }
+
+    /// Every scene in order, or the error of the lowest failed one; a panic (a bug, not a
+    /// failed scene) goes on as a panic, once every thread has stopped.
+    fn into_scenes(self) -> Result<Vec<T>> {
+        if let Some(panic) = self.panicked.into_inner().expect("every thread has ended") {
+            std::panic::resume_unwind(panic);
+        }
+        let results = self.results.into_inner().expect("every thread has ended");
+        let mut scenes = Vec::with_capacity(results.len());
+        for result in results {
+            match result {
+                Some(Ok(scene)) => scenes.push(scene),
+                Some(Err(e)) => return Err(e),
+                None => {}
+            }
+        }
+        Ok(scenes)
+    }
 }
 
 #[cfg(test)]
@@ -148,6 +207,22 @@ mod tests {
             assert_eq!(lines.len(), 18, "{lines:?}");
             let settled: Vec<&String> = lines.iter().filter(|l| l.starts_with("settled")).collect();
             assert_eq!(settled, (0..9).map(|i| format!("settled {i}")).collect::<Vec<_>>().iter().collect::<Vec<_>>(), "settled in order");
+        }
+    }
+
+    #[test]
+    fn a_scene_that_panics_panics_the_build_instead_of_hanging_it() {
+        for threads in [1, 4] {
+            let (done_tx, done_rx) = mpsc::channel();
+            std::thread::spawn(move || {
+                let outcome = std::panic::catch_unwind(|| {
+                    on_threads(threads, || assemble_in_order(6, |i, _| Ok(i), |i, _, _| if i == 0 { panic!("a bug in scene 0") } else { Ok(i) }, &|_| {}))
+                });
+                let message = outcome.err().and_then(|p| p.downcast_ref::<&str>().map(|m| m.to_string()));
+                done_tx.send(message).unwrap();
+            });
+            let message = done_rx.recv_timeout(std::time::Duration::from_secs(60)).expect("the build ends");
+            assert_eq!(message.as_deref(), Some("a bug in scene 0"), "{threads} threads");
         }
     }
 

@@ -13,7 +13,7 @@ Writes /tmp/scaling/scaling.json and prints a table (threads, seconds, speed-up,
 digest). Each build's log is /tmp/scaling/t<N>.log; its folder is removed after it unless
 --keep (a full release at 1200x680 is about 40 GB).
 """
-import argparse, json, os, re, shutil, subprocess, sys, time
+import argparse, json, os, shutil, subprocess, sys, time
 
 parser = argparse.ArgumentParser()
 parser.add_argument("osmab")
@@ -33,13 +33,15 @@ for threads in [int(t) for t in args.threads.split(",")]:
     log_path = os.path.join(args.work, f"t{threads}.log")
     start = time.monotonic()
     with open(log_path, "w") as log:
-        done = subprocess.run(["/usr/bin/time", "-v", args.osmab, "release", "build", "--config", args.config, "--out", out],
-                              env=env, stdout=log, stderr=subprocess.STDOUT)
+        build = subprocess.Popen([args.osmab, "release", "build", "--config", args.config, "--out", out],
+                                 env=env, stdout=log, stderr=subprocess.STDOUT)
+        # wait4 gives this build's own peak RSS (in KiB on Linux), with no /usr/bin/time needed.
+        _, status, usage = os.wait4(build.pid, 0)
     seconds = time.monotonic() - start
-    text = open(log_path).read()
-    if done.returncode != 0:
-        sys.exit(f"the build on {threads} threads failed (exit {done.returncode}); see {log_path}")
-    peak_kib = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", text).group(1))
+    code = os.waitstatus_to_exitcode(status)
+    if code != 0:
+        sys.exit(f"the build on {threads} threads failed (exit {code}); see {log_path}")
+    peak_kib = usage.ru_maxrss
     # The public files' digest and the hidden ground truth's (the test scenes' answers).
     digest = json.load(open(os.path.join(out, "manifest.json")))["digest"] + " " + \
         json.load(open(os.path.join(out, "ground_truth", "manifest.json")))["digest"]

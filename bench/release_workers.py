@@ -5,7 +5,7 @@ Builds the same sample of the full release (`configs/release-full.toml` at 1200x
 of its scenes) through the real service, once per worker count: `osmab serve` (no in-process worker) and N
 `osmab worker --concurrency 1` processes on PostgreSQL, each worker pinned to a core of its own (`taskset -c i`)
 and single-threaded (`RAYON_NUM_THREADS=1`), so one worker is one core's worth of work. The build job prepares
-the scenes on one worker, fans out one render job per scene and lighting to all of them, and one worker assembles
+the scenes on one worker, fans out one render job per scene (all its lightings) to all of them, and one worker assembles
 the release (ground truth, questions, quality report, manifest). The benchmark follows the build job's stages
 and every render job from the admin API and reports, per worker count: the whole build, each phase, and the
 speed-up against one worker, for the whole build and for the rendering alone. Standard library only.

@@ -2,7 +2,7 @@
 //! layout of product.md section 4. Every stage keeps its output under `.work/` with a
 //! completion marker (see `stages`), so an interrupted build resumes where it stopped
 //! and a partial stage output (no marker) is rebuilt. A service spreads the rendering
-//! over workers: [`prepare_release`], then [`render_release_sequence`] per sequence,
+//! over workers: [`prepare_release`], then [`render_release_scene`] per scene,
 //! then [`build_release`], which finds everything before the assembly done.
 
 pub mod config;
@@ -67,20 +67,28 @@ pub fn prepare_release(config_path: &Path, out: &Path, secret: Option<&SplitSecr
     Ok(units)
 }
 
-/// Stage 5 for one sequence of a prepared build (see [`prepare_release`]), with what
-/// depends on that sequence alone: its contact sheet, its download archive and, from the sequence the ground
-/// truth comes from, the scene's ground truth (stage 6), so that the work left to the
-/// build's assembly does not grow with the frames.
-pub fn render_release_sequence(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<()> {
+/// Stage 5 for sequences of one scene of a prepared build (see [`prepare_release`]),
+/// drawn together, with what depends on each sequence alone: its contact sheet, its
+/// download archive and, from the sequence the ground truth comes from, the scene's ground
+/// truth (stage 6), so that the work left to the build's assembly does not grow with the
+/// frames.
+pub fn render_release_scene(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, units: &[SequenceUnit], progress: &dyn Fn(&str)) -> Result<()> {
     let build = Build::open(config_path, out, secret)?;
-    if !build.config.render.lightings.contains(&unit.lighting) {
-        return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
+    for unit in units {
+        if !build.config.render.lightings.contains(&unit.lighting) {
+            return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
+        }
+        if (&unit.scene, unit.scene_index) != (&units[0].scene, units[0].scene_index) {
+            return Err(InputError::new(config_path, "(render job)", format!("{} and {} are sequences of two scenes", units[0].scene, unit.scene)));
+        }
     }
-    let summary = build.render_sequence(unit, progress)?;
-    build.contact_sheet(unit, &summary)?;
-    build.sequence_archive(unit)?;
-    if unit.lighting == build.ground_truth_lighting() {
-        build.ground_truth(unit.scene_index, progress)?;
+    let summaries = build.render_scene_sequences(units, progress)?;
+    for (unit, summary) in units.iter().zip(&summaries) {
+        build.contact_sheet(unit, summary)?;
+        build.sequence_archive(unit)?;
+        if unit.lighting == build.ground_truth_lighting() {
+            build.ground_truth(unit.scene_index, progress)?;
+        }
     }
     Ok(())
 }
@@ -217,15 +225,16 @@ impl SceneAssembly<'_> {
         Ok(AssembledScene { entry, preview: (scene, preview), quality: measured })
     }
 
-    /// Stage 5 of scene `i`: its sequence under every lighting with its contact sheet;
-    /// returns each sequence's summary by lighting.
+    /// Stage 5 of scene `i`: its sequences under every lighting (drawn together), each
+    /// with its contact sheet; returns each sequence's summary by lighting.
     fn render_sequences(&self, i: usize, scene: &str, progress: &dyn Fn(&str)) -> Result<BTreeMap<String, SequenceSummary>> {
+        let units: Vec<SequenceUnit> =
+            self.lightings.iter().map(|lighting| SequenceUnit { scene_index: i, scene: scene.to_string(), lighting: lighting.to_string() }).collect();
+        let rendered = self.build.render_scene_sequences(&units, progress)?;
         let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
-        for lighting in self.lightings {
-            let unit = SequenceUnit { scene_index: i, scene: scene.to_string(), lighting: lighting.to_string() };
-            let summary = self.build.render_sequence(&unit, progress)?;
+        for (unit, summary) in units.into_iter().zip(rendered) {
             self.build.contact_sheet(&unit, &summary)?;
-            summaries.insert(lighting.to_string(), summary);
+            summaries.insert(unit.lighting, summary);
         }
         Ok(summaries)
     }

@@ -27,6 +27,27 @@ pub fn scenes_at_once(threads: usize) -> usize {
     if threads <= 1 { 1 } else { (threads / 2).clamp(2, 8) }
 }
 
+/// The variable that sets how many scenes a build assembles at once instead of
+/// [`scenes_at_once`] (for measuring; a release's bytes do not depend on it).
+pub const SCENES_AT_ONCE_VARIABLE: &str = "OSMAB_RELEASE_SCENES_AT_ONCE";
+
+/// Scenes in flight at once on `threads` threads: [`SCENES_AT_ONCE_VARIABLE`] when set, else
+/// [`scenes_at_once`].
+fn scenes_in_flight(threads: usize) -> Result<usize> {
+    scenes_in_flight_given(std::env::var(SCENES_AT_ONCE_VARIABLE).ok().as_deref(), threads)
+}
+
+/// Scenes in flight at once on `threads` threads when [`SCENES_AT_ONCE_VARIABLE`] is `given`
+/// (a whole number of at least 1).
+fn scenes_in_flight_given(given: Option<&str>, threads: usize) -> Result<usize> {
+    let Some(text) = given else { return Ok(scenes_at_once(threads)) };
+    text.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| *n >= 1)
+        .ok_or_else(|| InputError::new(SCENES_AT_ONCE_VARIABLE, "(environment)", format!("expected a whole number of scenes of at least 1, found {text:?}")))
+}
+
 /// `assemble` every scene of `0..count` once `settle` (called in order, one scene at a
 /// time) has settled it; returns what `assemble` made of each, in order. Both report
 /// through `say`, whose lines reach `progress` on the calling thread. The first scene
@@ -40,7 +61,7 @@ pub fn assemble_in_order<S: Send, T: Send>(
     progress: &dyn Fn(&str),
 ) -> Result<Vec<T>> {
     let threads = rayon::current_num_threads();
-    let workers = scenes_at_once(threads).min(count.max(1));
+    let workers = scenes_in_flight(threads)?.min(count.max(1));
     let settling_pool = pool(threads, "settle")?;
     let worker_pools: Vec<rayon::ThreadPool> = (0..workers).map(|_| pool(threads, "scene")).collect::<Result<_>>()?;
     let outcomes = Outcomes::new(count);
@@ -176,6 +197,17 @@ impl<T: Send> Outcomes<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_scenes_at_once_are_the_builds_choice_unless_the_variable_names_a_whole_number() {
+        assert_eq!(scenes_in_flight_given(None, 1).unwrap(), 1);
+        assert_eq!(scenes_in_flight_given(None, 16).unwrap(), 8);
+        assert_eq!(scenes_in_flight_given(Some(" 3 "), 16).unwrap(), 3);
+        for wrong in ["0", "-2", "two", ""] {
+            let err = scenes_in_flight_given(Some(wrong), 16).unwrap_err().to_string();
+            assert!(err.contains(SCENES_AT_ONCE_VARIABLE) && err.contains("whole number"), "{wrong:?}: {err}");
+        }
+    }
 
     fn on_threads<R: Send>(threads: usize, work: impl FnOnce() -> R + Send) -> R {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(work)

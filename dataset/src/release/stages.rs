@@ -96,9 +96,20 @@ fn marker_text(inputs: &str, output: &Path) -> Result<String> {
 /// is still what the marker recorded; a partial output (no marker), a changed one
 /// (corrupted, edited) or one built from other inputs is removed and built again.
 pub(super) fn staged(marker: &Path, inputs: &str, output: &Path, stage: impl FnOnce() -> Result<()>) -> Result<bool> {
+    if current_or_cleared(marker, inputs, output)? {
+        return Ok(false);
+    }
+    stage()?;
+    mark_done(marker, inputs, output)?;
+    Ok(true)
+}
+
+/// The first half of [`staged`]: whether the stage behind `marker` finished from `inputs`
+/// and `output` is what it recorded; when not, its marker and output are removed.
+fn current_or_cleared(marker: &Path, inputs: &str, output: &Path) -> Result<bool> {
     if let Ok(recorded) = std::fs::read_to_string(marker) {
         if recorded == marker_text(inputs, output)? {
-            return Ok(false);
+            return Ok(true);
         }
         std::fs::remove_file(marker).map_err(|e| InputError::io(marker, &e))?;
     }
@@ -107,12 +118,15 @@ pub(super) fn staged(marker: &Path, inputs: &str, output: &Path, stage: impl FnO
     } else if output.exists() {
         std::fs::remove_file(output).map_err(|e| InputError::io(output, &e))?;
     }
-    stage()?;
+    Ok(false)
+}
+
+/// The second half of [`staged`]: record that the stage made `output` from `inputs`.
+fn mark_done(marker: &Path, inputs: &str, output: &Path) -> Result<()> {
     if let Some(parent) = marker.parent() {
         std::fs::create_dir_all(parent).map_err(|e| InputError::io(parent, &e))?;
     }
-    std::fs::write(marker, marker_text(inputs, output)?).map_err(|e| InputError::io(marker, &e))?;
-    Ok(true)
+    std::fs::write(marker, marker_text(inputs, output)?).map_err(|e| InputError::io(marker, &e))
 }
 
 /// One sequence of a release: a scene (by its place in the selection) under one lighting.
@@ -666,6 +680,40 @@ impl Build {
             write_json(&summary_path, &crate::render::sequence::summarize_sequence(&sequence_dir)?)
         })?;
         read_json(&summary_path)
+    }
+
+    /// Stage 5 for every one of `units`, the sequences of one settled scene; returns their
+    /// summaries in order. With the built-in renderer, the sequences not yet rendered are
+    /// drawn together (one visibility pass a frame for all their lightings: the same bytes
+    /// as one at a time); an external renderer renders one sequence at a time.
+    pub fn render_scene_sequences(&self, units: &[SequenceUnit], progress: &dyn Fn(&str)) -> Result<Vec<SequenceSummary>> {
+        let Some(first) = units.first() else { return Ok(Vec::new()) };
+        assert!(units.iter().all(|u| u.scene_index == first.scene_index), "the units of one scene");
+        if !self.config.render.command.is_empty() {
+            return units.iter().map(|unit| self.render_sequence(unit, progress)).collect();
+        }
+        let inputs = self.settled_inputs(first.scene_index)?;
+        let mut stale = Vec::new();
+        for unit in units {
+            let (sequence_dir, _, marker) = self.sequence_paths(unit);
+            if !current_or_cleared(&marker, &inputs, &sequence_dir)? {
+                stale.push(unit);
+            }
+        }
+        if !stale.is_empty() {
+            let lightings: Vec<&str> = stale.iter().map(|u| u.lighting.as_str()).collect();
+            progress(&format!("{}: rendering {}", first.scene, lightings.join(", ")));
+            let plan: Plan = read_json(&self.plan_path(first.scene_index))?;
+            let habitat = self.habitat_dir(first.scene_index);
+            let rendered =
+                crate::render::render_scene(&habitat, &first.scene, &lightings, &self.config.render.sensor(), &plan.frames, &self.out.join("sequences"))?;
+            for (unit, (_, summary)) in stale.iter().zip(rendered) {
+                let (sequence_dir, summary_path, marker) = self.sequence_paths(unit);
+                write_json(&summary_path, &summary)?;
+                mark_done(&marker, &inputs, &sequence_dir)?;
+            }
+        }
+        units.iter().map(|unit| read_json(&self.sequence_paths(unit).1)).collect()
     }
 
     /// The contact sheet of a rendered sequence (a grid of its telling frames), made again

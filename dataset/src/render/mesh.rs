@@ -15,15 +15,16 @@ use crate::convert::gltf::{Texture, read_gltf};
 
 /// Everything a camera can see: triangles, their surfaces, and runs of one object's
 /// consecutive triangles with their bounding boxes, which the renderer tests against the
-/// view before transforming any triangle of a run.
+/// view before transforming any triangle of a run. The geometry is shared: a clone (the
+/// same scene to be lit another way) costs no copy of it.
 #[derive(Debug, Clone, Default)]
 pub struct World {
-    triangles: Vec<Triangle>,
-    surfaces: Vec<Surface>,
-    clusters: Vec<Cluster>,
+    triangles: Arc<[Triangle]>,
+    surfaces: Arc<[Surface]>,
+    clusters: Arc<[Cluster]>,
     /// Each triangle's vertex positions again, packed: all that transforming a triangle
     /// reads, in a third of the memory `triangles` takes.
-    positions: Vec<[[f32; 3]; 3]>,
+    positions: Arc<[[[f32; 3]; 3]]>,
     /// Ambient occlusion and the static lights' shadows, once baked ([`World::with_light_bake`]).
     light_bake: Option<Arc<LightBake>>,
 }
@@ -80,7 +81,7 @@ impl World {
     pub(crate) fn with_cluster_size(triangles: Vec<Triangle>, surfaces: Vec<Surface>, size: usize) -> World {
         let clusters = clusters(&triangles, size.max(1));
         let positions = triangles.iter().map(|t| t.positions).collect();
-        World { triangles, surfaces, clusters, positions, light_bake: None }
+        World { triangles: triangles.into(), surfaces: surfaces.into(), clusters: clusters.into(), positions, light_bake: None }
     }
 
     /// This world with its light baked for the static lights at `lights`: triangles of

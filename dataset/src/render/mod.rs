@@ -29,7 +29,7 @@ use crate::convert::lexicon::{is_shell_class, normalise_name};
 use camera::SensorSettings;
 use coverage::{CoverageGoals, Plan, Target};
 use navigation::NavGrid;
-use sequence::{SequenceSummary, render_sequence};
+use sequence::{SequenceSummary, SequenceTarget, render_sequences};
 use trajectory::{AgentState, MotionSettings};
 
 /// The names of the four lighting conditions of OSMa-Bench++, as files and configs write
@@ -74,7 +74,8 @@ pub fn plan_scene(
 }
 
 /// Render the converted scene `scene` in `habitat_dir` along `states` under each of
-/// `lightings` into `out/<lighting>/<scene>/`.
+/// `lightings` into `out/<lighting>/<scene>/`, each lit by its own lights (and baked for
+/// them), all of them drawn from one visibility pass a frame.
 pub fn render_scene(
     habitat_dir: &Path,
     scene: &str,
@@ -90,20 +91,44 @@ pub fn render_scene(
             .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
         settings_of.push(lights);
     }
-    let world = lit_world(mesh::World::load_habitat_scene(habitat_dir, scene)?, &settings_of);
+    let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
+    let worlds = lit_worlds(&world, &settings_of);
     let grid = NavGrid::read(habitat_dir, scene)?;
     let classes_path = habitat_dir.join("semantics/classes.json");
     let classes = ClassList::read(&classes_path)?;
     let classes = ClassList::new(classes.entries().into_iter().map(|c| ClassEntry { name: c.name, id: c.id })).expect("unique");
     let settings = serde_json::json!({"scene_name": scene, "sensor": sensor});
-    let mut out_list = Vec::new();
-    for (lighting, lights) in lightings.iter().zip(&settings_of) {
-        let mut settings = settings.clone();
-        settings["label"] = serde_json::json!(lighting);
-        let summary = render_sequence(&world, states, grid.floor_height, sensor, lights, &classes, &settings, &out.join(lighting).join(scene))?;
-        out_list.push((lighting.to_string(), summary));
-    }
-    Ok(out_list)
+    let targets: Vec<SequenceTarget> = lightings
+        .iter()
+        .zip(&settings_of)
+        .zip(&worlds)
+        .map(|((lighting, light_settings), world)| {
+            let mut settings_copy = settings.clone();
+            settings_copy["label"] = serde_json::json!(lighting);
+            SequenceTarget { world, light_settings, settings_copy, dir: out.join(lighting).join(scene) }
+        })
+        .collect();
+    let summaries = render_sequences(&targets, states, grid.floor_height, sensor, &classes)?;
+    Ok(lightings.iter().map(|l| l.to_string()).zip(summaries).collect())
+}
+
+/// `world` lit for each of the HaDaGe light settings `lightings` on its own
+/// ([`lit_world`]); lightings with the same static lights share one bake, and every
+/// result shares `world`'s geometry.
+pub fn lit_worlds(world: &mesh::World, lightings: &[serde_json::Value]) -> Vec<mesh::World> {
+    let mut baked: Vec<(Vec<[f32; 3]>, bool, mesh::World)> = Vec::new();
+    lightings
+        .iter()
+        .map(|settings| {
+            let key = (static_light_positions(std::slice::from_ref(settings)), sequence::has_no_lights(settings));
+            if let Some((_, _, lit)) = baked.iter().find(|(positions, flat, _)| (positions, flat) == (&key.0, &key.1)) {
+                return lit.clone();
+            }
+            let lit = lit_world(world.clone(), std::slice::from_ref(settings));
+            baked.push((key.0, key.1, lit.clone()));
+            lit
+        })
+        .collect()
 }
 
 /// `world` with its light baked for the static lights of the HaDaGe light settings
@@ -113,6 +138,14 @@ pub fn lit_world(world: mesh::World, lightings: &[serde_json::Value]) -> mesh::W
     if lightings.iter().all(sequence::has_no_lights) {
         return world;
     }
+    let positions = static_light_positions(lightings);
+    let fixtures = crate::convert::lexicon::class_id("ceiling").map(|id| id as u16);
+    world.with_light_bake(&positions, fixtures, &mesh::shell_surface_ids())
+}
+
+/// The positions of the lights of `lightings` that are not attached to the camera, each
+/// once, in the order the settings list them.
+fn static_light_positions(lightings: &[serde_json::Value]) -> Vec<[f32; 3]> {
     let mut positions: Vec<[f32; 3]> = Vec::new();
     for settings in lightings {
         for light in settings["lights"].as_object().into_iter().flat_map(|l| l.values()) {
@@ -123,6 +156,5 @@ pub fn lit_world(world: mesh::World, lightings: &[serde_json::Value]) -> mesh::W
             }
         }
     }
-    let fixtures = crate::convert::lexicon::class_id("ceiling").map(|id| id as u16);
-    world.with_light_bake(&positions, fixtures, &mesh::shell_surface_ids())
+    positions
 }

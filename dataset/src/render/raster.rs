@@ -249,7 +249,21 @@ fn clip_and_project(cam: &[[f32; 3]; 3], camera: &Camera, near: f32, source: u32
 
 /// Render `world` seen by `camera` into `frame`: colour, depth, classes and instances.
 pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
+    find_visible(world, camera, frame);
+    shade(world, camera, shading, frame);
+}
+
+/// The first half of [`render`]: the nearest triangle of every pixel of `frame`, which
+/// [`shade`] then colours, as often as there are lightings to show it under.
+pub fn find_visible(world: &World, camera: &Camera, frame: &mut Frame) {
     rasterize(world, camera, NEAR, frame);
+}
+
+/// The second half of [`render`]: colour, depth, classes and instances of what
+/// [`find_visible`] found in `frame` for the same `camera`, lit as `world` is lit and
+/// shaded by `shading`. `world` must hold the same triangles as the world visibility was
+/// found in (the same scene, lit another way: its light bake is the only difference).
+pub fn shade(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
     let shadow = camera_light_shadow(world, camera, shading, frame);
     resolve(world, camera, Some(shading), shadow.as_deref(), frame);
     frame.shadow = shadow;

@@ -4,11 +4,11 @@
 //! of the settings and light files.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use nalgebra::Matrix4;
 use osmab_evaluator::formats::classes::ClassList;
-use osmab_evaluator::formats::image::{GrayImage16, Packing, RgbImage, write_jpeg_rgb, write_png_gray16, write_png_gray16_packed};
+use osmab_evaluator::formats::image::{GrayImage16, Packing, RgbImage, write_jpeg_rgb, write_png_gray16_to_all};
 use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::formats::sequence::frame_path;
 use osmab_evaluator::formats::trajectory::Trajectory;
@@ -20,7 +20,7 @@ use serde_json::Value;
 use super::camera::{SensorSettings, camera_pose};
 use super::coverage::CoverageGoals;
 use super::mesh::World;
-use super::raster::{Frame, Light, Shading, render};
+use super::raster::{Frame, Light, Shading, find_visible, shade};
 use super::trajectory::AgentState;
 use super::view::{Observed, View, ViewpointRule, digest64, exposure, visible_classes};
 
@@ -113,55 +113,91 @@ pub struct SequenceSummary {
     pub travelled: f64,
 }
 
-/// Render `states` of `world` lit by `light_settings` into `dir` (HaDaGe's layout).
-#[allow(clippy::too_many_arguments)]
-pub fn render_sequence(
-    world: &World,
+/// One lighting's sequence of a scene: the scene's world lit for that lighting (every
+/// target of one render shares the same geometry), its light settings, the settings file
+/// copied beside it, and its folder.
+pub struct SequenceTarget<'a> {
+    pub world: &'a World,
+    pub light_settings: &'a Value,
+    pub settings_copy: Value,
+    pub dir: PathBuf,
+}
+
+/// Render `states` of a scene under each of `targets` (its lightings) into their folders
+/// (HaDaGe's layout); returns each target's summary, in order. The lightings share the
+/// trajectory and the geometry, so each frame's visibility is found once and shaded once a
+/// lighting, and its depth and semantic images — the same under every lighting — are
+/// encoded once and written into every folder.
+pub fn render_sequences(
+    targets: &[SequenceTarget],
     states: &[AgentState],
     floor_height: f64,
     sensor: &SensorSettings,
-    light_settings: &Value,
     classes: &ClassList,
-    settings_copy: &Value,
-    dir: &Path,
-) -> Result<SequenceSummary> {
-    prepare_sequence_folder(dir, sensor, light_settings, classes, settings_copy)?;
+) -> Result<Vec<SequenceSummary>> {
+    let Some(first) = targets.first() else { return Ok(Vec::new()) };
+    debug_assert!(targets.iter().all(|t| t.world.triangles().len() == first.world.triangles().len()), "the targets of one render share their geometry");
+    for t in targets {
+        prepare_sequence_folder(&t.dir, sensor, t.light_settings, classes, &t.settings_copy)?;
+    }
     let poses: Vec<Matrix4<f64>> = states.iter().map(|s| camera_pose(s, floor_height, sensor)).collect();
-    write_trajectory(dir, states, &poses)?;
-
+    for t in targets {
+        write_trajectory(&t.dir, states, &poses)?;
+    }
     let travelled = states.windows(2).map(|w| ((w[1].x - w[0].x).powi(2) + (w[1].z - w[0].z).powi(2)).sqrt()).sum();
-    let mut summary = SequenceSummary { frames: states.len(), travelled, ..Default::default() };
+    let mut summaries: Vec<SequenceSummary> = targets.iter().map(|_| SequenceSummary { frames: states.len(), travelled, ..Default::default() }).collect();
     let mut pixel_counts = vec![0u64; 1 << 16];
     let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
     // A lighting without any light is flat; one whose lights are all off in a segment
     // is lit by the ambient term only (never brighter than with them on).
-    let flat = has_no_lights(light_settings);
+    let flat: Vec<bool> = targets.iter().map(|t| has_no_lights(t.light_settings)).collect();
+    let dirs: Vec<&Path> = targets.iter().map(|t| t.dir.as_path()).collect();
     const BATCH: usize = 8;
     let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
+    // The colour image of each batch frame under each lighting: `colours[k * targets + l]`.
+    let mut colours: Vec<Vec<u8>> = vec![Vec::new(); BATCH * targets.len()];
     for start in (0..states.len()).step_by(BATCH) {
         let end = (start + BATCH).min(states.len());
         for (k, i) in (start..end).enumerate() {
-            let lights = lights_for_goal(light_settings, states[i].goal_index);
-            let shading = if flat { Shading::Flat } else { Shading::Lit(lights) };
-            render(world, &sensor.camera(poses[i]), &shading, &mut frames[k]);
+            let camera = sensor.camera(poses[i]);
+            find_visible(first.world, &camera, &mut frames[k]);
+            for (l, t) in targets.iter().enumerate() {
+                let shading = if flat[l] { Shading::Flat } else { Shading::Lit(lights_for_goal(t.light_settings, states[i].goal_index)) };
+                shade(t.world, &camera, &shading, &mut frames[k]);
+                colours[k * targets.len() + l].clone_from(&frames[k].rgb);
+            }
             for &c in &frames[k].semantic {
                 pixel_counts[c as usize] += 1;
             }
         }
-        // Encoding is the slow part of writing: all frames of the batch at once, each
-        // measured as it is encoded.
-        let measured: Vec<(FrameMeasures, View)> =
-            frames[..end - start].par_iter().enumerate().map(|(k, f)| encode_frame(dir, sensor, &rule, start + k, f)).collect::<Result<_>>()?;
-        for (k, (measures, view)) in measured.into_iter().enumerate() {
+        // Encoding is the slow part of writing: every image of the batch at once.
+        let n = end - start;
+        let (geometry, colour) = rayon::join(
+            || frames[..n].par_iter().enumerate().map(|(k, f)| encode_geometry(&dirs, sensor, &rule, start + k, f)).collect::<Result<Vec<_>>>(),
+            || {
+                colours[..n * targets.len()]
+                    .par_iter()
+                    .enumerate()
+                    .map(|(j, rgb)| encode_colour(dirs[j % targets.len()], sensor, start + j / targets.len(), rgb))
+                    .collect::<Result<Vec<_>>>()
+            },
+        );
+        let (geometry, colour) = (geometry?, colour?);
+        for (k, (shared, view)) in geometry.into_iter().enumerate() {
             let state = &states[start + k];
-            summary.per_frame.push(measures);
-            for v in &view.objects {
-                summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
+            for (l, summary) in summaries.iter_mut().enumerate() {
+                summary.per_frame.push(colour[k * targets.len() + l].with(shared));
+                for v in &view.objects {
+                    summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
+                }
             }
         }
     }
-    summary.class_pixels = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
-    Ok(summary)
+    let class_pixels: BTreeMap<u16, u64> = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
+    for summary in &mut summaries {
+        summary.class_pixels = class_pixels.clone();
+    }
+    Ok(summaries)
 }
 
 /// Make `dir` afresh for a sequence: its results folder, camera parameters, classes,
@@ -200,31 +236,68 @@ fn write_trajectory(dir: &Path, states: &[AgentState], poses: &[Matrix4<f64>]) -
     std::fs::write(dir.join("log.txt"), log).map_err(|e| InputError::io(dir, &e))
 }
 
-/// Frame `i`'s colour, depth and semantic images encoded into `dir`, and its measures
-/// and view (what it shows, by `rule`).
-fn encode_frame(dir: &Path, sensor: &SensorSettings, rule: &ViewpointRule, i: usize, f: &Frame) -> Result<(FrameMeasures, View)> {
+/// What a frame's colour image measures: its lighting's own.
+struct ColourMeasures {
+    saturated: f32,
+    luma: f32,
+    digest: u64,
+}
+
+/// What a frame's depth and semantic images measure: the same under every lighting.
+#[derive(Clone, Copy)]
+struct GeometryMeasures {
+    dominant: f32,
+    valid_depth: f32,
+    objects: u16,
+    classes: u16,
+    object_coverage: f32,
+    digest: u64,
+}
+
+impl ColourMeasures {
+    fn with(&self, g: GeometryMeasures) -> FrameMeasures {
+        FrameMeasures {
+            saturated: self.saturated,
+            luma: self.luma,
+            dominant: g.dominant,
+            valid_depth: g.valid_depth,
+            objects: g.objects,
+            classes: g.classes,
+            object_coverage: g.object_coverage,
+            colour_digest: self.digest,
+            geometry_digest: g.digest,
+        }
+    }
+}
+
+/// Frame `i`'s colour image `rgb` encoded into `dir`, and its measures.
+fn encode_colour(dir: &Path, sensor: &SensorSettings, i: usize, rgb: &[u8]) -> Result<ColourMeasures> {
+    write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: sensor.width, height: sensor.height, pixels: rgb.to_vec() }, sensor.jpeg_quality)?;
+    let (saturated, luma) = exposure(rgb);
+    Ok(ColourMeasures { saturated: saturated as f32, luma: luma as f32, digest: digest64(rgb) })
+}
+
+/// Frame `i`'s depth and semantic images encoded once and written into each of `dirs`,
+/// their measures and the view (what the frame shows, by `rule`).
+fn encode_geometry(dirs: &[&Path], sensor: &SensorSettings, rule: &ViewpointRule, i: usize, f: &Frame) -> Result<(GeometryMeasures, View)> {
     let (w, h) = (sensor.width, sensor.height);
-    write_jpeg_rgb(&frame_path(dir, "frame", i), &RgbImage { width: w, height: h, pixels: f.rgb.clone() }, sensor.jpeg_quality)?;
     let scale = sensor.depth_scale as f32;
     // HaDaGe: float metres × scale, truncated (Pillow's f2i), clipped to 16 bits.
     let depth: Vec<u16> = f.depth.iter().map(|&z| (z * scale).clamp(0.0, 65535.0) as u16).collect();
     let view = View::of(f);
-    let (saturated, luma) = exposure(&f.rgb);
     let mut geometry: Vec<u8> = depth.iter().flat_map(|d| d.to_le_bytes()).collect();
     geometry.extend(f.semantic.iter().flat_map(|c| c.to_le_bytes()));
-    let measures = FrameMeasures {
-        saturated: saturated as f32,
-        luma: luma as f32,
+    let measures = GeometryMeasures {
         dominant: view.dominant_fraction as f32,
         valid_depth: view.valid_fraction as f32,
         objects: view.objects.iter().filter(|v| v.pixels as f64 >= rule.min_pixels).count().min(u16::MAX as usize) as u16,
         classes: visible_classes(&f.semantic, &depth, rule.min_pixels),
         object_coverage: view.object_fraction as f32,
-        colour_digest: digest64(&f.rgb),
-        geometry_digest: digest64(&geometry),
+        digest: digest64(&geometry),
     };
-    write_png_gray16_packed(&frame_path(dir, "depth", i), &GrayImage16 { width: w, height: h, pixels: depth }, Packing::Gradients)?;
-    write_png_gray16(&frame_path(dir, "semantic", i), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() })?;
+    let paths = |kind: &str| -> Vec<PathBuf> { dirs.iter().map(|dir| frame_path(dir, kind, i)).collect() };
+    write_png_gray16_to_all(&paths("depth"), &GrayImage16 { width: w, height: h, pixels: depth }, Packing::Gradients)?;
+    write_png_gray16_to_all(&paths("semantic"), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() }, Packing::FewValues)?;
     Ok((measures, view))
 }
 

@@ -143,7 +143,7 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     assert_eq!(first["generator"]["split_secret_id"].as_str(), Some(secret.id().as_str()));
     // The archive a render job packs holds exactly the manifest's files of its sequence.
     let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: "baseline".into() };
-    osmab_dataset::release::render_release_sequence(&config, &dir.path().join("a"), Some(&secret), &unit, &|_| {}).unwrap();
+    osmab_dataset::release::render_release_scene(&config, &dir.path().join("a"), Some(&secret), &[unit], &|_| {}).unwrap();
     let (archive, _, _) =
         osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), "baseline", "scene_001", osmab_evaluator::scores::Split::Test).unwrap();
     let held = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();

@@ -183,6 +183,46 @@ fn rendering_twice_gives_identical_files() {
 }
 
 #[test]
+fn the_lightings_of_a_scene_drawn_together_are_the_files_of_each_drawn_alone() {
+    // One visibility pass a frame shaded under four lightings (each baked for its own
+    // lights), depth and semantics encoded once: byte for byte what one lighting at a time gives.
+    let dir = tempfile::tempdir().unwrap();
+    let name = converted_scene(dir.path());
+    let (sensor, motion) = small();
+    let states = planned(dir.path(), &name, &sensor, &MotionSettings { max_frames: 30, ..motion }).frames;
+    let habitat = dir.path().join("habitat");
+    let together = render_scene(&habitat, &name, &LIGHTINGS, &sensor, &states, &dir.path().join("together")).unwrap();
+    for (lighting, summary) in &together {
+        let alone = render_scene(&habitat, &name, &[lighting.as_str()], &sensor, &states, &dir.path().join("alone")).unwrap();
+        assert_eq!(serde_json::to_value(summary).unwrap(), serde_json::to_value(&alone[0].1).unwrap(), "{lighting}: the summary");
+        let files = |root: &str| -> Vec<(String, Vec<u8>)> {
+            let folder = dir.path().join(root).join(lighting).join(&name);
+            let mut files: Vec<(String, Vec<u8>)> =
+                walk(&folder).into_iter().map(|p| (p.strip_prefix(&folder).unwrap().display().to_string(), std::fs::read(&p).unwrap())).collect();
+            files.sort();
+            files
+        };
+        let (drawn_together, drawn_alone) = (files("together"), files("alone"));
+        assert_eq!(drawn_together.len(), drawn_alone.len(), "{lighting}: the same files");
+        assert!(drawn_together.len() > 3 * states.len(), "{lighting}: colour, depth and semantics of every frame");
+        for ((path, bytes), (path_alone, bytes_alone)) in drawn_together.iter().zip(&drawn_alone) {
+            assert_eq!(path, path_alone);
+            assert!(bytes == bytes_alone, "{lighting}: {path} differs");
+        }
+    }
+}
+
+/// Every file under `dir`, at any depth.
+fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() { files.extend(walk(&path)) } else { files.push(path) }
+    }
+    files
+}
+
+#[test]
 fn lights_switch_with_their_life_intervals_and_switched_off_lights_leave_the_ambient_term() {
     use osmab_dataset::render::sequence::{has_no_lights, lights_for_goal};
     let settings = serde_json::json!({"lights": {

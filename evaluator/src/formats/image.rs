@@ -3,7 +3,7 @@
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{InputError, Result};
 
@@ -90,7 +90,20 @@ pub fn write_png_gray16(path: &Path, image: &GrayImage16) -> Result<()> {
 /// Write a 16-bit grayscale PNG packed as `packing` says.
 pub fn write_png_gray16_packed(path: &Path, image: &GrayImage16, packing: Packing) -> Result<()> {
     let file = File::create(path).map_err(|e| InputError::io(path, &e))?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), image.width, image.height);
+    encode_png_gray16(BufWriter::new(file), path, image, packing)
+}
+
+/// Write the same 16-bit grayscale PNG to every one of `paths`, encoded once.
+pub fn write_png_gray16_to_all(paths: &[PathBuf], image: &GrayImage16, packing: Packing) -> Result<()> {
+    let Some(first) = paths.first() else { return Ok(()) };
+    let mut bytes = Vec::new();
+    encode_png_gray16(&mut bytes, first, image, packing)?;
+    paths.iter().try_for_each(|path| std::fs::write(path, &bytes).map_err(|e| InputError::io(path, &e)))
+}
+
+/// Encode `image` into `out`; errors name `path`.
+fn encode_png_gray16(out: impl std::io::Write, path: &Path, image: &GrayImage16, packing: Packing) -> Result<()> {
+    let mut encoder = png::Encoder::new(out, image.width, image.height);
     encoder.set_color(png::ColorType::Grayscale);
     encoder.set_depth(png::BitDepth::Sixteen);
     match packing {
@@ -170,5 +183,22 @@ mod tests {
             sizes.push(std::fs::metadata(&path).unwrap().len());
         }
         assert!(sizes[1] < sizes[0], "gradients pack smaller as Gradients: {sizes:?}");
+    }
+
+    #[test]
+    fn an_image_written_to_several_paths_is_the_same_file_as_one_written_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let image = GrayImage16 { width: 64, height: 48, pixels: (0..64 * 48).map(|i| (i * 7 % 5000) as u16).collect() };
+        let alone = dir.path().join("alone.png");
+        write_png_gray16_packed(&alone, &image, Packing::Gradients).unwrap();
+        let copies: Vec<PathBuf> = (0..3).map(|k| dir.path().join(format!("copy{k}.png"))).collect();
+        write_png_gray16_to_all(&copies, &image, Packing::Gradients).unwrap();
+        let expected = std::fs::read(&alone).unwrap();
+        for copy in &copies {
+            assert_eq!(std::fs::read(copy).unwrap(), expected, "{}", copy.display());
+        }
+        let missing = dir.path().join("no-such-folder").join("x.png");
+        let err = write_png_gray16_to_all(&[copies[0].clone(), missing.clone()], &image, Packing::Gradients).unwrap_err();
+        assert!(err.to_string().contains("no-such-folder"), "{err}");
     }
 }

@@ -104,17 +104,13 @@ mod tests {
 
     #[test]
     fn progress_writes_only_what_a_job_reported_with_keys_as_before() {
-        let rendering =
-            Progress { fanned_out: Some(vec!["v/scene_000/baseline".into()]), rendered: Some(0), ..Progress::at(Stage::Rendering, "1 sequences queued") };
+        let rendering = Progress { fanned_out: Some(vec!["v/scene_000".into()]), rendered: Some(0), ..Progress::at(Stage::Rendering, "1 scenes queued") };
         assert_eq!(
             serde_json::to_value(&rendering).unwrap(),
-            serde_json::json!({"stage": "rendering", "message": "1 sequences queued", "fanned_out": ["v/scene_000/baseline"], "rendered": 0})
+            serde_json::json!({"stage": "rendering", "message": "1 scenes queued", "fanned_out": ["v/scene_000"], "rendered": 0})
         );
         let text = serde_json::to_string(&rendering).unwrap();
-        assert_eq!(
-            text, r#"{"fanned_out":["v/scene_000/baseline"],"message":"1 sequences queued","rendered":0,"stage":"rendering"}"#,
-            "the text the untyped progress was"
-        );
+        assert_eq!(text, r#"{"fanned_out":["v/scene_000"],"message":"1 scenes queued","rendered":0,"stage":"rendering"}"#, "the text the untyped progress was");
         assert_eq!(Progress::read(&text), rendering);
         assert_eq!(Progress::read("not json"), Progress::default());
         assert_eq!(

@@ -4,14 +4,15 @@
 //! keeps its output in the build folder, so a retried job resumes where it stopped.
 //!
 //! The rendering, the bulk of the work, fans out: the build job prepares the scenes,
-//! queues one `render_sequence` job per scene and lighting for any worker to take, waits
-//! off the queue (it does not hold a worker) until they are all done, then assembles the
-//! release. Its progress shows how many sequences are rendered and which failed.
+//! queues one `render_sequence` job per scene (its lightings are drawn together, one
+//! visibility pass a frame) for any worker to take, waits off the queue (it does not hold a
+//! worker) until they are all done, then assembles the release. Its progress shows how
+//! many scenes are rendered and which failed.
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 
-use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_sequence};
+use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_scene};
 use serde::{Deserialize, Serialize};
 
 use super::progress::{Progress, Stage};
@@ -62,18 +63,39 @@ impl Job for BuildRelease {
     }
 }
 
-/// Render one sequence (scene × lighting) of a prepared release build.
+/// Render the sequences of one scene of a prepared release build: its lightings not yet
+/// rendered when the build fanned out.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RenderSequence {
     version: String,
-    unit: SequenceUnit,
+    /// Sequences of one scene. A job queued by an earlier version of the service named one
+    /// sequence as `unit`; it is read as a scene with that one lighting.
+    #[serde(alias = "unit", deserialize_with = "one_or_many")]
+    units: Vec<SequenceUnit>,
+}
+
+/// A list, or a single item as a list of one.
+fn one_or_many<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Vec<SequenceUnit>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum OneOrMany {
+        Many(Vec<SequenceUnit>),
+        One(SequenceUnit),
+    }
+    Ok(match OneOrMany::deserialize(deserializer)? {
+        OneOrMany::Many(units) => units,
+        OneOrMany::One(unit) => vec![unit],
+    })
 }
 
 impl Job for RenderSequence {
     const KIND: JobKind = JobKind::RenderSequence;
 
+    /// `version/scene`; a job of one sequence queued by an earlier version of the service
+    /// kept `version/scene/lighting`, which its build still waits for by that name.
     fn subject(&self) -> String {
-        format!("{}/{}/{}", self.version, self.unit.scene, self.unit.lighting)
+        let scene = self.units.first().map_or("", |u| u.scene.as_str());
+        format!("{}/{scene}", self.version)
     }
 
     async fn run(self, ctx: JobContext) -> Result<(), JobError> {
@@ -138,7 +160,7 @@ async fn blocking_stage<T: Send + 'static>(
 
 /// Where the rendering of a build stands.
 enum Rendering {
-    /// Every sequence is rendered.
+    /// Every scene is rendered.
     Done,
     /// Some are still queued or running.
     Running { done: usize, total: usize },
@@ -149,19 +171,22 @@ fn fanned_out(progress: &str) -> Option<Vec<String>> {
     Progress::read(progress).fanned_out
 }
 
-/// Prepare the build (stages 1–4) and queue a render job for every sequence not rendered
-/// yet; returns their subjects.
+/// Prepare the build (stages 1–4) and queue a render job for every scene with a sequence
+/// not rendered yet; returns their subjects.
 async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
     let (config, out_dir, secret) = (config_path.to_path_buf(), out.to_path_buf(), ctx.state.split_secret.clone());
     pull_build(&ctx.state, version).await?;
     let units = blocking_stage(ctx, Stage::Prepare, move |progress| prepare_release(&config, &out_dir, Some(&secret), progress)).await?;
     push_build(&ctx.state, version).await?;
-    let mut subjects = Vec::new();
+    let mut scenes: BTreeMap<usize, Vec<SequenceUnit>> = BTreeMap::new();
     for (unit, rendered) in units {
-        if rendered {
-            continue;
+        if !rendered {
+            scenes.entry(unit.scene_index).or_default().push(unit);
         }
-        let job = RenderSequence { version: version.to_string(), unit };
+    }
+    let mut subjects = Vec::new();
+    for units in scenes.into_values() {
+        let job = RenderSequence { version: version.to_string(), units };
         let subject = job.subject();
         match super::enqueue(&ctx.state, &job).await {
             // A live job for it (left by an earlier build attempt) is followed instead.
@@ -199,7 +224,7 @@ async fn rendering(ctx: &JobContext, version: &str, subjects: &[String]) -> Resu
         fanned_out: Some(subjects.to_vec()),
         rendered: Some(done),
         waiting_for: Some(running.iter().map(|s| s.to_string()).collect()),
-        ..Progress::at(Stage::Rendering, format!("{done} of {total} sequences rendered"))
+        ..Progress::at(Stage::Rendering, format!("{done} of {total} scenes rendered"))
     })
     .await;
     Ok(Rendering::Running { done, total })
@@ -218,7 +243,7 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
             Some(subjects) => subjects,
             None => {
                 let subjects = fan_out(&ctx, &version, &config_path, &out).await?;
-                let message = format!("{} sequences queued for rendering", subjects.len());
+                let message = format!("{} scenes queued for rendering", subjects.len());
                 ctx.progress(&Progress { fanned_out: Some(subjects.clone()), rendered: Some(0), ..Progress::at(Stage::Rendering, message) }).await;
                 subjects
             }
@@ -260,18 +285,44 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
     Ok(())
 }
 
-/// One scene under one lighting of a prepared build.
+/// The sequences of one scene of a prepared build.
 async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError> {
     let (config_path, out) = build_paths(&ctx.state, &request.version);
     pull_build(&ctx.state, &request.version).await?;
     let blocking_ctx = ctx.clone();
-    let (unit, secret) = (request.unit.clone(), ctx.state.split_secret.clone());
+    let (units, secret) = (request.units.clone(), ctx.state.split_secret.clone());
     tokio::task::spawn_blocking(move || {
         let progress = |message: &str| blocking_ctx.progress_blocking(&Progress::at(Stage::Render, message));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
-        render_release_sequence(&config_path, &out, Some(&secret), &unit, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+        render_release_scene(&config_path, &out, Some(&secret), &units, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
     .await
     .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;
     push_build(&ctx.state, &request.version).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit(lighting: &str) -> SequenceUnit {
+        SequenceUnit { scene_index: 3, scene: "scene_003".into(), lighting: lighting.into() }
+    }
+
+    #[test]
+    fn a_render_job_names_its_scene_and_reads_back_every_lighting_it_carries() {
+        let job = RenderSequence { version: "v-1".into(), units: vec![unit("baseline"), unit("no_lights")] };
+        assert_eq!(job.subject(), "v-1/scene_003");
+        let back: RenderSequence = serde_json::from_value(serde_json::to_value(&job).unwrap()).unwrap();
+        assert_eq!(back.units, job.units);
+    }
+
+    #[test]
+    fn a_render_job_queued_by_an_earlier_version_is_read_as_its_one_sequence() {
+        let queued = serde_json::json!({"version": "v-1", "unit": {"scene_index": 3, "scene": "scene_003", "lighting": "camera"}});
+        let job: RenderSequence = serde_json::from_value(queued).unwrap();
+        assert_eq!(job.units, vec![unit("camera")]);
+        let neither = serde_json::from_value::<RenderSequence>(serde_json::json!({"version": "v-1"}));
+        assert!(neither.is_err(), "a job without its sequences is refused");
+    }
 }

@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
+use osmab_evaluator::formats::json::write_pretty as write_json;
 use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -105,14 +106,6 @@ struct Writer<'a> {
     /// Footprints of obstacles in Habitat (x, z) with their height span.
     obstacles: Vec<([f64; 3], [f64; 3])>,
     floor: Option<([f64; 3], [f64; 3])>,
-}
-
-fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
-    }
-    let text = serde_json::to_string_pretty(value).expect("serialisable");
-    std::fs::write(path, text + "\n").map_err(|e| InputError::io(path, &e))
 }
 
 fn copy_file(from: &Path, to: &Path) -> Result<()> {

@@ -37,17 +37,7 @@ use osmab_evaluator::scores::Split;
 /// Where the build keeps its intermediate stages (not part of the release).
 pub const WORK: &str = ".work";
 
-pub(super) fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
-    }
-    std::fs::write(path, serde_json::to_string_pretty(value).expect("serialisable") + "\n").map_err(|e| InputError::io(path, &e))
-}
-
-pub(super) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::io(path, &e))?;
-    serde_json::from_slice(&bytes).map_err(|e| InputError::new(path, "(json)", e.to_string()))
-}
+pub(super) use osmab_evaluator::formats::json::{read as read_json, write_pretty as write_json};
 
 /// The fingerprint of a stage's output (a directory or one file): the digest of its files.
 fn fingerprint(output: &Path) -> Result<String> {

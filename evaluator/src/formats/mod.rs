@@ -6,6 +6,7 @@ pub mod camera;
 pub mod classes;
 pub mod confusion;
 pub mod image;
+pub mod json;
 pub mod map;
 pub mod npy;
 pub mod npz;

@@ -410,6 +410,5 @@ fn convert(scene: &Path, out: &Path) -> anyhow::Result<()> {
 }
 
 fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(value)?;
-    std::fs::write(path, text + "\n").with_context(|| format!("{}: cannot write", path.display()))
+    Ok(osmab_evaluator::formats::json::write_pretty(path, value)?)
 }

@@ -307,7 +307,7 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
 fn build_status(job: &JobRecord, stage: &str, renders: &RenderCounts) -> String {
     match (job.state, stage) {
         (JobState::Queued | JobState::Running, "rendering") if renders.total > 0 => format!(
-            "rendering: {} of {} sequences done, {} rendering now{}",
+            "rendering: {} of {} scenes done, {} rendering now{}",
             renders.succeeded,
             renders.total,
             renders.running,

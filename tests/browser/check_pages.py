@@ -1262,7 +1262,7 @@ def main() -> int:
                         if not seen or seen[-1][0] != current[0]:
                             seen.append((current[0], status))
                             if current[0] == "rendering":
-                                expect(re.search(r"\d+ of \d+ sequences", status), f"the rendering stage does not say how far it is: {status!r}")
+                                expect(re.search(r"\d+ of \d+ scenes", status), f"the rendering stage does not say how far it is: {status!r}")
                                 page.screenshot(out / "29-admin-build-running.png")
                     if "done" in dom.find(id="stages").kids("li")[-1].classes() or "failed" in status:
                         break

@@ -147,6 +147,7 @@ pub fn render_sequences(
     let travelled = states.windows(2).map(|w| ((w[1].x - w[0].x).powi(2) + (w[1].z - w[0].z).powi(2)).sqrt()).sum();
     let mut summaries: Vec<SequenceSummary> = targets.iter().map(|_| SequenceSummary { frames: states.len(), travelled, ..Default::default() }).collect();
     let mut pixel_counts = vec![0u64; 1 << 16];
+    let mut objects: BTreeMap<u16, Observed> = BTreeMap::new();
     let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
     // A lighting without any light is flat; one whose lights are all off in a segment
     // is lit by the ambient term only (never brighter than with them on).
@@ -187,15 +188,17 @@ pub fn render_sequences(
             let state = &states[start + k];
             for (l, summary) in summaries.iter_mut().enumerate() {
                 summary.per_frame.push(colour[k * targets.len() + l].with(shared));
-                for v in &view.objects {
-                    summary.objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
-                }
+            }
+            for v in &view.objects {
+                objects.entry(v.instance_id).or_default().add(start + k, [state.x, state.z], v.pixels as f64, v.nearest as f64, &rule);
             }
         }
     }
+    // What the frames show is the same under every lighting.
     let class_pixels: BTreeMap<u16, u64> = pixel_counts.iter().enumerate().filter(|(_, n)| **n > 0).map(|(c, n)| (c as u16, *n)).collect();
     for summary in &mut summaries {
         summary.class_pixels = class_pixels.clone();
+        summary.objects = objects.clone();
     }
     Ok(summaries)
 }

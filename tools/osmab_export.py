@@ -8,12 +8,15 @@ ConceptGraphs, BBQ, PyTorch nor OmegaConf has to be installed. Every array and t
 the bytes the file holds before it is read; a malformed file ends in one error line on stderr and exit
 status 1 (OSMAB_EXPORT_DEBUG=1 shows the traceback of an unexpected error).
 
-    python3 tools/osmab_export.py init --out SUB --release demo-2 --method "ConceptGraphs (ours)"
-    python3 tools/osmab_export.py conceptgraphs --map full_pcd_..._post.pkl.gz \\
+Installed with the client (`pip install osmab-client`) it is the command `osmab-export`; from the
+repository, `python3 tools/osmab_export.py`:
+
+    osmab-export init --out SUB --release demo-2 --method "ConceptGraphs (ours)"
+    osmab-export conceptgraphs --map full_pcd_..._post.pkl.gz \\
         --scene-graph sg_cache/scene_graph.json --lighting baseline --scene scene_000 --out SUB
-    python3 tools/osmab_export.py bbq --map baseline_scene_000_with_feats.pkl.gz \\
+    osmab-export bbq --map baseline_scene_000_with_feats.pkl.gz \\
         --nodes nodes.json --lighting baseline --scene scene_000 --out SUB
-    python3 tools/osmab_export.py text-features --classes release/classes.json --embeddings emb.npy --out SUB
+    osmab-export text-features --classes release/classes.json --embeddings emb.npy --out SUB
 
 Maps are written as maps/<lighting>/<scene>.npz (points float32 in the release's world frame,
 object_ids int64, per-object features float32 or labels int64); scene graphs as

@@ -125,7 +125,7 @@ pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller,
     if let Some(at) = record.revoked_at {
         return Err(unauthenticated(
             ProblemCode::TokenRevoked,
-            &format!("This token was revoked at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
+            &format!("This token was revoked at {}. Ask the organisers for a new one and run `osmab-client login` again.", crate::clock::rfc3339(at)),
         ));
     }
     if let Some(at) = record.expires_at
@@ -133,7 +133,7 @@ pub async fn caller_with_token(state: &AppState, token: &str) -> Result<(Caller,
     {
         return Err(unauthenticated(
             ProblemCode::TokenExpired,
-            &format!("This token expired at {}. Ask the organisers for a new one and run `osmab client login` again.", crate::clock::rfc3339(at)),
+            &format!("This token expired at {}. Ask the organisers for a new one and run `osmab-client login` again.", crate::clock::rfc3339(at)),
         ));
     }
     let caller = match (record.scope, &record.team_id) {

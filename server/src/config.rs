@@ -181,16 +181,7 @@ struct FileSettings {
 /// `url` as an origin (`https://host[:port]`, the default port left out), or why it is not
 /// one: the service's public address, without a path, query or credentials.
 pub fn public_origin(url: &str) -> anyhow::Result<String> {
-    let parsed = reqwest::Url::parse(url).map_err(|e| anyhow::anyhow!("OSMAB_PUBLIC_URL: cannot read '{url}' as a URL: {e}"))?;
-    anyhow::ensure!(
-        ["http", "https"].contains(&parsed.scheme()) && parsed.host().is_some(),
-        "OSMAB_PUBLIC_URL: '{url}' is not an http:// or https:// address with a host"
-    );
-    anyhow::ensure!(
-        parsed.path() == "/" && parsed.query().is_none() && parsed.fragment().is_none() && parsed.username().is_empty() && parsed.password().is_none(),
-        "OSMAB_PUBLIC_URL: '{url}' must be an origin such as https://osmab.example.org, without a path, query or credentials"
-    );
-    Ok(parsed.origin().ascii_serialization())
+    osmab_api::receipts::origin(url).map_err(|why| anyhow::anyhow!("OSMAB_PUBLIC_URL: {why}"))
 }
 
 /// The value of setting `name` from its text.

@@ -17,7 +17,6 @@ mod leaderboard;
 mod llm;
 mod metrics;
 mod problem;
-mod problem_code;
 mod proxies;
 mod queue;
 mod rate_limit;

@@ -6,13 +6,9 @@ use std::process::ExitCode;
 use clap::Parser;
 use osmab::cli;
 
-/// The exit status of a command whose reader went away: 128 + SIGPIPE, what a shell
-/// reports for a Unix tool the signal stopped.
-const CLOSED_STDOUT_STATUS: i32 = 141;
-
 fn main() -> ExitCode {
     osmab_cpu::require_build_features();
-    stop_quietly_when_stdout_closes();
+    osmab_client::stop_quietly_when_stdout_closes();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
@@ -21,24 +17,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// A command whose output's reader went away (`osmab client leaderboard | head -3`) stops
-/// quietly, as Unix tools stopped by SIGPIPE do. Rust ignores SIGPIPE (so the service's
-/// sockets report a closed peer as an error) and `println!` panics on the broken pipe
-/// instead; that panic, and only that one, ends the process without a panic message.
-fn stop_quietly_when_stdout_closes() {
-    let report = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let message = info.payload().downcast_ref::<String>().map(String::as_str).or_else(|| info.payload().downcast_ref::<&str>().copied());
-        if message.is_some_and(is_closed_stdout) {
-            std::process::exit(CLOSED_STDOUT_STATUS);
-        }
-        report(info);
-    }));
-}
-
-/// Whether a panic message is `print!`'s on a standard output whose reader is gone.
-fn is_closed_stdout(message: &str) -> bool {
-    message.starts_with("failed printing to stdout") && message.contains("Broken pipe")
 }

@@ -5,8 +5,8 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde_json::{Map, Value, json};
 
-pub use crate::problem_code::ProblemCode;
 use crate::store::StoreError;
+pub use osmab_api::ProblemCode;
 
 /// An error response.
 #[derive(Debug)]

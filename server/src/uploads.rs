@@ -9,6 +9,7 @@
 
 use axum::body::Body;
 use axum::http::StatusCode;
+use osmab_api::uploads::min_part_bytes;
 use sha2::{Digest, Sha256};
 use tokio::io::AsyncWriteExt;
 
@@ -27,16 +28,6 @@ pub const TUS_EXTENSIONS: &str = "creation,checksum,termination,expiration";
 pub const TUS_CHECKSUMS: &str = "sha256";
 /// Longest `Upload-Metadata` kept.
 const MAX_METADATA: usize = 4096;
-/// The fewest bytes a PATCH that does not finish its upload may carry, and the most parts an
-/// upload is split into (each part is a blob and a line of the upload's record).
-const MIN_PART_BYTES: u64 = 64 << 10;
-const MAX_PARTS: u64 = 1024;
-
-/// The fewest bytes a PATCH of an upload of `length` bytes must carry unless it is the last:
-/// 64 KiB, or more for uploads over 64 MiB, so no upload has more than [`MAX_PARTS`] parts.
-pub fn min_part_bytes(length: u64) -> u64 {
-    MIN_PART_BYTES.max(length.div_ceil(MAX_PARTS))
-}
 
 /// This server receiving a PATCH of one upload; dropped when it ends. A second PATCH of the
 /// same upload meanwhile is refused, so concurrent PATCHes at one offset cannot each fill a

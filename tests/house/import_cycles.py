@@ -19,7 +19,17 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-CRATES = {"cpu": "cpu/src", "dataset": "dataset/src", "evaluator": "evaluator/src", "mapper": "mapper/src", "server": "server/src", "xtask": "xtask/src"}
+
+
+
+def workspace_members() -> list[str]:
+    """The workspace's crate folders, as the root Cargo.toml lists them: a new crate is checked without a line here."""
+    text = (ROOT / "Cargo.toml").read_text()
+    members = re.search(r"^members\s*=\s*\[([^\]]*)\]", text, re.M)
+    return re.findall(r'"([^"]+)"', members.group(1)) if members else []
+
+
+CRATES = {member: f"{member}/src" for member in workspace_members()}
 
 
 def modules_of(src: Path) -> dict[str, Path]:

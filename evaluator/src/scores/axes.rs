@@ -168,6 +168,11 @@ axis!(
 );
 
 impl QuestionSet {
+    /// Every (set, group) pair, in the order tables put their columns: each set's groups in turn.
+    pub fn with_groups() -> impl Iterator<Item = (QuestionSet, QuestionGroup)> {
+        QuestionSet::ALL.iter().flat_map(|&set| QuestionGroup::ALL.iter().map(move |&group| (set, group)))
+    }
+
     /// The set a category belongs to.
     pub fn of_category(category: &str) -> QuestionSet {
         if category.starts_with("PromptGT-") { QuestionSet::PromptGrounded } else { QuestionSet::Standard }

@@ -154,7 +154,7 @@ impl AdminApi {
                 self.url, self.found
             )
         })?;
-        let response = crate::cli::client::checked(response)?;
+        let response = osmab_client::checked(response)?;
         response.json().context("the service's answer does not read")
     }
 
@@ -164,7 +164,7 @@ impl AdminApi {
             .bearer_auth(&self.token)
             .send()
             .with_context(|| format!("{}: the service does not answer (it came from {}; give --url)", self.url, self.found))?;
-        crate::cli::client::checked(response)?;
+        osmab_client::checked(response)?;
         Ok(serde_json::Value::Null)
     }
 
@@ -192,7 +192,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
             let created: CreatedTeam = api.send(api.client.post(format!("{}/api/v1/admin/teams", api.url)).json(&body))?;
             println!("{}", created.token);
             eprintln!(
-                "Team '{}' ({}) created. Its token is above, shown this once: the team runs `osmab client login --url {} --token …` with it.",
+                "Team '{}' ({}) created. Its token is above, shown this once: the team runs `osmab-client login --url {} --token …` with it.",
                 created.name, created.id, api.url
             );
         }
@@ -208,7 +208,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
                     vec![t.id.clone(), t.name.clone(), quota, t.created_at.clone().unwrap_or_default()]
                 })
                 .collect();
-            println!("{}", crate::cli::client::table_text(&header, &rows));
+            println!("{}", osmab_client::table_text(&header, &rows));
         }
         TeamCommand::Tokens { team, target } => {
             let api = AdminApi::open(&target)?;
@@ -222,7 +222,7 @@ pub fn run(args: AdminArgs) -> anyhow::Result<()> {
                     vec![t.id.clone(), t.hint.clone(), t.created_at.clone(), t.expires_at.clone().unwrap_or_default(), t.revoked_at.clone().unwrap_or_default()]
                 })
                 .collect();
-            println!("Tokens of team {}\n{}", team.name, crate::cli::client::table_text(&header, &rows));
+            println!("Tokens of team {}\n{}", team.name, osmab_client::table_text(&header, &rows));
         }
         TeamCommand::Requests { all, target } => list_requests(all, &target)?,
         TeamCommand::Approve { request, target } => {
@@ -261,7 +261,7 @@ fn list_requests(all: bool, target: &Target) -> anyhow::Result<()> {
             vec![r.id.clone(), r.team_name.clone(), r.contact.clone(), r.affiliation.clone(), method, r.state.to_string(), r.created_at.clone()]
         })
         .collect();
-    println!("{}", crate::cli::client::table_text(&header, &rows));
+    println!("{}", osmab_client::table_text(&header, &rows));
     if list.requests.is_empty() {
         eprintln!("No request{}.", if all { "" } else { " waits" });
     }

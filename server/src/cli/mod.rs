@@ -7,7 +7,6 @@ mod bench_dataset;
 mod bench_questions;
 mod bench_submission;
 mod bench_vqa;
-mod client;
 mod eval;
 mod eval_vqa;
 mod gt;
@@ -42,7 +41,7 @@ enum Command {
     /// Put a backup back into an empty data directory (and an empty database).
     Restore(service::RestoreArgs),
     /// The participant's tools: login, download, validate, submit, status, results, leaderboard.
-    Client(client::ClientArgs),
+    Client(osmab_client::ClientArgs),
     /// Score maps and confusion matrices.
     #[command(subcommand)]
     Eval(eval::EvalCommand),
@@ -72,7 +71,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Admin(args) => admin::run(args),
         Command::Backup(args) => service::backup(args),
         Command::Restore(args) => service::restore(args),
-        Command::Client(cmd) => client::run(cmd),
+        Command::Client(cmd) => osmab_client::run(cmd),
         Command::Eval(cmd) => eval::run(cmd),
         Command::Gt(cmd) => gt::run(cmd),
         Command::Scene(cmd) => scene::run(cmd),

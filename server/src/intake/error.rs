@@ -77,7 +77,7 @@ pub fn quota_exceeded(quota: Quota) -> Problem {
         ProblemCode::QuotaExceeded,
         "Submission quota used",
         format!(
-            "Your team has used {} of its {} submissions to the {} split in the last {hours} hours; {when}. Dry runs (?dry_run=true) are free, and `osmab client validate` scores the val split offline.",
+            "Your team has used {} of its {} submissions to the {} split in the last {hours} hours; {when}. Dry runs (?dry_run=true) are free, and `osmab-client validate` scores the val split offline.",
             view.used, view.limit, view.split
         ),
     )

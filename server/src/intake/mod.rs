@@ -18,7 +18,7 @@ use osmab_evaluator::submission::ValidSubmission;
 
 pub use check::check;
 pub use error::{Error, quota_exceeded};
-pub use quota::{Policy, Quota, QuotaView};
+pub use quota::{Policy, Quota};
 pub use upload::{Upload, declared_sha256, hex, idempotency_key, receive, too_large};
 
 use crate::blobs::Scratch;

@@ -5,8 +5,8 @@
 //! with a limit of its own uses it for every split. Baselines, dry runs and refunded
 //! submissions never count.
 
+pub use osmab_api::account::QuotaView;
 use osmab_evaluator::scores::Split;
-use serde::Serialize;
 
 use crate::clock::{now_ms, rfc3339};
 use crate::state::AppState;
@@ -51,23 +51,6 @@ pub struct Quota {
     pub counted: Vec<i64>,
     /// The moment this quota was read (ms since the epoch).
     pub at: i64,
-}
-
-/// The quota as the API shows it (fields in the order of their keys).
-#[derive(Debug, Clone, Serialize, serde::Deserialize, schemars::JsonSchema)]
-pub struct QuotaView {
-    pub limit: i64,
-    /// When the next submission is possible again, while none is left.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub next_at: Option<String>,
-    pub remaining: i64,
-    /// When the oldest counted submission leaves the window (one more remains then);
-    /// absent while none is counted.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub resets_at: Option<String>,
-    pub split: Split,
-    pub used: i64,
-    pub window_hours: f64,
 }
 
 impl Quota {

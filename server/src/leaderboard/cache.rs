@@ -36,7 +36,7 @@ pub struct Rendered {
 impl Rendered {
     fn new(board: Leaderboard, published: Vec<(String, bool)>) -> Self {
         let json = Bytes::from(serde_json::to_string(&board).expect("a leaderboard serialises"));
-        let csv = Bytes::from(board.to_csv());
+        let csv = Bytes::from(super::csv::to_csv(&board));
         let tag = |text: &[u8]| format!("\"{}\"", sha2::Sha256::digest(text).iter().take(12).map(|b| format!("{b:02x}")).collect::<String>());
         let (etag_json, etag_csv) = (tag(&json), tag(&csv));
         Self { board, json, csv, etag_json, etag_csv, published, pages: Mutex::default() }
@@ -140,7 +140,7 @@ impl LeaderboardCache {
         }
         let rows = store.leaderboard_rows(&record.version).await?;
         let published = store.published_versions().await?;
-        let board = Leaderboard::new(&record.version, manifest_lightings(&record.manifest), split, splits, rows);
+        let board = super::rank(&record.version, manifest_lightings(&record.manifest), split, splits, rows);
         let rendered = Arc::new(Rendered::new(board, published));
         self.remember(&resolved, &rendered, generation);
         self.remember(key, &rendered, generation);

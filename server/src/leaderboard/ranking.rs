@@ -11,45 +11,6 @@
 //! Scores from before the replicates existed compare by value alone.
 
 use osmab_evaluator::bootstrap::significantly_above;
-use osmab_evaluator::scores::{Aggregate, Lighting, Metric, Scores};
-use serde::{Deserialize, Serialize};
-
-/// How an entry holds up across lightings: pooled mIoU over every scene.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Robustness {
-    /// The largest relative drop of mIoU against the baseline lighting, `(baseline − value)
-    /// / baseline` (0.25 is a quarter lost; negative when every lighting is above baseline).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub largest_drop: Option<f64>,
-    /// The lighting of that drop.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub largest_drop_lighting: Option<Lighting>,
-    /// The lighting with the lowest mIoU.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub worst_lighting: Option<Lighting>,
-    /// mIoU under that lighting.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub worst_miou: Option<f64>,
-}
-
-impl Robustness {
-    /// The robustness of `scores` over `lightings`.
-    pub fn of(scores: &Scores, lightings: &[Lighting]) -> Self {
-        let miou = |l: Lighting| scores.semseg(l, None, Aggregate::Overall, Metric::Miou);
-        let worst = lightings.iter().filter_map(|&l| Some((l, miou(l)?))).min_by(|a, b| a.1.total_cmp(&b.1)); // the first of equals
-        let drop = lightings
-            .iter()
-            .filter(|&&l| l != Lighting::BASELINE)
-            .filter_map(|&l| Some((l, 0.0 - scores.relative_change(l, Aggregate::Overall, Metric::Miou)?)))
-            .min_by(|a, b| b.1.total_cmp(&a.1)); // the first of equal drops, and no -0
-        Robustness {
-            largest_drop: drop.map(|d| d.1),
-            largest_drop_lighting: drop.map(|d| d.0),
-            worst_lighting: worst.map(|w| w.0),
-            worst_miou: worst.map(|w| w.1),
-        }
-    }
-}
 
 /// The fewest scenes a board's rank groups and intervals mean something with: a bootstrap
 /// over fewer scenes has a handful of distinct resamples, and "significantly above" then
@@ -110,33 +71,5 @@ mod tests {
     fn scores_without_replicates_compare_by_value_and_missing_metrics_come_last() {
         let plain = |v: Option<f64>| Standing { value: v, replicates: Vec::new() };
         assert_eq!(rank_groups(&[plain(Some(0.5)), plain(Some(0.5)), plain(Some(0.4)), plain(None), plain(None)]), vec![1, 1, 3, 4, 4]);
-    }
-
-    #[test]
-    fn robustness_names_the_worst_lighting_and_the_largest_drop() {
-        let scores: Scores = serde_json::from_value(serde_json::json!({
-            "complete": true, "evaluator_version": "x", "release": "r",
-            "semseg": {
-                "baseline": {"overall": {"fmiou": 0.5, "macc": 0.5, "miou": 0.40}, "overall_mean": {"fmiou": 0.5, "macc": 0.5, "miou": 0.4}},
-                "camera": {"overall": {"fmiou": 0.5, "macc": 0.5, "miou": 0.30}, "overall_mean": {"fmiou": 0.5, "macc": 0.5, "miou": 0.3}},
-                "no_lights": {"overall": {"fmiou": 0.5, "macc": 0.5, "miou": 0.35}, "overall_mean": {"fmiou": 0.5, "macc": 0.5, "miou": 0.35}}
-            },
-            "relative_change": {
-                "camera": {"overall": {"fmiou": 0.0, "macc": 0.0, "miou": -0.25}, "overall_mean": {"fmiou": 0.0, "macc": 0.0, "miou": -0.25}},
-                "no_lights": {"overall": {"fmiou": 0.0, "macc": 0.0, "miou": -0.125}, "overall_mean": {"fmiou": 0.0, "macc": 0.0, "miou": -0.125}}
-            }
-        }))
-        .unwrap();
-        let r = Robustness::of(&scores, &[Lighting::Baseline, Lighting::Camera, Lighting::NoLights]);
-        assert_eq!(
-            r,
-            Robustness {
-                largest_drop: Some(0.25),
-                largest_drop_lighting: Some(Lighting::Camera),
-                worst_lighting: Some(Lighting::Camera),
-                worst_miou: Some(0.30)
-            }
-        );
-        assert_eq!(Robustness::of(&scores, &[]), Robustness::default());
     }
 }

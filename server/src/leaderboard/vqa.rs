@@ -22,19 +22,14 @@ pub fn accuracy(entry: &Entry, lighting: Lighting, subset: Option<Regime>, set: 
     entry.scores.vqa.as_ref()?.accuracy(lighting, subset, set, group)
 }
 
-/// Every (set, group) pair in column order.
-pub fn pairs() -> impl Iterator<Item = (QuestionSet, QuestionGroup)> {
-    QuestionSet::ALL.iter().flat_map(|&set| QuestionGroup::ALL.iter().map(move |&group| (set, group)))
-}
-
 /// The CSV columns of every lighting: `{lighting}_vqa_{set}_{group}`.
 pub fn csv_columns(lightings: &[Lighting]) -> Vec<String> {
-    lightings.iter().flat_map(|l| pairs().map(move |(set, g)| format!("{l}_vqa_{set}_{}", g.name().to_lowercase()))).collect()
+    lightings.iter().flat_map(|l| QuestionSet::with_groups().map(move |(set, g)| format!("{l}_vqa_{set}_{}", g.name().to_lowercase()))).collect()
 }
 
 /// The CSV cells of `entry` in the order of [`csv_columns`].
 pub fn csv_cells(entry: &Entry, lightings: &[Lighting]) -> Vec<Option<f64>> {
-    lightings.iter().flat_map(|&l| pairs().map(move |(set, g)| accuracy(entry, l, None, set, g))).collect()
+    lightings.iter().flat_map(|&l| QuestionSet::with_groups().map(move |(set, g)| accuracy(entry, l, None, set, g))).collect()
 }
 
 /// A row of Table II: the prompt-grounded accuracy of one method, subset and group per lighting.

@@ -233,7 +233,7 @@ pub async fn flag(
     ApiJson(body): ApiJson<FlagBody>,
 ) -> ApiResult<axum::Json<super::submission_view::SubmissionView>> {
     set_flag(&state, &id, Some(&body.reason)).await?;
-    Ok(axum::Json(super::submission_view::SubmissionView::load(&state, &state.store.submission(&id).await?, &crate::auth::Caller::Admin).await?))
+    Ok(axum::Json(super::submission_view::load(&state, &state.store.submission(&id).await?, &crate::auth::Caller::Admin).await?))
 }
 
 /// `DELETE /api/v1/admin/submissions/{id}/flag`: clear an entry's flag.

@@ -2,44 +2,19 @@
 
 use axum::extract::State;
 use osmab_evaluator::scores::Split;
-use serde::{Deserialize, Serialize};
+
+pub use osmab_api::account::{Me, Quotas, TeamRef};
 
 use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::TeamCaller;
-use crate::intake::{self, Quota, QuotaView};
+use crate::intake::{self, Quota};
 use crate::problem::ApiResult;
 use crate::state::AppState;
-
-/// The calling team.
-#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct TeamRef {
-    pub id: String,
-    pub name: String,
-}
-
-/// `GET /api/v1/me`.
-#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Me {
-    /// The quota of the split uploads go to by default (the current release's test split
-    /// when it has one).
-    pub quota: QuotaView,
-    pub team: TeamRef,
-}
 
 /// `GET /api/v1/me`: the calling team and its quota.
 pub async fn me(State(state): State<AppState>, TeamCaller(team): TeamCaller) -> ApiResult<axum::Json<Me>> {
     let quota = Quota::of(&state, &team, intake::default_split(&state).await?).await?;
     Ok(axum::Json(Me { quota: quota.view(), team: TeamRef { id: team.id, name: team.name } }))
-}
-
-/// `GET /api/v1/quota`.
-#[derive(Debug, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Quotas {
-    /// The split an upload that names none goes to.
-    pub default_split: Split,
-    /// The team's quota of every split, test first.
-    pub splits: Vec<QuotaView>,
-    pub team: TeamRef,
 }
 
 /// `GET /api/v1/quota`: before uploading, what the calling team may still submit to each

@@ -14,7 +14,7 @@ use super::extract::ApiPath;
 use super::operation::{ApiRoutes, Auth, Operation, Verb};
 use crate::auth::Caller;
 use crate::problem::{ApiResult, Problem};
-use crate::receipts::{Facts, Receipt, results_document};
+use crate::receipts::{self, Facts, Receipt, results_document};
 use crate::state::AppState;
 
 /// `GET /api/v1/submissions/{id}/receipt`.
@@ -55,7 +55,7 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
     // An entry that stays anonymous gets an anonymous receipt (a new one once revealed).
     let team_name = if submission.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
     let commitment = submission.anonymous.then(|| crate::receipts::team_commitment(&team.name, &state.receipts.claim_code(&submission.id)));
-    let receipt = Receipt::of(&Facts {
+    let receipt = receipts::issue(&Facts {
         // `serve` sets it (to where it listens when not configured).
         issuer: state.settings.public_url.as_deref().unwrap_or("osmab"),
         submission_id: &submission.id,
@@ -68,7 +68,7 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
         flagged: submission.flag.as_deref(),
         team_commitment: commitment.as_deref(),
     });
-    let jws = receipt.sign(&state.receipts);
+    let jws = receipts::sign(&receipt, &state.receipts);
     let wants_jose = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()).is_some_and(|a| a.contains("application/jose"));
     if wants_jose {
         return Ok(([(header::CONTENT_TYPE, "application/jose")], jws).into_response());

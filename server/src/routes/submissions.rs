@@ -11,7 +11,7 @@ use serde::Deserialize;
 
 use super::extract::{ApiJson, ApiPath, ApiQuery};
 use super::operation::{ApiRoutes, Auth, Input, Operation, Verb};
-use super::submission_view::{CoveredEntry, Created, DryRun, SubmissionItem, SubmissionList, SubmissionView, UploadAnswer};
+use super::submission_view::{self, CoveredEntry, Created, DryRun, SubmissionItem, SubmissionList, SubmissionView, UploadAnswer};
 use crate::auth::{Caller, TeamCaller};
 use crate::clock::now_ms;
 use crate::intake::{self, Accepted, Quota, declared_sha256, hex, idempotency_key, quota_exceeded, receive, too_large};
@@ -270,7 +270,7 @@ pub async fn visible_submission(state: &AppState, caller: &Caller, id: &str) -> 
 /// `GET /api/v1/submissions/{id}`.
 pub async fn show(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<SubmissionView>> {
     let s = visible_submission(&state, &caller, &id).await?;
-    Ok(axum::Json(SubmissionView::load(&state, &s, &caller).await?))
+    Ok(axum::Json(submission_view::load(&state, &s, &caller).await?))
 }
 
 /// `GET /api/v1/submissions`: the calling team's submissions.
@@ -346,7 +346,7 @@ pub async fn update(
     }
     state.store.update_method_card(&id, &s, now_ms()).await?;
     state.leaderboard.invalidate();
-    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))
+    Ok(axum::Json(submission_view::load(&state, &state.store.submission(&id).await?, &caller).await?))
 }
 
 /// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
@@ -362,7 +362,7 @@ pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): 
             let _ = state.store.cancel_job(&job.id, now_ms()).await;
         }
     }
-    Ok(axum::Json(SubmissionView::load(&state, &state.store.submission(&id).await?, &caller).await?))
+    Ok(axum::Json(submission_view::load(&state, &state.store.submission(&id).await?, &caller).await?))
 }
 
 /// Uploading, listing, editing and cancelling submissions.

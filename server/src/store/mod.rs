@@ -13,7 +13,6 @@ mod quotas;
 mod releases;
 mod scores;
 mod sqlite;
-mod states;
 mod submissions;
 mod teams;
 #[cfg(test)]
@@ -25,9 +24,9 @@ pub use access_requests::AccessRequestRecord;
 pub use error::{StoreError, StoreResult};
 pub use jobs::{ClaimedJob, NewJob};
 pub use models::*;
+pub use osmab_api::states::{AccessRequestState, JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
 pub use queue::Standing;
 pub use quotas::QuotaPolicyRecord;
-pub use states::{AccessRequestState, JobKind, JobState, ReleaseFileKind, ReleaseState, SubmissionState, TokenScope};
 pub use uploads::{OpenUploadLimits, OpenUploads, UploadPart, UploadRecord};
 
 use sqlx::{PgPool, SqlitePool};

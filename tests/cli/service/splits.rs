@@ -294,7 +294,10 @@ fn a_test_split_keeps_its_ground_truth_on_the_server(backend: Backend) {
     let scenes = TEST_SCENES.len();
     assert!(about.contains(&format!("{scenes} of them in the hidden test split")) && about.contains("e2e-split-1"), "{about}");
     assert!(
-        about.contains(&format!("osmab client login --url {}", server.url)) && about.contains("id=\"cite\"") && about.contains("id=\"licence\""),
+        about.contains(&format!("osmab-client login --url {}", server.url))
+            && about.contains("pip install osmab-client")
+            && about.contains("id=\"cite\"")
+            && about.contains("id=\"licence\""),
         "{about}"
     );
     for path in ["/", "/?split=val", "/releases/e2e-split-1", "/api/docs", "/about", "/admin/login"] {

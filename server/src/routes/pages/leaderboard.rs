@@ -277,7 +277,7 @@ fn board_page(board: &Leaderboard, published: &[(String, bool)], view: View, lig
         (change_chart(board, view, &others, Size::Wide, Lighting::label), change_chart(board, view, &others, Size::Narrow, Lighting::short_label));
     let split_note = match board.split {
         Split::Test => "Test split: scenes whose semantics and answers are hidden; scored by the server only, a few submissions per team and window.",
-        Split::Val => "Validation split: open scenes whose ground truth is public; osmab client validate scores them offline.",
+        Split::Val => "Validation split: open scenes whose ground truth is public; osmab-client validate scores them offline.",
     };
     LeaderboardPage {
         release: board.release.clone(),

@@ -14,7 +14,7 @@ use super::vqa::{VqaLighting, submission_vqa, vqa_sources};
 use crate::auth::Caller;
 use crate::problem::ApiResult;
 use crate::routes::extract::ApiPath;
-use crate::routes::submission_view::SubmissionView;
+use crate::routes::submission_view::{self, SubmissionView};
 use crate::state::AppState;
 
 pub struct EventRow {
@@ -145,7 +145,7 @@ fn metrics_chart(scores: &Scores, order: &[Lighting]) -> String {
 /// `GET /submissions/{id}`.
 pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<Response> {
     let record = crate::routes::submissions::visible_submission(&state, &caller, &id).await?;
-    let view = SubmissionView::load(&state, &record, &caller).await?;
+    let view = submission_view::load(&state, &record, &caller).await?;
     // Lightings in the release's order.
     let release = state.store.release(&view.release).await?;
     let order = crate::leaderboard::cache::manifest_lightings(&release.manifest);

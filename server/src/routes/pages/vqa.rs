@@ -8,7 +8,7 @@ use osmab_evaluator::scores::{Accuracy, Lighting, QuestionGroup, QuestionSet, Re
 use super::chart::{Axis, BarChart, Series, Size};
 use super::format::{interval, percent};
 use crate::leaderboard::Entry;
-use crate::leaderboard::vqa::{accuracy, pairs};
+use crate::leaderboard::vqa::accuracy;
 
 pub struct VqaRow {
     pub submission_id: String,
@@ -80,7 +80,7 @@ pub fn vqa_view(board_query: &str, lightings: &[Lighting], entries: &[&Entry], s
         return None;
     }
     let groups: Vec<Columns> = if pooled { vec![Columns::AllLightings] } else { lightings.iter().map(|&l| Columns::Lighting(l)).collect() };
-    let columns: Vec<(QuestionSet, QuestionGroup)> = pairs().collect();
+    let columns: Vec<(QuestionSet, QuestionGroup)> = QuestionSet::with_groups().collect();
     let rows: Vec<VqaRow> = with_vqa
         .iter()
         .map(|e| VqaRow {

@@ -15,7 +15,6 @@ use osmab_evaluator::scores::{Aggregate, Metric, Split};
 use super::super::format::percent;
 use super::{AdminMessage, AdminSession};
 use crate::auth::Caller;
-use crate::leaderboard::Leaderboard;
 use crate::problem::ApiResult;
 use crate::routes::extract::ApiPath;
 use crate::state::AppState;
@@ -92,7 +91,7 @@ async fn boards_of(state: &AppState, record: &ReleaseRecord) -> Result<Vec<Draft
     Ok(splits
         .iter()
         .map(|&split| {
-            let board = Leaderboard::new(&record.version, lightings.clone(), split, splits.clone(), rows.clone());
+            let board = crate::leaderboard::rank(&record.version, lightings.clone(), split, splits.clone(), rows.clone());
             DraftBoard {
                 split,
                 lightings: lightings.iter().map(|l| l.label()).collect(),

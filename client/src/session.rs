@@ -116,7 +116,7 @@ impl Session {
     pub fn token(&self) -> anyhow::Result<&str> {
         match &self.token {
             Some(t) => Ok(t),
-            None => bail!("no token: run `osmab client login --url {} --token osmab_…` with the token the organisers gave your team", self.url),
+            None => bail!("no token: run `{} login --url {} --token osmab_…` with the token the organisers gave your team", crate::command(), self.url),
         }
     }
 

@@ -116,7 +116,7 @@ pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool, split: Op
     let kind = content_type(&packed.path)?;
     // One key for every attempt: the server answers a repeat with the submission the
     // first attempt made, so a retry never costs a second submission or quota unit.
-    let idempotency_key = format!("osmab-client-{}-{}", &packed.sha256_hex()[..16], crate::clock::random_alphanumeric(16));
+    let idempotency_key = format!("osmab-client-{}-{}", &packed.sha256_hex()[..16], random_hex());
     let mut last = None;
     for attempt in 0..4 {
         if attempt > 0 {
@@ -160,4 +160,12 @@ pub fn upload(api: &Api, packed: &Packed, dry_run: bool, public: bool, split: Op
 fn is_quota(response: &reqwest::blocking::Response) -> bool {
     // A daily quota is not worth retrying within minutes; a rate limit is.
     response.headers().get("retry-after").and_then(|v| v.to_str().ok()).and_then(|v| v.parse::<u64>().ok()).is_some_and(|s| s > 60)
+}
+
+/// 32 random hex digits from the operating system's generator: what keeps two uploads of
+/// the same archive apart as idempotency keys.
+fn random_hex() -> String {
+    let mut bytes = [0u8; 16];
+    getrandom::fill(&mut bytes).expect("the operating system's random generator works");
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }

@@ -1,6 +1,7 @@
 //! The closed sets the store records: a submission's, a job's and a release's state;
-//! a job's kind, a token's scope and a release file's kind. Each is a TEXT column (with a CHECK constraint) in both databases,
-//! snake_case in JSON, and its name in problem details and logs.
+//! a job's kind, a token's scope and a release file's kind. Each is a TEXT column (with a
+//! CHECK constraint) in both databases (with the `sqlx` feature, which the service's store
+//! turns on), snake_case in JSON, and its name in problem details and logs.
 
 use serde::{Deserialize, Serialize};
 
@@ -8,9 +9,9 @@ use serde::{Deserialize, Serialize};
 macro_rules! state {
     ($(#[$doc:meta])* $ty:ident { $($(#[$vdoc:meta])* $variant:ident = $name:literal,)+ }) => {
         $(#[$doc])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, sqlx::Type, schemars::JsonSchema)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
+        #[cfg_attr(feature = "sqlx", derive(sqlx::Type), sqlx(type_name = "text", rename_all = "snake_case"))]
         #[serde(rename_all = "snake_case")]
-        #[sqlx(type_name = "text", rename_all = "snake_case")]
         pub enum $ty {
             $($(#[$vdoc])* $variant,)+
         }
@@ -97,7 +98,7 @@ state!(
         ScoreSubmission = "score_submission",
         /// Build a release: fan out its sequences, then assemble and register it.
         BuildRelease = "build_release",
-        /// Render one sequence of a release being built.
+        /// Render the sequences of one scene of a release being built (its lightings not yet rendered).
         RenderSequence = "render_sequence",
     }
 );

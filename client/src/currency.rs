@@ -22,8 +22,9 @@ pub fn newer_release_note(api: &Api, release: &str, what: &str) -> Option<String
     (current != release).then(|| {
         format!(
             "Note: {what} release {release}, but {current} is the current release (its board is the main one; {release}'s stays at {}). \
-             `osmab client download --out DIR` fetches {current}.",
-            api.url(&format!("/?release={release}"))
+             `{} download --out DIR` fetches {current}.",
+            api.url(&format!("/?release={release}")),
+            crate::command()
         )
     })
 }

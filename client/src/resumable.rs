@@ -20,7 +20,7 @@ use sha2::{Digest, Sha256};
 
 use super::api::{Api, checked, describe};
 use super::submit::Packed;
-use crate::routes::submission_view::Created;
+use osmab_api::submissions::Created;
 
 const TUS: &str = "1.0.0";
 /// Bytes per PATCH unless `OSMAB_UPLOAD_CHUNK_BYTES` says otherwise.
@@ -130,7 +130,7 @@ fn create_upload(api: &Api, token: &str, packed: &Packed, state: &Path) -> anyho
 /// Send the bytes of `packed` from `offset` on, chunk by chunk, with a progress bar.
 fn send_rest(api: &Api, token: &str, packed: &Packed, path: &str, mut offset: u64, state: &Path) -> anyhow::Result<()> {
     // The server refuses chunks below its minimum for the upload's length (but the last).
-    let chunk = chunk_bytes()?.max(crate::uploads::min_part_bytes(packed.size));
+    let chunk = chunk_bytes()?.max(osmab_api::uploads::min_part_bytes(packed.size));
     let bar = ProgressBar::new(packed.size);
     bar.set_style(ProgressStyle::with_template("upload {bar:40} {bytes}/{total_bytes} {binary_bytes_per_sec} eta {eta}").expect("template"));
     bar.set_position(offset);

@@ -9,10 +9,10 @@ use osmab_evaluator::scores::{Accuracy, Aggregate, Lighting, Metric, QuestionSet
 use osmab_evaluator::semseg::report::MetricTriple;
 
 use super::api::Api;
-use crate::leaderboard::Leaderboard;
-use crate::routes::me::Quotas;
-use crate::routes::submission_view::SubmissionView;
-use crate::store::SubmissionState;
+use osmab_api::account::Quotas;
+use osmab_api::leaderboard::Leaderboard;
+use osmab_api::states::SubmissionState;
+use osmab_api::submissions::SubmissionView;
 
 /// "pooled mIoU 81.2, f-mIoU 95.1, mAcc 85.0": a lighting's pooled metrics in one line,
 /// labelled by the axes ([`Metric::label`]).
@@ -88,7 +88,7 @@ pub fn status(api: &Api, id: &str, watch: bool) -> anyhow::Result<SubmissionStat
 pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
     let view: SubmissionView = api.get_team_as(&format!("/api/v1/submissions/{id}"))?;
     let Some(scores) = view.scores else {
-        bail!("{id} has no score yet (state: {}); follow it with `osmab client status {id} --watch`", view.state);
+        bail!("{id} has no score yet (state: {}); follow it with `{} status {id} --watch`", view.state, crate::command());
     };
     println!("{} — release {}, evaluator {}", view.method.name, scores.release, scores.evaluator_version);
     let header: Vec<String> = std::iter::once("scene".to_string()).chain(Metric::COLUMNS.iter().map(|m| m.label().to_string())).collect();
@@ -107,7 +107,7 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
     }
     if let Some(vqa) = &scores.vqa {
         let header: Vec<String> = std::iter::once("lighting".to_string())
-            .chain(crate::leaderboard::vqa::pairs().map(|(set, group)| format!("{} {}", set.label(), group.label())))
+            .chain(QuestionSet::with_groups().map(|(set, group)| format!("{} {}", set.label(), group.label())))
             .chain(std::iter::once("all".to_string()))
             .collect();
         let rows: Vec<Vec<String>> = vqa
@@ -117,7 +117,7 @@ pub fn results(api: &Api, id: &str) -> anyhow::Result<()> {
             .chain(std::iter::once(("all lightings".to_string(), &vqa.all_lightings)))
             .map(|(l, v)| {
                 std::iter::once(l)
-                    .chain(crate::leaderboard::vqa::pairs().map(|(set, group)| pct(v.group_accuracy(set, group))))
+                    .chain(QuestionSet::with_groups().map(|(set, group)| pct(v.group_accuracy(set, group))))
                     .chain(std::iter::once(pct(v.overall.accuracy)))
                     .collect()
             })

@@ -10,7 +10,7 @@ use reqwest::blocking::{Client, RequestBuilder, Response};
 use serde_json::Value;
 
 use super::session::Session;
-use crate::problem_code::ProblemCode;
+use osmab_api::ProblemCode;
 
 /// A connection to one server.
 pub struct Api {
@@ -19,15 +19,16 @@ pub struct Api {
 }
 
 /// What to do about an error code, beyond the server's own words.
-fn advice(code: ProblemCode) -> Option<&'static str> {
+fn advice(code: ProblemCode) -> Option<String> {
     use ProblemCode::*;
+    let client = crate::command();
     Some(match code {
-        TokenExpired | TokenRevoked | TokenInvalid | Unauthenticated => "ask the organisers for a new team token, then run `osmab client login --token …`",
-        QuotaExceeded => "wait until the time in Retry-After, or validate offline meanwhile with `osmab client validate` (free)",
-        InvalidSubmission => "fix the files listed and run `osmab client validate` before submitting again",
-        DigestMismatch | UploadIncomplete => "the upload was damaged in transit; submit again",
-        PayloadTooLarge => "store features as float32 and leave out background points, or ask the organisers",
-        RateLimited => "wait a moment and try again",
+        TokenExpired | TokenRevoked | TokenInvalid | Unauthenticated => format!("ask the organisers for a new team token, then run `{client} login --token …`"),
+        QuotaExceeded => format!("wait until the time in Retry-After, or validate offline meanwhile with `{client} validate` (free)"),
+        InvalidSubmission => format!("fix the files listed and run `{client} validate` before submitting again"),
+        DigestMismatch | UploadIncomplete => "the upload was damaged in transit; submit again".into(),
+        PayloadTooLarge => "store features as float32 and leave out background points, or ask the organisers".into(),
+        RateLimited => "wait a moment and try again".into(),
         _ => return None,
     })
 }

@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 
-use crate::receipts::jws::Jwks;
-use crate::receipts::{Receipt, sha256_hex};
+use osmab_api::jws::Jwks;
+use osmab_api::receipts::{Receipt, sha256_hex};
 
 /// Where the service's public keys come from, and which issuer a receipt must therefore name.
 pub struct KeySource {
@@ -49,9 +49,7 @@ impl KeySource {
     /// `keys` as a URL (`http://` or `https://`: the issuer is its origin, and --issuer, if
     /// given, must agree) or a file path (the issuer is --issuer's, if given).
     pub fn parse(keys: &str, issuer: Option<&str>) -> anyhow::Result<Self> {
-        let issuer = issuer
-            .map(|i| crate::config::public_origin(i).map_err(|e| anyhow::anyhow!("--issuer: {}", e.to_string().trim_start_matches("OSMAB_PUBLIC_URL: "))))
-            .transpose()?;
+        let issuer = issuer.map(|i| osmab_api::receipts::origin(i).map_err(|why| anyhow::anyhow!("--issuer: {why}"))).transpose()?;
         if !(keys.starts_with("http://") || keys.starts_with("https://")) {
             return Ok(Self { place: KeyPlace::File(PathBuf::from(keys)), issuer });
         }
@@ -172,9 +170,10 @@ pub fn fetch_receipt(api: &super::api::Api, id: &str, out: &Path, verify_them: b
     }
     let saved = format!("Saved {}, {} and {}.\n", receipt.display(), results.display(), keys.display());
     if !verify_them {
+        let client = crate::command();
         return Ok(saved
             + &format!(
-                "Check them with: osmab client receipt {id} --verify (or osmab client verify {} --keys {} --results {})\n",
+                "Check them with: {client} receipt {id} --verify (or {client} verify {} --keys {} --results {})\n",
                 receipt.display(),
                 api.url("/api/v1/keys"),
                 results.display()
@@ -275,7 +274,7 @@ pub fn describe(receipt: &Receipt, keys: &KeySource, results_checked: bool) -> S
 pub fn claim(receipt: &Receipt, team: &str, code: Option<&str>) -> anyhow::Result<String> {
     match &receipt.team_commitment {
         Some(_) if code.is_none() => bail!("the receipt is of an anonymous entry: give --claim-code, the code its team is shown"),
-        Some(commitment) if *commitment == crate::receipts::team_commitment(team, code.unwrap_or_default().trim()) => {
+        Some(commitment) if *commitment == osmab_api::receipts::team_commitment(team, code.unwrap_or_default().trim()) => {
             Ok(format!("Claimed: this anonymous entry is team {team}'s (the claim code matches the receipt's signed team commitment)."))
         }
         Some(_) => bail!("the team name and claim code do not match this receipt's team commitment: it is not shown to be {team}'s"),

@@ -1,13 +1,19 @@
-//! `osmab client`: what a team runs on its own machine — log in once, download the
-//! release (parallel, resumable, verified), validate offline with the server's own code,
+//! The participant client: what a team runs on its own machine — log in once, download the
+//! release (parallel, resumable, verified), validate offline with the evaluator's own code,
 //! submit with a declared checksum, follow the evaluation, read results and the
 //! leaderboard. Server errors are shown as the problem's title, detail and what to do.
+//!
+//! It is `osmab client …` in the service's binary and `osmab-client …` on its own (this
+//! crate's binary, which `pip install osmab-client` installs): the same commands, built
+//! without the service's database, storage and web stack. It reads the service's answers
+//! into the service's own wire types ([`osmab_api`]).
 
 mod api;
 mod currency;
 mod download;
 mod fetch_file;
 mod offline;
+mod quiet_pipe;
 mod resumable;
 mod session;
 mod submit;
@@ -15,19 +21,35 @@ mod verify;
 mod view;
 
 pub use api::checked;
+pub use quiet_pipe::stop_quietly_when_stdout_closes;
 pub use view::table_text;
 
 use osmab_evaluator::scores::Split;
 use std::path::PathBuf;
+use std::sync::OnceLock;
 
 use anyhow::{Context, bail};
 use clap::Subcommand;
 
-use crate::routes::me::Me;
-use crate::routes::submission_view::{Created, DryRun};
-use crate::store::SubmissionState;
 use api::Api;
+use osmab_api::account::Me;
+use osmab_api::states::SubmissionState;
+use osmab_api::submissions::{Created, DryRun};
 use session::Session;
+
+/// How the client was started, as its messages suggest the next command: `osmab client`
+/// unless the program said otherwise ([`invoked_as`]).
+static INVOKED_AS: OnceLock<&'static str> = OnceLock::new();
+
+/// Name the command that runs the client (`osmab-client`), for the commands its messages suggest.
+pub fn invoked_as(command: &'static str) {
+    INVOKED_AS.get_or_init(|| command);
+}
+
+/// The command that runs the client.
+fn command() -> &'static str {
+    INVOKED_AS.get().copied().unwrap_or("osmab client")
+}
 
 #[derive(Debug, clap::Args)]
 pub struct ClientArgs {
@@ -43,7 +65,7 @@ pub struct ClientArgs {
 pub enum ClientCommand {
     /// Store the server URL and your team token (owner-only file in your configuration folder).
     Login {
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
         /// The team token (`osmab_…`); read from OSMAB_TOKEN when not given.
@@ -67,7 +89,7 @@ pub enum ClientCommand {
         /// Parallel connections.
         #[arg(long, default_value_t = 4)]
         jobs: usize,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -81,7 +103,7 @@ pub enum ClientCommand {
         /// has one. Every split whose ground truth the folder holds (val's is public) is scored.
         #[arg(long)]
         split: Option<Split>,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
         /// Also write each scored split's whole score document (every scene, lighting, question
@@ -105,7 +127,7 @@ pub enum ClientCommand {
         /// `val` (open scenes, their own board); the release's test split when it has one.
         #[arg(long)]
         split: Option<Split>,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -114,14 +136,14 @@ pub enum ClientCommand {
         id: String,
         #[arg(long)]
         watch: bool,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
     /// Print a scored submission's tables.
     Results {
         id: String,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -150,7 +172,7 @@ pub enum ClientCommand {
         claim_code: Option<String>,
     },
     /// Fetch a scored submission's signed receipt, the results document it certifies and the
-    /// service's keys into --out; with --verify, check all three as `osmab client verify` does
+    /// service's keys into --out; with --verify, check all three as `verify` does
     /// (the issuer must be this server's origin).
     Receipt {
         id: String,
@@ -160,13 +182,13 @@ pub enum ClientCommand {
         /// Check the signature, the issuer and the results' SHA-256, and print what it certifies.
         #[arg(long)]
         verify: bool,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
     /// Print the team's quota of every split: what it may still submit, and when more.
     Quota {
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -179,7 +201,7 @@ pub enum ClientCommand {
         split: Option<Split>,
         #[arg(long)]
         lighting: Option<String>,
-        /// The server (default: `OSMAB_URL`, else the one `osmab client login` stored).
+        /// The server (default: `OSMAB_URL`, else the one `login` stored).
         #[arg(long)]
         url: Option<String>,
     },
@@ -301,7 +323,7 @@ fn report_submitted(created: Created, watch: bool) -> String {
     if created.repeat {
         eprintln!("The server already had this archive as {id} ({}); no quota was used.", created.state);
     } else {
-        let next = if watch { "following it until it is scored:".to_string() } else { format!("follow it with `osmab client status {id} --watch`.") };
+        let next = if watch { "following it until it is scored:".to_string() } else { format!("follow it with `{} status {id} --watch`.", command()) };
         eprintln!(
             "Submitted to the {} split as {id} ({}); {} of {} left in the window; {next}",
             created.split, created.state, created.quota.remaining, created.quota.limit

@@ -1,0 +1,1 @@
+../../../tools/osmab_export.py

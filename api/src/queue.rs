@@ -34,9 +34,12 @@ impl QueueView {
         };
         match (&self.estimated_done_at, self.median_scoring_seconds) {
             (Some(done), Some(seconds)) => format!(
-                "{place}; expected to finish around {} UTC (the median of the last {} scorings here: {seconds:.0} s)",
+                "{place}; expected to finish around {} UTC ({})",
                 done.get(..16).unwrap_or(done).replace('T', " "),
-                self.based_on
+                match self.based_on {
+                    1 => format!("the one scoring measured here took {seconds:.0} s"),
+                    n => format!("the median of the last {n} scorings here: {seconds:.0} s"),
+                }
             ),
             _ => format!("{place}; no estimate yet (no scoring measured on this server)"),
         }

@@ -45,16 +45,17 @@ pub fn problem_message(status: StatusCode, body: &str, retry_after: Option<&str>
     let code = problem["code"].as_str().unwrap_or("");
     let mut message = format!("{title}: {detail}");
     if let Some(errors) = problem["errors"].as_array() {
-        for e in errors.iter().take(20) {
-            message.push_str(&format!(
-                "\n  - {}: {}: {}",
-                e["file"].as_str().unwrap_or("?"),
-                e["field"].as_str().unwrap_or("?"),
-                e["message"].as_str().unwrap_or("")
-            ));
+        // The detail quotes the first problem (or the only one): each is said once.
+        let unsaid: Vec<String> = errors
+            .iter()
+            .map(|e| format!("{}: {}: {}", e["file"].as_str().unwrap_or("?"), e["field"].as_str().unwrap_or("?"), e["message"].as_str().unwrap_or("")))
+            .filter(|line| !detail.contains(line.as_str()))
+            .collect();
+        for line in unsaid.iter().take(20) {
+            message.push_str(&format!("\n  - {line}"));
         }
-        if errors.len() > 20 {
-            message.push_str(&format!("\n  … and {} more", errors.len() - 20));
+        if unsaid.len() > 20 {
+            message.push_str(&format!("\n  … and {} more", unsaid.len() - 20));
         }
     }
     if let Some(at) = retry_after {
@@ -175,6 +176,18 @@ mod tests {
         assert!(text.ends_with("[token_expired, HTTP 401]"), "{text}");
         let listed = r#"{"title":"Invalid submission","detail":"2 problems","code":"invalid_submission","errors":[{"file":"maps/baseline/scene_000.npz","field":"points","message":"NaN at row 3"}]}"#;
         assert!(problem_message(StatusCode::UNPROCESSABLE_ENTITY, listed, None).contains("\n  - maps/baseline/scene_000.npz: points: NaN at row 3"));
+    }
+
+    #[test]
+    fn a_refusal_says_each_problem_once() {
+        // As the service words it: the detail quotes the first problem, `errors` lists them all.
+        let one = r#"{"title":"Invalid submission","detail":"The submission was not accepted: maps/baseline/scene_000.npz: points: NaN at row 3. Fix it and upload again.","code":"invalid_submission","errors":[{"file":"maps/baseline/scene_000.npz","field":"points","message":"NaN at row 3"}]}"#;
+        let text = problem_message(StatusCode::UNPROCESSABLE_ENTITY, one, None);
+        assert_eq!(text.matches("NaN at row 3").count(), 1, "{text}");
+        let two = r#"{"title":"Invalid submission","detail":"The submission was not accepted: 2 problems, the first: a.npz: points: NaN. Fix them.","code":"invalid_submission","errors":[{"file":"a.npz","field":"points","message":"NaN"},{"file":"b.npz","field":"object_ids","message":"negative"}]}"#;
+        let text = problem_message(StatusCode::UNPROCESSABLE_ENTITY, two, None);
+        assert_eq!(text.matches("a.npz: points: NaN").count(), 1, "{text}");
+        assert!(text.contains("\n  - b.npz: object_ids: negative"), "{text}");
         let html = problem_message(StatusCode::BAD_GATEWAY, "<html>\n<body>bad gateway</body></html>", None);
         assert_eq!(html, "the server answered 502 Bad Gateway (<html><body>bad gateway</body></html>)");
     }

@@ -88,10 +88,11 @@ mod tests {
         assert_eq!(
             view.sentence(),
             format!(
-                "Position 2 in the queue (1 job ahead); expected to finish around {} UTC (the median of the last 1 scorings here: 20 s)",
+                "Position 2 in the queue (1 job ahead); expected to finish around {} UTC (the one scoring measured here took 20 s)",
                 done[..16].replace('T', " ")
             )
         );
         assert_eq!(queued(Standing::default(), &[], NOW).sentence(), "Next in the queue; no estimate yet (no scoring measured on this server)");
+        assert!(queued(Standing::default(), &[20_000, 40_000], NOW).sentence().ends_with("(the median of the last 2 scorings here: 30 s)"));
     }
 }

@@ -4,18 +4,21 @@
 Installs the osmab-client wheel into a fresh virtualenv (its one dependency, NumPy, from
 PyPI), then plays a team that has nothing but that virtualenv and a token:
 
-    osmab-client login → download (baseline lighting) → osmab-export init, text-features and
-    conceptgraphs (a ConceptGraphs-shaped pickle) → osmab-client validate (offline, scored on
-    the val scenes) → submit --watch (until scored) → status, results, receipt --verify,
-    quota, leaderboard
+    osmab-client login → quota → download (baseline lighting) → osmab-export init,
+    text-features and conceptgraphs (a ConceptGraphs-shaped pickle, every scene) → osmab-client
+    validate (offline, scored on the val scenes) → for each split of the release, the hidden
+    test split first: submit --watch (until scored) → status, results, receipt --verify,
+    leaderboard
 
 The service is the repository's `osmab serve` (OSMAB_BIN) on a free port with a fresh data
 folder, the release the cargo tests built (OSMAB_TEST_RELEASE) imported by the operator, and
-the team made by the operator with `osmab admin team create`. Every installed command runs
+the team made by the operator with `osmab admin team create`. With a release that has a test
+split (the cargo tests' e2e-split-release), the team ends with a verified receipt of a score on
+the hidden test scenes. Every installed command runs
 from the virtualenv's bin folder with a PATH that holds nothing of the repository.
 
     python3 tests/wheel/journey.py --wheel target/wheels/osmab_client-*.whl \\
-        --osmab target/debug/osmab --release target/tmp/e2e-release/release
+        --osmab target/debug/osmab --release target/tmp/e2e-split-release/release
 
 Exit status 0 when every step did what a team expects, 1 with the failing step otherwise.
 """
@@ -33,6 +36,10 @@ import venv
 from pathlib import Path
 
 ADMIN_TOKEN = "osmab_wheeljourneyadmin000000000000000"
+
+
+# Print what the client said at each split (--show), to read it as a team would.
+SHOW = False
 
 
 class StepFailed(Exception):
@@ -158,23 +165,29 @@ def team_journey(bin_dir, env, home, url, token, version):
     run([export, "init", "--out", str(sub), "--release", version, "--method", "Wheel journey"], env, home)
     run([str(bin_dir / "python"), "-c", METHOD_OUTPUTS, str(home), str(len(classes))], env, home)
     run([export, "text-features", "--classes", str(release / "classes.json"), "--embeddings", str(home / "emb.npy"), "--out", str(sub)], env, home)
-    scene = manifest["scenes"][0]["id"]
-    run([export, "conceptgraphs", "--map", str(home / "cg.pkl.gz"), "--lighting", "baseline", "--scene", scene, "--out", str(sub)], env, home)
-    if not (sub / "maps" / "baseline" / f"{scene}.npz").is_file():
-        raise StepFailed("osmab-export wrote no map")
+    # The method mapped every scene under the baseline lighting (test scenes included: a
+    # team maps them from their frames, and only the service scores them).
+    for scene in (s["id"] for s in manifest["scenes"]):
+        run([export, "conceptgraphs", "--map", str(home / "cg.pkl.gz"), "--lighting", "baseline", "--scene", scene, "--out", str(sub)], env, home)
+        if not (sub / "maps" / "baseline" / f"{scene}.npz").is_file():
+            raise StepFailed(f"osmab-export wrote no map for {scene}")
 
-    step("validate offline, submit and follow it until it is scored")
-    expect_in(run([client, "validate", str(sub), "--release-dir", str(release)], env, home), "Valid for the val split", "offline validation")
-    submitted = run([client, "submit", str(sub), "--watch"], env, home)
-    expect_in(submitted, "scored", "submit --watch")
-    sid = next(word.strip(".,:;") for word in submitted.split() if word.startswith("sub_"))
-    expect_in(run([client, "status", sid], env, home), "scored", "status")
-    expect_in(run([client, "results", sid], env, home), "baseline", "results")
-    receipt = run([client, "receipt", sid, "--verify"], env, home)
-    expect_in(receipt, f"Valid receipt issued by {url} for submission {sid}", "receipt --verify")
-    expect_in(receipt, "(matches the results file)", "receipt --verify checks the results")
-    expect_in(run([client, "leaderboard", "--split", "val"], env, home), "Wheel journey", "the leaderboard lists the method")
-    step(f"done: {sid} scored and on the val board")
+    step("validate offline (scores the val scenes), then submit to each split and follow it until scored")
+    expect_in(run([client, "validate", str(sub), "--release-dir", str(release)], env, home), "Valid for the", "offline validation")
+    splits = sorted({s["split"] for s in manifest["scenes"]}, key=lambda split: split != "test")  # the main board first
+    for split in splits:
+        submitted = run([client, "submit", str(sub), "--split", split, "--watch"], env, home)
+        expect_in(submitted, "scored", f"submit --split {split} --watch")
+        sid = next(word.strip(".,:;`") for word in submitted.split() if word.startswith("sub_"))
+        expect_in(run([client, "status", sid], env, home), "scored", "status")
+        expect_in(run([client, "results", sid], env, home), "baseline", "results")
+        receipt = run([client, "receipt", sid, "--verify"], env, home)
+        if SHOW:
+            print(submitted, receipt, run([client, "leaderboard", "--split", split], env, home), sep="\n")
+        expect_in(receipt, f"Valid receipt issued by {url} for submission {sid}", f"receipt --verify of the {split} submission")
+        expect_in(receipt, "(matches the results file)", "receipt --verify checks the results")
+        expect_in(run([client, "leaderboard", "--split", split], env, home), "Wheel journey", f"the {split} board lists the method")
+        step(f"{split}: {sid} scored, its receipt verified, on the {split} board")
 
 
 def main():
@@ -183,7 +196,10 @@ def main():
     ap.add_argument("--osmab", required=True, type=Path, help="the service's binary (osmab serve, osmab admin)")
     ap.add_argument("--release", required=True, type=Path, help="a built release folder the operator imports")
     ap.add_argument("--keep", action="store_true", help="keep the scratch folder (its path is printed)")
+    ap.add_argument("--show", action="store_true", help="print what submit, receipt and leaderboard said")
     args = ap.parse_args()
+    global SHOW
+    SHOW = args.show
     args.wheel, args.osmab, args.release = (path.resolve() for path in (args.wheel, args.osmab, args.release))
     root = Path(tempfile.mkdtemp(prefix="osmab-wheel-journey-"))
     try:

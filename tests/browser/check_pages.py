@@ -1285,6 +1285,37 @@ def main() -> int:
                 page.close()
 
         run("a build's page while it runs (stage, elapsed, remaining)", build_while_running)
+
+        def earlier_release_stays_reachable():
+            # The operator publishes the draft just built: it becomes the current release,
+            # and the first release's board stays one click away on the switcher.
+            first = board["release"]
+            token = os.environ.get("OSMAB_ADMIN_TOKEN") or (data_dir / "admin-token").read_text().strip()
+            req = urllib.request.Request(f"{base}/api/v1/admin/releases/browser-1/publish", method="POST", headers={"Authorization": f"Bearer {token}"})
+            with urllib.request.urlopen(req, timeout=60) as r:
+                expect(r.status == 200, f"publishing browser-1 answered {r.status}")
+            page, dom, _ = load("/", "35-leaderboard-after-a-new-release")
+            try:
+                choices = [(a.clean(), a.attrs.get("href", ""), "active" in a.classes()) for a in dom.find_all("a") if "release-choice" in a.classes()]
+                labels = " ".join(label for label, _, _ in choices)
+                expect(len(choices) >= 2 and first in labels and "browser-1" in labels, f"the release switcher lists {choices}")
+                active = [label for label, _, on in choices if on]
+                expect(len(active) == 1 and "browser-1" in active[0], f"the current release is not the one marked: {choices}")
+                expect(page.boxes(".release-choice"), "the release switcher is not rendered")
+            finally:
+                page.close()
+            older = next(href for label, href, _ in choices if first in label)
+            page, dom, _ = load(older, "36-leaderboard-earlier-release")
+            try:
+                notice = dom.find(id="older-release")
+                expect(notice is not None and "browser-1" in notice.clean(), f"the earlier board does not name the current release: {notice and notice.clean()}")
+                rows = dom.find(id="leaderboard").find("tbody").kids("tr")
+                expect(len(rows) == len(board["entries"]), f"the earlier board shows {len(rows)} entries, {len(board['entries'])} were scored on it")
+            finally:
+                page.close()
+            return f"switcher: {labels}; {older} keeps its {len(rows)} entries and names browser-1 as current"
+
+        run("an earlier release's board stays reachable (release switcher)", earlier_release_stays_reachable)
     except Fatal as e:
         results.append(("setup", False, time.monotonic() - started, str(e)))
         log(f"FATAL {e}")

@@ -184,6 +184,24 @@ impl FromRequestParts<AppState> for TeamCaller {
     }
 }
 
+/// A request made with a token, a team's (acting on its own records) or an admin's (on any
+/// team's): refused without one before anything else is looked at.
+#[derive(Debug, Clone)]
+pub struct SignedInCaller(pub Caller);
+
+impl FromRequestParts<AppState> for SignedInCaller {
+    type Rejection = Problem;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, Self::Rejection> {
+        match caller_of(parts, state).await? {
+            Caller::Anonymous => {
+                Err(unauthenticated(ProblemCode::Unauthenticated, "This needs a team token (or an admin token): send 'Authorization: Bearer osmab_…'."))
+            }
+            caller => Ok(SignedInCaller(caller)),
+        }
+    }
+}
+
 /// A request made with an admin token.
 #[derive(Debug, Clone)]
 pub struct AdminCaller;

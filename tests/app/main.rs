@@ -49,13 +49,19 @@ impl App {
         App { router: osmab::app(state), _dir: dir, _database: database }
     }
 
+    /// A request for `method uri` with `token`.
+    fn request(method: Method, uri: &str, token: Option<&str>) -> axum::http::request::Builder {
+        let request = Request::builder().method(method).uri(uri).header(header::HOST, "localhost");
+        match token {
+            Some(token) => request.header(header::AUTHORIZATION, format!("Bearer {token}")),
+            None => request,
+        }
+    }
+
     /// `method uri` with `token` and a JSON `body`: the status, the content type and the
     /// body (JSON when it is, else a string).
     async fn call(&self, method: Method, uri: &str, token: Option<&str>, body: Option<Value>) -> (StatusCode, String, Value) {
-        let mut request = Request::builder().method(method).uri(uri).header(header::HOST, "localhost");
-        if let Some(token) = token {
-            request = request.header(header::AUTHORIZATION, format!("Bearer {token}"));
-        }
+        let request = Self::request(method, uri, token);
         let request = match body {
             Some(body) => request.header(header::CONTENT_TYPE, "application/json").body(Body::from(body.to_string())),
             None => request.body(Body::empty()),
@@ -66,6 +72,12 @@ impl App {
         let bytes = axum::body::to_bytes(response.into_body(), 64 << 20).await.unwrap();
         let body = serde_json::from_slice(&bytes).unwrap_or_else(|_| Value::String(String::from_utf8_lossy(&bytes).into_owned()));
         (status, media, body)
+    }
+
+    /// The status of `method uri` with `token` and the extra `headers`, no body.
+    async fn status_of(&self, method: Method, uri: &str, token: Option<&str>, headers: &[(&str, &str)]) -> StatusCode {
+        let request = headers.iter().fold(Self::request(method, uri, token), |request, (name, value)| request.header(*name, *value));
+        self.router.clone().oneshot(request.body(Body::empty()).unwrap()).await.unwrap().status()
     }
 
     async fn get(&self, uri: &str, token: Option<&str>) -> (StatusCode, String, Value) {
@@ -126,6 +138,44 @@ async fn a_new_team_sees_itself_and_its_quota(backend: Backend) {
     assert!(teams.to_string().contains("Team Oneshot"), "{teams}");
 }
 
+/// Who may call an operation is what the document says (`x-osmab-caller`), because the
+/// handler's extractor says so: no token is refused (401) exactly where a token is needed, a
+/// team's token is refused (403) on admin-only operations, and an admin's on team-only ones.
+/// Path parameters name nothing that exists, so a caller let in gets 404, 400 or 422, never
+/// 401 or 403.
+async fn who_may_call_each_operation_is_what_it_declares(backend: Backend) {
+    let app = App::new(backend).await;
+    let (_, _, created) = app.call(Method::POST, "/api/v1/admin/teams", Some(ADMIN), Some(json!({"name": "Team Caller"}))).await;
+    let team = created["token"].as_str().unwrap().to_string();
+    let (_, _, document) = app.get("/api/v1/openapi.json", None).await;
+    let refused = |status: StatusCode| status == StatusCode::UNAUTHORIZED || status == StatusCode::FORBIDDEN;
+    let mut wrong = Vec::new();
+    for (path, methods) in document["paths"].as_object().unwrap() {
+        let concrete = path.replace("{version}", "v").replace("{id}", "x").replace("{path}", "a/b.txt").replace("{split}", "val");
+        for (method, operation) in methods.as_object().unwrap() {
+            let caller = operation["x-osmab-caller"].as_str().unwrap_or("(none)");
+            // (no token, a team's token, the admin's token): refused or let in.
+            let expected = match caller {
+                "public" | "optional" => [false, false, false],
+                "team" => [true, false, true],
+                "admin" => [true, true, false],
+                "team_or_admin" => [true, false, false],
+                other => panic!("{method} {path}: x-osmab-caller {other:?}"),
+            };
+            let mut seen = [false; 3];
+            for (i, token) in [None, Some(team.as_str()), Some(ADMIN)].into_iter().enumerate() {
+                // Tus-Resumable, which the upload routes check before anything else (tus 1.0.0).
+                let status = app.status_of(method.to_uppercase().parse().unwrap(), &concrete, token, &[("tus-resumable", "1.0.0")]).await;
+                seen[i] = refused(status);
+            }
+            if seen != expected {
+                wrong.push(format!("{} {path} declares {caller}: refused (none, team, admin) = {seen:?}", method.to_uppercase()));
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "operations whose handler lets in others than they declare:\n{}", wrong.join("\n"));
+}
+
 macro_rules! on_both_backends {
     ($($name:ident),+ $(,)?) => {
         mod sqlite {
@@ -143,4 +193,4 @@ macro_rules! on_both_backends {
     };
 }
 
-on_both_backends!(every_documented_operation_is_served, a_new_team_sees_itself_and_its_quota);
+on_both_backends!(every_documented_operation_is_served, a_new_team_sees_itself_and_its_quota, who_may_call_each_operation_is_what_it_declares);

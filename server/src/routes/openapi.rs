@@ -125,10 +125,11 @@ fn operation_object(o: &Operation, schemas: &mut Schemas) -> Value {
         operation["parameters"] = Value::Array(parameters);
     }
     match o.auth {
-        Auth::Team | Auth::Admin => operation["security"] = json!([{"bearer": []}]),
+        Auth::Team | Auth::Admin | Auth::TeamOrAdmin => operation["security"] = json!([{"bearer": []}]),
         Auth::Optional => operation["security"] = json!([{}, {"bearer": []}]),
         Auth::Public => {}
     }
+    operation["x-osmab-caller"] = json!(o.auth.name());
     if let Some(body) = request_body(o, schemas) {
         operation["requestBody"] = body;
     }

@@ -17,6 +17,8 @@ pub enum Auth {
     Public,
     Team,
     Admin,
+    /// A team's token (for its own) or an admin's (for any team's).
+    TeamOrAdmin,
     /// Public, with more visible to the owning team or an admin.
     Optional,
 }
@@ -28,6 +30,19 @@ impl Auth {
             Auth::Public => "none",
             Auth::Team => "team token",
             Auth::Admin => "admin token",
+            Auth::TeamOrAdmin => "team or admin token",
+            Auth::Optional => "optional",
+        }
+    }
+
+    /// Its name in the OpenAPI document (`x-osmab-caller`), which a test holds every
+    /// handler to: the extractor enforces who may call, this only says it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Auth::Public => "public",
+            Auth::Team => "team",
+            Auth::Admin => "admin",
+            Auth::TeamOrAdmin => "team_or_admin",
             Auth::Optional => "optional",
         }
     }

@@ -12,7 +12,7 @@ use serde::Deserialize;
 use super::extract::{ApiJson, ApiPath, ApiQuery};
 use super::operation::{ApiRoutes, Auth, Input, Operation, Verb};
 use super::submission_view::{self, CoveredEntry, Created, DryRun, SubmissionItem, SubmissionList, SubmissionView, UploadAnswer};
-use crate::auth::{Caller, TeamCaller};
+use crate::auth::{Caller, SignedInCaller, TeamCaller};
 use crate::clock::now_ms;
 use crate::intake::{self, Accepted, Quota, declared_sha256, hex, idempotency_key, quota_exceeded, receive, too_large};
 use crate::problem::{ApiResult, Problem, ProblemCode};
@@ -296,7 +296,7 @@ pub struct MethodCardUpdate {
 /// `PATCH /api/v1/submissions/{id}`: edit the method card or visibility (own team or admin).
 pub async fn update(
     State(state): State<AppState>,
-    caller: Caller,
+    SignedInCaller(caller): SignedInCaller,
     ApiPath(id): ApiPath<String>,
     change: Result<ApiJson<MethodCardUpdate>, Problem>,
 ) -> ApiResult<axum::Json<SubmissionView>> {
@@ -350,7 +350,11 @@ pub async fn update(
 }
 
 /// `POST /api/v1/submissions/{id}/cancel`: stop a submission that is not scored yet.
-pub async fn cancel(State(state): State<AppState>, caller: Caller, ApiPath(id): ApiPath<String>) -> ApiResult<axum::Json<SubmissionView>> {
+pub async fn cancel(
+    State(state): State<AppState>,
+    SignedInCaller(caller): SignedInCaller,
+    ApiPath(id): ApiPath<String>,
+) -> ApiResult<axum::Json<SubmissionView>> {
     let s = visible_submission(&state, &caller, &id).await?;
     caller.may_change(&s.team_id, "cancel a submission")?;
     let reason = if matches!(caller, Caller::Admin) { "cancelled by an admin" } else { "cancelled by the team" };
@@ -388,13 +392,13 @@ pub fn routes() -> ApiRoutes {
             show,
         )
         .operation(
-            Operation::new(Verb::Patch, "/api/v1/submissions/{id}", Auth::Team, "Edit the method card (name, description, paper_url, code_url) or `public`.", 200)
+            Operation::new(Verb::Patch, "/api/v1/submissions/{id}", Auth::TeamOrAdmin, "Edit the method card (name, description, paper_url, code_url) or `public`.", 200)
                 .takes::<MethodCardUpdate>()
                 .returns::<SubmissionView>(),
             update,
         )
         .operation(
-            Operation::new(Verb::Post, "/api/v1/submissions/{id}/cancel", Auth::Team, "Cancel a queued submission.", 200).returns::<SubmissionView>(),
+            Operation::new(Verb::Post, "/api/v1/submissions/{id}/cancel", Auth::TeamOrAdmin, "Cancel a queued submission.", 200).returns::<SubmissionView>(),
             cancel,
         )
 }

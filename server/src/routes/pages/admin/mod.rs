@@ -21,6 +21,28 @@ pub use console::{console, job};
 pub use quality::{file as release_file, quality};
 pub use session::{AdminSession, LOGIN_PATH, login, login_form, logout};
 
+/// The console's pages and forms, each signed in through [`AdminSession`] (the sign-in
+/// page and form excepted).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::{get, post};
+    axum::Router::new()
+        .route("/admin", get(console))
+        .route(LOGIN_PATH, get(login_form).post(login))
+        .route("/admin/logout", post(logout))
+        .route("/admin/regenerate", post(regenerate))
+        .route("/admin/jobs/{id}", get(job))
+        .route("/admin/releases/{version}/quality", get(quality))
+        .route("/admin/releases/{version}/files/{*path}", get(release_file))
+        .route("/admin/releases/{version}/publish", post(publish))
+        .route("/admin/submissions/{id}/flag", post(flag))
+        .route("/admin/submissions/{id}/unflag", post(unflag))
+        .route("/admin/submissions/{id}/refund", post(refund))
+        .route("/admin/quotas", post(set_quota))
+        .route("/admin/teams", post(create_team))
+        .route("/admin/access-requests/{id}/approve", post(approve_access))
+        .route("/admin/access-requests/{id}/decline", post(decline_access))
+}
+
 /// The sign-in page.
 #[derive(Template, WebTemplate)]
 #[template(path = "admin_login.html")]

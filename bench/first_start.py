@@ -6,7 +6,8 @@ Usage: python3 bench/first_start.py target/release/osmab /tmp/empty-data-dir
 """
 import json, subprocess, sys, time, urllib.request, os
 t0 = time.monotonic()
-env = dict(os.environ, OSMAB_DATA_DIR=sys.argv[2], OSMAB_BIND="127.0.0.1:18181")
+# The demo config's `assets` pack is the repository's.
+env = dict(os.environ, OSMAB_DATA_DIR=sys.argv[2], OSMAB_BIND="127.0.0.1:18181", OSMAB_ASSETS_ROOT=os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 p = subprocess.Popen([sys.argv[1], "serve"], env=env, stdout=subprocess.DEVNULL, stderr=open(sys.argv[2] + ".log", "w"))
 seen = {}
 try:

@@ -50,14 +50,33 @@ const SCRATCH: &str = ".incoming";
 /// shared folders of release builds in progress.
 const TRANSIENT: [&str; 2] = ["uploads/", "builds/"];
 
+/// Which database a backup holds (`sqlite` or `postgres` in its manifest).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DatabaseKind {
+    /// `database/osmab.db`, a `VACUUM INTO` copy.
+    Sqlite,
+    /// `database/osmab.pgdump`, a `pg_dump` in its custom format.
+    Postgres,
+}
+
+impl std::fmt::Display for DatabaseKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DatabaseKind::Sqlite => "sqlite",
+            DatabaseKind::Postgres => "postgres",
+        })
+    }
+}
+
 /// What a backup holds.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct BackupManifest {
     pub format: String,
     pub created_at: String,
     pub osmab_version: String,
-    /// `sqlite` or `postgres`: which database file the backup holds.
-    pub database: String,
+    /// Which database file the backup holds.
+    pub database: DatabaseKind,
     /// The objects of the bucket the blobs were in (empty for local blobs, copied under
     /// `blobs/`): what a restore checks the bucket for. Transient prefixes (resumable-upload
     /// parts, release builds in progress) are left out.
@@ -195,12 +214,12 @@ pub async fn backup(settings: &Settings, out: &Path, key: &BackupKey) -> anyhow:
         let copied = store.snapshot_into(&target).await;
         store.close().await;
         copied.context("copying the database (VACUUM INTO)")?;
-        "sqlite"
+        DatabaseKind::Sqlite
     } else {
         let target = out.join(POSTGRES_FILE);
         create_private_dir(target.parent().expect("a folder"))?;
         run("pg_dump", &["--format=custom", "--no-owner", "--file", path_text(&target)?, url])?;
-        "postgres"
+        DatabaseKind::Postgres
     };
     let data = &settings.data_dir;
     let mut objects = Vec::new();
@@ -229,7 +248,7 @@ pub async fn backup(settings: &Settings, out: &Path, key: &BackupKey) -> anyhow:
         format: FORMAT.into(),
         created_at: crate::clock::rfc3339(crate::clock::now_ms()),
         osmab_version: env!("CARGO_PKG_VERSION").into(),
-        database: database.into(),
+        database,
         objects,
         files,
         seal: None,
@@ -271,7 +290,7 @@ pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow:
         let scratch = ScratchDir::new()?;
         check_bucket(&Blobs::object(&scratch.0, config.clone())?, &manifest.objects).await?;
     }
-    restore_database(settings, &staged.0, &manifest, from).await?;
+    restore_database(settings, &staged.0, &manifest).await?;
     for name in [BLOBS].into_iter().chain(SECRETS) {
         let source = staged.0.join(name);
         if source.exists() {
@@ -282,10 +301,10 @@ pub async fn restore(settings: &Settings, from: &Path, trust: &Trust) -> anyhow:
 }
 
 /// Put the checked database of the backup staged in `staged` into `settings`' (empty) one.
-async fn restore_database(settings: &Settings, staged: &Path, manifest: &BackupManifest, from: &Path) -> anyhow::Result<()> {
+async fn restore_database(settings: &Settings, staged: &Path, manifest: &BackupManifest) -> anyhow::Result<()> {
     let url = settings.database_url.expose();
-    match manifest.database.as_str() {
-        "sqlite" => {
+    match manifest.database {
+        DatabaseKind::Sqlite => {
             let Some(target) = url.strip_prefix("sqlite://").or_else(|| url.strip_prefix("sqlite:")) else {
                 bail!("the backup holds a SQLite database, but DATABASE_URL is not a sqlite: URL");
             };
@@ -293,7 +312,7 @@ async fn restore_database(settings: &Settings, staged: &Path, manifest: &BackupM
             ensure!(!target.exists(), "{}: a database exists there; restore into a fresh one", target.display());
             copy_file(&staged.join(SQLITE_FILE), &target)?;
         }
-        "postgres" => {
+        DatabaseKind::Postgres => {
             ensure!(!url.starts_with("sqlite:"), "the backup holds a PostgreSQL dump, but DATABASE_URL is a SQLite one");
             let store = Store::connect(url).await.context("connecting to the database to restore into")?;
             let tables = store.table_count().await;
@@ -302,7 +321,6 @@ async fn restore_database(settings: &Settings, staged: &Path, manifest: &BackupM
             ensure!(tables == 0, "the database of DATABASE_URL holds {tables} tables; restore into an empty database");
             run("pg_restore", &["--no-owner", "--exit-on-error", "--dbname", url, path_text(&staged.join(POSTGRES_FILE))?])?;
         }
-        other => bail!("{}: database '{other}' is neither sqlite nor postgres", from.join(MANIFEST).display()),
     }
     Ok(())
 }
@@ -507,7 +525,7 @@ mod tests {
             format: if key.is_some() { FORMAT } else { UNSEALED_FORMAT }.into(),
             created_at: "2026-11-27T00:00:00Z".into(),
             osmab_version: "0".into(),
-            database: "sqlite".into(),
+            database: DatabaseKind::Sqlite,
             objects: Vec::new(),
             files: describe_files(dir.path()).unwrap(),
             seal: None,
@@ -572,6 +590,17 @@ mod tests {
         let old = a_backup(None);
         assert!(check_backup(old.path(), old.path(), &with_key(OPERATOR)).unwrap_err().to_string().contains("taken before backups were sealed"));
         assert!(check_backup(old.path(), old.path(), &Trust { key: None, unsealed_store: true }).is_ok());
+    }
+
+    #[test]
+    fn a_manifest_naming_another_database_is_refused_naming_the_file_and_the_choices() {
+        let backup = a_backup(Some(&key(OPERATOR)));
+        let path = backup.path().join(MANIFEST);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("\"database\": \"sqlite\""), "written as before: {text}");
+        std::fs::write(&path, text.replace("\"database\": \"sqlite\"", "\"database\": \"mysql\"")).unwrap();
+        let refused = format!("{:#}", check_backup(backup.path(), backup.path(), &with_key(OPERATOR)).unwrap_err());
+        assert!(refused.contains(MANIFEST) && refused.contains("not a backup manifest") && refused.contains("expected `sqlite` or `postgres`"), "{refused}");
     }
 
     #[test]

@@ -54,6 +54,10 @@ pub struct Settings {
     pub public_url: Option<String>,
     /// Local storage and the embedded database (`OSMAB_DATA_DIR`).
     pub data_dir: PathBuf,
+    /// The folder a release config's relative asset pack path (`synthesis.assets`, the
+    /// demo's `assets`) is read under (`OSMAB_ASSETS_ROOT`; the working folder when unset;
+    /// `/app` in the Docker image, which holds the repository's pack in `/app/assets`).
+    pub assets_root: PathBuf,
     /// `DATABASE_URL`; SQLite in the data directory when unset.
     pub database_url: Secret,
     /// `OSMAB_ADMIN_TOKEN`; generated on first start when unset.
@@ -148,6 +152,7 @@ struct FileSettings {
     bind: Option<String>,
     public_url: Option<String>,
     data_dir: Option<PathBuf>,
+    assets_root: Option<PathBuf>,
     database_url: Option<String>,
     admin_token: Option<String>,
     workers: Option<usize>,
@@ -246,6 +251,7 @@ impl Settings {
             bind,
             public_url,
             data_dir,
+            assets_root: layer!("OSMAB_ASSETS_ROOT", from_file.assets_root.clone(), PathBuf::from(".")),
             database_url: Secret::new(database_url),
             admin_token,
             workers: layer!("OSMAB_WORKERS", from_file.workers, 1),
@@ -318,6 +324,7 @@ mod tests {
         let s = Settings::load_from(None, &env(&[])).unwrap();
         assert_eq!(s.bind.to_string(), "127.0.0.1:8080");
         assert_eq!(s.data_dir, PathBuf::from("./osmab-data"));
+        assert_eq!(s.assets_root, PathBuf::from("."), "a relative asset pack is read in the working folder");
         assert_eq!(s.database_url.expose(), "sqlite://./osmab-data/osmab.db");
         assert_eq!((s.workers, s.demo, s.daily_quota), (1, true, 5));
         assert_eq!(s.public_url, None, "`serve` names the address it listens on");

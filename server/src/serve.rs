@@ -138,9 +138,22 @@ pub async fn queue_demo(state: &AppState) -> anyhow::Result<()> {
         return Ok(());
     }
     crate::jobs::release_build::config_version(DEMO_CONFIG).map_err(anyhow::Error::msg)?;
+    say_demo_pack(&state.settings.assets_root);
     let job = crate::jobs::enqueue(state, &BuildRelease { config: DEMO_CONFIG.into(), publish: true, baselines: true }).await?;
     tracing::info!(job = %job, "empty database: the demo release is being built and the baselines scored");
     Ok(())
+}
+
+/// Say which asset pack the demo release will draw its furniture from, or that there is
+/// none where the settings point (the build would then fail, saying the same).
+fn say_demo_pack(assets_root: &std::path::Path) {
+    let Ok((config, _)) = osmab_dataset::release::config::ReleaseConfig::parse(DEMO_CONFIG, std::path::Path::new("release-demo.toml")) else { return };
+    let Some(pack) = config.synthesis.assets.as_deref() else { return };
+    let path = assets_root.join(pack);
+    match osmab_dataset::synthesis::source::AssetSource::for_config(Some(pack), assets_root) {
+        Ok(source) => tracing::info!(pack = %path.display(), digest = source.digest().unwrap_or_default(), "the demo release draws from this asset pack"),
+        Err(e) => tracing::error!(pack = %path.display(), "the demo release cannot be built: {e}"),
+    }
 }
 
 /// Resolves at SIGINT or SIGTERM.

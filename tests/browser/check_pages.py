@@ -466,7 +466,8 @@ class Server:
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}"
         env = dict(os.environ)
-        env.update({"OSMAB_DATA_DIR": str(data_dir), "OSMAB_BIND": f"127.0.0.1:{self.port}"})
+        # The demo config's `assets` pack is the repository's (the server runs elsewhere).
+        env.update({"OSMAB_DATA_DIR": str(data_dir), "OSMAB_BIND": f"127.0.0.1:{self.port}", "OSMAB_ASSETS_ROOT": str(ROOT)})
         env.setdefault("OSMAB_DEMO", "true")
         env.setdefault("RUST_LOG", "warn")
         env.pop("OSMAB_CONFIG", None)

@@ -52,8 +52,14 @@ pub const OVERVIEW: &str = "quality/contact_sheets/overview.png";
 /// scene's synthesis, conversion and trajectory, each scene settled on a prompt that
 /// passes the planned quality check); returns every sequence of the release and
 /// whether it is rendered already.
-pub fn prepare_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, progress: &dyn Fn(&str)) -> Result<Vec<(SequenceUnit, bool)>> {
-    let build = Build::open(config_path, out, secret)?;
+pub fn prepare_release(
+    config_path: &Path,
+    out: &Path,
+    secret: Option<&SplitSecret>,
+    assets_root: &Path,
+    progress: &dyn Fn(&str),
+) -> Result<Vec<(SequenceUnit, bool)>> {
+    let build = Build::open(config_path, out, secret, assets_root)?;
     let selection = build.prompts(progress)?;
     let mut units = Vec::new();
     for index in 0..selection.scenes.len() {
@@ -72,8 +78,15 @@ pub fn prepare_release(config_path: &Path, out: &Path, secret: Option<&SplitSecr
 /// download archive and, from the sequence the ground truth comes from, the scene's ground
 /// truth (stage 6), so that the work left to the build's assembly does not grow with the
 /// frames.
-pub fn render_release_scene(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, units: &[SequenceUnit], progress: &dyn Fn(&str)) -> Result<()> {
-    let build = Build::open(config_path, out, secret)?;
+pub fn render_release_scene(
+    config_path: &Path,
+    out: &Path,
+    secret: Option<&SplitSecret>,
+    assets_root: &Path,
+    units: &[SequenceUnit],
+    progress: &dyn Fn(&str),
+) -> Result<()> {
+    let build = Build::open(config_path, out, secret, assets_root)?;
     for unit in units {
         if !build.config.render.lightings.contains(&unit.lighting) {
             return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
@@ -94,9 +107,9 @@ pub fn render_release_scene(config_path: &Path, out: &Path, secret: Option<&Spli
 }
 
 /// Build the release of `config_path` into `out` (a config with a test split needs the
-/// operator's `secret`).
-pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, progress: &dyn Fn(&str)) -> Result<Value> {
-    let build = Build::open(config_path, out, secret)?;
+/// operator's `secret`; a relative asset pack path is read under `assets_root`).
+pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, assets_root: &Path, progress: &dyn Fn(&str)) -> Result<Value> {
+    let build = Build::open(config_path, out, secret, assets_root)?;
     let config = &build.config;
     let selection = build.prompts(progress)?;
 

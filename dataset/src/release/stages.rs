@@ -208,7 +208,7 @@ fn spare_count(wanted: usize) -> usize {
 impl Build {
     /// Open the build of `config_path` into `out`; a config with a test split needs the
     /// operator's `secret`.
-    pub fn open(config_path: &Path, out: &Path, secret: Option<&SplitSecret>) -> Result<Build> {
+    pub fn open(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, assets_root: &Path) -> Result<Build> {
         let (config, config_text) = ReleaseConfig::read(config_path)?;
         if !config.splits.is_empty() && secret.is_none() {
             return Err(InputError::new(
@@ -221,7 +221,7 @@ impl Build {
         }
         let work = out.join(WORK);
         std::fs::create_dir_all(&work).map_err(|e| InputError::io(&work, &e))?;
-        let assets = AssetSource::for_config(config.synthesis.assets.as_deref())
+        let assets = AssetSource::for_config(config.synthesis.assets.as_deref(), assets_root)
             .map_err(|e| InputError::new(config_path, "synthesis.assets", format!("the asset pack cannot be used: {e}")))?;
         // The pack's content, not its path, is what the scenes are made of.
         let inputs = match assets.digest() {

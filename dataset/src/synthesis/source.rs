@@ -8,6 +8,16 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// The setting that names the folder a release config's relative asset pack path is read
+/// under (the Docker image sets it to `/app`, where its `assets/` is).
+pub const ASSETS_ROOT_VARIABLE: &str = "OSMAB_ASSETS_ROOT";
+
+/// The folder a release config's relative asset pack path is read under: the setting
+/// [`ASSETS_ROOT_VARIABLE`] when set, else the working folder.
+pub fn assets_root() -> PathBuf {
+    std::env::var_os(ASSETS_ROOT_VARIABLE).filter(|v| !v.is_empty()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+}
+
 use osmab_evaluator::Result;
 use osmab_evaluator::synthetic::Rng;
 
@@ -55,20 +65,22 @@ impl AssetSource {
     }
 
     /// The pack a release config names (`synthesis.assets`), else only the procedural
-    /// library. A relative path is looked up in the working directory, then in the source
-    /// tree this program was built from (where `assets`, the pack the repository ships, is),
-    /// so the bundled pack is found from anywhere; the pack's digest, not its path, is what
-    /// a build records.
-    pub fn for_config(assets: Option<&str>) -> Result<Self> {
+    /// library. A relative path is read under `root` ([`assets_root`]: the setting
+    /// [`ASSETS_ROOT_VARIABLE`], else the working folder), never from where the program was
+    /// built; the pack's digest, not its path, is what a build records.
+    pub fn for_config(assets: Option<&str>, root: &Path) -> Result<Self> {
         let Some(assets) = assets else { return Ok(Self::procedural()) };
-        let given = Path::new(assets);
-        let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(given);
-        let root = if given.is_relative() && !given.join("catalogue.json").is_file() && bundled.join("catalogue.json").is_file() {
-            bundled
-        } else {
-            given.to_path_buf()
-        };
-        Self::open(&root)
+        let pack = root.join(assets);
+        Self::open(&pack).map_err(|mut e| {
+            if Path::new(assets).is_relative() {
+                let root = std::path::absolute(root).unwrap_or_else(|_| root.to_path_buf());
+                e.message.push_str(&format!(
+                    " (the config's relative '{assets}' is read under {}: set {ASSETS_ROOT_VARIABLE} to the folder that holds it)",
+                    root.display()
+                ));
+            }
+            e
+        })
     }
 
     /// The pack's digest, when there is a pack: a build input of every scene drawn from it.

@@ -9,6 +9,12 @@ use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
 use osmab_evaluator::ground_truth::GroundTruth;
 use osmab_evaluator::semseg::score_scene;
 
+/// Where the configs' relative asset pack paths are read: the repository, whose `assets/`
+/// the demo config names (the tests run in `dataset/`).
+fn assets_root() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
 const TINY: &str = r#"
 version = "test-1"
 created = "2026-11-22"
@@ -33,7 +39,7 @@ enforce = false
 fn build(dir: &Path, out: &str) -> serde_json::Value {
     let config = dir.join("release.toml");
     std::fs::write(&config, TINY).unwrap();
-    build_release(&config, &dir.join(out), None, &|_| {}).unwrap()
+    build_release(&config, &dir.join(out), None, &assets_root(), &|_| {}).unwrap()
 }
 
 /// [`build`] with `threads` threads: one builds one scene after another, several build
@@ -114,11 +120,11 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("split.toml");
     std::fs::write(&config, format!("{TINY}\n[splits]\ntest_manipuland = 1\n")).unwrap();
-    let refused = build_release(&config, &dir.path().join("none"), None, &|_| {}).unwrap_err();
+    let refused = build_release(&config, &dir.path().join("none"), None, &assets_root(), &|_| {}).unwrap_err();
     assert!(refused.message.contains("OSMAB_SPLIT_SECRET"), "{refused}");
     let secret = SplitSecret::new("the operator's own secret", "test").unwrap();
-    let first = build_release(&config, &dir.path().join("a"), Some(&secret), &|_| {}).unwrap();
-    let again = build_release(&config, &dir.path().join("b"), Some(&secret), &|_| {}).unwrap();
+    let first = build_release(&config, &dir.path().join("a"), Some(&secret), &assets_root(), &|_| {}).unwrap();
+    let again = build_release(&config, &dir.path().join("b"), Some(&secret), &assets_root(), &|_| {}).unwrap();
     assert_eq!(first["digest"], again["digest"], "the same config and secret give the same release");
     let splits: Vec<&str> = first["scenes"].as_array().unwrap().iter().map(|s| s["split"].as_str().unwrap()).collect();
     assert_eq!(splits, ["val", "test"]);
@@ -143,7 +149,7 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     assert_eq!(first["generator"]["split_secret_id"].as_str(), Some(secret.id().as_str()));
     // The archive a render job packs holds exactly the manifest's files of its sequence.
     let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: "baseline".into() };
-    osmab_dataset::release::render_release_scene(&config, &dir.path().join("a"), Some(&secret), &[unit], &|_| {}).unwrap();
+    osmab_dataset::release::render_release_scene(&config, &dir.path().join("a"), Some(&secret), &assets_root(), &[unit], &|_| {}).unwrap();
     let (archive, _, _) =
         osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), "baseline", "scene_001", osmab_evaluator::scores::Split::Test).unwrap();
     let held = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();
@@ -154,7 +160,7 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     assert_eq!(verify_release(&dir.path().join("a")).unwrap(), files.len());
     // Another secret: the same val scene, another test room.
     let other = SplitSecret::new("somebody's guess at it", "test").unwrap();
-    let guessed = listed(&build_release(&config, &dir.path().join("c"), Some(&other), &|_| {}).unwrap());
+    let guessed = listed(&build_release(&config, &dir.path().join("c"), Some(&other), &assets_root(), &|_| {}).unwrap());
     let traj = |scene: &str| format!("sequences/baseline/{scene}/traj.txt");
     assert_eq!(guessed[&traj("scene_000")], files[&traj("scene_000")]);
     assert_ne!(guessed[&traj("scene_001")], files[&traj("scene_001")]);
@@ -192,13 +198,13 @@ fn the_same_config_gives_a_byte_identical_release_on_one_thread_or_several_and_i
     std::fs::create_dir_all(b.join("sequences/camera/scene_000")).unwrap();
     std::fs::write(b.join("sequences/camera/scene_000/traj.txt"), b"old").unwrap();
     let config = dir.path().join("release.toml");
-    let err = build_release(&config, &b, None, &|_| {}).unwrap_err();
+    let err = build_release(&config, &b, None, &assets_root(), &|_| {}).unwrap_err();
     assert!(err.message.contains("sequences/camera/scene_000/traj.txt") && err.message.contains("fresh directory"), "{err}");
 
     // A changed config rebuilds what it changes instead of reusing the old stages.
     std::fs::remove_dir_all(b.join("sequences/camera")).unwrap();
     std::fs::write(&config, TINY.replace("max_frames = 24", "max_frames = 12")).unwrap();
-    let shorter = build_release(&config, &b, None, &|_| {}).unwrap();
+    let shorter = build_release(&config, &b, None, &assets_root(), &|_| {}).unwrap();
     assert_ne!(shorter["digest"], first["digest"]);
     let frames = std::fs::read_to_string(b.join("sequences/baseline/scene_000/traj.txt")).unwrap().lines().count();
     assert!(frames <= 12, "{frames} poses after lowering max_frames to 12");
@@ -248,7 +254,7 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     let command = format!("command = [\"cp\", \"-r\", \"{}/{{lighting}}/{{scene}}/.\", \"{{out}}\"]\n", source.display());
     let path = dir.path().join("external.toml");
     std::fs::write(&path, TINY.replace("[quality]", &format!("{command}[quality]"))).unwrap();
-    let external = build_release(&path, &dir.path().join("external"), None, &|_| {}).unwrap();
+    let external = build_release(&path, &dir.path().join("external"), None, &assets_root(), &|_| {}).unwrap();
     let files = |m: &serde_json::Value| -> Vec<serde_json::Value> {
         m["files"].as_array().unwrap().iter().filter(|f| f["path"] != "quality/quality_report.json").cloned().collect()
     };
@@ -262,7 +268,7 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     // A renderer that writes nothing usable is named.
     let broken = TINY.replace("[quality]", "command = [\"true\"]\n[quality]");
     std::fs::write(&path, broken).unwrap();
-    let err = build_release(&path, &dir.path().join("broken"), None, &|_| {}).unwrap_err();
+    let err = build_release(&path, &dir.path().join("broken"), None, &assets_root(), &|_| {}).unwrap_err();
     assert!(err.to_string().contains("camera_params.yaml"), "{err}");
 }
 
@@ -336,7 +342,7 @@ fn a_release_that_misses_its_quality_bar_is_not_published_and_says_why() {
     let config = dir.path().join("release.toml");
     std::fs::write(&config, TINY.replace("enforce = false", "enforce = true\nreplacements = 2")).unwrap();
     let out = dir.path().join("rel");
-    let err = build_release(&config, &out, None, &|_| {}).unwrap_err().to_string();
+    let err = build_release(&config, &out, None, &assets_root(), &|_| {}).unwrap_err().to_string();
     assert!(err.contains("scene_000") && err.contains("no prompt for scene_000 passes"), "{err}");
     assert!(err.contains("camera travel") || err.contains("instances mapped"), "{err}");
     assert_eq!(err.matches(" | ").count(), 2, "the selected prompt and two spares were tried: {err}");
@@ -351,7 +357,7 @@ fn the_demo_release_observes_every_prompted_object_under_four_distinct_lightings
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/release-demo.toml");
     let out = dir.path().join("demo");
     let secret = SplitSecret::new("the demo test's secret", "test").unwrap();
-    build_release(&config, &out, Some(&secret), &|_| {}).expect("the demo release passes its quality bar");
+    build_release(&config, &out, Some(&secret), &assets_root(), &|_| {}).expect("the demo release passes its quality bar");
     let public: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("quality/quality_report.json")).unwrap()).unwrap();
     let test_scenes = serde_json::json!(["scene_000", "scene_002", "scene_003", "scene_004", "scene_006"]);
     assert_eq!((public["full_match"].as_u64(), public["test_scenes"].clone()), (Some(2), test_scenes), "five test scenes, val counted");
@@ -395,7 +401,7 @@ fn a_config_naming_an_asset_pack_that_is_not_there_is_refused_before_anything_is
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("release.toml");
     std::fs::write(&config, TINY.replace("[render]", "[synthesis]\nassets = \"no-such-pack\"\n[render]")).unwrap();
-    let err = build_release(&config, &dir.path().join("rel"), None, &|_| {}).unwrap_err().to_string();
+    let err = build_release(&config, &dir.path().join("rel"), None, &assets_root(), &|_| {}).unwrap_err().to_string();
     assert!(err.contains("synthesis.assets") && err.contains("no-such-pack/catalogue.json"), "{err}");
     assert!(!dir.path().join("rel/manifest.json").exists());
 }
@@ -406,7 +412,7 @@ fn a_release_drawn_from_a_pack_records_the_pack_s_digest() {
     let config = dir.path().join("release.toml");
     let pack = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/pack");
     std::fs::write(&config, TINY.replace("[render]", &format!("[synthesis]\nassets = {:?}\n[render]", pack.display().to_string()))).unwrap();
-    let manifest = build_release(&config, &dir.path().join("rel"), None, &|_| {}).unwrap();
+    let manifest = build_release(&config, &dir.path().join("rel"), None, &assets_root(), &|_| {}).unwrap();
     let digest = osmab_dataset::assets::AssetPack::open(&pack).unwrap().digest().to_string();
     assert_eq!(manifest["generator"]["assets_digest"], serde_json::json!(digest));
 }

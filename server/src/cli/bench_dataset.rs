@@ -145,7 +145,8 @@ pub fn release_estimate(config_path: &std::path::Path, sample: usize, timed_fram
     use osmab_dataset::spec::Regime;
 
     let (config, _) = ReleaseConfig::read(config_path)?;
-    let assets = osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref())?;
+    let assets =
+        osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref(), &osmab_dataset::synthesis::source::assets_root())?;
     let clock = Instant::now();
     let mut chosen = Vec::new();
     for (regime, pool_size, target) in [

@@ -97,7 +97,8 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
     let lexicon: Vec<String> = osmab_dataset::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let config_text = manifest["generator"]["config"].as_str().context("manifest.json: generator.config")?;
     let (config, _) = osmab_dataset::release::config::ReleaseConfig::parse(config_text, &release.join("manifest.json"))?;
-    let assets = osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref())?;
+    let assets =
+        osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref(), &osmab_dataset::synthesis::source::assets_root())?;
     let layouts = PoolLayouts::place(&pools, seed, &assets);
     let priors = QuestionPriors::new(&layouts, &lexicon);
     let stated = stated_counts(&pools);

@@ -51,7 +51,8 @@ pub fn run(cmd: ReleaseCommand) -> anyhow::Result<()> {
                 Some(bar) => bar.set_message(message.to_string()),
                 None => eprintln!("[{:>7.1}s] {message}", started.elapsed().as_secs_f64()),
             };
-            let result = build_release(&config, &out, osmab_dataset::release::split::SplitSecret::from_env()?.as_ref(), &progress);
+            let secret = osmab_dataset::release::split::SplitSecret::from_env()?;
+            let result = build_release(&config, &out, secret.as_ref(), &osmab_dataset::synthesis::source::assets_root(), &progress);
             if let Some(bar) = &spinner {
                 bar.finish_and_clear();
             }

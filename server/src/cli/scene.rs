@@ -206,7 +206,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
             Ok(())
         }
         SceneCommand::Synthesize { prompts, seed, ceiling, assets, command, out } => {
-            let assets = osmab_dataset::synthesis::source::AssetSource::for_config(assets.as_deref())?;
+            let assets = osmab_dataset::synthesis::source::AssetSource::for_config(assets.as_deref(), &osmab_dataset::synthesis::source::assets_root())?;
             synthesize_all(&prompts, seed, ceiling, &assets, &command, &out)
         }
     }

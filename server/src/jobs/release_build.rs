@@ -175,8 +175,9 @@ fn fanned_out(progress: &str) -> Option<Vec<String>> {
 /// not rendered yet; returns their subjects.
 async fn fan_out(ctx: &JobContext, version: &str, config_path: &std::path::Path, out: &std::path::Path) -> Result<Vec<String>, JobError> {
     let (config, out_dir, secret) = (config_path.to_path_buf(), out.to_path_buf(), ctx.state.split_secret.clone());
+    let assets_root = ctx.state.settings.assets_root.clone();
     pull_build(&ctx.state, version).await?;
-    let units = blocking_stage(ctx, Stage::Prepare, move |progress| prepare_release(&config, &out_dir, Some(&secret), progress)).await?;
+    let units = blocking_stage(ctx, Stage::Prepare, move |progress| prepare_release(&config, &out_dir, Some(&secret), &assets_root, progress)).await?;
     push_build(&ctx.state, version).await?;
     let mut scenes: BTreeMap<usize, Vec<SequenceUnit>> = BTreeMap::new();
     for (unit, rendered) in units {
@@ -254,7 +255,8 @@ async fn build(ctx: JobContext, request: BuildRelease) -> Result<(), JobError> {
         }
         pull_build(state, &version).await?;
         let (config_for_build, out_for_build, secret) = (config_path.clone(), out.clone(), state.split_secret.clone());
-        blocking_stage(&ctx, Stage::Assemble, move |progress| build_release(&config_for_build, &out_for_build, Some(&secret), progress)).await?;
+        let assets_root = state.settings.assets_root.clone();
+        blocking_stage(&ctx, Stage::Assemble, move |progress| build_release(&config_for_build, &out_for_build, Some(&secret), &assets_root, progress)).await?;
         ctx.progress(&Progress::at(Stage::Import, format!("importing release {version}"))).await;
         let now = now_ms();
         if !state.store.heartbeat(&ctx.job.id, &ctx.owner, now + (state.settings.job_lease_secs * 1000) as i64, now).await? {
@@ -290,11 +292,11 @@ async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError
     let (config_path, out) = build_paths(&ctx.state, &request.version);
     pull_build(&ctx.state, &request.version).await?;
     let blocking_ctx = ctx.clone();
-    let (units, secret) = (request.units.clone(), ctx.state.split_secret.clone());
+    let (units, secret, assets_root) = (request.units.clone(), ctx.state.split_secret.clone(), ctx.state.settings.assets_root.clone());
     tokio::task::spawn_blocking(move || {
         let progress = |message: &str| blocking_ctx.progress_blocking(&Progress::at(Stage::Render, message));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
-        render_release_scene(&config_path, &out, Some(&secret), &units, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+        render_release_scene(&config_path, &out, Some(&secret), &assets_root, &units, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
     .await
     .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;

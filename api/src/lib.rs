@@ -7,6 +7,7 @@
 //! service turns on.
 
 pub mod account;
+pub mod digest;
 pub mod jws;
 pub mod leaderboard;
 pub mod problem_code;

@@ -94,7 +94,7 @@ pub fn team_commitment(team: &str, code: &str) -> String {
 
 /// Lowercase hex SHA-256 of `bytes`.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    crate::digest::hex(&sha2::Sha256::digest(bytes))
 }
 
 impl Receipt {

@@ -179,7 +179,7 @@ impl Listing {
         }
         let mut lines: Vec<String> = listing.files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
         lines.sort();
-        let digest: String = Sha256::digest(lines.concat().as_bytes()).iter().map(|b| format!("{b:02x}")).collect();
+        let digest = osmab_api::digest::hex(&Sha256::digest(lines.concat().as_bytes()));
         if listing.digest.as_deref() != Some(digest.as_str()) {
             bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
         }

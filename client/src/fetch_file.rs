@@ -9,6 +9,8 @@ use std::time::Duration;
 use anyhow::{Context, anyhow};
 use indicatif::ProgressBar;
 
+use osmab_api::digest;
+
 use super::api::{Api, checked, describe};
 
 /// A file of a release as its manifest lists it.
@@ -21,21 +23,7 @@ pub struct RemoteFile {
 
 /// Whether `path` holds exactly the manifest's bytes.
 pub fn is_correct(path: &Path, size: u64, sha256: &str) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| m.len() == size) && file_sha256(path).is_ok_and(|h| h == sha256)
-}
-
-/// Lowercase hex SHA-256 of the file at `path`, read a megabyte at a time.
-fn file_sha256(path: &Path) -> std::io::Result<String> {
-    use sha2::Digest;
-    let mut file = std::fs::File::open(path)?;
-    let mut hasher = sha2::Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    loop {
-        match file.read(&mut buf)? {
-            0 => return Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()),
-            n => hasher.update(&buf[..n]),
-        }
-    }
+    std::fs::metadata(path).is_ok_and(|m| m.len() == size) && digest::sha256_file(path).is_ok_and(|(_, sum)| digest::hex(&sum) == sha256)
 }
 
 /// Fetch `file.path` into `target` (through `target.part`, resumed), verified: up to

@@ -14,7 +14,6 @@ use base64::Engine;
 use indicatif::{ProgressBar, ProgressStyle};
 use osmab_evaluator::submission::archive::pack_directory;
 use serde_json::Value;
-use sha2::{Digest, Sha256};
 
 use super::api::{Api, checked, describe};
 
@@ -45,19 +44,8 @@ pub fn pack(submission: &Path) -> anyhow::Result<Packed> {
     } else {
         bail!("{}: no such file or folder", submission.display());
     };
-    let mut file = std::fs::File::open(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let mut hasher = Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    let mut size = 0;
-    loop {
-        let n = file.read(&mut buf)?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-        size += n as u64;
-    }
-    Ok(Packed { path, size, sha256: hasher.finalize().into(), _scratch: scratch })
+    let (size, sha256) = osmab_api::digest::sha256_file(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    Ok(Packed { path, size, sha256, _scratch: scratch })
 }
 
 fn content_type(path: &Path) -> anyhow::Result<&'static str> {

@@ -17,12 +17,11 @@
 //! bucket's versioning keeps the bytes, docs/deploy.md), and a restore first checks that the
 //! bucket holds every listed object as it was.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail, ensure};
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
+use sha2::Sha256;
 
 use crate::blobs::{Blobs, StoredObject};
 use crate::config::Settings;
@@ -429,19 +428,8 @@ fn describe_files(dir: &Path) -> anyhow::Result<Vec<BackedUpFile>> {
             continue;
         }
         let path = dir.join(&rel);
-        let mut file = std::fs::File::open(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-        let mut hasher = Sha256::new();
-        let mut buffer = vec![0u8; 1 << 20];
-        let mut size = 0u64;
-        loop {
-            let n = file.read(&mut buffer).with_context(|| format!("{}: cannot read", path.display()))?;
-            if n == 0 {
-                break;
-            }
-            hasher.update(&buffer[..n]);
-            size += n as u64;
-        }
-        files.push(BackedUpFile { path: rel, size, sha256: hasher.finalize().iter().map(|b| format!("{b:02x}")).collect() });
+        let (size, sum) = osmab_api::digest::sha256_file(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+        files.push(BackedUpFile { path: rel, size, sha256: osmab_api::digest::hex(&sum) });
     }
     Ok(files)
 }

@@ -7,7 +7,6 @@
 //! service turns on.
 
 pub mod account;
-pub mod digest;
 pub mod jws;
 pub mod leaderboard;
 pub mod problem_code;
@@ -17,4 +16,5 @@ pub mod states;
 pub mod submissions;
 pub mod uploads;
 
+pub use osmab_evaluator::digest;
 pub use problem_code::ProblemCode;

@@ -11,29 +11,11 @@ use std::sync::Mutex;
 
 use anyhow::{Context, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use osmab_evaluator::formats::manifest::{ArchiveEntry, FileEntry, ReleaseManifest, sequence_prefix};
 use osmab_evaluator::submission::archive::{ArchiveLimits, tar_file_names, unpack};
-use serde::Deserialize;
-use serde_json::Value;
-use sha2::{Digest, Sha256};
 
 use super::api::Api;
 use super::fetch_file::{RemoteFile, fetch, is_correct};
-
-#[derive(Debug, Clone, Deserialize)]
-struct FileEntry {
-    path: String,
-    size: u64,
-    sha256: String,
-}
-
-#[derive(Debug, Clone, Deserialize)]
-struct ArchiveEntry {
-    path: String,
-    lighting: String,
-    scene: String,
-    size: u64,
-    sha256: String,
-}
 
 /// What to fetch.
 pub struct Selection {
@@ -152,7 +134,6 @@ pub fn download(api: &Api, selection: &Selection, out: &Path) -> anyhow::Result<
 struct Listing {
     files: Vec<FileEntry>,
     archives: Vec<ArchiveEntry>,
-    digest: Option<String>,
     lightings: BTreeSet<String>,
     scenes: BTreeSet<String>,
 }
@@ -161,27 +142,20 @@ impl Listing {
     /// The manifest of `version`, checked: one file per path, and the file list matching
     /// the digest that ties it to the release (a truncated or edited manifest fails here).
     fn verified(text: &str, version: &str) -> anyhow::Result<Listing> {
-        let value: Value = serde_json::from_str(text).context("the manifest is not JSON")?;
-        let files: Vec<FileEntry> = serde_json::from_value(value["files"].clone()).context("manifest: files")?;
-        let archives: Vec<ArchiveEntry> =
-            serde_json::from_value(value.get("archives").cloned().unwrap_or(Value::Array(vec![]))).context("manifest: archives")?;
+        let manifest = ReleaseManifest::parse(text, Path::new(&format!("the manifest of {version}"))).map_err(|e| anyhow!("{e}"))?;
+        if !manifest.digest_matches() {
+            bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
+        }
         let listing = Listing {
-            files,
-            archives,
-            digest: value["digest"].as_str().map(str::to_string),
-            lightings: value["lightings"].as_array().into_iter().flatten().filter_map(|v| v.as_str().map(str::to_string)).collect(),
-            scenes: value["scenes"].as_array().into_iter().flatten().filter_map(|v| v["id"].as_str().map(str::to_string)).collect(),
+            lightings: manifest.lightings.iter().map(|l| l.name().to_string()).collect(),
+            scenes: manifest.scenes.iter().map(|s| s.id.clone()).collect(),
+            files: manifest.files,
+            archives: manifest.archives,
         };
         let mut listed = BTreeSet::new();
         let paths = listing.files.iter().map(|f| f.path.as_str()).chain(listing.archives.iter().map(|a| a.path.as_str()));
         if let Some(twice) = paths.into_iter().find(|p| !listed.insert(*p)) {
             bail!("the manifest of {version} lists '{twice}' twice; refusing to download from it (ask the organisers)");
-        }
-        let mut lines: Vec<String> = listing.files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
-        lines.sort();
-        let digest = osmab_api::digest::hex(&Sha256::digest(lines.concat().as_bytes()));
-        if listing.digest.as_deref() != Some(digest.as_str()) {
-            bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
         }
         Ok(listing)
     }
@@ -211,7 +185,7 @@ impl Listing {
             if !selected(&format!("sequences/{}/{}", a.lighting, a.scene), &self.lightings, &self.scenes, selection) {
                 continue;
             }
-            let prefix = format!("sequences/{}/{}/", a.lighting, a.scene);
+            let prefix = sequence_prefix(a.lighting, &a.scene);
             let members: Vec<FileEntry> = self.files.iter().filter(|f| f.path.starts_with(&prefix)).cloned().collect();
             in_archives.extend(members.iter().map(|f| f.path.clone()));
             let missing = members.iter().any(|f| local(out, &f.path).map_or(true, |p| !is_correct(&p, f.size, &f.sha256)));

@@ -7,6 +7,7 @@
 use std::path::Path;
 
 use anyhow::{Context, anyhow};
+use osmab_evaluator::formats::manifest::ReleaseManifest;
 use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::archive::{ArchiveLimits, unpack};
 use osmab_evaluator::submission::release::ReleaseIndex;
@@ -19,10 +20,10 @@ use super::api::Api;
 /// Fetch the public facts of `version` (or of the release the submission names) into `dir`.
 fn fetch_release_facts(api: &Api, submission_release: &str, dir: &Path) -> anyhow::Result<()> {
     let manifest_text = api.get_retrying(&format!("/api/v1/releases/{submission_release}/manifest.json"))?.text()?;
-    let manifest: Value = serde_json::from_str(&manifest_text)?;
+    let manifest = ReleaseManifest::parse(&manifest_text, Path::new(&format!("the manifest of {submission_release}"))).map_err(|e| anyhow::anyhow!("{e}"))?;
     std::fs::write(dir.join("manifest.json"), &manifest_text)?;
-    for file in manifest["files"].as_array().into_iter().flatten() {
-        let path = file["path"].as_str().unwrap_or_default();
+    for file in &manifest.files {
+        let path = file.path.as_str();
         let wanted = path == "classes.json" || (path.starts_with("questions/") && !path[10..].contains('/'));
         if wanted {
             let bytes = api.get_retrying(&format!("/api/v1/releases/{submission_release}/files/{path}"))?.bytes()?;

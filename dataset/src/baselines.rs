@@ -9,8 +9,10 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use osmab_evaluator::formats::classes::ClassList;
+use osmab_evaluator::formats::manifest::ReleaseManifest;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
@@ -20,8 +22,63 @@ use crate::release::GROUND_TRUTH;
 use crate::release::stages::INSTANCES_NPY;
 use osmab_evaluator::formats::npy::{ReadLimits, read_npy_file};
 
-/// The baselines, by name.
-pub const BASELINES: [&str; 5] = ["oracle", "drop-small", "merge", "label-noise", "pose-drift"];
+/// A control: a reference submission made from the ground truth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Control {
+    /// The ground truth itself.
+    Oracle,
+    /// The ground truth without its small classes.
+    DropSmall,
+    /// The ground truth with its small classes merged into their nearest neighbours.
+    Merge,
+    /// The ground truth with some objects given another class.
+    LabelNoise,
+    /// The ground truth moved by a small pose drift.
+    PoseDrift,
+}
+
+impl Control {
+    /// Every control, in the order the board lists them.
+    pub const ALL: [Control; 5] = [Control::Oracle, Control::DropSmall, Control::Merge, Control::LabelNoise, Control::PoseDrift];
+
+    /// The name a submission's method takes after `baseline-`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Control::Oracle => "oracle",
+            Control::DropSmall => "drop-small",
+            Control::Merge => "merge",
+            Control::LabelNoise => "label-noise",
+            Control::PoseDrift => "pose-drift",
+        }
+    }
+
+    /// What the control is, as its method card says.
+    pub const fn description(self) -> &'static str {
+        match self {
+            Control::Oracle => "The ground truth itself: every ground-truth point labelled with its class (scores 1.0).",
+            Control::DropSmall => "The ground truth without classes under 2% of the points (small objects missed).",
+            Control::Merge => "The ground truth with about half the classes merged into their nearest neighbour class.",
+            Control::LabelNoise => "The ground truth split into objects, every fourth given another class of the scene.",
+            Control::PoseDrift => "The ground truth moved by a 1.5 degree, 8 cm pose drift.",
+        }
+    }
+}
+
+impl std::fmt::Display for Control {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Control {
+    type Err = String;
+    fn from_str(name: &str) -> std::result::Result<Self, String> {
+        Control::ALL
+            .into_iter()
+            .find(|c| c.name() == name)
+            .ok_or_else(|| format!("unknown baseline '{name}' (expected one of {})", Control::ALL.map(Control::name).join(", ")))
+    }
+}
 
 /// Objects of a map: points grouped by class and 2 m cell (an instance-like split).
 struct Objects {
@@ -46,12 +103,12 @@ fn objects_of(points: &[[f32; 3]], labels: &[i64]) -> Objects {
 
 /// How much harder a lighting makes mapping for the degraded baselines (1 = baseline
 /// lighting; the order follows OSMa-Bench's findings: no lights hurts most).
-pub fn lighting_severity(lighting: &str) -> f64 {
+pub const fn lighting_severity(lighting: ReleaseLighting) -> f64 {
     match lighting {
-        "camera" => 1.2,
-        "dynamic_lights" => 1.4,
-        "no_lights" => 1.8,
-        _ => 1.0,
+        ReleaseLighting::Baseline => 1.0,
+        ReleaseLighting::Camera => 1.2,
+        ReleaseLighting::DynamicLights => 1.4,
+        ReleaseLighting::NoLights => 1.8,
     }
 }
 
@@ -61,24 +118,24 @@ fn pose_drift(p: [f64; 3], severity: f64) -> [f64; 3] {
     [c * p[0] + s * p[2] + 0.08 * severity, p[1], -s * p[0] + c * p[2] + 0.03 * severity]
 }
 
-/// The map of baseline `name` for one scene's ground truth under a lighting of `severity`,
+/// The map of `control` for one scene's ground truth under a lighting of `severity`,
 /// and for each of its points the ground-truth point it came from.
-fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Result<(PredictedMap, Vec<usize>)> {
+fn baseline_map(control: Control, gt: &GroundTruth, seed: u64, severity: f64) -> Result<(PredictedMap, Vec<usize>)> {
     let mut origin: Vec<usize> = (0..gt.points.len()).collect();
     let mut points = gt.points.clone();
     let mut labels = gt.labels.clone();
-    match name {
-        "oracle" => {}
-        "drop-small" => drop_small_classes(gt, &mut points, &mut labels, &mut origin, severity)?,
-        "merge" => merge_small_classes(&points, &mut labels, severity),
-        "label-noise" => {
+    match control {
+        Control::Oracle => {}
+        Control::DropSmall => drop_small_classes(gt, &mut points, &mut labels, &mut origin, severity)?,
+        Control::Merge => merge_small_classes(&points, &mut labels, severity),
+        Control::LabelNoise => {
             let objects = objects_of(&points, &labels);
             let noisy = mislabelled_objects(&objects, &mut Rng::new(seed), severity);
             let map =
                 PredictedMap { source: gt.source.clone(), points, semantics: MapSemantics::ObjectLabels { object_ids: objects.object_ids, labels: noisy } };
             return Ok((map, origin));
         }
-        "pose-drift" => {
+        Control::PoseDrift => {
             // A 1.5° yaw and 8 cm shift of the whole map (more under harder lightings):
             // geometry near boundaries mislabels.
             for p in &mut points {
@@ -86,7 +143,6 @@ fn baseline_map(name: &str, gt: &GroundTruth, seed: u64, severity: f64) -> Resul
                 *p = moved.map(|v| v as f32);
             }
         }
-        other => return Err(InputError::new("(baseline)", "name", format!("unknown baseline '{other}' (expected one of {})", BASELINES.join(", ")))),
     }
     let objects = objects_of(&points, &labels);
     let map =
@@ -169,7 +225,7 @@ fn mislabelled_objects(objects: &Objects, rng: &mut Rng, severity: f64) -> Vec<i
 /// object is named wrongly, a dropped one is missing) and, for pose-drift, moves its box
 /// by the drift.
 fn graph_from_objects(
-    name: &str,
+    control: Control,
     objects: &[SceneObject],
     map: &PredictedMap,
     origin: &[usize],
@@ -177,7 +233,7 @@ fn graph_from_objects(
     classes: &ClassList,
     severity: f64,
 ) -> Value {
-    if name == "oracle" {
+    if control == Control::Oracle {
         return oracle_graph(objects);
     }
     let MapSemantics::ObjectLabels { object_ids, labels } = &map.semantics else { return json!({"objects": []}) };
@@ -196,7 +252,7 @@ fn graph_from_objects(
             let class = votes.get(&instance)?.iter().max_by_key(|(l, n)| (**n, std::cmp::Reverse(**l))).map(|(l, _)| *l)?;
             let label = classes.name(class).unwrap_or("other").to_string();
             let caption = if label == o.label { o.caption.clone() } else { format!("a {label}") };
-            let center = if name == "pose-drift" { pose_drift(o.bbox_center, severity) } else { o.bbox_center };
+            let center = if control == Control::PoseDrift { pose_drift(o.bbox_center, severity) } else { o.bbox_center };
             Some(json!({"id": o.id, "label": label, "caption": caption, "bbox_center": center.map(round), "bbox_extent": o.bbox_extent.map(round)}))
         })
         .collect();
@@ -228,30 +284,20 @@ fn scene_graph(map: &PredictedMap, classes: &ClassList) -> Value {
     json!({"objects": objects})
 }
 
-/// Write baseline `name` for the release in `release` as a submission directory.
-pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
-    let manifest_path = release.join("manifest.json");
-    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path).map_err(|e| InputError::io(&manifest_path, &e))?)
-        .map_err(|e| InputError::new(&manifest_path, "(json)", e.to_string()))?;
-    let version = manifest["version"].as_str().ok_or_else(|| InputError::new(&manifest_path, "version", "missing"))?;
-    let description = match name {
-        "oracle" => "The ground truth itself: every ground-truth point labelled with its class (scores 1.0).",
-        "drop-small" => "The ground truth without classes under 2% of the points (small objects missed).",
-        "merge" => "The ground truth with about half the classes merged into their nearest neighbour class.",
-        "label-noise" => "The ground truth split into objects, every fourth given another class of the scene.",
-        _ => "The ground truth moved by a 1.5 degree, 8 cm pose drift.",
-    };
+/// Write `control` for the release in `release` as a submission directory; returns the
+/// maps written.
+pub fn write_baseline(control: Control, release: &Path, out: &Path) -> Result<usize> {
+    let manifest = ReleaseManifest::read(&release.join("manifest.json"))?;
     std::fs::create_dir_all(out).map_err(|e| InputError::io(out, &e))?;
-    let submission = json!({"format": "osmab-submission/1", "release": version, "method": {"name": format!("baseline-{name}"), "description": description}});
+    let submission = json!({"format": "osmab-submission/1", "release": manifest.version, "method": {"name": format!("baseline-{control}"), "description": control.description()}});
     std::fs::write(out.join("submission.json"), serde_json::to_string_pretty(&submission).expect("json") + "\n").map_err(|e| InputError::io(out, &e))?;
-    let lightings: Vec<&str> = manifest["lightings"].as_array().into_iter().flatten().filter_map(Value::as_str).collect();
     let mut written = 0;
-    for (i, entry) in manifest["scenes"].as_array().into_iter().flatten().enumerate() {
-        let Some(scene) = entry["id"].as_str() else { continue };
+    for (i, entry) in manifest.scenes.iter().enumerate() {
+        let scene = entry.id.as_str();
         let gt_dir = release.join(GROUND_TRUTH).join(scene);
         // A public copy of a release has no ground truth for its test scenes: the
         // baseline covers the val split there (the server's copy covers both).
-        if entry["split"] == "test" && !gt_dir.is_dir() {
+        if entry.split == Split::Test && !gt_dir.is_dir() {
             continue;
         }
         let classes = ClassList::read(&gt_dir.join("embed_semseg_classes.json"))?;
@@ -276,17 +322,17 @@ pub fn write_baseline(name: &str, release: &Path, out: &Path) -> Result<usize> {
             }
             _ => None,
         };
-        for lighting in &lightings {
+        for &lighting in &manifest.lightings {
             let severity = lighting_severity(lighting);
-            let (map, origin) = baseline_map(name, &gt, 1000 + i as u64, severity)?;
+            let (map, origin) = baseline_map(control, &gt, 1000 + i as u64, severity)?;
             let graph = match &known {
-                Some((objects, instances)) => graph_from_objects(name, objects, &map, &origin, instances, &classes, severity),
+                Some((objects, instances)) => graph_from_objects(control, objects, &map, &origin, instances, &classes, severity),
                 None => scene_graph(&map, &classes),
             };
-            let map_path = out.join("maps").join(lighting).join(format!("{scene}.npz"));
+            let map_path = out.join("maps").join(lighting.name()).join(format!("{scene}.npz"));
             std::fs::create_dir_all(map_path.parent().expect("nested")).map_err(|e| InputError::io(&map_path, &e))?;
             map.write(&map_path, true)?;
-            let graph_path = out.join("graphs").join(lighting).join(format!("{scene}.json"));
+            let graph_path = out.join("graphs").join(lighting.name()).join(format!("{scene}.json"));
             std::fs::create_dir_all(graph_path.parent().expect("nested")).map_err(|e| InputError::io(&graph_path, &e))?;
             std::fs::write(&graph_path, serde_json::to_string(&graph).expect("json")).map_err(|e| InputError::io(&graph_path, &e))?;
             written += 1;

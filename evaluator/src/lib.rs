@@ -9,6 +9,7 @@
 pub mod bootstrap;
 pub mod bounds;
 pub mod csv_writer;
+pub mod digest;
 pub mod error;
 pub mod formats;
 pub mod ground_truth;

@@ -8,36 +8,14 @@
 
 use std::path::Path;
 
-use osmab_dataset::release::manifest::FileEntry;
+use osmab_evaluator::formats::manifest::{ArchiveEntry, FileEntry, ReleaseManifest, sequence_prefix};
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::submission::archive::packed_size;
 use osmab_evaluator::submission::pack_files_into;
-use serde_json::Value;
 
 use crate::blobs::{Blobs, Scratch};
 use crate::release_names::release_prefix;
 use crate::store::Store;
-
-/// One sequence's archive as a served manifest lists it.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Deserialize)]
-pub struct ArchiveEntry {
-    pub path: String,
-    pub lighting: String,
-    pub scene: String,
-    pub size: u64,
-    pub sha256: String,
-}
-
-/// The folder an archive's names start with.
-pub fn sequence_prefix(lighting: &str, scene: &str) -> String {
-    format!("sequences/{lighting}/{scene}/")
-}
-
-/// The manifest's files of the sequence `lighting`/`scene`: what its archive holds, as
-/// names relative to the sequence folder, in the manifest's (sorted) order.
-pub fn members<'a>(files: &'a [FileEntry], lighting: &str, scene: &str) -> Vec<&'a FileEntry> {
-    let prefix = sequence_prefix(lighting, scene);
-    files.iter().filter(|f| f.path.starts_with(&prefix)).collect()
-}
 
 /// The size of the archive that holds exactly `members`.
 pub fn expected_size(members: &[&FileEntry]) -> u64 {
@@ -66,13 +44,13 @@ impl<W: std::io::Write> std::io::Write for Hashing<W> {
 
 /// Pack `members` (manifest paths under `root`, all of one sequence) into the archive
 /// `target`, names as in the manifest; its size and SHA-256 computed as it is written.
-pub fn pack_members(root: &Path, members: &[&FileEntry], lighting: &str, scene: &str, target: &Path) -> anyhow::Result<(u64, String)> {
+pub fn pack_members(root: &Path, members: &[&FileEntry], lighting: ReleaseLighting, scene: &str, target: &Path) -> anyhow::Result<(u64, String)> {
     let prefix = sequence_prefix(lighting, scene);
     let names: Vec<String> = members.iter().map(|f| f.path.strip_prefix(&prefix).expect("a member of the sequence").to_string()).collect();
     let sink = Hashing { inner: std::io::BufWriter::new(std::fs::File::create(target)?), sha256: sha2::Digest::new(), size: 0 };
     let Hashing { inner, sha256, size } = pack_files_into(&root.join(&prefix), &names, &prefix, sink, target)?;
     inner.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-    Ok((size, osmab_dataset::release::manifest::hex(&sha2::Digest::finalize(sha256))))
+    Ok((size, osmab_evaluator::digest::hex(&sha2::Digest::finalize(sha256))))
 }
 
 /// What checking the stored releases did.
@@ -89,17 +67,16 @@ pub struct Healed {
 pub async fn heal_stored_archives(store: &Store, blobs: &Blobs) -> anyhow::Result<Healed> {
     let mut healed = Healed::default();
     for release in store.releases().await? {
-        let mut manifest: Value = serde_json::from_str(&release.manifest)?;
-        let files: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone())?;
-        let archives: Vec<ArchiveEntry> = serde_json::from_value(manifest.get("archives").cloned().unwrap_or(Value::Array(vec![])))?;
+        let mut manifest = ReleaseManifest::parse(&release.manifest, Path::new(&format!("release {}: manifest", release.version)))?;
         let mut changed = false;
-        for (k, archive) in archives.iter().enumerate() {
+        for k in 0..manifest.archives.len() {
             healed.checked += 1;
-            let members = members(&files, &archive.lighting, &archive.scene);
+            let archive = manifest.archives[k].clone();
+            let members = manifest.sequence_files(archive.lighting, &archive.scene);
             if archive.size == expected_size(&members) {
                 continue;
             }
-            let (size, sha256) = repack(blobs, &release.version, archive, &members).await?;
+            let (size, sha256) = repack(blobs, &release.version, &archive, &members).await?;
             tracing::warn!(
                 release = %release.version,
                 archive = %archive.path,
@@ -107,9 +84,9 @@ pub async fn heal_stored_archives(store: &Store, blobs: &Blobs) -> anyhow::Resul
                 now = size,
                 "a sequence archive held files its manifest does not list; repacked from the manifest's files"
             );
-            manifest["archives"][k]["size"] = size.into();
-            manifest["archives"][k]["sha256"] = sha256.clone().into();
-            let served = serde_json::to_string_pretty(&manifest)? + "\n";
+            manifest.archives[k].size = size;
+            manifest.archives[k].sha256 = sha256.clone();
+            let served = manifest.to_json();
             store.replace_release_archive(&release.version, &archive.path, size as i64, &sha256, &served).await?;
             let key = format!("{}/manifest.json", release_prefix(&release.version));
             let copy = Scratch(blobs.scratch("manifest"));
@@ -136,11 +113,11 @@ async fn repack(blobs: &Blobs, version: &str, archive: &ArchiveEntry, members: &
         std::fs::copy(fetched.path(), &target)?;
     }
     let packed = Scratch(blobs.scratch("repacked"));
-    let (root, target, lighting, scene) = (staging.0.clone(), packed.0.clone(), archive.lighting.clone(), archive.scene.clone());
+    let (root, target, lighting, scene) = (staging.0.clone(), packed.0.clone(), archive.lighting, archive.scene.clone());
     let owned: Vec<FileEntry> = members.iter().map(|f| (*f).clone()).collect();
     let (size, sha256) = tokio::task::spawn_blocking(move || {
         let refs: Vec<&FileEntry> = owned.iter().collect();
-        pack_members(&root, &refs, &lighting, &scene, &target)
+        pack_members(&root, &refs, lighting, &scene, &target)
     })
     .await??;
     blobs.replace_file(&format!("{prefix}/{}", archive.path), &packed.0).await?;

@@ -3,14 +3,12 @@
 //! record it with the manifest participants download (the release's own, plus the
 //! archives with their sizes and SHA-256).
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
-use osmab_dataset::release::manifest::FileEntry;
 use osmab_dataset::release::{packed_sequence_archive, verify_release};
-use osmab_evaluator::scores::Split;
+use osmab_evaluator::formats::manifest::{ArchiveEntry, FileEntry, ReleaseManifest};
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 use osmab_evaluator::submission::release::GROUND_TRUTH_DIR;
-use serde_json::{Value, json};
 
 use crate::blobs::Blobs;
 use crate::clock::now_ms;
@@ -18,28 +16,14 @@ use crate::release_archives;
 pub use crate::release_names::{check_version, release_prefix};
 use crate::store::{ReleaseFile, ReleaseFileKind, ReleaseRecord, Store, StoreError};
 
-/// The splits of a served manifest's scenes, test first (a scene without one is val).
-pub fn manifest_splits(manifest: &str) -> Vec<Split> {
-    let value: Value = serde_json::from_str(manifest).unwrap_or_default();
-    let of_scenes: Vec<Split> =
-        value["scenes"].as_array().into_iter().flatten().map(|s| s["split"].as_str().and_then(|n| n.parse().ok()).unwrap_or_default()).collect();
-    Split::ALL.into_iter().filter(|split| of_scenes.contains(split)).collect()
-}
-
-/// The split of every scene a manifest lists (val where it names none, as before splits).
-fn scene_splits(manifest: &Value) -> BTreeMap<String, Split> {
-    manifest["scenes"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|s| Some((s["id"].as_str()?.to_string(), s["split"].as_str().map_or(Some(Split::Val), |n| n.parse().ok())?)))
-        .collect()
-}
-
-/// The split a release's main leaderboard ranks and uploads go to by default: test when
-/// the release has a test split, else val.
-pub fn primary_split(manifest: &str) -> Split {
-    if manifest_splits(manifest).contains(&Split::Test) { Split::Test } else { Split::Val }
+/// The manifest a release record serves, typed. The service wrote it at import, so it
+/// parses; one that does not (edited in the database by hand) reads as an empty manifest
+/// and is logged, so the pages show what they can (the API serves the text itself).
+pub fn served_manifest(record: &ReleaseRecord) -> ReleaseManifest {
+    ReleaseManifest::parse(&record.manifest, Path::new(&format!("release {}: manifest", record.version))).unwrap_or_else(|e| {
+        tracing::warn!(release = %record.version, error = %e, "a stored manifest does not parse");
+        ReleaseManifest::default()
+    })
 }
 
 /// A release copied into blob storage and ready to record.
@@ -101,9 +85,8 @@ impl Provenance {
         match self {
             Provenance::External => verify_release(dir).map(|_| ()).map_err(|e| anyhow::anyhow!("the release does not match its manifest: {e}")),
             Provenance::JustBuilt => {
-                let manifest: Value = serde_json::from_slice(&std::fs::read(dir.join("manifest.json"))?)?;
-                let entries: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone())?;
-                for entry in &entries {
+                let manifest = ReleaseManifest::read(&dir.join("manifest.json"))?;
+                for entry in &manifest.files {
                     anyhow::ensure!(!entry.path.contains("..") && !entry.path.starts_with('/'), "'{}' is not a path inside the release", entry.path);
                     let path = dir.join(&entry.path);
                     let size = std::fs::metadata(&path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?.len();
@@ -120,17 +103,17 @@ impl Provenance {
 pub fn stage_release(blobs: &Blobs, dir: &Path, provenance: Provenance) -> anyhow::Result<(PreparedRelease, std::path::PathBuf)> {
     provenance.check(dir)?;
     let manifest_path = dir.join("manifest.json");
-    let manifest: Value = serde_json::from_slice(&std::fs::read(&manifest_path)?)?;
-    let version = manifest["version"].as_str().unwrap_or_default().to_string();
+    let manifest = ReleaseManifest::read(&manifest_path)?;
+    let version = manifest.version.clone();
     check_version(&version).map_err(|m| anyhow::anyhow!("{}: version: {m}", manifest_path.display()))?;
-    let entries: Vec<FileEntry> = serde_json::from_value(manifest["files"].clone())?;
+    let entries = manifest.files.clone();
     let index = osmab_evaluator::submission::ReleaseIndex::read(dir)?;
     anyhow::ensure!(index.has_ground_truth(), "{}: the release has no ground truth for every scene; build it with `osmab release build`", dir.display());
 
     let staging = blobs.scratch("release");
     std::fs::create_dir_all(&staging)?;
     let stage = Staging { dir, staging: &staging, provenance, version: &version, entries: &entries };
-    let result = stage.files(&manifest_path).and_then(|()| stage.archives(&manifest)).and_then(|(manifest, archives)| stage.record(manifest, archives));
+    let result = stage.files(&manifest_path).and_then(|()| stage.archives(manifest)).and_then(|(manifest, archives)| stage.record(manifest, archives));
     match result {
         Ok(prepared) => Ok((prepared, staging)),
         Err(e) => {
@@ -171,36 +154,27 @@ impl Staging<'_> {
 
     /// One archive per sequence (lighting, scene), holding exactly the manifest's files
     /// of the sequence: the manifest listing them, and their records.
-    fn archives(&self, manifest: &Value) -> anyhow::Result<(Value, Vec<ReleaseFile>)> {
-        let mut sequences: BTreeMap<(String, String), ()> = BTreeMap::new();
-        for entry in self.entries {
-            let parts: Vec<&str> = entry.path.split('/').collect();
-            if parts.len() > 3 && parts[0] == "sequences" {
-                sequences.insert((parts[1].to_string(), parts[2].to_string()), ());
-            }
-        }
-        let splits = scene_splits(manifest);
+    fn archives(&self, mut manifest: ReleaseManifest) -> anyhow::Result<(ReleaseManifest, Vec<ReleaseFile>)> {
         let mut listed = Vec::new();
         let mut files = Vec::new();
-        for (lighting, scene) in sequences.keys() {
+        for (lighting, scene) in manifest.sequences() {
             let path = format!("archives/sequences/{lighting}/{scene}.tar");
             let target = self.staging.join(&path);
             std::fs::create_dir_all(target.parent().expect("nested"))?;
-            let split = splits.get(scene.as_str()).copied().unwrap_or(Split::Test);
-            let (size, sha256) = self.archive(lighting, scene, split, &target)?;
-            listed.push(json!({"path": path, "lighting": lighting, "scene": scene, "size": size, "sha256": sha256}));
+            let split = manifest.scene(&scene).map_or(Split::Test, |s| s.split);
+            let (size, sha256) = self.archive(&manifest, lighting, &scene, split, &target)?;
+            listed.push(ArchiveEntry { lighting, path: path.clone(), scene, sha256: sha256.clone(), size });
             files.push(ReleaseFile { version: self.version.to_string(), path, size: size as i64, sha256, kind: ReleaseFileKind::Archive });
         }
-        let mut manifest = manifest.clone();
-        manifest["archives"] = Value::Array(listed);
+        manifest.archives = listed;
         Ok((manifest, files))
     }
 
     /// The archive of one sequence at `target`: its size and SHA-256. A just-built release
     /// brings the archives its render jobs packed of the scene's public files; one that is
     /// not the size those files pack to is packed again here.
-    fn archive(&self, lighting: &str, scene: &str, split: Split, target: &Path) -> anyhow::Result<(u64, String)> {
-        let members = release_archives::members(self.entries, lighting, scene);
+    fn archive(&self, manifest: &ReleaseManifest, lighting: ReleaseLighting, scene: &str, split: Split, target: &Path) -> anyhow::Result<(u64, String)> {
+        let members = manifest.sequence_files(lighting, scene);
         let packed = (self.provenance == Provenance::JustBuilt)
             .then(|| packed_sequence_archive(self.dir, lighting, scene, split))
             .flatten()
@@ -215,7 +189,7 @@ impl Staging<'_> {
     }
 
     /// The served manifest written, and the release's record with every file's.
-    fn record(&self, manifest: Value, archives: Vec<ReleaseFile>) -> anyhow::Result<PreparedRelease> {
+    fn record(&self, manifest: ReleaseManifest, archives: Vec<ReleaseFile>) -> anyhow::Result<PreparedRelease> {
         let mut files: Vec<ReleaseFile> = self
             .entries
             .iter()
@@ -228,13 +202,13 @@ impl Staging<'_> {
             })
             .collect();
         files.extend(archives);
-        let served = serde_json::to_string_pretty(&manifest)? + "\n";
+        let served = manifest.to_json();
         std::fs::write(self.staging.join("manifest.json"), &served)?;
         let record = ReleaseRecord {
             version: self.version.to_string(),
             state: crate::store::ReleaseState::Draft,
             is_current: false,
-            digest: manifest["digest"].as_str().unwrap_or_default().to_string(),
+            digest: manifest.digest,
             manifest: served,
             created_at: now_ms(),
             published_at: None,
@@ -295,21 +269,21 @@ mod tests {
     use std::os::unix::fs::MetadataExt;
 
     use osmab_dataset::release::manifest::hash_file;
-    use serde_json::json;
 
     use super::*;
 
     fn release_with(files: &[(&str, &[u8])]) -> tempfile::TempDir {
         let dir = tempfile::tempdir().unwrap();
-        let mut entries = Vec::new();
+        let mut manifest = ReleaseManifest { version: "v-1".into(), lightings: vec![ReleaseLighting::Baseline], ..ReleaseManifest::default() };
         for (path, bytes) in files {
             let target = dir.path().join(path);
             std::fs::create_dir_all(target.parent().unwrap()).unwrap();
             std::fs::write(&target, bytes).unwrap();
             let (size, sha256) = hash_file(&target).unwrap();
-            entries.push(json!({"path": path, "size": size, "sha256": sha256}));
+            manifest.files.push(FileEntry { path: path.to_string(), size, sha256 });
         }
-        std::fs::write(dir.path().join("manifest.json"), json!({"files": entries}).to_string()).unwrap();
+        manifest.digest = osmab_evaluator::formats::manifest::files_digest(&manifest.files);
+        manifest.write(&dir.path().join("manifest.json")).unwrap();
         dir
     }
 
@@ -359,7 +333,9 @@ mod tests {
     #[test]
     fn a_just_built_manifest_may_not_point_outside_the_release() {
         let release = release_with(&[]);
-        std::fs::write(release.path().join("manifest.json"), json!({"files": [{"path": "../etc/passwd", "size": 1, "sha256": "00"}]}).to_string()).unwrap();
+        let mut manifest = ReleaseManifest::read(&release.path().join("manifest.json")).unwrap();
+        manifest.files.push(FileEntry { path: "../etc/passwd".into(), size: 1, sha256: "00".into() });
+        manifest.write(&release.path().join("manifest.json")).unwrap();
         let err = Provenance::JustBuilt.check(release.path()).unwrap_err().to_string();
         assert!(err.contains("'../etc/passwd' is not a path inside the release"), "{err}");
     }
@@ -371,15 +347,12 @@ mod tests {
             ("sequences/baseline/scene_000/results/semantic000000.png", b"hidden"),
             ("sequences/baseline/scene_000/traj.txt", b"1 0 0"),
         ]);
-        let listed: Vec<FileEntry> = serde_json::from_value(
-            serde_json::from_str::<Value>(&std::fs::read_to_string(release.path().join("manifest.json")).unwrap()).unwrap()["files"].clone(),
-        )
-        .unwrap();
+        let mut manifest = ReleaseManifest::read(&release.path().join("manifest.json")).unwrap();
         // The manifest of a test scene leaves its semantic frame out: so does the archive.
-        let entries: Vec<FileEntry> = listed.into_iter().filter(|f| !f.path.contains("semantic")).collect();
-        let members = release_archives::members(&entries, "baseline", "scene_000");
+        manifest.files.retain(|f| !f.path.contains("semantic"));
+        let members = manifest.sequence_files(ReleaseLighting::Baseline, "scene_000");
         let hashed = release.path().join("hashed.tar");
-        let (size, sha256) = release_archives::pack_members(release.path(), &members, "baseline", "scene_000", &hashed).unwrap();
+        let (size, sha256) = release_archives::pack_members(release.path(), &members, ReleaseLighting::Baseline, "scene_000", &hashed).unwrap();
         assert_eq!((size, sha256), hash_file(&hashed).unwrap());
         assert_eq!(size, release_archives::expected_size(&members));
         let names = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&hashed).unwrap(), &hashed).unwrap();

@@ -21,6 +21,7 @@
 
 use std::collections::BTreeMap;
 
+use osmab_evaluator::scores::ReleaseLighting;
 use serde_json::{Value, json};
 
 /// Ceiling lights at most this far apart (metres).
@@ -165,9 +166,9 @@ fn runs(cell: (usize, usize), state: usize) -> Value {
     json!(intervals)
 }
 
-/// The four conditions as HaDaGe light settings, laid out for a room with `floor`
+/// Every lighting of a release as HaDaGe light settings, laid out for a room with `floor`
 /// bounds (Habitat axes) and walls `ceiling_height` high.
-pub fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'static str, Value> {
+pub fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<ReleaseLighting, Value> {
     let grid = ceiling_grid(floor, ceiling_height);
     let intensity = calibrated_intensity(&grid, floor, ceiling_height);
     let point = |position: [f64; 3], intensity: f64, life: Value| json!({"type": "point", "position": position, "intensity": intensity, "color": WARM_WHITE, "life_intervals": life});
@@ -178,15 +179,15 @@ pub fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<&'
         dynamic.insert(format!("{k}_on"), point(light.position, intensity, runs(light.cell, 0)));
         dynamic.insert(format!("{k}_dimmed"), point(light.position, (intensity * DIMMED * 1000.0).round() / 1000.0, runs(light.cell, 1)));
     }
-    BTreeMap::from([
-        ("baseline", json!({"lights": baseline})),
-        (
-            "camera",
-            json!({"lights": {"0": {"type": "camera", "position": CAMERA_LIGHT_OFFSET, "intensity": CAMERA_LIGHT_INTENSITY, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}}),
-        ),
-        ("dynamic_lights", json!({"lights": dynamic})),
-        ("no_lights", json!({"lights": {}})),
-    ])
+    let lights = |lighting: ReleaseLighting| match lighting {
+        ReleaseLighting::Baseline => json!({"lights": baseline}),
+        ReleaseLighting::Camera => {
+            json!({"lights": {"0": {"type": "camera", "position": CAMERA_LIGHT_OFFSET, "intensity": CAMERA_LIGHT_INTENSITY, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}})
+        }
+        ReleaseLighting::DynamicLights => json!({"lights": dynamic}),
+        ReleaseLighting::NoLights => json!({"lights": {}}),
+    };
+    ReleaseLighting::ALL.into_iter().map(|lighting| (lighting, lights(lighting))).collect()
 }
 
 /// A HaDaGe light-settings file as a Habitat lighting config (`camera` lights become
@@ -228,10 +229,10 @@ mod tests {
     #[test]
     fn dynamic_lights_change_at_every_goal_and_differ_from_baseline_from_the_first() {
         let settings = lighting(ROOM, 2.5);
-        let baseline = lights_for_goal(&settings["baseline"], 0);
+        let baseline = lights_for_goal(&settings[&ReleaseLighting::Baseline], 0);
         let mut previous = None;
         for goal in 0..80 {
-            let lights = lights_for_goal(&settings["dynamic_lights"], goal);
+            let lights = lights_for_goal(&settings[&ReleaseLighting::DynamicLights], goal);
             assert!(lights.len() <= baseline.len(), "a light is on or dimmed, never both");
             assert_ne!(lights, baseline, "goal {goal}: some light is dimmed or off");
             if goal < PATTERN_GOALS {
@@ -239,8 +240,8 @@ mod tests {
             }
             previous = Some(lights);
         }
-        assert!(lights_for_goal(&settings["no_lights"], 0).is_empty());
-        let camera = lights_for_goal(&settings["camera"], 3);
+        assert!(lights_for_goal(&settings[&ReleaseLighting::NoLights], 0).is_empty());
+        let camera = lights_for_goal(&settings[&ReleaseLighting::Camera], 3);
         assert_eq!(camera.len(), 1);
         assert!(camera[0].attached_to_camera);
     }

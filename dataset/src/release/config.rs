@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::{InputError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -77,7 +78,8 @@ pub struct RenderConfig {
     #[serde(default = "default_frames_per_action")]
     pub frames_per_action: u32,
     pub max_frames: usize,
-    pub lightings: Vec<String>,
+    /// The lightings every scene is rendered under, in this order.
+    pub lightings: Vec<ReleaseLighting>,
     /// An external renderer (HaDaGe) run per scene and lighting; the built-in one when
     /// empty. Placeholders: {scene_dir} (the converted scene), {scene}, {lighting},
     /// {out} (the sequence directory to write), {width}, {height}, {goals}, {seed}.
@@ -330,8 +332,8 @@ impl ReleaseConfig {
         if config.render.lightings.is_empty() {
             return bad("render.lightings", "at least one lighting");
         }
-        if let Some(l) = config.render.lightings.iter().find(|l| !crate::render::LIGHTINGS.contains(&l.as_str())) {
-            return bad("render.lightings", &format!("unknown lighting '{l}' (expected some of {})", crate::render::LIGHTINGS.join(", ")));
+        if let Some(twice) = config.render.lightings.iter().enumerate().find_map(|(i, l)| config.render.lightings[..i].contains(l).then_some(l)) {
+            return bad("render.lightings", &format!("each lighting once ('{twice}' is listed twice)"));
         }
         for (field, test, scenes) in [
             ("splits.test_furniture", config.splits.test_furniture, config.selection.furniture),

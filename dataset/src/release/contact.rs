@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use osmab_evaluator::formats::image::{RgbImage, read_jpeg_rgb, write_png_rgb};
 use osmab_evaluator::formats::sequence::frame_path;
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::{InputError, Result};
 
 use crate::render::sequence::SequenceSummary;
@@ -32,10 +33,10 @@ pub fn write_contact_sheet(sequence_dir: &Path, summary: &SequenceSummary, out: 
 
 /// Write the overview of a release: one row per scene, one column per lighting, each
 /// cell the frame `preview` (row's frame index) of `sequences/<lighting>/<scene>`.
-pub fn write_overview(release: &Path, scenes: &[(String, usize)], lightings: &[&str], out: &Path) -> Result<()> {
+pub fn write_overview(release: &Path, scenes: &[(String, usize)], lightings: &[ReleaseLighting], out: &Path) -> Result<()> {
     let paths: Vec<Option<PathBuf>> = scenes
         .iter()
-        .flat_map(|(scene, preview)| lightings.iter().map(move |l| Some(frame_path(&release.join("sequences").join(l).join(scene), "frame", *preview))))
+        .flat_map(|(scene, preview)| lightings.iter().map(move |l| Some(frame_path(&release.join("sequences").join(l.name()).join(scene), "frame", *preview))))
         .collect();
     write_grid(&paths, lightings.len().max(1), GAP, out)
 }

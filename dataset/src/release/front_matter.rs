@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use osmab_evaluator::Result;
-use osmab_evaluator::scores::Split;
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 
 use super::config::ReleaseConfig;
 
@@ -18,7 +18,7 @@ pub struct Contents<'a> {
     pub config: &'a ReleaseConfig,
     /// Each scene's split, in order.
     pub splits: &'a [Split],
-    pub lightings: &'a [&'a str],
+    pub lightings: &'a [ReleaseLighting],
 }
 
 /// Write the three files into `out`.
@@ -56,7 +56,7 @@ has its semantic frames.\n\
 - Cite the release by its version and digest (`CITATION.cff`); the terms are in `LICENSE`.\n",
         created = c.config.created,
         scenes = c.splits.len(),
-        lightings = c.lightings.join(", "),
+        lightings = c.lightings.iter().map(|l| l.name()).collect::<Vec<_>>().join(", "),
         w = c.config.render.width,
         h = c.config.render.height,
         hfov = c.config.render.hfov,
@@ -113,7 +113,11 @@ mod tests {
         let config = config_with_licence("\"CC-BY-4.0\"").unwrap();
         assert!(licence(&config).contains("are licensed under CC-BY-4.0."));
         assert!(citation(&config).contains("license: \"CC-BY-4.0\"\n"));
-        let readme = readme(&Contents { config: &config, splits: &[Split::Test, Split::Val, Split::Test], lightings: &["baseline", "camera"] });
+        let readme = readme(&Contents {
+            config: &config,
+            splits: &[Split::Test, Split::Val, Split::Test],
+            lightings: &[ReleaseLighting::Baseline, ReleaseLighting::Camera],
+        });
         assert!(readme.contains("3 scenes: 2 in the hidden **test** split") && readme.contains("1 in the open **val** split"), "{readme}");
     }
 

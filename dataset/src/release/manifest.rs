@@ -1,50 +1,18 @@
-//! The release manifest (product.md section 9): every public file with its size and
-//! SHA-256, and the release digest = SHA-256 over the sorted `path size sha256` lines.
+//! The files a release manifest lists (its type is [`osmab_evaluator::formats::manifest`]):
+//! every public file with its size and SHA-256, and the release digest = SHA-256 over the
+//! sorted `path size sha256` lines.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
+pub use osmab_evaluator::digest::hex;
+pub use osmab_evaluator::formats::manifest::{FileEntry, files_digest as digest};
 use osmab_evaluator::{InputError, Result};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
-
-/// One file of a release.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct FileEntry {
-    /// Path relative to the release root, with `/`.
-    pub path: String,
-    pub size: u64,
-    pub sha256: String,
-}
-
-/// Lower-case hex of bytes.
-pub fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// SHA-256 and size of a file, streamed.
 pub fn hash_file(path: &Path) -> Result<(u64, String)> {
-    let mut file = std::fs::File::open(path).map_err(|e| InputError::io(path, &e))?;
-    let mut hasher = Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    let mut size = 0u64;
-    loop {
-        let n = file.read(&mut buf).map_err(|e| InputError::io(path, &e))?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-        size += n as u64;
-    }
-    Ok((size, hex(&hasher.finalize())))
-}
-
-/// The release digest of `files`.
-pub fn digest(files: &[FileEntry]) -> String {
-    let mut lines: Vec<String> = files.iter().map(|f| format!("{} {} {}\n", f.path, f.size, f.sha256)).collect();
-    lines.sort();
-    hex(&Sha256::digest(lines.concat().as_bytes()))
+    let (size, sum) = osmab_evaluator::digest::sha256_file(path).map_err(|e| InputError::io(path, &e))?;
+    Ok((size, hex(&sum)))
 }
 
 /// Every regular file under `root` except `excluded` top-level entries, sorted; the files

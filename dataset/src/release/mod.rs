@@ -21,7 +21,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use osmab_evaluator::formats::classes::ClassList;
+use osmab_evaluator::formats::manifest::{Generator, ManifestScene, ReleaseManifest};
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::{InputError, Result};
 use serde_json::{Value, json};
 
@@ -65,7 +67,7 @@ pub fn prepare_release(
     for index in 0..selection.scenes.len() {
         build.settle_scene(index, &selection, progress)?;
         for lighting in &build.config.render.lightings {
-            let unit = SequenceUnit { scene_index: index, scene: scene_name(index), lighting: lighting.clone() };
+            let unit = SequenceUnit { scene_index: index, scene: scene_name(index), lighting: *lighting };
             let done = build.sequence_rendered(&unit)?;
             units.push((unit, done));
         }
@@ -108,18 +110,18 @@ pub fn render_release_scene(
 
 /// Build the release of `config_path` into `out` (a config with a test split needs the
 /// operator's `secret`; a relative asset pack path is read under `assets_root`).
-pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, assets_root: &Path, progress: &dyn Fn(&str)) -> Result<Value> {
+pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret>, assets_root: &Path, progress: &dyn Fn(&str)) -> Result<ReleaseManifest> {
     let build = Build::open(config_path, out, secret, assets_root)?;
     let config = &build.config;
     let selection = build.prompts(progress)?;
 
     // 3–6. Per scene: synthesis, conversion, trajectory, sequences, ground truth, questions.
-    let lightings: Vec<&str> = config.render.lightings.iter().map(String::as_str).collect();
+    let lightings: &[ReleaseLighting] = &config.render.lightings;
     let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let layouts = build.pool_layouts()?;
     let priors = QuestionPriors::new(&layouts, &lexicon);
     progress(&format!("questions: odds from {} simulated layouts of the prompt pool", priors.layouts()));
-    let assembly = SceneAssembly { build: &build, out, lightings: &lightings, lexicon: &lexicon, priors: &priors };
+    let assembly = SceneAssembly { build: &build, out, lightings, lexicon: &lexicon, priors: &priors };
     let scenes = pipeline::assemble_in_order(
         selection.scenes.len(),
         |i, say| build.settle_scene(i, &selection, say),
@@ -127,10 +129,10 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
         progress,
     )?;
     let mut quality = Vec::new();
-    let mut scenes_json = Vec::new();
+    let mut manifest_scenes = Vec::new();
     let mut previews: Vec<(String, usize)> = Vec::new();
     for scene in scenes {
-        scenes_json.push(scene.entry);
+        manifest_scenes.push(scene.entry);
         previews.push(scene.preview);
         quality.push(scene.quality);
     }
@@ -140,7 +142,7 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let mut failures: Vec<String> = quality.iter().flat_map(|q| q.problems.iter().map(move |p| format!("{}: {p}", q.scene))).collect();
     failures.extend(oracle_problems.iter().cloned());
 
-    write_public_tree(&build, out, &quality, &previews, &lightings)?;
+    write_public_tree(&build, out, &quality, &previews, lightings)?;
     write_quality_reports(out, config, &quality, &oracle_accuracy, &failures)?;
     if config.quality.enforce && !failures.is_empty() {
         return Err(InputError::new(
@@ -151,27 +153,22 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     }
     let gt_files = seal_ground_truth(out, config, &quality)?;
     let files = list_files(out, &["manifest.json", WORK, GROUND_TRUTH])?;
-    refuse_leftovers(out, &files, &expected_public_files(&quality, &lightings))?;
+    refuse_leftovers(out, &files, &expected_public_files(&quality, lightings))?;
     let splits: BTreeMap<&str, Split> = quality.iter().map(|q| (q.scene.as_str(), q.split)).collect();
     let files = public_files(files, &gt_files, &splits);
-    let manifest = json!({
-        "version": config.version,
-        "created": config.created,
-        "digest": digest(&files),
-        "generator": generator(&build.config_text, config, build.secret_id(), build.assets_digest()),
-        "scenes": scenes_json,
-        "lightings": lightings,
-        "files": files,
-    });
-    write_json(&out.join("manifest.json"), &manifest)?;
+    let manifest = ReleaseManifest {
+        archives: Vec::new(),
+        created: config.created.clone(),
+        digest: digest(&files),
+        generator: generator(&build.config_text, config, build.secret_id(), build.assets_digest()),
+        lightings: lightings.to_vec(),
+        scenes: manifest_scenes,
+        version: config.version.clone(),
+        files,
+    };
+    manifest.write(&out.join("manifest.json"))?;
     let full = quality.iter().filter(|q| q.full_match).count();
-    progress(&format!(
-        "release {}: {} scenes, {full} full matches, {} files, digest {}",
-        config.version,
-        quality.len(),
-        files.len(),
-        manifest["digest"].as_str().unwrap_or("")
-    ));
+    progress(&format!("release {}: {} scenes, {full} full matches, {} files, digest {}", config.version, quality.len(), manifest.files.len(), manifest.digest));
     Ok(manifest)
 }
 
@@ -180,14 +177,14 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
 struct SceneAssembly<'a> {
     build: &'a Build,
     out: &'a Path,
-    lightings: &'a [&'a str],
+    lightings: &'a [ReleaseLighting],
     lexicon: &'a [String],
     priors: &'a QuestionPriors<'a>,
 }
 
 /// One assembled scene: its manifest entry, its preview frame and its measured quality.
 struct AssembledScene {
-    entry: Value,
+    entry: ManifestScene,
     preview: (String, usize),
     quality: SceneQuality,
 }
@@ -240,11 +237,10 @@ impl SceneAssembly<'_> {
 
     /// Stage 5 of scene `i`: its sequences under every lighting (drawn together), each
     /// with its contact sheet; returns each sequence's summary by lighting.
-    fn render_sequences(&self, i: usize, scene: &str, progress: &dyn Fn(&str)) -> Result<BTreeMap<String, SequenceSummary>> {
-        let units: Vec<SequenceUnit> =
-            self.lightings.iter().map(|lighting| SequenceUnit { scene_index: i, scene: scene.to_string(), lighting: lighting.to_string() }).collect();
+    fn render_sequences(&self, i: usize, scene: &str, progress: &dyn Fn(&str)) -> Result<BTreeMap<ReleaseLighting, SequenceSummary>> {
+        let units: Vec<SequenceUnit> = self.lightings.iter().map(|&lighting| SequenceUnit { scene_index: i, scene: scene.to_string(), lighting }).collect();
         let rendered = self.build.render_scene_sequences(&units, progress)?;
-        let mut summaries: BTreeMap<String, SequenceSummary> = BTreeMap::new();
+        let mut summaries: BTreeMap<ReleaseLighting, SequenceSummary> = BTreeMap::new();
         for (unit, summary) in units.into_iter().zip(rendered) {
             self.build.contact_sheet(&unit, &summary)?;
             summaries.insert(unit.lighting, summary);
@@ -270,19 +266,18 @@ impl SceneAssembly<'_> {
 
 /// A scene's entry in the manifest, and its preview frame (from the baseline sequence if
 /// there is one, else the first).
-fn scene_entry(scene: &str, prompt: &ScenePrompt, split: Split, summaries: &BTreeMap<String, SequenceSummary>, open: bool) -> (Value, usize) {
-    let preview_lighting = summaries.keys().find(|l| *l == "baseline").or_else(|| summaries.keys().next()).cloned().unwrap_or_default();
+fn scene_entry(scene: &str, prompt: &ScenePrompt, split: Split, summaries: &BTreeMap<ReleaseLighting, SequenceSummary>, open: bool) -> (ManifestScene, usize) {
+    let preview_lighting =
+        summaries.keys().copied().find(|l| *l == ReleaseLighting::BASELINE).or_else(|| summaries.keys().next().copied()).unwrap_or(ReleaseLighting::BASELINE);
     let preview = summaries.get(&preview_lighting).map_or(0, SequenceSummary::preview_frame);
-    let mut entry = json!({
-        "id": scene,
-        "subset": prompt.spec.regime,
-        "split": split,
-        "preview": format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg"),
-    });
-    if open {
-        entry["prompt"] = json!(prompt.text);
-        entry["questions"] = json!(format!("questions/{scene}.json"));
-    }
+    let entry = ManifestScene {
+        id: scene.to_string(),
+        preview: Some(format!("sequences/{preview_lighting}/{scene}/results/frame{preview:06}.jpg")),
+        prompt: open.then(|| prompt.text.clone()),
+        questions: open.then(|| format!("questions/{scene}.json")),
+        split,
+        subset: prompt.spec.regime,
+    };
     (entry, preview)
 }
 
@@ -312,7 +307,7 @@ fn scene_progress_line(scene: &str, measured: &SceneQuality, questions: &SceneQu
 }
 
 /// The public tree around the scenes: the overview contact sheet, the classes and the front matter.
-fn write_public_tree(build: &Build, out: &Path, quality: &[SceneQuality], previews: &[(String, usize)], lightings: &[&str]) -> Result<()> {
+fn write_public_tree(build: &Build, out: &Path, quality: &[SceneQuality], previews: &[(String, usize)], lightings: &[ReleaseLighting]) -> Result<()> {
     contact::write_overview(out, previews, lightings, &out.join(OVERVIEW))?;
     let classes_json: Value =
         read_json(&build.work.join("habitat/scene_000/semantics/classes.json")).unwrap_or_else(|_| json!({"classes": crate::convert::lexicon::classes()}));
@@ -362,7 +357,7 @@ fn seal_ground_truth(out: &Path, config: &config::ReleaseConfig, quality: &[Scen
 }
 
 /// The files and folders the public tree of the release should hold, and nothing else.
-fn expected_public_files(quality: &[SceneQuality], lightings: &[&str]) -> Vec<String> {
+fn expected_public_files(quality: &[SceneQuality], lightings: &[ReleaseLighting]) -> Vec<String> {
     let mut expected: Vec<String> = vec!["classes.json".into(), "quality/quality_report.json".into(), OVERVIEW.into()];
     expected.extend(front_matter::FILES.iter().map(|f| f.to_string()));
     for q in quality {
@@ -380,20 +375,15 @@ fn expected_public_files(quality: &[SceneQuality], lightings: &[&str]) -> Vec<St
 /// The manifest's provenance: the config, its seed and content digest, the code version
 /// and, with a test split, the public id of the operator's secret (a hash that tells
 /// nothing of it: which secret shaped the test scenes, for rotating it).
-fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Option<String>, assets_digest: Option<&str>) -> Value {
-    let mut generator = json!({
-        "config": config_text,
-        "seed": config.seed,
-        "content_digest": config.content_digest(),
-        "code_version": env!("CARGO_PKG_VERSION"),
-    });
-    if let Some(id) = secret_id {
-        generator["split_secret_id"] = json!(id);
+fn generator(config_text: &str, config: &config::ReleaseConfig, secret_id: Option<String>, assets_digest: Option<&str>) -> Generator {
+    Generator {
+        assets_digest: assets_digest.map(str::to_string),
+        code_version: env!("CARGO_PKG_VERSION").to_string(),
+        config: config_text.to_string(),
+        content_digest: config.content_digest(),
+        seed: config.seed,
+        split_secret_id: secret_id,
     }
-    if let Some(digest) = assets_digest {
-        generator["assets_digest"] = json!(digest);
-    }
-    generator
 }
 
 /// The public files of a release: everything built outside the ground truth that the
@@ -471,9 +461,8 @@ fn refuse_leftovers(root: &Path, files: &[manifest::FileEntry], expected: &[Stri
 /// Check a built release: every manifest entry's size and SHA-256, and the digest.
 pub fn verify_release(dir: &Path) -> Result<usize> {
     let path: PathBuf = dir.join("manifest.json");
-    let manifest: Value = read_json(&path)?;
-    let files: Vec<manifest::FileEntry> = serde_json::from_value(manifest["files"].clone()).map_err(|e| InputError::new(&path, "files", e.to_string()))?;
-    for f in &files {
+    let manifest = ReleaseManifest::read(&path)?;
+    for f in &manifest.files {
         if f.path.contains("..") || f.path.starts_with('/') {
             return Err(InputError::new(&path, "files", format!("'{}' is not a path inside the release", f.path)));
         }
@@ -486,8 +475,8 @@ pub fn verify_release(dir: &Path) -> Result<usize> {
             ));
         }
     }
-    if manifest["digest"].as_str() != Some(digest(&files).as_str()) {
+    if !manifest.digest_matches() {
         return Err(InputError::new(&path, "digest", "the digest does not match the listed files"));
     }
-    Ok(files.len())
+    Ok(manifest.files.len())
 }

@@ -11,7 +11,7 @@
 
 use std::collections::BTreeMap;
 
-use osmab_evaluator::scores::Split;
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 use osmab_evaluator::vqa::SceneQuestions;
 use osmab_evaluator::vqa::answer::ClassifiedGraph;
 use osmab_evaluator::vqa::judge::judge_text_without_llm;
@@ -106,7 +106,7 @@ pub struct SceneQuality {
     pub travelled_m: f64,
     /// Share of frames dominated by one class (> 85 %) or short of depth (< 50 %).
     pub degenerate_fraction: f64,
-    pub lightings: BTreeMap<String, LightingQuality>,
+    pub lightings: BTreeMap<ReleaseLighting, LightingQuality>,
     pub oracle_vqa: OracleVqa,
     /// Pixels per class over the baseline sequence, and ground-truth points per class.
     pub class_pixels: BTreeMap<u16, u64>,
@@ -188,8 +188,8 @@ fn median(values: &mut [f64]) -> f64 {
 }
 
 /// Each lighting's exposure and its differences from `baseline` (frame by frame).
-pub fn lighting_quality(summaries: &BTreeMap<String, SequenceSummary>) -> BTreeMap<String, LightingQuality> {
-    let baseline = summaries.get("baseline");
+pub fn lighting_quality(summaries: &BTreeMap<ReleaseLighting, SequenceSummary>) -> BTreeMap<ReleaseLighting, LightingQuality> {
+    let baseline = summaries.get(&ReleaseLighting::BASELINE);
     summaries
         .iter()
         .map(|(lighting, s)| {
@@ -249,7 +249,7 @@ pub struct Rendered<'a> {
     pub spec: &'a SceneSpec,
     pub conversion: &'a ConversionReport,
     pub unmet: &'a [String],
-    pub summaries: &'a BTreeMap<String, SequenceSummary>,
+    pub summaries: &'a BTreeMap<ReleaseLighting, SequenceSummary>,
     pub instances: &'a InstanceLabels,
     pub gt_labels: &'a [i64],
     pub objects: &'a [SceneObject],
@@ -269,7 +269,7 @@ struct PublicTestScene<'a> {
     frames: usize,
     travelled_m: f64,
     degenerate_fraction: f64,
-    lightings: &'a BTreeMap<String, LightingQuality>,
+    lightings: &'a BTreeMap<ReleaseLighting, LightingQuality>,
 }
 
 impl SceneQuality {
@@ -296,7 +296,7 @@ impl SceneQuality {
         let points = |id: i64| r.instances.instances.get(&id).map_or(0, |p| p.points);
         let prompted = prompted_classes(r.spec, r.conversion, |id| points(id) >= MIN_SEEN_POINTS);
         let prompted_names: Vec<&str> = prompted.iter().filter_map(|p| p.class.as_deref()).collect();
-        let baseline = r.summaries.get("baseline").or_else(|| r.summaries.values().next()).cloned().unwrap_or_default();
+        let baseline = r.summaries.get(&ReleaseLighting::BASELINE).or_else(|| r.summaries.values().next()).cloned().unwrap_or_default();
         let instances: Vec<InstanceCoverage> = r
             .objects
             .iter()
@@ -367,7 +367,7 @@ impl SceneQuality {
                 problems.push(format!("{lighting}: depth or semantics differ from baseline in {} frames", q.geometry_differs));
             }
         }
-        if let Some(q) = self.lightings.get("dynamic_lights").filter(|_| self.lightings.contains_key("baseline")) {
+        if let Some(q) = self.lightings.get(&ReleaseLighting::DynamicLights).filter(|_| self.lightings.contains_key(&ReleaseLighting::BASELINE)) {
             if q.differs_from_baseline < config.min_dynamic_changed_fraction {
                 problems.push(format!(
                     "dynamic_lights: {:.1} % of frames differ from baseline (at least {:.0} %)",

@@ -32,7 +32,7 @@ use crate::render::sequence::SequenceSummary;
 use crate::selection::select;
 use crate::spec::Regime;
 use crate::synthesis::source::AssetSource;
-use osmab_evaluator::scores::Split;
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 
 /// Where the build keeps its intermediate stages (not part of the release).
 pub const WORK: &str = ".work";
@@ -51,8 +51,8 @@ fn fingerprint(output: &Path) -> Result<String> {
 }
 
 /// Where the build in `work` keeps the archive of a sequence, and its stage marker.
-fn archive_paths(work: &Path, lighting: &str, scene: &str) -> (PathBuf, PathBuf) {
-    let dir = work.join("archives").join(lighting);
+fn archive_paths(work: &Path, lighting: ReleaseLighting, scene: &str) -> (PathBuf, PathBuf) {
+    let dir = work.join("archives").join(lighting.name());
     (dir.join(format!("{scene}.tar")), dir.join(format!("{scene}.done")))
 }
 
@@ -67,9 +67,9 @@ fn archive_inputs(sequence_marker: &str, split: Split) -> String {
 /// marker recorded them, if there is one made from the sequence as its marker says it is
 /// now, of that split's public files (a release built without the service's render jobs
 /// has none: its import packs the archives).
-pub fn packed_sequence_archive(out: &Path, lighting: &str, scene: &str, split: Split) -> Option<(PathBuf, u64, String)> {
+pub fn packed_sequence_archive(out: &Path, lighting: ReleaseLighting, scene: &str, split: Split) -> Option<(PathBuf, u64, String)> {
     let work = out.join(WORK);
-    let rendered = std::fs::read_to_string(work.join("rendered").join(lighting).join(format!("{scene}.done"))).ok()?;
+    let rendered = std::fs::read_to_string(work.join("rendered").join(lighting.name()).join(format!("{scene}.done"))).ok()?;
     let (archive, marker) = archive_paths(&work, lighting, scene);
     let recorded = std::fs::read_to_string(&marker).ok()?;
     let sha256 = recorded.strip_prefix(&format!("inputs {}\noutput ", archive_inputs(&rendered, split)))?.strip_suffix('\n')?;
@@ -124,7 +124,7 @@ fn mark_done(marker: &Path, inputs: &str, output: &Path) -> Result<()> {
 pub struct SequenceUnit {
     pub scene_index: usize,
     pub scene: String,
-    pub lighting: String,
+    pub lighting: ReleaseLighting,
 }
 
 /// The selected prompts (one per scene, furniture first) and the spares of each regime
@@ -621,9 +621,9 @@ impl Build {
     }
 
     fn sequence_paths(&self, unit: &SequenceUnit) -> (PathBuf, PathBuf, PathBuf) {
-        let rendered = self.work.join("rendered").join(&unit.lighting);
+        let rendered = self.work.join("rendered").join(unit.lighting.name());
         (
-            self.out.join("sequences").join(&unit.lighting).join(&unit.scene),
+            self.out.join("sequences").join(unit.lighting.name()).join(&unit.scene),
             rendered.join(format!("{}.json", unit.scene)),
             rendered.join(format!("{}.done", unit.scene)),
         )
@@ -640,7 +640,7 @@ impl Build {
     /// Stage 5 for one sequence (its scene must be settled); returns its summary.
     pub fn render_sequence(&self, unit: &SequenceUnit, progress: &dyn Fn(&str)) -> Result<SequenceSummary> {
         let config = &self.config;
-        let (scene, lighting) = (&unit.scene, unit.lighting.as_str());
+        let (scene, lighting) = (&unit.scene, unit.lighting);
         let inputs = self.settled_inputs(unit.scene_index)?;
         let habitat = self.habitat_dir(unit.scene_index);
         let (sequence_dir, summary_path, marker) = self.sequence_paths(unit);
@@ -664,7 +664,7 @@ impl Build {
                 ("trajectory", self.plan_path(unit.scene_index).display().to_string()),
             ];
             std::fs::create_dir_all(&sequence_dir).map_err(|e| InputError::io(&sequence_dir, &e))?;
-            let log = self.work.join("rendered").join(lighting).join(format!("{scene}.log"));
+            let log = self.work.join("rendered").join(lighting.name()).join(format!("{scene}.log"));
             crate::external::run_command(&config.render.command, &substitutions, &log, std::time::Duration::from_secs(config.render.timeout_secs))?;
             // Whatever rendered it, it must be a sequence the evaluator reads.
             write_json(&summary_path, &crate::render::sequence::summarize_sequence(&sequence_dir)?)
@@ -691,8 +691,8 @@ impl Build {
             }
         }
         if !stale.is_empty() {
-            let lightings: Vec<&str> = stale.iter().map(|u| u.lighting.as_str()).collect();
-            progress(&format!("{}: rendering {}", first.scene, lightings.join(", ")));
+            let lightings: Vec<ReleaseLighting> = stale.iter().map(|u| u.lighting).collect();
+            progress(&format!("{}: rendering {}", first.scene, lightings.iter().map(|l| l.name()).collect::<Vec<_>>().join(", ")));
             let plan: Plan = read_json(&self.plan_path(first.scene_index))?;
             let habitat = self.habitat_dir(first.scene_index);
             let rendered =
@@ -710,8 +710,8 @@ impl Build {
     /// whenever the sequence is.
     pub fn contact_sheet(&self, unit: &SequenceUnit, summary: &SequenceSummary) -> Result<PathBuf> {
         let (sequence_dir, _, sequence_marker) = self.sequence_paths(unit);
-        let sheet = self.out.join("quality/contact_sheets").join(&unit.lighting).join(format!("{}.png", unit.scene));
-        let marker = self.work.join("contact_sheets").join(&unit.lighting).join(format!("{}.done", unit.scene));
+        let sheet = self.out.join("quality/contact_sheets").join(unit.lighting.name()).join(format!("{}.png", unit.scene));
+        let marker = self.work.join("contact_sheets").join(unit.lighting.name()).join(format!("{}.done", unit.scene));
         let rendered = std::fs::read_to_string(&sequence_marker).map_err(|e| InputError::io(&sequence_marker, &e))?;
         staged(&marker, &format!("sequence {}", rendered.replace('\n', " ")), &sheet, || super::contact::write_contact_sheet(&sequence_dir, summary, &sheet))?;
         Ok(sheet)
@@ -724,12 +724,12 @@ impl Build {
     /// made again whenever the sequence is.
     pub fn sequence_archive(&self, unit: &SequenceUnit) -> Result<PathBuf> {
         let (sequence_dir, _, sequence_marker) = self.sequence_paths(unit);
-        let (archive, marker) = archive_paths(&self.work, &unit.lighting, &unit.scene);
+        let (archive, marker) = archive_paths(&self.work, unit.lighting, &unit.scene);
         let rendered = std::fs::read_to_string(&sequence_marker).map_err(|e| InputError::io(&sequence_marker, &e))?;
         let split = self.split_of(unit.scene_index);
         staged(&marker, &archive_inputs(&rendered, split), &archive, || {
             std::fs::create_dir_all(archive.parent().expect("in the archives folder")).map_err(|e| InputError::io(&archive, &e))?;
-            let prefix = format!("sequences/{}/{}/", unit.lighting, unit.scene);
+            let prefix = osmab_evaluator::formats::manifest::sequence_prefix(unit.lighting, &unit.scene);
             let files = super::publication::public_sequence_files(split, &sequence_dir)?;
             osmab_evaluator::submission::pack_files_as(&sequence_dir, &files, &prefix, &archive).map(|_| ())
         })?;
@@ -738,9 +738,9 @@ impl Build {
 
     /// The lighting whose sequence the ground truth is built from: baseline when the
     /// release has it.
-    pub fn ground_truth_lighting(&self) -> &str {
+    pub fn ground_truth_lighting(&self) -> ReleaseLighting {
         let lightings = &self.config.render.lightings;
-        if lightings.iter().any(|l| l == "baseline") { "baseline" } else { lightings[0].as_str() }
+        if lightings.contains(&ReleaseLighting::BASELINE) { ReleaseLighting::BASELINE } else { lightings[0] }
     }
 
     /// Stage 6 for scene `index`: the ground truth from the baseline sequence, with the
@@ -749,7 +749,7 @@ impl Build {
         let scene = scene_name(index);
         let inputs = self.settled_inputs(index)?;
         let gt_dir = self.out.join(super::publication::GROUND_TRUTH).join(&scene);
-        let gt_source = self.out.join("sequences").join(self.ground_truth_lighting()).join(&scene);
+        let gt_source = self.out.join("sequences").join(self.ground_truth_lighting().name()).join(&scene);
         let habitat = self.habitat_dir(index);
         staged(&self.work.join("gt").join(format!("{scene}.done")), &inputs, &gt_dir, || {
             progress(&format!("{scene}: ground truth"));

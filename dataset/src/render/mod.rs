@@ -22,6 +22,7 @@ pub mod view;
 use std::path::Path;
 
 use osmab_evaluator::formats::classes::{ClassEntry, ClassList};
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::{InputError, Result};
 
 use crate::convert::habitat::ConversionReport;
@@ -31,13 +32,6 @@ use coverage::{CoverageGoals, Plan, Target};
 use navigation::NavGrid;
 use sequence::{SequenceSummary, SequenceTarget, render_sequences};
 use trajectory::{AgentState, MotionSettings};
-
-/// The names of the four lighting conditions of OSMa-Bench++, as files and configs write
-/// them: [`osmab_evaluator::scores::Lighting::RELEASE`], the one list, by name.
-pub const LIGHTINGS: [&str; 4] = {
-    let release = osmab_evaluator::scores::Lighting::RELEASE;
-    [release[0].name(), release[1].name(), release[2].name(), release[3].name()]
-};
 
 /// The objects of a converted scene a trajectory must observe: everything but the
 /// room's shell, those of `prompted` categories (names or classes) marked first.
@@ -79,11 +73,11 @@ pub fn plan_scene(
 pub fn render_scene(
     habitat_dir: &Path,
     scene: &str,
-    lightings: &[&str],
+    lightings: &[ReleaseLighting],
     sensor: &SensorSettings,
     states: &[AgentState],
     out: &Path,
-) -> Result<Vec<(String, SequenceSummary)>> {
+) -> Result<Vec<(ReleaseLighting, SequenceSummary)>> {
     let mut settings_of = Vec::new();
     for lighting in lightings {
         let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
@@ -105,11 +99,11 @@ pub fn render_scene(
         .map(|((lighting, light_settings), world)| {
             let mut settings_copy = settings.clone();
             settings_copy["label"] = serde_json::json!(lighting);
-            SequenceTarget { world, light_settings, settings_copy, dir: out.join(lighting).join(scene) }
+            SequenceTarget { world, light_settings, settings_copy, dir: out.join(lighting.name()).join(scene) }
         })
         .collect();
     let summaries = render_sequences(&targets, states, grid.floor_height, sensor, &classes)?;
-    Ok(lightings.iter().map(|l| l.to_string()).zip(summaries).collect())
+    Ok(lightings.iter().copied().zip(summaries).collect())
 }
 
 /// `world` lit for each of the HaDaGe light settings `lightings` on its own

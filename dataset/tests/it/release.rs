@@ -5,8 +5,10 @@ use std::path::Path;
 use osmab_dataset::release::split::SplitSecret;
 use osmab_dataset::release::{GROUND_TRUTH, WORK, build_release, verify_release};
 use osmab_evaluator::formats::classes::ClassList;
+use osmab_evaluator::formats::manifest::ReleaseManifest;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::scores::{ReleaseLighting, Split};
 use osmab_evaluator::semseg::score_scene;
 
 /// Where the configs' relative asset pack paths are read: the repository, whose `assets/`
@@ -36,7 +38,7 @@ lightings = ["baseline", "no_lights"]
 enforce = false
 "#;
 
-fn build(dir: &Path, out: &str) -> serde_json::Value {
+fn build(dir: &Path, out: &str) -> ReleaseManifest {
     let config = dir.join("release.toml");
     std::fs::write(&config, TINY).unwrap();
     build_release(&config, &dir.join(out), None, &assets_root(), &|_| {}).unwrap()
@@ -44,7 +46,7 @@ fn build(dir: &Path, out: &str) -> serde_json::Value {
 
 /// [`build`] with `threads` threads: one builds one scene after another, several build
 /// scenes side by side.
-fn build_on_threads(threads: usize, dir: &Path, out: &str) -> serde_json::Value {
+fn build_on_threads(threads: usize, dir: &Path, out: &str) -> ReleaseManifest {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| build(dir, out))
 }
 
@@ -53,14 +55,19 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
     let dir = tempfile::tempdir().unwrap();
     let manifest = build(dir.path(), "rel");
     let rel = dir.path().join("rel");
-    assert_eq!(manifest["scenes"].as_array().unwrap().len(), 2);
-    assert_eq!(manifest["lightings"], serde_json::json!(["baseline", "no_lights"]));
-    let files = manifest["files"].as_array().unwrap();
-    let path = |f: &serde_json::Value| f["path"].as_str().unwrap().to_string();
+    assert_eq!(manifest.scenes.len(), 2);
+    assert_eq!(manifest.lightings, [ReleaseLighting::Baseline, ReleaseLighting::NoLights]);
+    let written = std::fs::read_to_string(rel.join("manifest.json")).unwrap();
+    assert_eq!(ReleaseManifest::read(&rel.join("manifest.json")).unwrap().to_json(), written, "the manifest reads back to the same bytes");
+    assert_eq!(ReleaseManifest::read(&rel.join("manifest.json")).unwrap(), manifest);
+    let untyped: serde_json::Value = serde_json::from_str(&written).unwrap();
+    assert_eq!(serde_json::to_string_pretty(&untyped).unwrap() + "\n", written, "keys as an untyped manifest writes them");
+    let files = &manifest.files;
+    let path = |f: &osmab_evaluator::formats::manifest::FileEntry| f.path.clone();
     assert!(files.iter().all(|f| !path(f).starts_with(WORK)), "work files are not public");
     // Without a test split every scene is val: its ground truth is public, the full quality
     // report and the ground truth's own manifest are not.
-    assert!(manifest["scenes"].as_array().unwrap().iter().all(|s| s["split"] == "val"));
+    assert!(manifest.scenes.iter().all(|s| s.split == Split::Val));
     assert!(files.iter().any(|f| path(f) == "ground_truth/scene_001/semantic.npy"));
     assert!(!files.iter().any(|f| path(f) == "ground_truth/manifest.json" || path(f) == "ground_truth/quality_report.json"));
     for expected in [
@@ -73,13 +80,13 @@ fn a_release_is_complete_verified_and_scores_its_oracle_at_one() {
         "LICENSE",
         "CITATION.cff",
     ] {
-        assert!(files.iter().any(|f| f["path"] == expected), "{expected} missing from the manifest");
+        assert!(files.iter().any(|f| f.path == expected), "{expected} missing from the manifest");
     }
     assert_eq!(verify_release(&rel).unwrap(), files.len());
 
     // Its front matter says what it is, its terms and how to cite it.
     let read = |name: &str| std::fs::read_to_string(rel.join(name)).unwrap();
-    let version = manifest["version"].as_str().unwrap();
+    let version = &manifest.version;
     let readme = read("README.md");
     assert!(readme.starts_with(&format!("# OSMa-Bench++ release {version}\n")), "{readme}");
     assert!(readme.contains("2 scenes: 0 in the hidden **test** split") && readme.contains("2 in the open **val** split"), "{readme}");
@@ -125,18 +132,16 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     let secret = SplitSecret::new("the operator's own secret", "test").unwrap();
     let first = build_release(&config, &dir.path().join("a"), Some(&secret), &assets_root(), &|_| {}).unwrap();
     let again = build_release(&config, &dir.path().join("b"), Some(&secret), &assets_root(), &|_| {}).unwrap();
-    assert_eq!(first["digest"], again["digest"], "the same config and secret give the same release");
-    let splits: Vec<&str> = first["scenes"].as_array().unwrap().iter().map(|s| s["split"].as_str().unwrap()).collect();
-    assert_eq!(splits, ["val", "test"]);
-    let listed = |m: &serde_json::Value| -> std::collections::BTreeMap<String, String> {
-        m["files"].as_array().unwrap().iter().map(|f| (f["path"].as_str().unwrap().to_string(), f["sha256"].as_str().unwrap().to_string())).collect()
-    };
+    assert_eq!(first.digest, again.digest, "the same config and secret give the same release");
+    let splits: Vec<Split> = first.scenes.iter().map(|s| s.split).collect();
+    assert_eq!(splits, [Split::Val, Split::Test]);
+    let listed = |m: &ReleaseManifest| -> std::collections::BTreeMap<String, String> { m.files.iter().map(|f| (f.path.clone(), f.sha256.clone())).collect() };
     let files = listed(&first);
     assert!(!files.keys().any(|p| p.contains("scene_001/results/semantic")), "no semantic frame of the test scene is listed");
     // Nor its prompt, spec or questions: they would tell its answers. The server keeps them.
-    let test_entry = &first["scenes"][1];
-    assert!(test_entry.get("prompt").is_none() && test_entry.get("questions").is_none(), "{test_entry}");
-    assert!(first["scenes"][0]["prompt"].is_string(), "the val scene's prompt is public");
+    let test_entry = &first.scenes[1];
+    assert!(test_entry.prompt.is_none() && test_entry.questions.is_none(), "{test_entry:?}");
+    assert!(first.scenes[0].prompt.is_some(), "the val scene's prompt is public");
     for hidden in ["scenes/scene_001/prompt.json", "questions/scene_001.json"] {
         assert!(!files.contains_key(hidden) && !dir.path().join("a").join(hidden).exists(), "{hidden}");
     }
@@ -146,12 +151,11 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     let quality: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("a/quality/quality_report.json")).unwrap()).unwrap();
     let test_quality = quality["per_scene"].as_array().unwrap().iter().find(|s| s["scene"] == "scene_001").unwrap();
     assert!(test_quality.get("prompt_id").is_none(), "a prompt id names a prompt of the pool anyone rebuilds: {test_quality}");
-    assert_eq!(first["generator"]["split_secret_id"].as_str(), Some(secret.id().as_str()));
+    assert_eq!(first.generator.split_secret_id, Some(secret.id()));
     // The archive a render job packs holds exactly the manifest's files of its sequence.
-    let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: "baseline".into() };
+    let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: ReleaseLighting::Baseline };
     osmab_dataset::release::render_release_scene(&config, &dir.path().join("a"), Some(&secret), &assets_root(), &[unit], &|_| {}).unwrap();
-    let (archive, _, _) =
-        osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), "baseline", "scene_001", osmab_evaluator::scores::Split::Test).unwrap();
+    let (archive, _, _) = osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), ReleaseLighting::Baseline, "scene_001", Split::Test).unwrap();
     let held = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();
     let expected: Vec<&String> = files.keys().filter(|p| p.starts_with("sequences/baseline/scene_001/")).collect();
     assert_eq!(held.iter().collect::<Vec<_>>(), expected);
@@ -172,7 +176,7 @@ fn the_same_config_gives_a_byte_identical_release_on_one_thread_or_several_and_i
     let dir = tempfile::tempdir().unwrap();
     let first = build_on_threads(1, dir.path(), "a");
     let second = build_on_threads(4, dir.path(), "b");
-    assert_eq!(first["digest"], second["digest"]);
+    assert_eq!(first.digest, second.digest);
     assert_eq!(first, second, "the same manifest");
     let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
     assert_eq!(gt_manifest("a"), gt_manifest("b"), "the same hidden ground truth");
@@ -183,15 +187,15 @@ fn the_same_config_gives_a_byte_identical_release_on_one_thread_or_several_and_i
     std::fs::remove_file(b.join("sequences/no_lights/scene_001/results/depth000003.png")).unwrap();
     std::fs::write(b.join("sequences/no_lights/scene_001/results/frame000004.jpg"), b"partial").unwrap();
     let resumed = build(dir.path(), "b");
-    assert_eq!(resumed["digest"], first["digest"], "the rebuilt stage is identical");
-    assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
+    assert_eq!(resumed.digest, first.digest, "the rebuilt stage is identical");
+    assert_eq!(verify_release(&b).unwrap(), first.files.len());
 
     // Corrupt a finished stage's output (its marker still there): it is noticed and rebuilt.
     std::fs::write(b.join("sequences/baseline/scene_000/results/semantic000002.png"), b"garbage").unwrap();
     std::fs::write(b.join(GROUND_TRUTH).join("scene_001/semantic.npy"), b"garbage").unwrap();
     let repaired = build(dir.path(), "b");
-    assert_eq!(repaired["digest"], first["digest"]);
-    assert_eq!(verify_release(&b).unwrap(), first["files"].as_array().unwrap().len());
+    assert_eq!(repaired.digest, first.digest);
+    assert_eq!(verify_release(&b).unwrap(), first.files.len());
     assert_eq!(gt_manifest("a"), gt_manifest("b"), "the ground truth is rebuilt too");
 
     // A sequence the config does not build (left from a build with more lightings) is not published.
@@ -205,22 +209,22 @@ fn the_same_config_gives_a_byte_identical_release_on_one_thread_or_several_and_i
     std::fs::remove_dir_all(b.join("sequences/camera")).unwrap();
     std::fs::write(&config, TINY.replace("max_frames = 24", "max_frames = 12")).unwrap();
     let shorter = build_release(&config, &b, None, &assets_root(), &|_| {}).unwrap();
-    assert_ne!(shorter["digest"], first["digest"]);
+    assert_ne!(shorter.digest, first.digest);
     let frames = std::fs::read_to_string(b.join("sequences/baseline/scene_000/traj.txt")).unwrap().lines().count();
     assert!(frames <= 12, "{frames} poses after lowering max_frames to 12");
 }
 
 #[test]
 fn baselines_are_submissions_that_rank_below_the_oracle() {
-    use osmab_dataset::baselines::{BASELINES, write_baseline};
+    use osmab_dataset::baselines::{Control, write_baseline};
     use osmab_evaluator::formats::npy::ReadLimits;
     let dir = tempfile::tempdir().unwrap();
     build(dir.path(), "rel");
     let rel = dir.path().join("rel");
     let mut scores = Vec::new();
-    for name in BASELINES {
-        let out = dir.path().join(name);
-        assert_eq!(write_baseline(name, &rel, &out).unwrap(), 4, "2 scenes × 2 lightings");
+    for control in Control::ALL {
+        let out = dir.path().join(control.name());
+        assert_eq!(write_baseline(control, &rel, &out).unwrap(), 4, "2 scenes × 2 lightings");
         let submission: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("submission.json")).unwrap()).unwrap();
         assert_eq!((submission["format"].as_str(), submission["release"].as_str()), (Some("osmab-submission/1"), Some("test-1")));
         let graph: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("graphs/no_lights/scene_000.json")).unwrap()).unwrap();
@@ -234,13 +238,17 @@ fn baselines_are_submissions_that_rank_below_the_oracle() {
             let map = PredictedMap::read(&out.join(format!("maps/baseline/{scene}.npz")), ReadLimits::default()).unwrap();
             total += score_scene(&gt, &map, &classes, None).unwrap().metrics.miou;
         }
-        scores.push((name, total / 2.0));
+        scores.push((control, total / 2.0));
     }
-    assert_eq!(scores[0], ("oracle", 1.0));
+    assert_eq!(scores[0], (Control::Oracle, 1.0));
     for (name, miou) in &scores[1..] {
         assert!(*miou < 1.0 && *miou > 0.0, "{name}: {miou}");
     }
-    assert!(write_baseline("telepathy", &rel, &dir.path().join("x")).is_err());
+    assert_eq!(
+        "telepathy".parse::<Control>().unwrap_err(),
+        "unknown baseline 'telepathy' (expected one of oracle, drop-small, merge, label-noise, pose-drift)"
+    );
+    assert!(Control::ALL.iter().all(|c| c.name().parse::<Control>() == Ok(*c)));
 }
 
 #[test]
@@ -255,8 +263,8 @@ fn an_external_renderer_can_replace_the_built_in_one() {
     let path = dir.path().join("external.toml");
     std::fs::write(&path, TINY.replace("[quality]", &format!("{command}[quality]"))).unwrap();
     let external = build_release(&path, &dir.path().join("external"), None, &assets_root(), &|_| {}).unwrap();
-    let files = |m: &serde_json::Value| -> Vec<serde_json::Value> {
-        m["files"].as_array().unwrap().iter().filter(|f| f["path"] != "quality/quality_report.json").cloned().collect()
+    let files = |m: &ReleaseManifest| -> Vec<osmab_evaluator::formats::manifest::FileEntry> {
+        m.files.iter().filter(|f| f.path != "quality/quality_report.json").cloned().collect()
     };
     assert_eq!(files(&external), files(&built_in));
     let gt_manifest = |d: &str| std::fs::read(dir.path().join(d).join(GROUND_TRUTH).join("manifest.json")).unwrap();
@@ -414,5 +422,5 @@ fn a_release_drawn_from_a_pack_records_the_pack_s_digest() {
     std::fs::write(&config, TINY.replace("[render]", &format!("[synthesis]\nassets = {:?}\n[render]", pack.display().to_string()))).unwrap();
     let manifest = build_release(&config, &dir.path().join("rel"), None, &assets_root(), &|_| {}).unwrap();
     let digest = osmab_dataset::assets::AssetPack::open(&pack).unwrap().digest().to_string();
-    assert_eq!(manifest["generator"]["assets_digest"], serde_json::json!(digest));
+    assert_eq!(manifest.generator.assets_digest, Some(digest));
 }

@@ -10,13 +10,14 @@ use osmab_dataset::render::coverage::{CoverageGoals, Plan, plan};
 use osmab_dataset::render::mesh::World;
 use osmab_dataset::render::navigation::NavGrid;
 use osmab_dataset::render::trajectory::{Action, AgentState, MotionSettings};
-use osmab_dataset::render::{LIGHTINGS, plan_scene, render_scene};
+use osmab_dataset::render::{plan_scene, render_scene};
 use osmab_dataset::spec::Regime;
 use osmab_dataset::synthesis::source::AssetSource;
 use osmab_dataset::synthesis::synthesize;
 use osmab_evaluator::formats::map::{MapSemantics, PredictedMap};
 use osmab_evaluator::formats::sequence::Sequence;
 use osmab_evaluator::ground_truth::GroundTruth;
+use osmab_evaluator::scores::ReleaseLighting;
 use osmab_evaluator::semseg::score_scene;
 
 /// A synthesized and converted scene in `dir/habitat`; returns its name.
@@ -83,7 +84,7 @@ fn planned_trajectories_observe_every_object_from_two_viewpoints_and_travel() {
     assert!(plan.frames.windows(2).all(|w| w[1].goal_index == w[0].goal_index || w[1].goal_index == w[0].goal_index + 1));
 
     // What the rendered sequence shows agrees: every object from two separate places.
-    let rendered = render_scene(&dir.path().join("habitat"), &name, &["no_lights"], &sensor, &plan.frames, &dir.path().join("seq")).unwrap();
+    let rendered = render_scene(&dir.path().join("habitat"), &name, &[ReleaseLighting::NoLights], &sensor, &plan.frames, &dir.path().join("seq")).unwrap();
     let summary = &rendered[0].1;
     for c in &plan.coverage {
         let seen = summary.objects.get(&c.instance_id).unwrap_or_else(|| panic!("{} never drawn", c.class));
@@ -115,9 +116,10 @@ fn rendered_sequences_are_hadage_sequences_the_evaluator_reads() {
     let (sensor, motion) = small();
     let out = dir.path().join("sequences");
     let states = planned(dir.path(), &name, &sensor, &motion).frames;
-    let summaries = render_scene(&dir.path().join("habitat"), &name, &LIGHTINGS, &sensor, &states, &out).unwrap();
+    let summaries = render_scene(&dir.path().join("habitat"), &name, &ReleaseLighting::ALL, &sensor, &states, &out).unwrap();
     assert_eq!(summaries.len(), 4);
-    let trajectories: Vec<String> = LIGHTINGS.iter().map(|l| std::fs::read_to_string(out.join(l).join(&name).join("traj.txt")).unwrap()).collect();
+    let trajectories: Vec<String> =
+        ReleaseLighting::ALL.iter().map(|l| std::fs::read_to_string(out.join(l.name()).join(&name).join("traj.txt")).unwrap()).collect();
     assert!(trajectories.windows(2).all(|t| t[0] == t[1]), "the same trajectory under every lighting");
 
     let baseline = out.join("baseline").join(&name);
@@ -136,7 +138,7 @@ fn rendered_sequences_are_hadage_sequences_the_evaluator_reads() {
     for (_, s) in &summaries[1..] {
         assert!(s.per_frame.iter().zip(&summaries[0].1.per_frame).all(|(a, b)| a.geometry_digest == b.geometry_digest));
     }
-    let dynamic = &summaries.iter().find(|(l, _)| l == "dynamic_lights").unwrap().1;
+    let dynamic = &summaries.iter().find(|(l, _)| *l == ReleaseLighting::DynamicLights).unwrap().1;
     let differing = dynamic.per_frame.iter().zip(&summaries[0].1.per_frame).filter(|(a, b)| a.colour_digest != b.colour_digest).count();
     assert!(differing * 10 >= 8 * dynamic.frames, "{differing} of {} frames differ", dynamic.frames);
     // ConceptGraphs' dataconfig sits beside camera_params.yaml.
@@ -167,7 +169,7 @@ fn rendering_twice_gives_identical_files() {
     let motion = MotionSettings { max_frames: 24, ..motion };
     for run in ["a", "b"] {
         let states = planned(dir.path(), &name, &sensor, &motion).frames;
-        render_scene(&dir.path().join("habitat"), &name, &["dynamic_lights"], &sensor, &states, &dir.path().join(run)).unwrap();
+        render_scene(&dir.path().join("habitat"), &name, &[ReleaseLighting::DynamicLights], &sensor, &states, &dir.path().join(run)).unwrap();
     }
     let read = |run: &str| {
         let root = dir.path().join(run).join("dynamic_lights").join(&name).join("results");
@@ -191,12 +193,12 @@ fn the_lightings_of_a_scene_drawn_together_are_the_files_of_each_drawn_alone() {
     let (sensor, motion) = small();
     let states = planned(dir.path(), &name, &sensor, &MotionSettings { max_frames: 30, ..motion }).frames;
     let habitat = dir.path().join("habitat");
-    let together = render_scene(&habitat, &name, &LIGHTINGS, &sensor, &states, &dir.path().join("together")).unwrap();
+    let together = render_scene(&habitat, &name, &ReleaseLighting::ALL, &sensor, &states, &dir.path().join("together")).unwrap();
     for (lighting, summary) in &together {
-        let alone = render_scene(&habitat, &name, &[lighting.as_str()], &sensor, &states, &dir.path().join("alone")).unwrap();
+        let alone = render_scene(&habitat, &name, &[*lighting], &sensor, &states, &dir.path().join("alone")).unwrap();
         assert_eq!(serde_json::to_value(summary).unwrap(), serde_json::to_value(&alone[0].1).unwrap(), "{lighting}: the summary");
         let files = |root: &str| -> Vec<(String, Vec<u8>)> {
-            let folder = dir.path().join(root).join(lighting).join(&name);
+            let folder = dir.path().join(root).join(lighting.name()).join(&name);
             let mut files: Vec<(String, Vec<u8>)> =
                 walk(&folder).into_iter().map(|p| (p.strip_prefix(&folder).unwrap().display().to_string(), std::fs::read(&p).unwrap())).collect();
             files.sort();

@@ -7,6 +7,7 @@ pub mod classes;
 pub mod confusion;
 pub mod image;
 pub mod json;
+pub mod manifest;
 pub mod map;
 pub mod npy;
 pub mod npz;

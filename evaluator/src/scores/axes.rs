@@ -94,11 +94,67 @@ axis!(
     ]
 );
 
+axis!(
+    /// A lighting an OSMa-Bench++ release is rendered under: the four the dataset crate
+    /// lights a scene for, a subset of [`Lighting`]. Adding one here is guided by the
+    /// compiler: [`Lighting`] needs its variant ([`ReleaseLighting::lighting`] stops), the renderer
+    /// its light settings (`osmab_dataset::convert::lighting`), the ground-truth
+    /// controls their severity (`osmab_dataset::baselines`); docs/architecture.md walks
+    /// through it.
+    ReleaseLighting, "lighting", [
+        Baseline = "baseline", "Baseline";
+        Camera = "camera", "Camera Light";
+        DynamicLights = "dynamic_lights", "Dynamic Lights";
+        NoLights = "no_lights", "Nominal Lights";
+    ]
+);
+
+impl From<ReleaseLighting> for Lighting {
+    fn from(lighting: ReleaseLighting) -> Lighting {
+        lighting.lighting()
+    }
+}
+
+impl ReleaseLighting {
+    /// The lighting the others are compared against.
+    pub const BASELINE: ReleaseLighting = ReleaseLighting::Baseline;
+
+    /// The same lighting on the score document's axis.
+    pub const fn lighting(self) -> Lighting {
+        match self {
+            ReleaseLighting::Baseline => Lighting::Baseline,
+            ReleaseLighting::Camera => Lighting::Camera,
+            ReleaseLighting::DynamicLights => Lighting::DynamicLights,
+            ReleaseLighting::NoLights => Lighting::NoLights,
+        }
+    }
+}
+
 impl Lighting {
     /// The lighting the others are compared against.
     pub const BASELINE: Lighting = Lighting::Baseline;
-    /// The lightings of an OSMa-Bench++ release, in render order.
-    pub const RELEASE: [Lighting; 4] = [Lighting::Baseline, Lighting::Camera, Lighting::DynamicLights, Lighting::NoLights];
+    /// The lightings of an OSMa-Bench++ release, in render order: [`ReleaseLighting::ALL`].
+    pub const RELEASE: [Lighting; ReleaseLighting::ALL.len()] = {
+        let mut all = [Lighting::Baseline; ReleaseLighting::ALL.len()];
+        let mut i = 0;
+        while i < all.len() {
+            all[i] = ReleaseLighting::ALL[i].lighting();
+            i += 1;
+        }
+        all
+    };
+
+    /// The lighting as a release renders it, or `None` for the original OSMa-Bench's
+    /// lightings that no release holds.
+    pub const fn in_release(self) -> Option<ReleaseLighting> {
+        match self {
+            Lighting::Baseline => Some(ReleaseLighting::Baseline),
+            Lighting::Camera => Some(ReleaseLighting::Camera),
+            Lighting::DynamicLights => Some(ReleaseLighting::DynamicLights),
+            Lighting::NoLights => Some(ReleaseLighting::NoLights),
+            Lighting::CameraLights | Lighting::Velocity => None,
+        }
+    }
 
     /// What the lighting is, in one line (pages show it beside a frame under it).
     pub const fn explanation(self) -> &'static str {
@@ -211,6 +267,21 @@ mod tests {
     }
 
     #[test]
+    fn a_release_lighting_is_the_score_axis_lighting_of_its_name() {
+        for lighting in ReleaseLighting::ALL {
+            assert_eq!(lighting.name(), Lighting::from(lighting).name());
+            assert_eq!(lighting.label(), lighting.lighting().label());
+            assert_eq!(lighting.lighting().in_release(), Some(lighting));
+        }
+        assert_eq!(Lighting::RELEASE.map(Lighting::name), ReleaseLighting::ALL.map(ReleaseLighting::name));
+        assert_eq!(Lighting::ALL.iter().filter(|l| l.in_release().is_some()).count(), ReleaseLighting::ALL.len());
+        assert_eq!(
+            "velocity".parse::<ReleaseLighting>().unwrap_err(),
+            "unknown lighting 'velocity' (expected one of baseline, camera, dynamic_lights, no_lights)"
+        );
+    }
+
+    #[test]
     fn variants_sort_as_their_names_do() {
         fn sorted<T: Copy + Ord>(all: &[T], name: fn(T) -> &'static str) {
             let mut by_value = all.to_vec();
@@ -222,6 +293,7 @@ mod tests {
         sorted(&Metric::ALL, Metric::name);
         sorted(&Aggregate::ALL, Aggregate::name);
         sorted(&Lighting::ALL, Lighting::name);
+        sorted(&ReleaseLighting::ALL, ReleaseLighting::name);
         sorted(&Regime::ALL, Regime::name);
         sorted(&QuestionSet::ALL, QuestionSet::name);
         sorted(&QuestionGroup::ALL, QuestionGroup::name);

@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime, Split};
+pub use axes::{Aggregate, Lighting, Metric, QuestionGroup, QuestionSet, Regime, ReleaseLighting, Split};
 pub use disclosure::{MIN_TEST_SCENES, Withheld};
 pub use vqa::{Accuracy, AnswerRow, QuestionSetScores, SceneAnswers, SetsScores, VqaCell, VqaScores};
 

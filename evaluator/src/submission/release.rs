@@ -4,26 +4,14 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
-
 use crate::error::{InputError, Result};
 use crate::formats::classes::ClassList;
-use crate::scores::{Lighting, Regime, Split};
+pub use crate::formats::manifest::ManifestScene as ReleaseScene;
+use crate::formats::manifest::ReleaseManifest;
+use crate::scores::{Lighting, Split};
 
 /// Folder of a release directory holding the private ground truth, one folder per scene.
 pub const GROUND_TRUTH_DIR: &str = "ground_truth";
-
-/// One scene of a release.
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
-pub struct ReleaseScene {
-    /// Scene id (`scene_000`).
-    pub id: String,
-    /// The subset (prompt regime) it belongs to.
-    pub subset: Regime,
-    /// The split it belongs to (`val` in releases built before splits existed).
-    #[serde(default)]
-    pub split: Split,
-}
 
 /// The facts of a release that validation and scoring need.
 #[derive(Debug, Clone)]
@@ -48,50 +36,24 @@ pub struct ReleaseIndex {
     pub frames: BTreeMap<String, u64>,
 }
 
-#[derive(Deserialize)]
-struct ManifestFields {
-    version: String,
-    scenes: Vec<ReleaseScene>,
-    lightings: Vec<Lighting>,
-    #[serde(default)]
-    files: Vec<ManifestFile>,
-}
-
-#[derive(Deserialize)]
-struct ManifestFile {
-    path: String,
-}
-
 impl ReleaseIndex {
     /// Read `root/manifest.json`.
     pub fn read(root: &Path) -> Result<Self> {
         let path = root.join("manifest.json");
-        let bytes = std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?;
-        let fields: ManifestFields = serde_json::from_slice(&bytes).map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
-        if fields.scenes.is_empty() || fields.lightings.is_empty() {
+        let manifest = ReleaseManifest::read(&path)?;
+        let Some(&first) = manifest.lightings.first().filter(|_| !manifest.scenes.is_empty()) else {
             return Err(InputError::new(&path, "scenes", "a release needs at least one scene and one lighting"));
-        }
+        };
         let classes = ClassList::read(&root.join("classes.json"))?;
-        let mut frames: BTreeMap<String, u64> = BTreeMap::new();
-        for file in &fields.files {
-            let mut parts = file.path.split('/');
-            if let (Some("sequences"), Some(lighting), Some(scene), Some("results"), Some(name)) =
-                (parts.next(), parts.next(), parts.next(), parts.next(), parts.next())
-                && lighting == fields.lightings[0].name()
-                && name.starts_with("frame")
-            {
-                *frames.entry(scene.to_string()).or_default() += 1;
-            }
-        }
         Ok(Self {
             root: root.to_path_buf(),
-            version: fields.version,
-            scenes: fields.scenes,
+            frames: manifest.frames_under(first),
+            version: manifest.version,
+            scenes: manifest.scenes,
             split: None,
             outside_split: Vec::new(),
-            lightings: fields.lightings,
+            lightings: manifest.lightings.into_iter().map(Lighting::from).collect(),
             classes,
-            frames,
         })
     }
 

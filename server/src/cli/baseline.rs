@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use osmab_dataset::baselines::{BASELINES, write_baseline};
+use osmab_dataset::baselines::{Control, write_baseline};
 use osmab_mapper::FeatureSet;
 
 /// The reference mapper's name on the command line.
@@ -45,10 +45,11 @@ pub fn run(args: BaselineArgs) -> anyhow::Result<()> {
     if args.geometry_only {
         anyhow::bail!("--geometry-only is an option of the reference mapper (osmab baseline perceive), not of the control '{}'", args.name);
     }
-    if !BASELINES.contains(&args.name.as_str()) {
-        anyhow::bail!("unknown baseline '{}' (expected {PERCEIVE} or one of {})", args.name, BASELINES.join(", "));
-    }
-    let maps = write_baseline(&args.name, &args.release, &args.out)?;
+    let control: Control = args
+        .name
+        .parse()
+        .map_err(|_| anyhow::anyhow!("unknown baseline '{}' (expected {PERCEIVE} or one of {})", args.name, Control::ALL.map(Control::name).join(", ")))?;
+    let maps = write_baseline(control, &args.release, &args.out)?;
     println!("{}: baseline {} with {maps} maps", args.out.display(), args.name);
     Ok(())
 }

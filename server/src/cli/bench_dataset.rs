@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
+use osmab_evaluator::scores::ReleaseLighting;
 
 pub fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, manipuland: usize, scenesmith: Option<&std::path::Path>) -> anyhow::Result<()> {
     use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
@@ -184,7 +185,8 @@ pub fn release_estimate(config_path: &std::path::Path, sample: usize, timed_fram
         let frames = plan.frames.len();
         let timed = &plan.frames[..timed_frames.min(frames)];
         let clock = Instant::now();
-        let rendered = osmab_dataset::render::render_scene(&work.join("hab").join(&name), &name, &["baseline"], &sensor, timed, &work.join("seq"))?;
+        let rendered =
+            osmab_dataset::render::render_scene(&work.join("hab").join(&name), &name, &[ReleaseLighting::Baseline], &sensor, timed, &work.join("seq"))?;
         let seconds = clock.elapsed().as_secs_f64() / rendered[0].1.frames.max(1) as f64;
         println!("| {name} | {} | {prepare:.2} | {frames} | {seconds:.4} |", prompt.spec.regime.name());
         scene_seconds += prepare;

@@ -85,8 +85,8 @@ fn regenerate(release: &Path, scene: &str, index: usize, seed: u64, lexicon: &[S
 /// `draws` independent draws of the test scenes' questions (the first is the build's own).
 pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow::Result<BTreeMap<String, TemplateTally>> {
     let index = ReleaseIndex::read(release)?;
-    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(release.join("manifest.json"))?)?;
-    let seed = manifest["generator"]["seed"].as_u64().context("manifest.json: generator.seed")?;
+    let generator = osmab_evaluator::formats::manifest::ReleaseManifest::read(&release.join("manifest.json"))?.generator;
+    let seed = generator.seed;
     let pools: Vec<PromptPool> = ["furniture", "manipuland"]
         .iter()
         .map(|r| -> anyhow::Result<PromptPool> {
@@ -95,8 +95,7 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
         })
         .collect::<anyhow::Result<_>>()?;
     let lexicon: Vec<String> = osmab_dataset::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
-    let config_text = manifest["generator"]["config"].as_str().context("manifest.json: generator.config")?;
-    let (config, _) = osmab_dataset::release::config::ReleaseConfig::parse(config_text, &release.join("manifest.json"))?;
+    let (config, _) = osmab_dataset::release::config::ReleaseConfig::parse(&generator.config, &release.join("manifest.json"))?;
     let assets =
         osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref(), &osmab_dataset::synthesis::source::assets_root())?;
     let layouts = PoolLayouts::place(&pools, seed, &assets);

@@ -14,8 +14,9 @@ use osmab_dataset::questions::SceneObject;
 use osmab_dataset::questions::priors::{PoolLayouts, QuestionPriors};
 use osmab_dataset::questions::scene_questions;
 use osmab_dataset::spec::SceneSpec as PromptSpec;
+use osmab_evaluator::formats::manifest::{ManifestScene, ReleaseManifest};
 use osmab_evaluator::formats::map::TextFeatures;
-use osmab_evaluator::scores::{Lighting, Regime};
+use osmab_evaluator::scores::{Lighting, Regime, ReleaseLighting, Split};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
 use osmab_evaluator::submission::score::ScoringTimings;
 use osmab_evaluator::submission::warm::{Warmed, warm_release};
@@ -191,11 +192,18 @@ fn ensure_data(size: &SubmissionBenchSize, data: &Path) -> anyhow::Result<PathBu
     text.write(&submission.join("text_features.npz"))?;
     (0..size.scenes).into_par_iter().try_for_each(|i| write_scene(i, spec(i), &text, &release, &submission))?;
     let furniture = furniture_scenes(size.scenes);
-    let scenes: Vec<_> = (0..size.scenes)
-        .map(|i| json!({"id": scene_id(i), "subset": if i < furniture { Regime::Furniture.name() } else { Regime::Manipuland.name() }, "split": "val"}))
+    let scenes = (0..size.scenes)
+        .map(|i| ManifestScene {
+            id: scene_id(i),
+            preview: None,
+            prompt: None,
+            questions: None,
+            split: Split::Val,
+            subset: if i < furniture { Regime::Furniture } else { Regime::Manipuland },
+        })
         .collect();
-    let manifest = json!({"version": VERSION, "scenes": scenes, "lightings": Lighting::RELEASE.map(Lighting::name), "files": []});
-    std::fs::write(release.join("manifest.json"), serde_json::to_vec_pretty(&manifest)?)?;
+    let manifest = ReleaseManifest { version: VERSION.to_string(), scenes, lightings: ReleaseLighting::ALL.to_vec(), ..ReleaseManifest::default() };
+    manifest.write(&release.join("manifest.json"))?;
     generate(SceneSpec { gt_points: 1, map_points: 1, ..spec(0) }).classes.write(&release.join("classes.json"))?;
     let card =
         json!({"format": "osmab-submission/1", "release": VERSION, "method": {"name": "bench", "description": "Synthetic maps at a full release's sizes."}});

@@ -12,6 +12,7 @@ use osmab_dataset::openai::{ServiceClient, ServiceConfig};
 use osmab_dataset::prompts::{PromptPool, ScenePrompt, grammar_pool, llm::llm_pool};
 use osmab_dataset::selection::{NEAR_DUPLICATE_COSINE, SelectionReport, select};
 use osmab_dataset::spec::Regime;
+use osmab_evaluator::scores::ReleaseLighting;
 
 #[derive(Debug, Subcommand)]
 pub enum SceneCommand {
@@ -177,10 +178,13 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
                 bail!("--{}: {expectation}", field.replace('_', "-"));
             }
             let motion = osmab_dataset::render::trajectory::MotionSettings { goals, seed, max_frames, ..Default::default() };
-            let lightings: Vec<&str> = lightings.split(',').map(str::trim).filter(|l| !l.is_empty()).collect();
-            if let Some(bad) = lightings.iter().find(|l| !osmab_dataset::render::LIGHTINGS.contains(l)) {
-                bail!("unknown lighting '{bad}' (expected some of {})", osmab_dataset::render::LIGHTINGS.join(", "));
-            }
+            let lightings: Vec<ReleaseLighting> = lightings
+                .split(',')
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .map(str::parse)
+                .collect::<Result<_, String>>()
+                .map_err(|e| anyhow::anyhow!("--lightings: {e}"))?;
             let scene = scene_name(&habitat)?;
             let prompted: Vec<String> = prompted.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::to_string).collect();
             let coverage = osmab_dataset::render::coverage::CoverageGoals::default();
@@ -201,7 +205,7 @@ pub fn run(cmd: SceneCommand) -> anyhow::Result<()> {
             write_json(&plan_path, &plan)?;
             println!("{}: the planned trajectory, its viewpoints and predicted coverage", plan_path.display());
             for (lighting, summary) in osmab_dataset::render::render_scene(&habitat, &scene, &lightings, &sensor, &plan.frames, &out)? {
-                println!("{}: {} frames", out.join(&lighting).join(&scene).display(), summary.frames);
+                println!("{}: {} frames", out.join(lighting.name()).join(&scene).display(), summary.frames);
             }
             Ok(())
         }

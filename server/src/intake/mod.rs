@@ -64,7 +64,7 @@ pub enum Accepted {
 /// release's primary split (test when it has one).
 pub async fn default_split(state: &AppState) -> Result<Split, StoreError> {
     match state.store.current_release().await {
-        Ok(release) => Ok(crate::releases::primary_split(&release.manifest)),
+        Ok(release) => Ok(crate::releases::served_manifest(&release).primary_split()),
         Err(StoreError::NotFound) => Ok(Split::Val),
         Err(e) => Err(e),
     }

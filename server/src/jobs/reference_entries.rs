@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use osmab_dataset::baselines::{BASELINES, write_baseline};
+use osmab_dataset::baselines::{Control, write_baseline};
 use osmab_evaluator::scores::Split;
 use osmab_evaluator::submission::pack_directory;
 use osmab_mapper::FeatureSet;
@@ -26,21 +26,21 @@ use crate::store::{StoreError, SubmissionState, Team};
 pub enum ReferenceEntry {
     /// The reference mapper.
     Mapper,
-    /// A control made from the ground truth (`oracle`, `drop-small`, ...).
-    Control(&'static str),
+    /// A control made from the ground truth.
+    Control(Control),
 }
 
 impl ReferenceEntry {
     /// Every entry, the reference mapper first.
     pub fn all() -> impl Iterator<Item = ReferenceEntry> {
-        std::iter::once(ReferenceEntry::Mapper).chain(BASELINES.into_iter().map(ReferenceEntry::Control))
+        std::iter::once(ReferenceEntry::Mapper).chain(Control::ALL.into_iter().map(ReferenceEntry::Control))
     }
 
     /// Its method name on the board.
     pub fn method(self) -> String {
         match self {
             ReferenceEntry::Mapper => osmab_mapper::submission::method_name(FeatureSet::Seeing).to_string(),
-            ReferenceEntry::Control(name) => format!("baseline-{name}"),
+            ReferenceEntry::Control(control) => format!("baseline-{control}"),
         }
     }
 
@@ -48,7 +48,7 @@ impl ReferenceEntry {
     fn write(self, release: &Path, out: &Path) -> Result<(), String> {
         match self {
             ReferenceEntry::Mapper => osmab_mapper::perceive(release, out, FeatureSet::Seeing).map(|_| ()).map_err(|e| e.to_string()),
-            ReferenceEntry::Control(name) => write_baseline(name, release, out).map(|_| ()).map_err(|e| e.to_string()),
+            ReferenceEntry::Control(control) => write_baseline(control, release, out).map(|_| ()).map_err(|e| e.to_string()),
         }
     }
 }

@@ -308,7 +308,7 @@ mod tests {
     use super::*;
 
     fn unit(lighting: &str) -> SequenceUnit {
-        SequenceUnit { scene_index: 3, scene: "scene_003".into(), lighting: lighting.into() }
+        SequenceUnit { scene_index: 3, scene: "scene_003".into(), lighting: lighting.parse().unwrap() }
     }
 
     #[test]

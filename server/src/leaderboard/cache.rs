@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
-use osmab_evaluator::scores::{Lighting, Split};
+use osmab_evaluator::scores::Split;
 use sha2::Digest;
 
 use super::Leaderboard;
@@ -128,8 +128,9 @@ impl LeaderboardCache {
             Ok(_) | Err(StoreError::NotFound) => return Err(BoardError::NotPublished(release.map(str::to_string))),
             Err(e) => return Err(e.into()),
         };
-        let splits = crate::releases::manifest_splits(&record.manifest);
-        let split = split.unwrap_or_else(|| crate::releases::primary_split(&record.manifest));
+        let manifest = crate::releases::served_manifest(&record);
+        let splits = manifest.splits();
+        let split = split.unwrap_or_else(|| manifest.primary_split());
         if !splits.contains(&split) {
             return Err(BoardError::NoSplit(record.version, split, splits));
         }
@@ -140,17 +141,10 @@ impl LeaderboardCache {
         }
         let rows = store.leaderboard_rows(&record.version).await?;
         let published = store.published_versions().await?;
-        let board = super::rank(&record.version, manifest_lightings(&record.manifest), split, splits, rows);
+        let board = super::rank(&record.version, manifest.score_lightings(), split, splits, rows);
         let rendered = Arc::new(Rendered::new(board, published));
         self.remember(&resolved, &rendered, generation);
         self.remember(key, &rendered, generation);
         Ok(rendered)
     }
-}
-
-/// The lightings a served manifest lists that this server knows, in its order (a name it
-/// does not know is left out, not the whole list).
-pub fn manifest_lightings(manifest: &str) -> Vec<Lighting> {
-    let value: serde_json::Value = serde_json::from_str(manifest).unwrap_or_default();
-    value["lightings"].as_array().into_iter().flatten().filter_map(|l| l.as_str()?.parse().ok()).collect()
 }

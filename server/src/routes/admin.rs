@@ -41,13 +41,12 @@ async fn same_release(state: &AppState, config: &osmab_dataset::release::config:
     let digest = config.content_digest();
     let secret_id = (!config.splits.is_empty()).then(|| state.split_secret.id());
     for release in state.store.releases().await? {
-        let manifest: serde_json::Value = serde_json::from_str(&release.manifest).unwrap_or_default();
-        let generator = &manifest["generator"];
-        let built_digest = generator["content_digest"].as_str().map(str::to_string).or_else(|| {
-            let text = generator["config"].as_str()?;
-            osmab_dataset::release::config::ReleaseConfig::parse(text, std::path::Path::new("manifest.json")).ok().map(|(c, _)| c.content_digest())
+        let generator = crate::releases::served_manifest(&release).generator;
+        // A release built before the manifest recorded the digest: from its config's text.
+        let built_digest = Some(generator.content_digest).filter(|d| !d.is_empty()).or_else(|| {
+            osmab_dataset::release::config::ReleaseConfig::parse(&generator.config, std::path::Path::new("manifest.json")).ok().map(|(c, _)| c.content_digest())
         });
-        if built_digest.as_deref() == Some(digest.as_str()) && generator["split_secret_id"].as_str().map(str::to_string) == secret_id {
+        if built_digest.as_deref() == Some(digest.as_str()) && generator.split_secret_id == secret_id {
             return Ok(Some((release.version, release.digest)));
         }
     }

@@ -37,17 +37,17 @@ pub struct ReleaseSummary {
 
 impl From<&ReleaseRecord> for ReleaseSummary {
     fn from(r: &ReleaseRecord) -> Self {
-        // Each field on its own: one the manifest lacks or writes otherwise is null, the rest stay.
-        let manifest: serde_json::Value = serde_json::from_str(&r.manifest).unwrap_or_default();
+        // What the manifest does not say (an old one without `created`) is null.
+        let manifest = crate::releases::served_manifest(r);
         ReleaseSummary {
-            created: manifest["created"].as_str().map(str::to_string),
+            created: Some(manifest.created.clone()).filter(|c| !c.is_empty()),
             current: r.is_current,
             digest: r.digest.clone(),
-            lightings: manifest["lightings"].is_array().then(|| crate::leaderboard::cache::manifest_lightings(&r.manifest)),
+            lightings: Some(manifest.score_lightings()).filter(|l| !l.is_empty()),
             manifest_url: format!("/api/v1/releases/{}/manifest.json", r.version),
             published_at: r.published_at.map(crate::clock::rfc3339),
             registered_at: crate::clock::rfc3339(r.created_at),
-            scenes: manifest["scenes"].as_array().map_or(0, Vec::len),
+            scenes: manifest.scenes.len(),
             state: r.state,
             version: r.version.clone(),
         }

@@ -6,7 +6,6 @@ use askama_web::WebTemplate;
 use axum::extract::State;
 use osmab_evaluator::scores::Metric;
 
-use super::manifest::PublishedManifest;
 use crate::state::AppState;
 
 #[derive(Template, WebTemplate)]
@@ -29,7 +28,7 @@ pub struct CurrentRelease {
 /// `GET /about`.
 pub async fn about(State(state): State<AppState>) -> AboutPage {
     let release = state.store.current_release().await.ok().map(|r| {
-        let (test_scenes, val_scenes) = PublishedManifest::parse(&r.manifest).split_sizes();
+        let (test_scenes, val_scenes) = crate::releases::served_manifest(&r).split_sizes();
         CurrentRelease { version: r.version, digest: r.digest, scenes: test_scenes + val_scenes, test_scenes, val_scenes }
     });
     AboutPage { origin: state.settings.public_url.clone().unwrap_or_default(), release }

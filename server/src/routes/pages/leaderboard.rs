@@ -11,7 +11,6 @@ use serde::Deserialize;
 
 use super::chart::{Axis, BarChart, Series, Size};
 use super::format::{self, percent, signed_percent};
-use super::manifest::PublishedManifest;
 use super::{MessagePage, vqa};
 use crate::leaderboard::{Entry, Leaderboard};
 use crate::routes::extract::ApiQuery;
@@ -224,7 +223,7 @@ pub struct LightingFrame {
 /// lacks one of those frames.
 async fn lighting_frames(state: &AppState, board: &Leaderboard) -> Vec<LightingFrame> {
     let Ok(record) = state.store.release(&board.release).await else { return Vec::new() };
-    let manifest = PublishedManifest::parse(&record.manifest);
+    let manifest = crate::releases::served_manifest(&record);
     let scene = manifest.scenes.iter().find(|s| s.split == Split::Val).or(manifest.scenes.first());
     let Some(preview) = scene.and_then(|s| s.preview.as_deref()) else { return Vec::new() };
     let Some(rest) = preview.strip_prefix("sequences/").and_then(|p| p.split_once('/')).map(|(_, rest)| rest) else { return Vec::new() };
@@ -238,7 +237,7 @@ async fn lighting_frames(state: &AppState, board: &Leaderboard) -> Vec<LightingF
             explanation: lighting.explanation(),
         })
         .collect();
-    if !frames.iter().all(|f| manifest.has(&f.src)) {
+    if !frames.iter().all(|f| manifest.has_file(&f.src)) {
         return Vec::new();
     }
     frames.into_iter().map(|f| LightingFrame { src: format!("/api/v1/releases/{}/files/{}", board.release, f.src), ..f }).collect()

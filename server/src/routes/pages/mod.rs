@@ -7,7 +7,6 @@ pub mod admin;
 mod chart;
 mod format;
 mod leaderboard;
-mod manifest;
 mod release;
 mod submission;
 mod take_part;

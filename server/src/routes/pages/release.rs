@@ -5,10 +5,9 @@ use askama::Template;
 use askama_web::WebTemplate;
 use axum::extract::State;
 use axum::response::{IntoResponse, Response};
-use osmab_evaluator::scores::Lighting;
+use osmab_evaluator::scores::ReleaseLighting;
 
 use super::format::human_size;
-use super::manifest::PublishedManifest;
 use crate::auth::Caller;
 use crate::problem::ApiResult;
 use crate::routes::extract::ApiPath;
@@ -16,9 +15,6 @@ use crate::state::AppState;
 
 /// A lighting as `label` names it (the paper's label, or the short one for links in a
 /// row); a name this server does not know, as written.
-fn lighting_label(name: &str, label: fn(Lighting) -> &'static str) -> String {
-    name.parse::<Lighting>().map(|l| label(l).to_string()).unwrap_or_else(|_| name.replace('_', " "))
-}
 
 pub struct SceneView {
     pub id: String,
@@ -69,9 +65,9 @@ pub struct ReleasePage {
 pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(version): ApiPath<String>) -> ApiResult<Response> {
     let version = crate::routes::releases::resolve(&state, &version).await?;
     let record = crate::routes::releases::visible_release(&state, &caller, &version).await?;
-    let manifest = PublishedManifest::parse(&record.manifest);
+    let manifest = crate::releases::served_manifest(&record);
     let file_link = |path: &str| format!("/api/v1/releases/{version}/files/{path}");
-    let thumbnail_lighting = manifest.lightings.first().map_or("baseline", String::as_str);
+    let thumbnail_lighting = manifest.lightings.first().copied().unwrap_or(ReleaseLighting::BASELINE);
     let scenes = manifest
         .scenes
         .iter()
@@ -83,15 +79,15 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
                 .iter()
                 .filter_map(|l| {
                     let path = format!("quality/contact_sheets/{l}/{}.png", s.id);
-                    manifest.has(&path).then(|| (lighting_label(l, Lighting::short_label), file_link(&path)))
+                    manifest.has_file(&path).then(|| (l.lighting().short_label().to_string(), file_link(&path)))
                 })
                 .collect();
             SceneView {
                 id: s.id.clone(),
-                subset: s.subset.clone(),
+                subset: s.subset.to_string(),
                 split: s.split.to_string(),
                 prompt: s.prompt.clone(),
-                thumbnail: manifest.has(&frame).then(|| file_link(&frame)),
+                thumbnail: manifest.has_file(&frame).then(|| file_link(&frame)),
                 contact_sheets,
             }
         })
@@ -100,7 +96,7 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
         .archives
         .iter()
         .map(|a| ArchiveView {
-            lighting: lighting_label(&a.lighting, Lighting::label),
+            lighting: a.lighting.label().to_string(),
             scene: a.scene.clone(),
             link: file_link(&a.path),
             size: human_size(a.size),
@@ -117,8 +113,8 @@ pub async fn release(State(state): State<AppState>, caller: Caller, ApiPath(vers
         files: manifest.files.len(),
         total_size: human_size(manifest.files.iter().map(|f| f.size).sum()),
         manifest_link: format!("/api/v1/releases/{version}/manifest.json"),
-        lightings: manifest.lightings.iter().map(|l| lighting_label(l, Lighting::label)).collect(),
-        overview: manifest.has(osmab_dataset::release::OVERVIEW).then(|| file_link(osmab_dataset::release::OVERVIEW)),
+        lightings: manifest.lightings.iter().map(|l| l.label().to_string()).collect(),
+        overview: manifest.has_file(osmab_dataset::release::OVERVIEW).then(|| file_link(osmab_dataset::release::OVERVIEW)),
         test_scenes,
         val_scenes,
         scenes,

@@ -148,7 +148,7 @@ pub async fn submission(State(state): State<AppState>, caller: Caller, ApiPath(i
     let view = submission_view::load(&state, &record, &caller).await?;
     // Lightings in the release's order.
     let release = state.store.release(&view.release).await?;
-    let order = crate::leaderboard::cache::manifest_lightings(&release.manifest);
+    let order = crate::releases::served_manifest(&release).score_lightings();
     let scores = view.scores.as_ref();
     let results = scores.map_or_else(Vec::new, |scores| lighting_results(scores, &order));
     let vqa = scores.and_then(|s| s.vqa.as_ref());

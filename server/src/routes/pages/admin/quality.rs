@@ -78,16 +78,15 @@ pub struct DraftRow {
 /// The overview sheet of `record`, as the console serves it (a draft's files are the
 /// operator's only), when the release has one.
 fn overview_of(record: &ReleaseRecord) -> Option<String> {
-    let manifest = super::super::manifest::PublishedManifest::parse(&record.manifest);
     let path = osmab_dataset::release::OVERVIEW;
-    manifest.has(path).then(|| format!("/admin/releases/{}/files/{path}", record.version))
+    crate::releases::served_manifest(record).has_file(path).then(|| format!("/admin/releases/{}/files/{path}", record.version))
 }
 
 /// The boards of every split of `record` from the store's scored entries of it.
 async fn boards_of(state: &AppState, record: &ReleaseRecord) -> Result<Vec<DraftBoard>, StoreError> {
     let rows = state.store.leaderboard_rows(&record.version).await?;
-    let lightings = crate::leaderboard::cache::manifest_lightings(&record.manifest);
-    let splits = crate::releases::manifest_splits(&record.manifest);
+    let manifest = crate::releases::served_manifest(record);
+    let (lightings, splits) = (manifest.score_lightings(), manifest.splits());
     Ok(splits
         .iter()
         .map(|&split| {

@@ -1,5 +1,5 @@
-//! SHA-256 as the service names files by it (manifests, upload digests, backups, receipts):
-//! lowercase hex, and whole files read a megabyte at a time.
+//! SHA-256 as the project names files by it (release manifests, upload digests, backups,
+//! receipts): lowercase hex, and whole files read a megabyte at a time.
 
 use std::io::Read;
 use std::path::Path;

@@ -6,19 +6,29 @@ not what its code needs. Prints every strongly connected set of more than one mo
 exits 1 when there is one (a parent module using its child's items while the child uses
 the parent's is a circle too).
 
+The Python under `tools/` is checked the same way, each folder of modules as a package
+(`tools/`, `tools/forge/`, …): a module A imports a sibling B when it has `import B…`,
+`from B… import …`, `from . import B`, `from .B import …` or `importlib.import_module("B")`,
+anywhere in the file (inside a function too: an import deferred to run time is still one).
+A module naming itself is not counted, as for the crates.
+
     python3 tests/house/import_cycles.py [--crate server] [--verbose]
 
-Standard library only. A module is a file (`a/b.rs` or `a/b/mod.rs` is module `a::b`);
-`#[cfg(test)] mod tests` blocks inside a file are skipped (tests may look anywhere).
+`--crate` checks only the crates named (no Python). Standard library only. A module is a
+file (`a/b.rs` or `a/b/mod.rs` is module `a::b`); `#[cfg(test)] mod tests` blocks inside a
+file are skipped (tests may look anywhere).
 """
 from __future__ import annotations
 
 import argparse
+import ast
+import os
 import re
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+PYTHON_ROOTS = ("tools",)  # folders whose Python modules are checked, each sub-folder too
 
 
 
@@ -127,6 +137,59 @@ def edges_of(name: str, path: Path, mods: dict[str, Path]) -> dict[str, str]:
     return found
 
 
+def python_folders(root: Path) -> list[Path]:
+    """Every folder under `root` (itself included) holding Python modules; hidden folders,
+    caches and virtual environments (a `pyvenv.cfg`) are left out."""
+    found = []
+    for top, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith((".", "__")) and not (Path(top) / d / "pyvenv.cfg").exists())
+        if any(f.endswith(".py") for f in files):
+            found.append(Path(top))
+    return found
+
+
+def python_imports(tree: ast.AST, siblings: set[str]) -> dict[str, str]:
+    """The sibling modules a parsed module imports (anywhere in it), each with the first
+    statement that does ("line 12: from blender import bake")."""
+    found: dict[str, str] = {}
+
+    def add(name: str | None, node: ast.AST) -> None:
+        top = (name or "").split(".")[0]
+        if top in siblings and top not in found:
+            found[top] = f"line {node.lineno}: {ast.unparse(node)}"
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                add(alias.name, node)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            add(node.module, node)
+        elif isinstance(node, ast.ImportFrom) and node.level == 1:
+            if node.module:
+                add(node.module, node)
+            else:  # from . import a, b
+                for alias in node.names:
+                    add(alias.name, node)
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str):
+            func = node.func
+            called = func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else ""
+            if called in ("import_module", "__import__"):
+                add(node.args[0].value, node)
+    return found
+
+
+def python_edges(folder: Path) -> dict[str, dict[str, str]]:
+    """module -> {imported sibling: the import} for the Python modules of `folder`."""
+    files = {path.stem: path for path in sorted(folder.glob("*.py"))}
+    siblings = set(files) - {"__init__"}
+    edges = {}
+    for name, path in files.items():
+        imports = python_imports(ast.parse(path.read_text(), filename=str(path)), siblings)
+        imports.pop(name, None)  # itself: not an edge, as for the crates
+        edges[name] = imports
+    return edges
+
+
 def sccs(graph: dict[str, set[str]]) -> list[list[str]]:
     index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
     sys.setrecursionlimit(10000)
@@ -164,22 +227,31 @@ def main() -> int:
     ap.add_argument("--crate", choices=sorted(CRATES), action="append")
     ap.add_argument("--verbose", action="store_true", help="print the import behind each edge of a circle")
     args = ap.parse_args()
-    bad = 0
+    units = {}  # what is checked (a crate, a folder of Python) -> module -> {imported: how}
     for crate in args.crate or sorted(CRATES):
         mods = modules_of(ROOT / CRATES[crate])
-        edges = {name: edges_of(name, path, mods) for name, path in mods.items()}
-        graph = {name: set(e) for name, e in edges.items()}
-        for comp in sccs(graph):
-            bad += 1
-            print(f"{crate}: a circle of {len(comp)} modules: {', '.join(m or '(root)' for m in comp)}")
-            if args.verbose:
-                for a in comp:
-                    for b in comp:
-                        if b in edges[a]:
-                            print(f"    {a or '(root)'} -> {b or '(root)'}   ({edges[a][b]})")
+        units[crate] = {name: edges_of(name, path, mods) for name, path in mods.items()}
+    if not args.crate:
+        for root in PYTHON_ROOTS:
+            for folder in python_folders(ROOT / root):
+                units[folder.relative_to(ROOT).as_posix()] = python_edges(folder)
+    bad = sum(report_circles(unit, edges, args.verbose) for unit, edges in units.items())
     if not bad:
-        print("no circle of imports in " + ", ".join(args.crate or sorted(CRATES)))
+        print("no circle of imports in " + ", ".join(units))
     return 1 if bad else 0
+
+
+def report_circles(unit: str, edges: dict[str, dict[str, str]], verbose: bool) -> int:
+    """Print every circle among `unit`'s modules (with each step when `verbose`); how many."""
+    circles = sccs({name: set(e) for name, e in edges.items()})
+    for comp in circles:
+        print(f"{unit}: a circle of {len(comp)} modules: {', '.join(m or '(root)' for m in comp)}")
+        if verbose:
+            for a in comp:
+                for b in comp:
+                    if b in edges[a]:
+                        print(f"    {a or '(root)'} -> {b or '(root)'}   ({edges[a][b]})")
+    return len(circles)
 
 
 if __name__ == "__main__":

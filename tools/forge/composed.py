@@ -1,20 +1,15 @@
 """Classes Infinigen has no factory for, composed of simple parts (bevelled boxes, cylinders,
 spheres) and dressed in Infinigen's procedural materials, so they bake to textures like the
 rest of the pack. Every part is made in the object frame: x right, y front, z up, standing on
-z = 0; sizes vary with the seed within the class's range."""
+z = 0; sizes vary with the seed within the class's range (drawn from the generator each
+builder is given)."""
 
 import math
 
 import bpy
 import numpy as np
 
-
-def dress(obj, module, cls):
-    """Infinigen's material `materials.<module>.<cls>` on `obj` (forge.dress_material; numpy's
-    global generator is seeded per variant by the forge)."""
-    from forge import dress_material  # noqa: PLC0415 (forge imports this module lazily)
-
-    dress_material(obj, module, cls)
+from blender import dress_material as dress  # Infinigen's materials.<module>.<cls> on a part
 
 
 def box(name, center, size, bevel=0.01):
@@ -156,5 +151,6 @@ BUILDERS = {
 
 
 def build(name, seed):
-    rng = np.random.default_rng(seed)
-    BUILDERS[name](rng)
+    """Builder `name`'s parts for `seed`: their sizes from a generator of their own; their
+    materials from Infinigen's (seeded by blender.seed_infinigen before the build)."""
+    BUILDERS[name](np.random.default_rng(seed))

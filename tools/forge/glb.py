@@ -1,5 +1,5 @@
 """GLB (binary glTF 2.0) helpers of the forge that need no Blender: the canonical triangle
-order (forge.py writes it after every export) and the occlusion texture of the occlusion
+order (variant.py writes it after every export) and the occlusion texture of the occlusion
 pass, written into the GLB's own bytes (the JSON chunk gains an image, a texture and a buffer
 view and the materials an `occlusionTexture`; every other byte of the binary chunk stays).
 

@@ -3,18 +3,20 @@ A square of the material's tile size is baked (every shader's base colour as emi
 made seamless by blending it with itself shifted half a tile (weights fading towards the
 edges), so a floor or wall repeats it without a visible seam."""
 
-import hashlib
 import logging
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-import forge
+import blender
+import catalogue
 import recipes
 
 log = logging.getLogger("forge")
 SIZE = 512
+FIRST_SEED = 7  # shell texture i is dressed with seed FIRST_SEED + i
+JPEG_QUALITY = 88
 
 
 def seamless(pixels):
@@ -27,39 +29,35 @@ def seamless(pixels):
     return weight * pixels + (1.0 - weight) * shifted
 
 
+def bake_texture(texture, seed, out: Path):
+    """Bake recipes.ShellTexture `texture` with `seed` to `out`/shell/<name>.jpg."""
+    blender.reset()
+    blender.seed_infinigen(seed)
+    bpy.ops.mesh.primitive_plane_add(size=texture.tile, location=(0, 0, 0))
+    plane = bpy.context.active_object
+    blender.dress_material(plane, texture.module, texture.material)
+    image = blender.bake(plane, SIZE, texture.name, unwrap=False)
+    pixels = np.array(image.pixels[:]).reshape(SIZE, SIZE, 4)
+    pixels[..., :3] = seamless(pixels[..., :3])
+    image.pixels[:] = pixels.ravel()
+    path = out / "shell" / f"{texture.name}.jpg"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    image.filepath_raw = str(path)
+    image.file_format = "JPEG"
+    bpy.context.scene.render.image_settings.quality = JPEG_QUALITY
+    image.save_render(str(path), scene=bpy.context.scene)
+
+
 def forge_shell(out: Path):
-    catalogue_path = out / "catalogue.json"
-    pack = forge.read_catalogue(catalogue_path)
+    """Every room-shell texture of recipes.SHELL baked into `out`, and the catalogue's
+    `shells` replaced by their entries."""
+    catalogue_path = out / catalogue.FILE
+    pack = catalogue.read(catalogue_path)
     shells = []
-    for variant, (name, kind, (module, cls), tile) in enumerate(recipes.SHELL):
-        forge.reset()
-        np.random.seed(7 + variant)
-        bpy.ops.mesh.primitive_plane_add(size=tile, location=(0, 0, 0))
-        plane = bpy.context.active_object
-        forge.dress_material(plane, module, cls, seed=7 + variant)
-        image = forge.bake(plane, SIZE, name, unwrap=False)
-        pixels = np.array(image.pixels[:]).reshape(SIZE, SIZE, 4)
-        pixels[..., :3] = seamless(pixels[..., :3])
-        image.pixels[:] = pixels.ravel()
-        path = out / "shell" / f"{name}.jpg"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        image.filepath_raw = str(path)
-        image.file_format = "JPEG"
-        bpy.context.scene.render.image_settings.quality = 88
-        image.save_render(str(path), scene=bpy.context.scene)
-        shells.append(
-            {
-                "name": name,
-                "kind": kind,
-                "source": "infinigen material",
-                "generator": f"{forge.GENERATOR}: materials.{module}.{cls}",
-                "seed": 7 + variant,
-                "tile": tile,
-                "path": f"shell/{name}.jpg",
-                "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
-                "license": forge.LICENSE,
-            }
-        )
-        log.info("shell %s: %s.%s baked", name, module, cls)
+    for index, texture in enumerate(recipes.SHELL):
+        seed = FIRST_SEED + index
+        bake_texture(texture, seed, out)
+        shells.append(catalogue.shell_entry(texture, seed, out))
+        log.info("shell %s: %s.%s baked", texture.name, texture.module, texture.material)
     pack["shells"] = shells
-    forge.write_catalogue(catalogue_path, pack)
+    catalogue.write(catalogue_path, pack)

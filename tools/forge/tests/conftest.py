@@ -1,5 +1,5 @@
-"""The forge's pure modules (recipes.py, glb.py) import without Blender: put tools/forge on
-the path for the tests."""
+"""The forge's pure modules (forge.py's command line and loop, recipes.py, catalogue.py,
+sizing.py, glb.py) import without Blender: put tools/forge on the path for the tests."""
 
 import sys
 from pathlib import Path

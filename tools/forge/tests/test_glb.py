@@ -110,6 +110,17 @@ def test_canonical_triangle_order():
     assert before[:start] == after[:start] and before[start + index["byteLength"] :] == after[start + index["byteLength"] :]
 
 
+def test_canonical_triangle_order_leaves_other_primitives():
+    """Only triangle lists (mode 4, the default) are reordered and counted: lines stay."""
+    gltf, binary = glb.read(synthetic_glb([(2, 3, 0), (1, 2, 0)]))
+    gltf["meshes"][0]["primitives"][0]["mode"] = 1  # LINES
+    lines = glb.write(gltf, binary)
+    assert glb.canonical_triangle_order(lines) == (lines, 0)
+    del gltf["meshes"][0]["primitives"][0]["mode"]
+    data, count = glb.canonical_triangle_order(glb.write(gltf, binary))
+    assert count == 2 and triangles_of(data).tolist() == [[0, 1, 2], [0, 2, 3]]
+
+
 def test_jpeg_size():
     assert glb.jpeg_size(RAMP) == (8, 8)
     assert glb.jpeg_size(ORANGE) == (16, 8)

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 import recipes
-from recipes import ClassTableError, parse
+from recipes import ClassTableError, ComposedRecipe, FactoryRecipe, ForgeClass, InvalidField, ShellTexture, parse
 
 ROOT = Path(__file__).resolve().parents[3]
 GENERATOR = "infinigen 1.15.5, bpy 4.2.0: "
@@ -34,12 +34,12 @@ def test_the_table_gives_every_forged_class_in_order():
 def test_recipes_are_named_records():
     forged = recipes.RECIPES
     dresser = forged["dresser"].recipes[0]
-    assert (dresser.factory_module, dresser.factory_class, dresser.composed) == ("shelves", "KitchenCabinetFactory", None)
+    assert dresser == FactoryRecipe(module="shelves", factory="KitchenCabinetFactory", sized=True, options={"drawer_only": True})
     assert dresser.sized and dict(dresser.options) == {"drawer_only": True} and dresser.front == "+x"
     door = forged["door"].recipes[0]
-    assert (door.factory_module, door.factory_class, door.front) == ("elements.doors", "DoorFactory", "+y")
+    assert (door.module, door.factory, door.front) == ("elements.doors", "DoorFactory", "+y")
     bench = forged["bench"].recipes[0]
-    assert bench.is_composed and bench.composed == "bench" and bench.front == "+y"
+    assert bench == ComposedRecipe(builder="bench") and bench.front == "+y" and not bench.stretch
     bucket = forged["bucket"].recipes
     assert [r.describe() for r in bucket] == ["tableware.PotFactory", "tools/forge/composed.py"]
     window = forged["window"].recipes[0]
@@ -65,7 +65,8 @@ def test_describe_keeps_the_catalogue_generators():
         kind = recipes.RECIPES[entry["class"]]
         recipe = kind.recipes[entry["variant"] % len(kind.recipes)]
         assert entry["generator"] == GENERATOR + recipe.describe(), entry["path"]
-        assert entry["source"] == ("composed (infinigen materials)" if recipe.is_composed else "infinigen")
+        assert entry["source"] == ("composed (infinigen materials)" if isinstance(recipe, ComposedRecipe) else "infinigen")
+        assert entry["source"] == recipe.source
 
 
 def test_describe_formats():
@@ -124,3 +125,73 @@ def test_a_broken_file(tmp_path):
     path.write_text('[[class]]\nname = "other"\nrole = "shell"\n\n[[class]]\nname = "lamp"\nrole = "object"\nsize = [[0.2, 0.5], [0.2, 0.5], [0.35, 1.7]]\nforge = [{ factory = "lamp.DeskLampFactory", front = "-y" }]\n')
     forged = recipes.load(path)
     assert forged["lamp"].recipes[0].front == "-y" and forged["lamp"].rests is None
+
+
+def test_a_recipe_checks_its_fields_when_made():
+    good = FactoryRecipe(module="elements.doors", factory="DoorFactory", front="+y", stretch=True, options={"door_type": "panel"})
+    assert good.describe() == "elements.doors.DoorFactory(door_type=panel, stretch=True)"
+    with pytest.raises(TypeError):
+        good.options["door_type"] = "louver"  # frozen: the options too
+    cases = [
+        (dict(module="seating", factory="chairFactory"), "factory", "factory must be a factory class name"),
+        (dict(module="seating.", factory="ChairFactory"), "module", "module must be a dotted module"),
+        (dict(module="seating", factory="ChairFactory", front="up"), "front", "front 'up' is not one of +x, -x, +y, -y"),
+        (dict(module="seating", factory="ChairFactory", sized=1), "sized", "sized must be true or false, found 1"),
+        (dict(module="seating", factory="ChairFactory", options={"stretch": True}), "options", "not stretch"),
+        (dict(module="seating", factory="ChairFactory", options=[("a", 1)]), "options", "options must be a table"),
+    ]
+    for fields, field, message in cases:
+        with pytest.raises(InvalidField) as caught:
+            FactoryRecipe(**fields)
+        assert caught.value.field == field
+        assert message in str(caught.value)
+    with pytest.raises(InvalidField, match="composed must name a builder of composed.py, found 'two words'") as caught:
+        ComposedRecipe(builder="two words")
+    assert caught.value.field == "builder"
+    with pytest.raises(InvalidField, match="front '-z'"):
+        ComposedRecipe(builder="bench", front="-z")
+
+
+def test_a_class_checks_its_fields_when_made():
+    chair_recipe = FactoryRecipe(module="seating", factory="ChairFactory")
+    made = ForgeClass(name="chair", role="furniture", rests="floor", size_range=[[0.4, 0.55], [0.42, 0.6], [0.8, 1]], recipes=[chair_recipe, ComposedRecipe("bench")])
+    assert made.size_range == ((0.4, 0.55), (0.42, 0.6), (0.8, 1.0))
+    assert [made.recipe_for(v) for v in range(3)] == [chair_recipe, ComposedRecipe("bench"), chair_recipe]
+    good = dict(name="chair", role="furniture", rests="floor", size_range=made.size_range, recipes=(chair_recipe,))
+    cases = [
+        ({"role": "thing"}, "role", "chair.role: expected one of shell, furniture, object, found 'thing'"),
+        ({"rests": "roof"}, "rests", "chair.rests: expected one of floor, surface, wall, ceiling, found 'roof'"),
+        ({"size_range": ((0.4, 0.55), (0.42, 0.6))}, "size", "chair.size: expected [[wmin, wmax]"),
+        ({"size_range": ((0.55, 0.4), (0.42, 0.6), (0.8, 1.0))}, "size", "chair.size: expected"),
+        ({"size_range": ((True, 1), (0.42, 0.6), (0.8, 1.0))}, "size", "chair.size: expected"),
+        ({"recipes": ()}, "recipes", "chair.recipes: expected one or more FactoryRecipe or ComposedRecipe"),
+        ({"recipes": ("seating.ChairFactory",)}, "recipes", "chair.recipes: expected one or more"),
+    ]
+    for change, field, message in cases:
+        with pytest.raises(InvalidField) as caught:
+            ForgeClass(**{**good, **change})
+        assert (caught.value.field, caught.value.record) == (field, "chair")
+        assert str(caught.value).startswith(message), str(caught.value)
+    with pytest.raises(InvalidField, match="a class's name must be a non-empty string"):
+        ForgeClass(**{**good, "name": ""})
+
+
+def test_shell_textures_are_named_records():
+    assert [(t.name, t.kind, t.module, t.material, t.tile) for t in recipes.SHELL][:2] == [
+        ("floor-hardwood", "floor", "wood", "HardwoodFloor", 2.0),
+        ("floor-wood-tile", "floor", "wood", "StaggeredWoodTile", 2.0),
+    ]
+    assert [t.kind for t in recipes.SHELL] == ["floor"] * 4 + ["wall"] * 2
+    with pytest.raises(InvalidField, match=r"wall-x\.kind: expected floor or wall, found 'ceiling'"):
+        ShellTexture("wall-x", "ceiling", "ceramic", "Plaster", 2.0)
+    with pytest.raises(InvalidField, match=r"wall-x\.tile: expected positive metres, found 0"):
+        ShellTexture("wall-x", "wall", "ceramic", "Plaster", 0)
+
+
+def test_a_composed_recipe_takes_no_factory_fields():
+    with pytest.raises(ClassTableError, match=r"chair\)\.forge\[0\]: a composed recipe takes no sized or options"):
+        parse(table(chair(forge=[{"composed": "bench", "options": {}}])))
+    with pytest.raises(ClassTableError, match=r"chair\)\.forge\[0\]: composed must name a builder"):
+        parse(table(chair(forge=[{"composed": 3}])))
+    with pytest.raises(ClassTableError, match=r"chair\)\.rests: expected one of"):
+        parse(table(chair(rests="roof")))

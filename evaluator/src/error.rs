@@ -35,6 +35,47 @@ impl InputError {
     }
 }
 
+/// Why a valid submission could not be scored, by whose the problem is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ScoreError {
+    /// A file of the submission (a map, a graph, its text features or answers) is wrong:
+    /// the team's to fix; scoring it again cannot help.
+    Submission(InputError),
+    /// The release (its ground truth or questions) or the machine failed: the service's;
+    /// scoring again may help.
+    Service(InputError),
+}
+
+impl ScoreError {
+    /// The error inside, whoever's it is.
+    pub fn into_input_error(self) -> InputError {
+        match self {
+            ScoreError::Submission(e) | ScoreError::Service(e) => e,
+        }
+    }
+}
+
+impl fmt::Display for ScoreError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ScoreError::Submission(e) | ScoreError::Service(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for ScoreError {}
+
+impl InputError {
+    /// The same problem with its file named relative to `root` when it lies inside it (a
+    /// submission's file, as its team knows it).
+    pub fn relative_to(self, root: &Path) -> InputError {
+        match Path::new(&self.file).strip_prefix(root) {
+            Ok(inside) => InputError { file: inside.display().to_string(), ..self },
+            Err(_) => self,
+        }
+    }
+}
+
 impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {}: {}", self.file, self.field, self.message)

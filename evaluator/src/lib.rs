@@ -22,7 +22,7 @@ pub mod synthetic;
 pub mod text;
 pub mod vqa;
 
-pub use error::{InputError, Result};
+pub use error::{InputError, Result, ScoreError};
 
 /// Version of the scoring code; recorded with every score so re-scoring is traceable.
 pub const EVALUATOR_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -40,8 +40,8 @@ use osmab_evaluator::scores::Split;
 use osmab_evaluator::vqa::{SceneQuestions, is_prompt_grounded};
 use quality::{Rendered, SceneQuality, oracle_ceiling};
 use split::SplitSecret;
-use stages::{Build, INSTANCES_JSON, SettledScene, read_json, scene_name, write_json};
-pub use stages::{SequenceUnit, WORK, packed_sequence_archive};
+pub use stages::{Build, SequenceUnit, WORK, packed_sequence_archive};
+use stages::{INSTANCES_JSON, SettledScene, read_json, scene_name, write_json};
 
 pub use publication::GROUND_TRUTH;
 /// The quality report with every measure of every scene (the public one leaves out what
@@ -80,23 +80,13 @@ pub fn prepare_release(
 /// download archive and, from the sequence the ground truth comes from, the scene's ground
 /// truth (stage 6), so that the work left to the build's assembly does not grow with the
 /// frames.
-pub fn render_release_scene(
-    config_path: &Path,
-    out: &Path,
-    secret: Option<&SplitSecret>,
-    assets_root: &Path,
-    units: &[SequenceUnit],
-    progress: &dyn Fn(&str),
-) -> Result<()> {
-    let build = Build::open(config_path, out, secret, assets_root)?;
-    for unit in units {
-        if !build.config.render.lightings.contains(&unit.lighting) {
-            return Err(InputError::new(config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
-        }
-        if (&unit.scene, unit.scene_index) != (&units[0].scene, units[0].scene_index) {
-            return Err(InputError::new(config_path, "(render job)", format!("{} and {} are sequences of two scenes", units[0].scene, unit.scene)));
-        }
-    }
+///
+/// `build` is the prepared build ([`Build::open`]): a config that cannot be used fails
+/// there, the same way every time, and sequences that are not of one scene of it fail
+/// [`Build::check_scene_units`]; what fails after those checks (rendering, an external
+/// renderer's timeout, the disk) may pass another time.
+pub fn render_release_scene(build: &Build, units: &[SequenceUnit], progress: &dyn Fn(&str)) -> Result<()> {
+    build.check_scene_units(units)?;
     let summaries = build.render_scene_sequences(units, progress)?;
     for (unit, summary) in units.iter().zip(&summaries) {
         build.contact_sheet(unit, summary)?;

@@ -232,6 +232,20 @@ impl Build {
         Ok(Build { config, config_text, config_path: config_path.to_path_buf(), out: out.to_path_buf(), work, inputs, secret, assets })
     }
 
+    /// That `units` are sequences of one scene of this build, each under a lighting of its
+    /// config.
+    pub fn check_scene_units(&self, units: &[SequenceUnit]) -> Result<()> {
+        for unit in units {
+            if !self.config.render.lightings.contains(&unit.lighting) {
+                return Err(InputError::new(&self.config_path, "render.lightings", format!("'{}' is not a lighting of this release", unit.lighting)));
+            }
+            if (&unit.scene, unit.scene_index) != (&units[0].scene, units[0].scene_index) {
+                return Err(InputError::new(&self.config_path, "(render job)", format!("{} and {} are sequences of two scenes", units[0].scene, unit.scene)));
+            }
+        }
+        Ok(())
+    }
+
     /// The digest of the asset pack the scenes are drawn from, when there is one.
     pub fn assets_digest(&self) -> Option<&str> {
         self.assets.digest()

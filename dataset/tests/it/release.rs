@@ -154,7 +154,8 @@ fn a_test_split_publishes_no_semantics_and_only_the_operators_secret_rebuilds_it
     assert_eq!(first.generator.split_secret_id, Some(secret.id()));
     // The archive a render job packs holds exactly the manifest's files of its sequence.
     let unit = osmab_dataset::release::SequenceUnit { scene_index: 1, scene: "scene_001".into(), lighting: ReleaseLighting::Baseline };
-    osmab_dataset::release::render_release_scene(&config, &dir.path().join("a"), Some(&secret), &assets_root(), &[unit], &|_| {}).unwrap();
+    let build = osmab_dataset::release::Build::open(&config, &dir.path().join("a"), Some(&secret), &assets_root()).unwrap();
+    osmab_dataset::release::render_release_scene(&build, &[unit], &|_| {}).unwrap();
     let (archive, _, _) = osmab_dataset::release::packed_sequence_archive(&dir.path().join("a"), ReleaseLighting::Baseline, "scene_001", Split::Test).unwrap();
     let held = osmab_evaluator::submission::tar_file_names(std::fs::File::open(&archive).unwrap(), &archive).unwrap();
     let expected: Vec<&String> = files.keys().filter(|p| p.starts_with("sequences/baseline/scene_001/")).collect();

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use super::release::ReleaseIndex;
 use super::validate::{SubmissionLimits, ValidSubmission};
 use crate::EVALUATOR_VERSION;
-use crate::error::{InputError, Result};
+use crate::error::{InputError, Result, ScoreError};
 use crate::formats::classes::ClassList;
 use crate::formats::map::{PredictedMap, TextFeatures};
 use crate::ground_truth::GroundTruth;
@@ -69,7 +69,7 @@ pub fn score_submission(
     limits: SubmissionLimits,
     open: crate::vqa::score::OpenBackends,
     progress: &dyn Fn(usize, usize),
-) -> Result<Scores> {
+) -> std::result::Result<Scores, ScoreError> {
     score_submission_timed(submission, release, limits, open, None, progress).map(|(scores, _)| scores)
 }
 
@@ -113,9 +113,9 @@ pub fn score_submission_timed(
     open: crate::vqa::score::OpenBackends,
     cache: Option<&PreparedCache>,
     progress: &dyn Fn(usize, usize),
-) -> Result<(Scores, ScoringTimings)> {
+) -> std::result::Result<(Scores, ScoringTimings), ScoreError> {
     if !release.has_ground_truth() {
-        return Err(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against"));
+        return Err(ScoreError::Service(InputError::new(&release.root, "ground_truth", "this copy of the release has no ground truth to score against")));
     }
     let mut timings = ScoringTimings::default();
     let by_lighting = score_maps(submission, release, limits, cache, &mut timings, progress)?;
@@ -156,8 +156,8 @@ fn score_maps(
     cache: Option<&PreparedCache>,
     timings: &mut ScoringTimings,
     progress: &dyn Fn(usize, usize),
-) -> Result<BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>>> {
-    let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose()?;
+) -> std::result::Result<BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>>, ScoreError> {
+    let text = submission.text_features.as_deref().map(|p| TextFeatures::read(p, limits.arrays)).transpose().map_err(ScoreError::Submission)?;
     let mut maps: Vec<_> = submission.entries.iter().filter_map(|e| e.map.as_ref().map(|m| (e, m))).collect();
     maps.sort_by(|(a, _), (b, _)| (&a.scene, a.lighting).cmp(&(&b.scene, b.lighting)));
     let keeper = cache.map(|cache| BackgroundStore::start(cache.clone()));
@@ -168,15 +168,15 @@ fn score_maps(
             // The scorer lets go of the previous scene's cloud before the next one is read
             // (the background store may still hold it while it writes it).
             drop(ground_truth.take());
-            let classes = release.scene_classes(&entry.scene)?;
-            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), timings)?;
+            let classes = release.scene_classes(&entry.scene).map_err(ScoreError::Service)?;
+            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), timings).map_err(ScoreError::Service)?;
             ground_truth = Some((entry.scene.as_str(), gt, classes));
         }
         let (_, gt, classes) = ground_truth.as_ref().expect("read above");
         let clock = Instant::now();
-        let map = PredictedMap::read(map_path, limits.arrays)?;
+        let map = PredictedMap::read(map_path, limits.arrays).map_err(ScoreError::Submission)?;
         timings.read_maps += clock.elapsed();
-        let scored = score_prepared(gt, &map, classes, text.as_ref())?;
+        let scored = score_prepared(gt, &map, classes, text.as_ref()).map_err(ScoreError::Submission)?;
         timings.scenes = timings.scenes + scored.timings;
         timings.maps += 1;
         timings.ground_truth_points += gt.len() as u64;
@@ -248,7 +248,11 @@ fn relative_changes(tables: &BTreeMap<Lighting, MetricsTable>) -> BTreeMap<Light
 /// answer given and whether it was right would tell them (the oracle's document would
 /// list them all), and per scene and lighting the number right lets one submission try
 /// four answer sets. The pooled accuracies (per category, group and lighting) stay.
-fn published_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: crate::vqa::score::OpenBackends) -> Result<Option<crate::scores::VqaScores>> {
+fn published_vqa(
+    submission: &ValidSubmission,
+    release: &ReleaseIndex,
+    open: crate::vqa::score::OpenBackends,
+) -> std::result::Result<Option<crate::scores::VqaScores>, ScoreError> {
     let mut vqa = crate::vqa::score::score_vqa(submission, release, open)?;
     if release.split == Some(crate::scores::Split::Test) {
         for v in vqa.iter_mut() {

@@ -13,7 +13,7 @@ use super::aggregate::{JudgedQuestion, summarize};
 use super::answer::{AnsweredBy, ClassifiedGraph, NO_ANSWER};
 use super::graph::SceneGraph;
 use super::judge::{JudgedBy, OpenJudge, Pending, Verdict, judge_without_llm};
-use crate::error::{InputError, Result};
+use crate::error::{InputError, Result, ScoreError};
 use crate::scores::{AnswerRow, Lighting, Regime, SceneAnswers, VqaScores};
 use crate::submission::release::ReleaseIndex;
 use crate::submission::validate::{SceneEntry, ValidSubmission};
@@ -46,26 +46,30 @@ fn team_answers(path: &std::path::Path, name: &str) -> Result<BTreeMap<String, V
 
 /// Score the VQA of `submission`; `None` when the release has no questions or the
 /// submission no graphs or answers.
-pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> Result<Option<VqaScores>> {
+pub fn score_vqa(submission: &ValidSubmission, release: &ReleaseIndex, open: OpenBackends) -> std::result::Result<Option<VqaScores>, ScoreError> {
     let classes = release.class_names();
-    let text =
-        submission.text_features.as_deref().map(|p| crate::formats::map::TextFeatures::read(p, crate::formats::npy::ReadLimits::default())).transpose()?;
+    let text = submission
+        .text_features
+        .as_deref()
+        .map(|p| crate::formats::map::TextFeatures::read(p, crate::formats::npy::ReadLimits::default()))
+        .transpose()
+        .map_err(ScoreError::Submission)?;
     let vocabulary = text.as_ref().map(|t| super::graph::FeatureVocabulary::new(t, &release.classes));
     let mut tally = Tally::default();
     let mut questions_cache = BTreeMap::new();
     for entry in submission.entries.iter().filter(|e| e.graph.is_some() || e.answers.is_some()) {
         if !questions_cache.contains_key(&entry.scene) {
-            questions_cache.insert(entry.scene.clone(), release.answered_questions(&entry.scene)?);
+            questions_cache.insert(entry.scene.clone(), release.answered_questions(&entry.scene).map_err(ScoreError::Service)?);
         }
         let Some(questions) = &questions_cache[&entry.scene] else { continue };
         let Some(subset) = release.scene(&entry.scene).map(|s| s.subset) else { continue };
         let team = match &entry.answers {
-            Some(path) => team_answers(path, &format!("answers/{}/{}.json", entry.lighting, entry.scene))?,
+            Some(path) => team_answers(path, &format!("answers/{}/{}.json", entry.lighting, entry.scene)).map_err(ScoreError::Submission)?,
             None => BTreeMap::new(),
         };
         let graph_name = format!("graphs/{}/{}.json", entry.lighting, entry.scene);
-        let graph_json = read_graph(entry, &graph_name)?;
-        let graph = graph_json.as_ref().map(|g| SceneGraph::parse(g, &graph_name)).transpose()?;
+        let graph_json = read_graph(entry, &graph_name).map_err(ScoreError::Submission)?;
+        let graph = graph_json.as_ref().map(|g| SceneGraph::parse(g, &graph_name)).transpose().map_err(ScoreError::Submission)?;
         let classified = graph.as_ref().map(|g| ClassifiedGraph::with_features(g, &classes, vocabulary.as_ref()));
         let mut answers = answer_questions(questions, &team, classified.as_ref(), graph_json.as_ref(), open.answerer);
         judge_answers(questions, &mut answers, open.judge);

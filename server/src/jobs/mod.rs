@@ -1,6 +1,9 @@
 //! Background jobs: a [`Job`] is a kind constant and a typed payload, enqueued with
 //! [`enqueue`] and run by [`worker`]s that hold a lease on it while it runs. A run ends
-//! in success, a [`JobError`] that says whether retrying can help, or a wait.
+//! in success, a [`JobError`] that says whether retrying can help, or a wait. What a
+//! failure does beyond the job (a scoring job fails its submission) is the kind's own
+//! ([`Job::fail`], [`Job::retrying`]); the worker knows no kind but in the one match that
+//! runs each by its type.
 
 pub mod progress;
 pub mod reference_entries;
@@ -29,8 +32,46 @@ pub trait Job: Serialize + DeserializeOwned + Send + 'static {
     /// most one live job per kind and subject.
     fn subject(&self) -> String;
 
+    /// Whether each run's start is news to an operator following the log (INFO), rather
+    /// than one of the many runs a coordinator fans out (DEBUG).
+    const STARTS_ARE_NEWS: bool = true;
+
     /// Do the work.
     fn run(self, ctx: JobContext) -> impl Future<Output = Result<(), JobError>> + Send;
+
+    /// Record that `failed.job` failed for good, with what depends on it, in one store
+    /// transaction; `false` when the lease was lost meanwhile. By default only the job.
+    fn fail(state: &AppState, failed: &Failed<'_>) -> impl Future<Output = Result<bool, StoreError>> + Send {
+        async move { state.store.fail_job(&failed.job.id, failed.owner, failed.message, None, false, failed.now).await }
+    }
+
+    /// After a failed attempt of `job` went back to the queue to be retried (`message`
+    /// says why and when): what its subject shows meanwhile. By default nothing.
+    fn retrying(state: &AppState, job: &ClaimedJob, message: &str, now: i64) -> impl Future<Output = ()> + Send {
+        let _ = (state, job, message, now);
+        async {}
+    }
+}
+
+/// Whose fault a failure is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The input's (the job's own payload, or what a participant uploaded).
+    Input,
+    /// The infrastructure's: workers that kept dying, failures retrying could not cure.
+    Service,
+}
+
+/// A job failing for good.
+#[derive(Debug, Clone, Copy)]
+pub struct Failed<'a> {
+    pub job: &'a ClaimedJob,
+    /// The worker holding its lease.
+    pub owner: &'a str,
+    /// Why, in words for whoever follows the job.
+    pub message: &'a str,
+    pub fault: Fault,
+    pub now: i64,
 }
 
 /// How a job run ended when it did not succeed.

@@ -12,7 +12,7 @@
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 
-use osmab_dataset::release::{SequenceUnit, build_release, prepare_release, render_release_scene};
+use osmab_dataset::release::{Build, SequenceUnit, build_release, prepare_release, render_release_scene};
 use serde::{Deserialize, Serialize};
 
 use super::progress::{Progress, Stage};
@@ -90,6 +90,7 @@ fn one_or_many<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Vec<
 
 impl Job for RenderSequence {
     const KIND: JobKind = JobKind::RenderSequence;
+    const STARTS_ARE_NEWS: bool = false;
 
     /// `version/scene`; a job of one sequence queued by an earlier version of the service
     /// kept `version/scene/lighting`, which its build still waits for by that name.
@@ -100,6 +101,15 @@ impl Job for RenderSequence {
 
     async fn run(self, ctx: JobContext) -> Result<(), JobError> {
         render(ctx, self).await
+    }
+}
+
+impl RenderSequence {
+    /// The release version a render job's subject names: the inverse of
+    /// [`Job::subject`] (and of the `version/scene/lighting` of a job queued by an earlier
+    /// version of the service), for whoever lists a build's render jobs.
+    pub fn version_of_subject(subject: &str) -> &str {
+        subject.split_once('/').map_or(subject, |(version, _)| version)
     }
 }
 
@@ -296,7 +306,13 @@ async fn render(ctx: JobContext, request: RenderSequence) -> Result<(), JobError
     tokio::task::spawn_blocking(move || {
         let progress = |message: &str| blocking_ctx.progress_blocking(&Progress::at(Stage::Render, message));
         // A renderer can fail for passing reasons (an external command's timeout): retried.
-        render_release_scene(&config_path, &out, Some(&secret), &assets_root, &units, &progress).map_err(|e| JobError::Retryable(e.to_string()))
+        // A config that cannot be used, or sequences not of one scene of it, fail the same
+        // way every time; a renderer can fail for passing reasons (an external command's
+        // timeout, the disk): retried.
+        let build =
+            Build::open(&config_path, &out, Some(&secret), &assets_root).map_err(|e| JobError::Permanent(format!("the build's config cannot be used: {e}")))?;
+        build.check_scene_units(&units).map_err(|e| JobError::Permanent(e.to_string()))?;
+        render_release_scene(&build, &units, &progress).map_err(|e| JobError::Retryable(e.to_string()))
     })
     .await
     .map_err(|e| JobError::Retryable(format!("the render thread ended: {e}")))??;
@@ -315,6 +331,8 @@ mod tests {
     fn a_render_job_names_its_scene_and_reads_back_every_lighting_it_carries() {
         let job = RenderSequence { version: "v-1".into(), units: vec![unit("baseline"), unit("no_lights")] };
         assert_eq!(job.subject(), "v-1/scene_003");
+        assert_eq!(RenderSequence::version_of_subject(&job.subject()), "v-1", "the console finds the build by it");
+        assert_eq!(RenderSequence::version_of_subject("demo-2/scene_001/camera"), "demo-2", "a job queued by an earlier version");
         let back: RenderSequence = serde_json::from_value(serde_json::to_value(&job).unwrap()).unwrap();
         assert_eq!(back.units, job.units);
     }

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use osmab_evaluator::InputError;
+use osmab_evaluator::ScoreError;
 use osmab_evaluator::scores::{Scores, Split};
 use osmab_evaluator::semseg::prepared_cache::PreparedCache;
 use osmab_evaluator::submission::score::ScoringTimings;
@@ -13,11 +13,12 @@ use osmab_evaluator::vqa::score::OpenBackends;
 use serde::{Deserialize, Serialize};
 
 use super::progress::{Progress, Stage};
-use super::{Job, JobContext, JobError};
+use super::{Failed, Fault, Job, JobContext, JobError};
 use crate::blobs::{Fetched, Scratch};
 use crate::clock::now_ms;
 use crate::llm::{LlmAnswerer, LlmJudge};
-use crate::store::{JobKind, SubmissionRecord, SubmissionState};
+use crate::state::AppState;
+use crate::store::{ClaimedJob, JobKind, StoreError, SubmissionRecord, SubmissionState};
 
 /// Score submission `submission_id` (again, with `rescore`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -38,16 +39,30 @@ impl Job for ScoreSubmission {
     async fn run(self, ctx: JobContext) -> Result<(), JobError> {
         score(ctx, &self.submission_id).await
     }
+
+    /// The submission fails with its job; when the service is at fault, the team's quota
+    /// unit is given back, and the message says so.
+    async fn fail(state: &AppState, failed: &Failed<'_>) -> Result<bool, StoreError> {
+        let refund = failed.fault == Fault::Service;
+        let message = if refund { format!("{} It does not count against the team's quota.", failed.message) } else { failed.message.to_string() };
+        state.store.fail_job(&failed.job.id, failed.owner, &message, Some(&failed.job.subject), refund, failed.now).await
+    }
+
+    /// The submission goes back to the queue, saying why.
+    async fn retrying(state: &AppState, job: &ClaimedJob, message: &str, now: i64) {
+        let back = state.store.set_submission_state(&job.subject, &[SubmissionState::Scoring], SubmissionState::Queued, Some(message), now).await;
+        if let Err(e) = back {
+            tracing::warn!(error = %e, "could not put the submission back in the queue; it shows as scoring until the next attempt");
+        }
+    }
 }
 
-/// A scoring error is the participant's when it is about a file of the submission (then
-/// it is shown relative to the submission); anything else (the release, the disk) is the
-/// server's and is retried.
-fn classify(e: InputError, unpacked: &Path) -> JobError {
-    let prefix = format!("{}/", unpacked.display());
-    match e.file.strip_prefix(&prefix) {
-        Some(inside) => JobError::Permanent(InputError { file: inside.to_string(), ..e }.to_string()),
-        None => JobError::Retryable(e.to_string()),
+/// A scoring error about a file of the submission is the participant's (shown relative to
+/// the submission); one about the release or the machine is the server's and is retried.
+fn classify(e: ScoreError, unpacked: &Path) -> JobError {
+    match e {
+        ScoreError::Submission(e) => JobError::Permanent(e.relative_to(unpacked).to_string()),
+        ScoreError::Service(e) => JobError::Retryable(e.to_string()),
     }
 }
 
@@ -181,4 +196,26 @@ fn log_timings(timings: &ScoringTimings) {
 pub(super) fn ground_truth_cache(settings: &crate::config::Settings) -> Option<PreparedCache> {
     (settings.ground_truth_cache_bytes > 0)
         .then(|| PreparedCache::new(settings.data_dir.join("cache").join("prepared-ground-truth"), settings.ground_truth_cache_bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use osmab_evaluator::InputError;
+
+    use super::*;
+
+    #[test]
+    fn a_submission_s_file_fails_for_good_named_inside_it_and_the_release_s_is_retried() {
+        let unpacked = Path::new("/data/scratch/score-1");
+        let map = InputError::new(unpacked.join("maps/baseline/scene_000.npz"), "points", "not finite");
+        match classify(ScoreError::Submission(map), unpacked) {
+            JobError::Permanent(message) => assert_eq!(message, "maps/baseline/scene_000.npz: points: not finite"),
+            other => panic!("{other:?}"),
+        }
+        // Named relative already (a graph, as the VQA scorer names it): still the team's.
+        let graph = InputError::new("graphs/camera/scene_001.json", "(json)", "expected value");
+        assert!(matches!(classify(ScoreError::Submission(graph), unpacked), JobError::Permanent(m) if m.starts_with("graphs/camera/scene_001.json")));
+        let truth = InputError::new("/data/releases/v1/ground_truth/scene_000/semantic.npy", "(file)", "file not found");
+        assert!(matches!(classify(ScoreError::Service(truth), unpacked), JobError::Retryable(m) if m.contains("semantic.npy")));
+    }
 }

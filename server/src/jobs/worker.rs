@@ -9,49 +9,45 @@ use std::time::Duration;
 use tokio::sync::{Mutex, watch};
 use tracing::Instrument;
 
-use super::scoring::ScoreSubmission;
 use super::warmup::Warmup;
-use super::{Job, JobContext, JobError, release_build, scoring};
+use super::{Failed, Fault, Job, JobContext, JobError, release_build, scoring};
 use crate::clock::now_ms;
 use crate::state::AppState;
-use crate::store::{ClaimedJob, JobKind, JobState, SubmissionState};
+use crate::store::{ClaimedJob, JobKind, JobState};
 
 /// Delay before attempt `attempts + 1`: 5 s doubling, at most 5 minutes.
 pub fn backoff(attempts: i64) -> Duration {
     Duration::from_secs((5u64 << attempts.clamp(0, 6) as u64).min(300))
 }
 
-/// Whose fault a failure is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Fault {
-    /// The input's: the submission counts against the team's quota.
-    Input,
-    /// The infrastructure's (workers that kept dying, failures retrying could not cure):
-    /// the team's quota unit is given back.
-    Service,
+/// Run one claimed job to its end (or until shutdown releases it), as the kind it is: the
+/// one place the worker names the kinds.
+async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch::Receiver<bool>) {
+    match job.kind {
+        JobKind::ScoreSubmission => process_as::<scoring::ScoreSubmission>(state, owner, job, shutdown).await,
+        JobKind::BuildRelease => process_as::<release_build::BuildRelease>(state, owner, job, shutdown).await,
+        JobKind::RenderSequence => process_as::<release_build::RenderSequence>(state, owner, job, shutdown).await,
+    }
 }
 
-/// Fail `job` for good with `message` (and its submission, for a scoring job).
-async fn fail(state: &AppState, owner: &str, job: &ClaimedJob, message: &str, fault: Fault) {
-    let submission = (job.kind == ScoreSubmission::KIND).then_some(job.subject.as_str());
-    let refund = submission.is_some() && fault == Fault::Service;
-    let message = if refund { format!("{message} It does not count against the team's quota.") } else { message.to_string() };
-    match state.store.fail_job(&job.id, owner, &message, submission, refund, now_ms()).await {
+/// Fail `job` for good with `message`, as its kind fails.
+async fn fail<J: Job>(state: &AppState, owner: &str, job: &ClaimedJob, message: &str, fault: Fault) {
+    match J::fail(state, &Failed { job, owner, message, fault, now: now_ms() }).await {
         Ok(true) => {}
         Ok(false) => tracing::warn!("the lease was lost; another worker owns the job now"),
         Err(e) => tracing::error!(error = %e, "could not record the failure; the job is retried when its lease expires"),
     }
 }
 
-/// Run one claimed job to its end (or until shutdown releases it).
-async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch::Receiver<bool>) {
+/// [`process`] for a job of kind `J`.
+async fn process_as<J: Job>(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch::Receiver<bool>) {
     if job.attempts > job.max_attempts {
         let message = format!(
             "Stopped after {} attempts: the worker running it stopped responding each time (its lease expired). The organisers have been alerted by the logs.",
             job.max_attempts
         );
         tracing::error!("{message}");
-        fail(state, owner, &job, &message, Fault::Service).await;
+        fail::<J>(state, owner, &job, &message, Fault::Service).await;
         return;
     }
     // One line per job, at INFO for the jobs a person follows (a build fans out into many
@@ -59,15 +55,15 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch
     // it waits for them, which is no new start).
     let earlier = super::progress::Progress::read(&job.progress);
     let resumed = earlier.waiting_for.is_some();
-    if job.kind == JobKind::RenderSequence {
-        tracing::debug!(attempt = job.attempts, "render job started");
+    if !J::STARTS_ARE_NEWS {
+        tracing::debug!(attempt = job.attempts, "{} job started", job.kind);
     } else if resumed {
         tracing::debug!(attempt = job.attempts, "{} job resumed", job.kind);
     } else {
         tracing::info!("{} job started (attempt {} of {})", job.kind, job.attempts, job.max_attempts);
     }
     let started_at = if resumed { earlier.started_at.unwrap_or_else(now_ms) } else { now_ms() };
-    let Some(result) = run_leased(state, owner, &job, started_at, shutdown).await else {
+    let Some(result) = run_leased::<J>(state, owner, &job, started_at, shutdown).await else {
         let now = now_ms();
         match state.store.release_job(&job.id, owner, now, now).await {
             Ok(_) => tracing::warn!("released the unfinished job for another worker"),
@@ -75,16 +71,22 @@ async fn process(state: &AppState, owner: &str, job: ClaimedJob, shutdown: watch
         }
         return;
     };
-    record_outcome(state, owner, &job, result).await;
+    record_outcome::<J>(state, owner, &job, result).await;
 }
 
 /// Run `job`, renewing its lease meanwhile; `None` when shutdown's grace period ended
 /// before the job did. Until shutdown there is no deadline; then the running job has the
 /// grace period, and the lease is still renewed so no other worker takes the job over.
-async fn run_leased(state: &AppState, owner: &str, job: &ClaimedJob, started_at: i64, mut shutdown: watch::Receiver<bool>) -> Option<Result<(), JobError>> {
+async fn run_leased<J: Job>(
+    state: &AppState,
+    owner: &str,
+    job: &ClaimedJob,
+    started_at: i64,
+    mut shutdown: watch::Receiver<bool>,
+) -> Option<Result<(), JobError>> {
     let lease = Duration::from_secs(state.settings.job_lease_secs);
     let ctx = JobContext { state: state.clone(), job: job.clone(), owner: owner.to_string(), started_at };
-    let mut work = tokio::spawn(run_job(ctx));
+    let mut work = tokio::spawn(dispatch::<J>(ctx));
     let mut heartbeat = tokio::time::interval(lease / 3);
     heartbeat.tick().await;
     let mut deadline: Option<tokio::time::Instant> = None;
@@ -118,7 +120,7 @@ async fn run_leased(state: &AppState, owner: &str, job: &ClaimedJob, started_at:
 
 /// Record how a run of `job` ended: succeeded, back in the queue (waiting, or to retry
 /// with backoff), or failed for good.
-async fn record_outcome(state: &AppState, owner: &str, job: &ClaimedJob, result: Result<(), JobError>) {
+async fn record_outcome<J: Job>(state: &AppState, owner: &str, job: &ClaimedJob, result: Result<(), JobError>) {
     let now = now_ms();
     match result {
         Ok(()) => {
@@ -132,20 +134,20 @@ async fn record_outcome(state: &AppState, owner: &str, job: &ClaimedJob, result:
         }
         Err(JobError::Permanent(message)) => {
             tracing::warn!(%message, "job failed");
-            fail(state, owner, job, &message, Fault::Input).await;
+            fail::<J>(state, owner, job, &message, Fault::Input).await;
         }
         Err(JobError::Retryable(cause)) if job.attempts >= job.max_attempts => {
             let message = format!("Failed {} times; the last failure: {cause}. The organisers can re-run it.", job.attempts);
             tracing::error!(%message, "job failed for good");
-            fail(state, owner, job, &message, Fault::Service).await;
+            fail::<J>(state, owner, job, &message, Fault::Service).await;
         }
         Err(JobError::Retryable(cause)) => {
             let retry_at = now + backoff(job.attempts).as_millis() as i64;
             tracing::warn!(%cause, retry_at = %crate::clock::rfc3339(retry_at), "job failed; will retry");
             let message = format!("attempt {} failed ({cause}); retrying at {}", job.attempts, crate::clock::rfc3339(retry_at));
-            let _ = state.store.finish_job(&job.id, owner, JobState::Queued, Some(&message), Some(retry_at), now).await;
-            if job.kind == ScoreSubmission::KIND {
-                let _ = state.store.set_submission_state(&job.subject, &[SubmissionState::Scoring], SubmissionState::Queued, Some(&message), now).await;
+            match state.store.finish_job(&job.id, owner, JobState::Queued, Some(&message), Some(retry_at), now).await {
+                Ok(_) => J::retrying(state, job, &message, now).await,
+                Err(e) => tracing::warn!(error = %e, "could not queue the retry; the job is taken up again when its lease expires"),
             }
         }
     }
@@ -155,15 +157,6 @@ async fn record_outcome(state: &AppState, owner: &str, job: &ClaimedJob, result:
 async fn dispatch<J: Job>(ctx: JobContext) -> Result<(), JobError> {
     let job: J = serde_json::from_str(&ctx.job.payload).map_err(|e| JobError::Permanent(format!("{} payload: {e}", J::KIND)))?;
     job.run(ctx).await
-}
-
-/// Run a claimed job by its kind.
-async fn run_job(ctx: JobContext) -> Result<(), JobError> {
-    match ctx.job.kind {
-        JobKind::ScoreSubmission => dispatch::<scoring::ScoreSubmission>(ctx).await,
-        JobKind::BuildRelease => dispatch::<release_build::BuildRelease>(ctx).await,
-        JobKind::RenderSequence => dispatch::<release_build::RenderSequence>(ctx).await,
-    }
 }
 
 /// Claim and run jobs until `shutdown` turns true; while idle, make the current release

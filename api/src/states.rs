@@ -17,6 +17,9 @@ macro_rules! state {
         }
 
         impl $ty {
+            /// Every value, in declaration order (what the column's CHECK constraint lists).
+            pub const ALL: [$ty; [$($name),+].len()] = [$($ty::$variant,)+];
+
             /// The name as stored and served.
             pub const fn name(self) -> &'static str {
                 match self { $($ty::$variant => $name,)+ }

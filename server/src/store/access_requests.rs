@@ -36,8 +36,8 @@ impl Store {
             "INSERT INTO access_requests (",
             columns!(),
             ") SELECT $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13 ",
-            "WHERE (SELECT COUNT(*) FROM access_requests WHERE state = 'pending' AND client = $7) < $14 ",
-            "AND (SELECT COUNT(*) FROM access_requests WHERE state = 'pending') < $15"
+            "WHERE (SELECT COUNT(*) FROM access_requests WHERE state = $16 AND client = $7) < $14 ",
+            "AND (SELECT COUNT(*) FROM access_requests WHERE state = $16) < $15"
         );
         let inserted = on_pool!(self, |pool| sqlx::query(SQL)
             .bind(&request.id)
@@ -55,6 +55,7 @@ impl Store {
             .bind(request.collected_at)
             .bind(per_client)
             .bind(in_all)
+            .bind(AccessRequestState::Pending)
             .execute(pool)
             .await
             .map(|r| r.rows_affected()))?;

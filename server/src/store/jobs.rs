@@ -40,7 +40,7 @@ macro_rules! insert_job_query {
     ($job:expr) => {
         sqlx::query(
             "INSERT INTO jobs (id, kind, subject, payload, state, attempts, max_attempts, run_after, progress, created_at, updated_at) \
-             VALUES ($1, $2, $3, $4, 'queued', 0, $5, $6, '{}', $6, $6)",
+             VALUES ($1, $2, $3, $4, $7, 0, $5, $6, '{}', $6, $6)",
         )
         .bind(&$job.id)
         .bind($job.kind)
@@ -48,17 +48,19 @@ macro_rules! insert_job_query {
         .bind(&$job.payload)
         .bind($job.max_attempts)
         .bind($job.created_at)
+        .bind($crate::store::JobState::Queued)
     };
 }
 pub(super) use insert_job_query;
 
-const CLAIM_SQLITE: &str = "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires = $2, attempts = attempts + 1, updated_at = $3 \
-     WHERE id = (SELECT id FROM jobs WHERE (state = 'queued' AND run_after <= $3) OR (state = 'running' AND lease_expires < $3) \
+/// `$4` is [`JobState::Running`], `$5` [`JobState::Queued`].
+const CLAIM_SQLITE: &str = "UPDATE jobs SET state = $4, lease_owner = $1, lease_expires = $2, attempts = attempts + 1, updated_at = $3 \
+     WHERE id = (SELECT id FROM jobs WHERE (state = $5 AND run_after <= $3) OR (state = $4 AND lease_expires < $3) \
                  ORDER BY created_at, id LIMIT 1) \
      RETURNING id, kind, subject, payload, attempts, max_attempts, progress";
 
-const CLAIM_POSTGRES: &str = "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires = $2, attempts = attempts + 1, updated_at = $3 \
-     WHERE id = (SELECT id FROM jobs WHERE (state = 'queued' AND run_after <= $3) OR (state = 'running' AND lease_expires < $3) \
+const CLAIM_POSTGRES: &str = "UPDATE jobs SET state = $4, lease_owner = $1, lease_expires = $2, attempts = attempts + 1, updated_at = $3 \
+     WHERE id = (SELECT id FROM jobs WHERE (state = $5 AND run_after <= $3) OR (state = $4 AND lease_expires < $3) \
                  ORDER BY created_at, id LIMIT 1 FOR UPDATE SKIP LOCKED) \
      RETURNING id, kind, subject, payload, attempts, max_attempts, progress";
 
@@ -72,36 +74,54 @@ impl Store {
     /// Claim the next ready job for `owner` with a lease until `lease_expires`.
     pub async fn claim_next_job(&self, owner: &str, now: i64, lease_expires: i64) -> StoreResult<Option<ClaimedJob>> {
         Ok(match self {
-            Store::Sqlite(pool) => sqlx::query_as(CLAIM_SQLITE).bind(owner).bind(lease_expires).bind(now).fetch_optional(pool).await?,
-            Store::Postgres(pool) => sqlx::query_as(CLAIM_POSTGRES).bind(owner).bind(lease_expires).bind(now).fetch_optional(pool).await?,
+            Store::Sqlite(pool) => {
+                sqlx::query_as(CLAIM_SQLITE)
+                    .bind(owner)
+                    .bind(lease_expires)
+                    .bind(now)
+                    .bind(JobState::Running)
+                    .bind(JobState::Queued)
+                    .fetch_optional(pool)
+                    .await?
+            }
+            Store::Postgres(pool) => {
+                sqlx::query_as(CLAIM_POSTGRES)
+                    .bind(owner)
+                    .bind(lease_expires)
+                    .bind(now)
+                    .bind(JobState::Running)
+                    .bind(JobState::Queued)
+                    .fetch_optional(pool)
+                    .await?
+            }
         })
     }
 
     /// Extend `owner`'s lease on job `id`; false when the lease was lost (expired and taken).
     pub async fn heartbeat(&self, id: &str, owner: &str, lease_expires: i64, now: i64) -> StoreResult<bool> {
-        let done =
-            on_pool!(self, |pool| sqlx::query("UPDATE jobs SET lease_expires = $3, updated_at = $4 WHERE id = $1 AND lease_owner = $2 AND state = 'running'")
-                .bind(id)
-                .bind(owner)
-                .bind(lease_expires)
-                .bind(now)
-                .execute(pool)
-                .await
-                .map(|r| r.rows_affected()))?;
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE jobs SET lease_expires = $3, updated_at = $4 WHERE id = $1 AND lease_owner = $2 AND state = $5")
+            .bind(id)
+            .bind(owner)
+            .bind(lease_expires)
+            .bind(now)
+            .bind(JobState::Running)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
         Ok(done == 1)
     }
 
     /// Record the progress JSON of a running job.
     pub async fn set_job_progress(&self, id: &str, owner: &str, progress: &str, now: i64) -> StoreResult<bool> {
-        let done =
-            on_pool!(self, |pool| sqlx::query("UPDATE jobs SET progress = $3, updated_at = $4 WHERE id = $1 AND lease_owner = $2 AND state = 'running'")
-                .bind(id)
-                .bind(owner)
-                .bind(progress)
-                .bind(now)
-                .execute(pool)
-                .await
-                .map(|r| r.rows_affected()))?;
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE jobs SET progress = $3, updated_at = $4 WHERE id = $1 AND lease_owner = $2 AND state = $5")
+            .bind(id)
+            .bind(owner)
+            .bind(progress)
+            .bind(now)
+            .bind(JobState::Running)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
         Ok(done == 1)
     }
 
@@ -109,7 +129,7 @@ impl Store {
     pub async fn finish_job(&self, id: &str, owner: &str, state: JobState, error: Option<&str>, retry_at: Option<i64>, now: i64) -> StoreResult<bool> {
         let done = on_pool!(self, |pool| sqlx::query(
             "UPDATE jobs SET state = $3, error = $4, run_after = COALESCE($5, run_after), lease_owner = NULL, lease_expires = NULL, updated_at = $6 \
-             WHERE id = $1 AND lease_owner = $2 AND state = 'running'"
+             WHERE id = $1 AND lease_owner = $2 AND state = $7"
         )
         .bind(id)
         .bind(owner)
@@ -117,6 +137,7 @@ impl Store {
         .bind(error)
         .bind(retry_at)
         .bind(now)
+        .bind(JobState::Running)
         .execute(pool)
         .await
         .map(|r| r.rows_affected()))?;
@@ -127,13 +148,15 @@ impl Store {
     /// `run_after` (graceful shutdown: now; a coordinator waiting for its parts: later).
     pub async fn release_job(&self, id: &str, owner: &str, run_after: i64, now: i64) -> StoreResult<bool> {
         let done = on_pool!(self, |pool| sqlx::query(
-            "UPDATE jobs SET state = 'queued', attempts = attempts - 1, lease_owner = NULL, lease_expires = NULL, run_after = $3, updated_at = $4 \
-             WHERE id = $1 AND lease_owner = $2 AND state = 'running'"
+            "UPDATE jobs SET state = $5, attempts = attempts - 1, lease_owner = NULL, lease_expires = NULL, run_after = $3, updated_at = $4 \
+             WHERE id = $1 AND lease_owner = $2 AND state = $6"
         )
         .bind(id)
         .bind(owner)
         .bind(run_after)
         .bind(now)
+        .bind(JobState::Queued)
+        .bind(JobState::Running)
         .execute(pool)
         .await
         .map(|r| r.rows_affected()))?;
@@ -169,9 +192,11 @@ impl Store {
 
     /// Cancel a queued job (a running one finishes or fails on its own).
     pub async fn cancel_job(&self, id: &str, now: i64) -> StoreResult<()> {
-        let done = on_pool!(self, |pool| sqlx::query("UPDATE jobs SET state = 'cancelled', updated_at = $2 WHERE id = $1 AND state = 'queued'")
+        let done = on_pool!(self, |pool| sqlx::query("UPDATE jobs SET state = $3, updated_at = $2 WHERE id = $1 AND state = $4")
             .bind(id)
             .bind(now)
+            .bind(JobState::Cancelled)
+            .bind(JobState::Queued)
             .execute(pool)
             .await
             .map(|r| r.rows_affected()))?;

@@ -1,7 +1,7 @@
 //! Where a job stands in the queue, and how long scoring has taken: the facts behind a
 //! submission's queue position and its estimated end (`crate::queue`).
 
-use super::{Store, StoreResult, on_pool};
+use super::{JobState, Store, StoreResult, SubmissionState, on_pool};
 
 /// A queued job's standing: jobs a worker takes before it, jobs running now, and the
 /// workers holding them.
@@ -20,12 +20,14 @@ impl Store {
     pub async fn standing(&self, id: &str) -> StoreResult<Option<Standing>> {
         let row: Option<(i64, i64, i64)> = on_pool!(self, |pool| sqlx::query_as(
             "SELECT \
-               (SELECT COUNT(*) FROM jobs o WHERE o.state = 'queued' AND (o.created_at < j.created_at OR (o.created_at = j.created_at AND o.id < j.id))), \
-               (SELECT COUNT(*) FROM jobs r WHERE r.state = 'running'), \
-               (SELECT COUNT(DISTINCT r.lease_owner) FROM jobs r WHERE r.state = 'running') \
-             FROM jobs j WHERE j.id = $1 AND j.state = 'queued'"
+               (SELECT COUNT(*) FROM jobs o WHERE o.state = $2 AND (o.created_at < j.created_at OR (o.created_at = j.created_at AND o.id < j.id))), \
+               (SELECT COUNT(*) FROM jobs r WHERE r.state = $3), \
+               (SELECT COUNT(DISTINCT r.lease_owner) FROM jobs r WHERE r.state = $3) \
+             FROM jobs j WHERE j.id = $1 AND j.state = $2"
         )
         .bind(id)
+        .bind(JobState::Queued)
+        .bind(JobState::Running)
         .fetch_optional(pool)
         .await)?;
         Ok(row.map(|(ahead, running, busy_workers)| Standing { ahead, running, busy_workers }))
@@ -35,10 +37,12 @@ impl Store {
     /// entering `scoring` to its `scored` event.
     pub async fn recent_scoring_durations(&self, limit: i64) -> StoreResult<Vec<i64>> {
         let rows: Vec<(Option<i64>,)> = on_pool!(self, |pool| sqlx::query_as(
-            "SELECT e.at - (SELECT MAX(s.at) FROM submission_events s WHERE s.submission_id = e.submission_id AND s.state = 'scoring' AND s.at <= e.at) \
-             FROM submission_events e WHERE e.state = 'scored' ORDER BY e.id DESC LIMIT $1"
+            "SELECT e.at - (SELECT MAX(s.at) FROM submission_events s WHERE s.submission_id = e.submission_id AND s.state = $2 AND s.at <= e.at) \
+             FROM submission_events e WHERE e.state = $3 ORDER BY e.id DESC LIMIT $1"
         )
         .bind(limit)
+        .bind(SubmissionState::Scoring)
+        .bind(SubmissionState::Scored)
         .fetch_all(pool)
         .await)?;
         Ok(rows.into_iter().filter_map(|(d,)| d).filter(|d| *d >= 0).collect())
@@ -46,11 +50,11 @@ impl Store {
 
     /// When submission `id` last entered `scoring`, if it did.
     pub async fn scoring_since(&self, id: &str) -> StoreResult<Option<i64>> {
-        let row: (Option<i64>,) =
-            on_pool!(self, |pool| sqlx::query_as("SELECT MAX(at) FROM submission_events WHERE submission_id = $1 AND state = 'scoring'")
-                .bind(id)
-                .fetch_one(pool)
-                .await)?;
+        let row: (Option<i64>,) = on_pool!(self, |pool| sqlx::query_as("SELECT MAX(at) FROM submission_events WHERE submission_id = $1 AND state = $2")
+            .bind(id)
+            .bind(SubmissionState::Scoring)
+            .fetch_one(pool)
+            .await)?;
         Ok(row.0)
     }
 }

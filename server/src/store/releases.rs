@@ -1,6 +1,6 @@
 //! Releases and their public files: drafts, publication, the current release.
 
-use super::{ReleaseFile, ReleaseRecord, Store, StoreError, StoreResult, on_pool};
+use super::{ReleaseFile, ReleaseFileKind, ReleaseRecord, ReleaseState, Store, StoreError, StoreResult, on_pool};
 
 /// Release files written by one INSERT: 5 parameters each, within SQLite's 32,766 and
 /// PostgreSQL's 65,535 parameters a statement.
@@ -47,11 +47,10 @@ impl Store {
     /// The published releases' versions, newest first, each with whether it is the current one
     /// (no manifests: what a board's release switcher needs).
     pub async fn published_versions(&self) -> StoreResult<Vec<(String, bool)>> {
-        Ok(on_pool!(self, |pool| sqlx::query_as(
-            "SELECT version, is_current FROM releases WHERE state = 'published' ORDER BY published_at DESC, version DESC"
-        )
-        .fetch_all(pool)
-        .await)?)
+        Ok(on_pool!(self, |pool| sqlx::query_as("SELECT version, is_current FROM releases WHERE state = $1 ORDER BY published_at DESC, version DESC")
+            .bind(ReleaseState::Published)
+            .fetch_all(pool)
+            .await)?)
     }
 
     /// Release `version`.
@@ -77,9 +76,10 @@ impl Store {
     pub async fn publish_release(&self, version: &str, at: i64) -> StoreResult<()> {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
-            let done = sqlx::query("UPDATE releases SET state = 'published', published_at = COALESCE(published_at, $2) WHERE version = $1")
+            let done = sqlx::query("UPDATE releases SET state = $3, published_at = COALESCE(published_at, $2) WHERE version = $1")
                 .bind(version)
                 .bind(at)
+                .bind(ReleaseState::Published)
                 .execute(&mut *tx)
                 .await?
                 .rows_affected();
@@ -98,11 +98,12 @@ impl Store {
     pub async fn replace_release_archive(&self, version: &str, path: &str, size: i64, sha256: &str, manifest: &str) -> StoreResult<()> {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
-            let changed = sqlx::query("UPDATE release_files SET size = $3, sha256 = $4 WHERE version = $1 AND path = $2 AND kind = 'archive'")
+            let changed = sqlx::query("UPDATE release_files SET size = $3, sha256 = $4 WHERE version = $1 AND path = $2 AND kind = $5")
                 .bind(version)
                 .bind(path)
                 .bind(size)
                 .bind(sha256)
+                .bind(ReleaseFileKind::Archive)
                 .execute(&mut *tx)
                 .await?
                 .rows_affected();

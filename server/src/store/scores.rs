@@ -3,7 +3,7 @@
 
 use osmab_evaluator::scores::Scores;
 
-use super::{LeaderboardRow, ScoreRecord, Store, StoreResult, on_pool};
+use super::{LeaderboardRow, ScoreRecord, Store, StoreResult, SubmissionState, on_pool};
 
 /// The JSON text a score document is stored as.
 pub(super) fn score_text(scores: &Scores) -> String {
@@ -72,10 +72,11 @@ impl Store {
             "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.anonymous, s.flag, s.created_at, s.split, c.body \
              FROM submissions s JOIN teams t ON t.id = s.team_id \
              JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
-             WHERE s.release = $1 AND s.state <> 'cancelled' AND (s.public = TRUE OR s.baseline = TRUE) \
+             WHERE s.release = $1 AND s.state <> $2 AND (s.public = TRUE OR s.baseline = TRUE) \
              ORDER BY s.created_at, s.id"
         )
         .bind(release)
+        .bind(SubmissionState::Cancelled)
         .fetch_all(pool)
         .await
         })?;

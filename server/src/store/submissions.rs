@@ -1,15 +1,19 @@
 //! Submissions and their history: recording an upload with its scoring job, state
 //! changes (each with one history event), scoring results and failures, quota counts.
 
-use super::{JobRecord, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool};
+use super::{
+    JobRecord, JobState, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool,
+};
 use osmab_evaluator::scores::{Scores, Split};
 
 /// A team's earlier submission to the split `$5` with the idempotency key `$2` (first) or,
 /// active, of the archive `$3`: its id, archive and key. Keys are scoped by split: the
 /// same key to the other split is a new submission, as the same archive is.
-/// `$4` is a submission to leave out (the one just inserted, in the recording transaction).
+/// `$4` is a submission to leave out (the one just inserted, in the recording transaction);
+/// `$6` and `$7` are the states that are not active ([`SubmissionState::Failed`],
+/// [`SubmissionState::Cancelled`]).
 const REPEAT_QUERY: &str = "SELECT id, archive_sha256, idempotency_key FROM submissions \
-     WHERE team_id = $1 AND id <> $4 AND split = $5 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ('failed', 'cancelled'))) \
+     WHERE team_id = $1 AND id <> $4 AND split = $5 AND (idempotency_key = $2 OR (archive_sha256 = $3 AND state NOT IN ($6, $7))) \
      ORDER BY CASE WHEN idempotency_key = $2 THEN 0 ELSE 1 END, created_at LIMIT 1";
 
 /// What an earlier submission `(id, archive, key)` found by [`REPEAT_QUERY`] makes of an
@@ -68,6 +72,8 @@ impl Store {
             .bind(archive_sha256)
             .bind("")
             .bind(split.name())
+            .bind(SubmissionState::Failed)
+            .bind(SubmissionState::Cancelled)
             .fetch_optional(pool)
             .await)?;
         Ok(row.map(|row| repeat_of(row, archive_sha256)))
@@ -82,7 +88,7 @@ impl Store {
     pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<Recorded> {
         let sql = format!(
             "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, external_data, compute, anonymous, split) \
-             VALUES ($1, $2, $3, 'queued', NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19)"
+             VALUES ($1, $2, $3, $20, NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19)"
         );
         let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
@@ -115,6 +121,7 @@ impl Store {
                 .bind(&s.compute)
                 .bind(s.anonymous)
                 .bind(s.split.name())
+                .bind(SubmissionState::Queued)
                 .execute(&mut *tx)
                 .await?;
             let earlier: Option<(String, String, Option<String>)> = sqlx::query_as(REPEAT_QUERY)
@@ -123,6 +130,8 @@ impl Store {
                 .bind(&s.archive_sha256)
                 .bind(&s.id)
                 .bind(s.split.name())
+                .bind(SubmissionState::Failed)
+                .bind(SubmissionState::Cancelled)
                 .fetch_optional(&mut *tx)
                 .await?;
             if let Some(row) = earlier {
@@ -163,18 +172,22 @@ impl Store {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             let job = sqlx::query(
-                "UPDATE jobs SET state = 'succeeded', error = NULL, lease_owner = NULL, lease_expires = NULL, updated_at = $3 \
-                 WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+                "UPDATE jobs SET state = $4, error = NULL, lease_owner = NULL, lease_expires = NULL, updated_at = $3 \
+                 WHERE id = $1 AND lease_owner = $2 AND state = $5",
             )
             .bind(job_id)
             .bind(owner)
             .bind(at)
+            .bind(JobState::Succeeded)
+            .bind(JobState::Running)
             .execute(&mut *tx)
             .await?
             .rows_affected();
-            let moved = sqlx::query("UPDATE submissions SET state = 'scored', reason = NULL, updated_at = $2 WHERE id = $1 AND state = 'scoring'")
+            let moved = sqlx::query("UPDATE submissions SET state = $3, reason = NULL, updated_at = $2 WHERE id = $1 AND state = $4")
                 .bind(submission_id)
                 .bind(at)
+                .bind(SubmissionState::Scored)
+                .bind(SubmissionState::Scoring)
                 .execute(&mut *tx)
                 .await?
                 .rows_affected();
@@ -203,13 +216,15 @@ impl Store {
         on_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
             let job = sqlx::query(
-                "UPDATE jobs SET state = 'failed', error = $3, lease_owner = NULL, lease_expires = NULL, updated_at = $4 \
-                 WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+                "UPDATE jobs SET state = $5, error = $3, lease_owner = NULL, lease_expires = NULL, updated_at = $4 \
+                 WHERE id = $1 AND lease_owner = $2 AND state = $6",
             )
             .bind(job_id)
             .bind(owner)
             .bind(message)
             .bind(at)
+            .bind(JobState::Failed)
+            .bind(JobState::Running)
             .execute(&mut *tx)
             .await?
             .rows_affected();
@@ -219,11 +234,14 @@ impl Store {
             }
             if let Some(id) = submission_id {
                 let moved =
-                    sqlx::query("UPDATE submissions SET state = 'failed', reason = $2, updated_at = $3, quota_refunded = $4 WHERE id = $1 AND state IN ('queued', 'scoring')")
+                    sqlx::query("UPDATE submissions SET state = $5, reason = $2, updated_at = $3, quota_refunded = $4 WHERE id = $1 AND state IN ($6, $7)")
                         .bind(id)
                         .bind(message)
                         .bind(at)
                         .bind(refund)
+                        .bind(SubmissionState::Failed)
+                        .bind(SubmissionState::Queued)
+                        .bind(SubmissionState::Scoring)
                         .execute(&mut *tx)
                         .await?
                         .rows_affected();

@@ -122,3 +122,20 @@ async fn a_coordinator_finds_the_parts_it_fanned_out_by_kind_prefix_and_time() {
     }
     stores.drop_all().await;
 }
+
+#[tokio::test]
+async fn the_database_refuses_a_job_of_a_kind_the_service_does_not_run() {
+    let stores = TestStores::new().await;
+    for store in &stores.stores {
+        const INSERT: &str = "INSERT INTO jobs (id, kind, subject, payload, state, attempts, max_attempts, run_after, progress, created_at, updated_at) \
+                              VALUES ($1, $2, 's', '{}', 'queued', 0, 3, 0, '{}', 0, 0)";
+        let refused = on_pool!(store, |pool| sqlx::query(INSERT).bind("j-unknown").bind("sweep_uploads").execute(pool).await.map(|_| ()));
+        let err = refused.expect_err("an unknown kind").to_string();
+        assert!(err.to_lowercase().contains("check"), "{}: {err}", store.backend());
+        for kind in JobKind::ALL {
+            on_pool!(store, |pool| sqlx::query(INSERT).bind(kind.name()).bind(kind.name()).execute(pool).await.map(|_| ())).unwrap();
+        }
+        assert_eq!(store.jobs(10).await.unwrap().len(), JobKind::ALL.len(), "{}: every kind the service runs is accepted", store.backend());
+    }
+    stores.drop_all().await;
+}

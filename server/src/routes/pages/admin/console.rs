@@ -11,10 +11,12 @@ use serde::Deserialize;
 
 use super::{AdminMessage, AdminSession};
 use crate::clock::rfc3339;
+use crate::jobs::Job;
 use crate::jobs::progress::{Progress, Stage};
+use crate::jobs::release_build::{BuildRelease, RenderSequence};
 use crate::routes::extract::{ApiPath, ApiQuery};
 use crate::state::AppState;
-use crate::store::{JobKind, JobRecord, JobState, ReleaseState, StoreError};
+use crate::store::{JobRecord, JobState, ReleaseState, StoreError};
 
 pub struct ReleaseRow {
     pub version: String,
@@ -80,11 +82,6 @@ pub struct ConsoleQuery {
     seal: Option<String>,
 }
 
-/// The version a job's subject names (`version` or `version/scene/lighting`).
-fn subject_version(subject: &str) -> &str {
-    subject.split('/').next().unwrap_or(subject)
-}
-
 fn progress_of(job: &JobRecord) -> Progress {
     Progress::read(&job.progress)
 }
@@ -92,7 +89,7 @@ fn progress_of(job: &JobRecord) -> Progress {
 /// How far the render jobs of `version` among `jobs` are.
 fn renders_of(jobs: &[JobRecord], version: &str) -> RenderCounts {
     let mut counts = RenderCounts::default();
-    for j in jobs.iter().filter(|j| j.kind == JobKind::RenderSequence && subject_version(&j.subject) == version) {
+    for j in jobs.iter().filter(|j| j.kind == RenderSequence::KIND && RenderSequence::version_of_subject(&j.subject) == version) {
         counts.total += 1;
         match j.state {
             JobState::Succeeded => counts.succeeded += 1,
@@ -136,7 +133,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
         Err(problem) => return AdminMessage::problem(problem),
     };
     let team_name = |id: &str| teams.iter().find(|t| t.id == id).map_or_else(|| id.to_string(), |t| t.name.clone());
-    let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == JobKind::BuildRelease).take(10).map(|j| build_row(j, &jobs)).collect();
+    let builds: Vec<BuildRow> = jobs.iter().filter(|j| j.kind == BuildRelease::KIND).take(10).map(|j| build_row(j, &jobs)).collect();
     ConsolePage {
         // Only notices this server wrote for this session (see `AdminSession::seal`).
         notice: query.notice.filter(|n| query.seal.as_deref() == Some(session.seal(n).as_str())),
@@ -172,7 +169,8 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
             &releases
                 .iter()
                 .map(|r| r.version.clone())
-                .chain(jobs.iter().filter(|j| j.kind == JobKind::BuildRelease).map(|j| subject_version(&j.subject).to_string()))
+                // A build's subject is the version it builds.
+                .chain(jobs.iter().filter(|j| j.kind == BuildRelease::KIND).map(|j| j.subject.clone()))
                 .collect(),
         ),
         quotas,
@@ -235,7 +233,7 @@ pub struct JobPage {
 /// `GET /admin/jobs/{id}`: a release build's stages and render jobs.
 pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): ApiPath<String>) -> Response {
     let job = match state.store.job(&id).await {
-        Ok(job) if job.kind == JobKind::BuildRelease => job,
+        Ok(job) if job.kind == BuildRelease::KIND => job,
         Ok(_) | Err(StoreError::NotFound) => {
             return AdminMessage::page(StatusCode::NOT_FOUND, "No such build", &format!("There is no release build job '{id}'."));
         }
@@ -263,7 +261,7 @@ pub async fn job(State(state): State<AppState>, _: AdminSession, ApiPath(id): Ap
     let log = progress.log.clone().unwrap_or_default();
     let mut renders: Vec<RenderRow> = jobs
         .iter()
-        .filter(|j| j.kind == JobKind::RenderSequence && subject_version(&j.subject) == job.subject)
+        .filter(|j| j.kind == RenderSequence::KIND && RenderSequence::version_of_subject(&j.subject) == job.subject)
         .map(|j| {
             let progress = progress_of(j);
             RenderRow {
@@ -382,11 +380,5 @@ mod tests {
         let renders = super::RenderCounts { total: 28, succeeded: 7, running: 2, failed: 0 };
         assert_eq!(super::remaining(70_000, &renders).as_deref(), Some("about 3 min 30 s"), "7 in 70 s: 21 more in 210 s");
         assert_eq!(super::remaining(70_000, &super::RenderCounts { succeeded: 0, ..renders }), None, "no pace before the first");
-    }
-
-    #[test]
-    fn render_subjects_name_their_release() {
-        assert_eq!(subject_version("demo-2/scene_001/camera"), "demo-2");
-        assert_eq!(subject_version("demo-2"), "demo-2");
     }
 }

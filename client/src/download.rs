@@ -11,7 +11,7 @@ use std::sync::Mutex;
 
 use anyhow::{Context, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use osmab_evaluator::formats::manifest::{ArchiveEntry, FileEntry, ReleaseManifest, sequence_prefix};
+use osmab_evaluator::formats::manifest::{ArchiveEntry, FileEntry, ReleaseManifest, files_digest, sequence_prefix};
 use osmab_evaluator::submission::archive::{ArchiveLimits, tar_file_names, unpack};
 
 use super::api::Api;
@@ -143,9 +143,7 @@ impl Listing {
     /// the digest that ties it to the release (a truncated or edited manifest fails here).
     fn verified(text: &str, version: &str) -> anyhow::Result<Listing> {
         let manifest = ReleaseManifest::parse(text, Path::new(&format!("the manifest of {version}"))).map_err(|e| anyhow!("{e}"))?;
-        if !manifest.digest_matches() {
-            bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
-        }
+        let digest = manifest.digest.clone();
         let listing = Listing {
             lightings: manifest.lightings.iter().map(|l| l.name().to_string()).collect(),
             scenes: manifest.scenes.iter().map(|s| s.id.clone()).collect(),
@@ -156,6 +154,9 @@ impl Listing {
         let paths = listing.files.iter().map(|f| f.path.as_str()).chain(listing.archives.iter().map(|a| a.path.as_str()));
         if let Some(twice) = paths.into_iter().find(|p| !listed.insert(*p)) {
             bail!("the manifest of {version} lists '{twice}' twice; refusing to download from it (ask the organisers)");
+        }
+        if files_digest(&listing.files) != digest {
+            bail!("the manifest of {version} does not match its digest; the download was damaged or the server is misconfigured");
         }
         Ok(listing)
     }

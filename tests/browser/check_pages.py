@@ -47,34 +47,16 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 WIDTH, HEIGHT = 1400, 1000
 PHONE_WIDTH, PHONE_HEIGHT = 390, 844
-# The build the operator starts in the check of a running build's page: two small scenes.
-BUILD_CONFIG = """version = "browser-1"
-created = "2026-11-27"
-seed = 11
-
-[prompts]
-furniture_pool = 12
-manipuland_pool = 8
-
-[selection]
-furniture = 1
-manipuland = 1
-
-[synthesis]
-ceiling = false
-
-[render]
-width = 160
-height = 90
-hfov = 90.0
-sensor_height = 1.0
-camera_pitch_deg = -20.0
-goals_furniture = 2
-goals_manipuland = 2
-frames_per_action = 1
-max_frames = 200
-lightings = ["baseline", "camera", "dynamic_lights", "no_lights"]
-"""
+# The build the operator starts in the check of a running build's page: the service tests'
+# small release (two scenes), as another version with a shorter path.
+BUILD_CONFIG = (
+    (ROOT / "tests/fixtures/release-small.toml")
+    .read_text()
+    .replace('version = "e2e-1"', 'version = "browser-1"', 1)
+    .replace('created = "2026-11-22"', 'created = "2026-11-27"', 1)
+    .replace("seed = 7", "seed = 11", 1)
+    .replace("max_frames = 300", "max_frames = 200", 1)
+)
 MIN_PNG_BYTES = 10 * 1024
 MAX_SHOT_HEIGHT = 8000
 METRICS = ["miou", "fmiou", "macc"]

@@ -37,9 +37,12 @@ pub struct ReleaseManifest {
     /// How the release was made.
     #[serde(default)]
     pub generator: Generator,
-    /// The lightings every scene is rendered under, in render order.
+    /// The lightings every scene is rendered under, in render order (readers that need
+    /// them, as validation does, refuse a manifest without any).
+    #[serde(default)]
     pub lightings: Vec<ReleaseLighting>,
     /// The scenes, in scene order.
+    #[serde(default)]
     pub scenes: Vec<ManifestScene>,
     /// The release version (`osmabpp-v1`).
     pub version: String,

@@ -22,16 +22,6 @@ pub fn accuracy(entry: &Entry, lighting: Lighting, subset: Option<Regime>, set: 
     entry.scores.vqa.as_ref()?.accuracy(lighting, subset, set, group)
 }
 
-/// The CSV columns of every lighting: `{lighting}_vqa_{set}_{group}`.
-pub fn csv_columns(lightings: &[Lighting]) -> Vec<String> {
-    lightings.iter().flat_map(|l| QuestionSet::with_groups().map(move |(set, g)| format!("{l}_vqa_{set}_{}", g.name().to_lowercase()))).collect()
-}
-
-/// The CSV cells of `entry` in the order of [`csv_columns`].
-pub fn csv_cells(entry: &Entry, lightings: &[Lighting]) -> Vec<Option<f64>> {
-    lightings.iter().flat_map(|&l| QuestionSet::with_groups().map(move |(set, g)| accuracy(entry, l, None, set, g))).collect()
-}
-
 /// A row of Table II: the prompt-grounded accuracy of one method, subset and group per lighting.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TableTwoRow {

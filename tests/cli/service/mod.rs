@@ -265,33 +265,9 @@ pub fn content_digest(bytes: &[u8]) -> String {
     format!("sha-256=:{}:", base64::engine::general_purpose::STANDARD.encode(sha2::Sha256::digest(bytes)))
 }
 
-pub const TEST_RELEASE_CONFIG: &str = r#"version = "e2e-1"
-created = "2026-11-22"
-seed = 7
-
-[prompts]
-furniture_pool = 12
-manipuland_pool = 8
-
-[selection]
-furniture = 1
-manipuland = 1
-
-[synthesis]
-ceiling = false
-
-[render]
-width = 160
-height = 90
-hfov = 90.0
-sensor_height = 1.0
-camera_pitch_deg = -20.0
-goals_furniture = 2
-goals_manipuland = 2
-frames_per_action = 1
-max_frames = 300
-lightings = ["baseline", "camera", "dynamic_lights", "no_lights"]
-"#;
+/// The small release of the service tests (two scenes, four lightings at 160×90), also the
+/// browser check's build (`tests/fixtures/release-small.toml`, one file for both).
+pub const TEST_RELEASE_CONFIG: &str = include_str!("../../fixtures/release-small.toml");
 
 /// A small release (two scenes, four lightings) built once per test run; builds resume,
 /// so later runs reuse it.

@@ -2,8 +2,7 @@
 //! function and answers with a redirect (303) to the page that shows the result, or a
 //! page with the problem.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
+use axum::extract::{FromRequest, FromRequestParts, Request, State};
 use axum::response::{IntoResponse, Redirect, Response};
 use serde::Deserialize;
 
@@ -13,14 +12,28 @@ use crate::routes::extract::ApiPath;
 use crate::routes::{admin, admin_teams, quota_policies};
 use crate::state::AppState;
 
-/// A form body after its form token was checked.
-fn checked<T: FormWithToken>(session: &AdminSession, headers: &HeaderMap, body: &[u8]) -> Result<T, Response> {
-    let form: T = parse_form(body)?;
-    session.check_form(headers, form.form_token())?;
-    Ok(form)
+/// A console form posted in a signed-in session, its form token checked (and where it came
+/// from, see `origin.rs`): what every form handler takes, after its path.
+pub(super) struct Checked<T> {
+    session: AdminSession,
+    form: T,
 }
 
-trait FormWithToken: serde::de::DeserializeOwned {
+impl<T: FormWithToken> FromRequest<AppState> for Checked<T> {
+    type Rejection = Response;
+
+    async fn from_request(request: Request, state: &AppState) -> Result<Self, Response> {
+        let (mut parts, body) = request.into_parts();
+        let session = AdminSession::from_request_parts(&mut parts, state).await?;
+        let headers = parts.headers.clone();
+        let body = axum::body::Bytes::from_request(Request::from_parts(parts, body), state).await.map_err(IntoResponse::into_response)?;
+        let form: T = parse_form(&body)?;
+        session.check_form(&headers, form.form_token())?;
+        Ok(Checked { session, form })
+    }
+}
+
+pub(super) trait FormWithToken: serde::de::DeserializeOwned {
     fn form_token(&self) -> &str;
 }
 
@@ -53,12 +66,12 @@ fn urlencoding(text: &str) -> String {
 }
 
 #[derive(Deserialize)]
-struct TokenOnly {
+pub(super) struct TokenOnly {
     form_token: String,
 }
 
 #[derive(Deserialize)]
-struct RegenerateForm {
+pub(super) struct RegenerateForm {
     form_token: String,
     config: String,
     /// Checkboxes: present ("on") when ticked.
@@ -70,11 +83,7 @@ struct RegenerateForm {
 
 /// `POST /admin/regenerate` (`config`, `publish`, `baselines`): queue a release build and
 /// follow it on its job's page.
-pub async fn regenerate(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let form: RegenerateForm = match checked(&session, &headers, &body) {
-        Ok(form) => form,
-        Err(refused) => return refused,
-    };
+pub(super) async fn regenerate(State(state): State<AppState>, Checked { form, .. }: Checked<RegenerateForm>) -> Response {
     let config = Some(form.config.replace("\r\n", "\n")).filter(|c| !c.trim().is_empty());
     match admin::queue_release_build(&state, config, form.publish.is_some(), form.baselines.is_some(), form.identical.is_some()).await {
         Ok((job, _)) => Redirect::to(&format!("/admin/jobs/{job}")).into_response(),
@@ -82,78 +91,46 @@ pub async fn regenerate(State(state): State<AppState>, session: AdminSession, he
     }
 }
 
-/// A form with no field but its token: check it, do `action`, and go back to the console
-/// with the notice `action` gives (or show its problem).
-async fn token_form(session: &AdminSession, headers: &HeaderMap, body: &[u8], action: impl Future<Output = Result<String, Problem>>) -> Response {
-    match checked::<TokenOnly>(session, headers, body) {
-        Ok(_) => match action.await {
-            Ok(notice) => back(session, &notice),
-            Err(problem) => AdminMessage::problem(problem),
-        },
-        Err(refused) => refused,
+/// Go back to the console with the notice an action gave, or show its problem.
+fn done(session: &AdminSession, outcome: Result<String, Problem>) -> Response {
+    match outcome {
+        Ok(notice) => back(session, &notice),
+        Err(problem) => AdminMessage::problem(problem),
     }
 }
 
 /// `POST /admin/releases/{version}/publish`.
-pub async fn publish(
-    State(state): State<AppState>,
-    session: AdminSession,
-    headers: HeaderMap,
-    ApiPath(version): ApiPath<String>,
-    body: axum::body::Bytes,
-) -> Response {
-    token_form(&session, &headers, &body, async { admin::publish(&state, &version).await.map(|()| format!("Release {version} is published and current.")) })
-        .await
+pub(super) async fn publish(State(state): State<AppState>, ApiPath(version): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+    done(&session, admin::publish(&state, &version).await.map(|()| format!("Release {version} is published and current.")))
 }
 
 #[derive(Deserialize)]
-struct FlagForm {
+pub(super) struct FlagForm {
     form_token: String,
     reason: String,
 }
 
 /// `POST /admin/submissions/{id}/flag` (`reason`).
-pub async fn flag(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, ApiPath(id): ApiPath<String>, body: axum::body::Bytes) -> Response {
-    let form: FlagForm = match checked(&session, &headers, &body) {
-        Ok(form) => form,
-        Err(refused) => return refused,
-    };
-    match admin::set_flag(&state, &id, Some(&form.reason)).await {
-        Ok(()) => back(&session, &format!("{id} is flagged.")),
-        Err(problem) => AdminMessage::problem(problem),
-    }
+pub(super) async fn flag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<FlagForm>) -> Response {
+    done(&session, admin::set_flag(&state, &id, Some(&form.reason)).await.map(|()| format!("{id} is flagged.")))
 }
 
 /// `POST /admin/submissions/{id}/unflag`.
-pub async fn unflag(
-    State(state): State<AppState>,
-    session: AdminSession,
-    headers: HeaderMap,
-    ApiPath(id): ApiPath<String>,
-    body: axum::body::Bytes,
-) -> Response {
-    token_form(&session, &headers, &body, async { admin::set_flag(&state, &id, None).await.map(|()| format!("{id} is no longer flagged.")) }).await
+pub(super) async fn unflag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+    done(&session, admin::set_flag(&state, &id, None).await.map(|()| format!("{id} is no longer flagged.")))
 }
 
 /// `POST /admin/submissions/{id}/refund`.
-pub async fn refund(
-    State(state): State<AppState>,
-    session: AdminSession,
-    headers: HeaderMap,
-    ApiPath(id): ApiPath<String>,
-    body: axum::body::Bytes,
-) -> Response {
-    token_form(&session, &headers, &body, async {
-        Ok(match admin::refund(&state, &id).await? {
-            true => format!("{id}: its quota unit is given back to the team."),
-            false => format!("{id}: its quota unit had been given back already."),
-        })
-    })
-    .await
+pub(super) async fn refund(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+    let refunded = admin::refund(&state, &id).await.map(|newly| match newly {
+        true => format!("{id}: its quota unit is given back to the team."),
+        false => format!("{id}: its quota unit had been given back already."),
+    });
+    done(&session, refunded)
 }
 
 #[derive(Deserialize)]
-struct QuotaForm {
+pub(super) struct QuotaForm {
     form_token: String,
     split: String,
     limit: String,
@@ -161,11 +138,7 @@ struct QuotaForm {
 }
 
 /// `POST /admin/quotas` (`split`, `limit`, `window_hours`): a split's limit per window.
-pub async fn set_quota(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let form: QuotaForm = match checked(&session, &headers, &body) {
-        Ok(form) => form,
-        Err(refused) => return refused,
-    };
+pub(super) async fn set_quota(State(state): State<AppState>, Checked { session, form }: Checked<QuotaForm>) -> Response {
     let number = |field: &str, text: &str| {
         text.trim().parse::<i64>().map_err(|_| {
             AdminMessage::problem(Problem::new(
@@ -180,66 +153,38 @@ pub async fn set_quota(State(state): State<AppState>, session: AdminSession, hea
         (Ok(limit), Ok(window_hours)) => quota_policies::PolicyBody { limit, window_hours },
         (Err(refused), _) | (_, Err(refused)) => return refused,
     };
-    match quota_policies::apply(&state, &form.split, &body).await {
-        Ok(set) => back(&session, &format!("The {} split: {} submissions per team per {} hours.", set.split, set.limit, set.window_hours)),
-        Err(problem) => AdminMessage::problem(problem),
-    }
+    let applied = quota_policies::apply(&state, &form.split, &body).await;
+    done(&session, applied.map(|set| format!("The {} split: {} submissions per team per {} hours.", set.split, set.limit, set.window_hours)))
 }
 
 /// `POST /admin/access-requests/{id}/approve`: create the requested team; the requester
 /// collects its token with the claim code.
-pub async fn approve_access(
-    State(state): State<AppState>,
-    session: AdminSession,
-    headers: HeaderMap,
-    ApiPath(id): ApiPath<String>,
-    body: axum::body::Bytes,
-) -> Response {
-    token_form(&session, &headers, &body, async {
-        crate::access_requests::approve(&state, &id)
-            .await
-            .map(|r| format!("Team {} is created; its requester collects the token with the claim code.", r.team_name))
-    })
-    .await
+pub(super) async fn approve_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+    let approved = crate::access_requests::approve(&state, &id).await;
+    done(&session, approved.map(|r| format!("Team {} is created; its requester collects the token with the claim code.", r.team_name)))
 }
 
 #[derive(Deserialize)]
-struct DeclineForm {
+pub(super) struct DeclineForm {
     form_token: String,
     reason: String,
 }
 
 /// `POST /admin/access-requests/{id}/decline` (`reason`, which the requester reads).
-pub async fn decline_access(
-    State(state): State<AppState>,
-    session: AdminSession,
-    headers: HeaderMap,
-    ApiPath(id): ApiPath<String>,
-    body: axum::body::Bytes,
-) -> Response {
-    let form: DeclineForm = match checked(&session, &headers, &body) {
-        Ok(form) => form,
-        Err(refused) => return refused,
-    };
-    match crate::access_requests::decline(&state, &id, &form.reason).await {
-        Ok(r) => back(&session, &format!("The request for team {} is declined.", r.team_name)),
-        Err(problem) => AdminMessage::problem(problem),
-    }
+pub(super) async fn decline_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<DeclineForm>) -> Response {
+    let declined = crate::access_requests::decline(&state, &id, &form.reason).await;
+    done(&session, declined.map(|r| format!("The request for team {} is declined.", r.team_name)))
 }
 
 #[derive(Deserialize)]
-struct TeamForm {
+pub(super) struct TeamForm {
     form_token: String,
     name: String,
 }
 
 /// `POST /admin/teams`: create a team; the answer shows its first token, once (it never
 /// travels in a URL, so no redirect).
-pub async fn create_team(State(state): State<AppState>, session: AdminSession, headers: HeaderMap, body: axum::body::Bytes) -> Response {
-    let form: TeamForm = match checked(&session, &headers, &body) {
-        Ok(form) => form,
-        Err(refused) => return refused,
-    };
+pub(super) async fn create_team(State(state): State<AppState>, Checked { session, form }: Checked<TeamForm>) -> Response {
     match admin_teams::new_team(&state, &admin_teams::NewTeam { name: form.name, daily_quota: None }).await {
         Ok(team) => (
             axum::http::StatusCode::CREATED,

@@ -24,6 +24,8 @@ use std::collections::BTreeMap;
 use osmab_evaluator::scores::ReleaseLighting;
 use serde_json::{Value, json};
 
+use super::light_settings::{HadageLight, LightSettings};
+
 /// Ceiling lights at most this far apart (metres).
 const LIGHT_SPACING: f64 = 2.5;
 /// How far under the wall top a ceiling light shines from: the underside of its fixture
@@ -148,7 +150,7 @@ fn dynamic_state(cell: (usize, usize), goal: usize) -> usize {
 
 /// The `[start, end)` runs of goals (below [`PATTERN_GOALS`]; the last run open-ended
 /// when it reaches the end) in which `state` holds for a light in `cell`.
-fn runs(cell: (usize, usize), state: usize) -> Value {
+fn runs(cell: (usize, usize), state: usize) -> Vec<[Option<u64>; 2]> {
     let mut intervals = Vec::new();
     let mut goal = 0;
     while goal < PATTERN_GOALS {
@@ -160,45 +162,48 @@ fn runs(cell: (usize, usize), state: usize) -> Value {
         while goal < PATTERN_GOALS && dynamic_state(cell, goal) == state {
             goal += 1;
         }
-        let end = if goal == PATTERN_GOALS { Value::Null } else { json!(goal) };
-        intervals.push(json!([start, end]));
+        let end = (goal < PATTERN_GOALS).then_some(goal as u64);
+        intervals.push([Some(start as u64), end]);
     }
-    json!(intervals)
+    intervals
 }
 
 /// Every lighting of a release as HaDaGe light settings, laid out for a room with `floor`
 /// bounds (Habitat axes) and walls `ceiling_height` high.
-pub fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<ReleaseLighting, Value> {
+pub fn lighting(floor: ([f64; 3], [f64; 3]), ceiling_height: f64) -> BTreeMap<ReleaseLighting, LightSettings> {
     let grid = ceiling_grid(floor, ceiling_height);
     let intensity = calibrated_intensity(&grid, floor, ceiling_height);
-    let point = |position: [f64; 3], intensity: f64, life: Value| json!({"type": "point", "position": position, "intensity": intensity, "color": WARM_WHITE, "life_intervals": life});
-    let mut baseline = serde_json::Map::new();
-    let mut dynamic = serde_json::Map::new();
+    let point = |position: [f64; 3], intensity: f64, runs: Vec<[Option<u64>; 2]>| HadageLight {
+        life_intervals: Some(runs),
+        ..HadageLight::always("point", position, intensity, WARM_WHITE)
+    };
+    let mut baseline = LightSettings::default();
+    let mut dynamic = LightSettings::default();
     for (k, light) in grid.iter().enumerate() {
-        baseline.insert(k.to_string(), point(light.position, intensity, json!([[null, null]])));
-        dynamic.insert(format!("{k}_on"), point(light.position, intensity, runs(light.cell, 0)));
-        dynamic.insert(format!("{k}_dimmed"), point(light.position, (intensity * DIMMED * 1000.0).round() / 1000.0, runs(light.cell, 1)));
+        baseline.lights.insert(k.to_string(), HadageLight::always("point", light.position, intensity, WARM_WHITE));
+        dynamic.lights.insert(format!("{k}_on"), point(light.position, intensity, runs(light.cell, 0)));
+        dynamic.lights.insert(format!("{k}_dimmed"), point(light.position, (intensity * DIMMED * 1000.0).round() / 1000.0, runs(light.cell, 1)));
     }
     let lights = |lighting: ReleaseLighting| match lighting {
-        ReleaseLighting::Baseline => json!({"lights": baseline}),
-        ReleaseLighting::Camera => {
-            json!({"lights": {"0": {"type": "camera", "position": CAMERA_LIGHT_OFFSET, "intensity": CAMERA_LIGHT_INTENSITY, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}}})
-        }
-        ReleaseLighting::DynamicLights => json!({"lights": dynamic}),
-        ReleaseLighting::NoLights => json!({"lights": {}}),
+        ReleaseLighting::Baseline => baseline.clone(),
+        ReleaseLighting::Camera => LightSettings {
+            lights: BTreeMap::from([("0".to_string(), HadageLight::always("camera", CAMERA_LIGHT_OFFSET, CAMERA_LIGHT_INTENSITY, [1.0, 1.0, 1.0]))]),
+        },
+        ReleaseLighting::DynamicLights => dynamic.clone(),
+        ReleaseLighting::NoLights => LightSettings::default(),
     };
     ReleaseLighting::ALL.into_iter().map(|lighting| (lighting, lights(lighting))).collect()
 }
 
 /// A HaDaGe light-settings file as a Habitat lighting config (`camera` lights become
 /// point lights attached to the camera; life intervals do not exist there).
-pub fn habitat_lighting(hadage: &Value) -> Value {
+pub fn habitat_lighting(hadage: &LightSettings) -> Value {
     let mut lights = serde_json::Map::new();
-    for (id, light) in hadage["lights"].as_object().into_iter().flatten() {
-        let camera = light["type"] == "camera";
+    for (id, light) in &hadage.lights {
+        let model = if light.attached_to_camera() { "camera" } else { "global" };
         lights.insert(
             id.clone(),
-            json!({"type": "point", "position": light["position"], "intensity": light["intensity"], "color": light["color"], "position_model": if camera { "camera" } else { "global" }}),
+            json!({"type": "point", "position": light.position, "intensity": light.intensity, "color": light.color, "position_model": model}),
         );
     }
     json!({"lights": lights})

@@ -4,6 +4,7 @@ pub mod directives;
 pub mod gltf;
 pub mod habitat;
 pub mod lexicon;
+pub mod light_settings;
 pub mod lighting;
 pub mod primitives;
 pub mod scene;

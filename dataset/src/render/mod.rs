@@ -27,6 +27,7 @@ use osmab_evaluator::{InputError, Result};
 
 use crate::convert::habitat::ConversionReport;
 use crate::convert::lexicon::{is_shell_class, normalise_name};
+use crate::convert::light_settings::LightSettings;
 use camera::SensorSettings;
 use coverage::{CoverageGoals, Plan, Target};
 use navigation::NavGrid;
@@ -80,10 +81,7 @@ pub fn render_scene(
 ) -> Result<Vec<(ReleaseLighting, SequenceSummary)>> {
     let mut settings_of = Vec::new();
     for lighting in lightings {
-        let path = habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json"));
-        let lights: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).map_err(|e| InputError::io(&path, &e))?)
-            .map_err(|e| InputError::new(&path, "(json)", e.to_string()))?;
-        settings_of.push(lights);
+        settings_of.push(LightSettings::read(&habitat_dir.join("lighting_hadage").join(format!("light_settings_{scene}_{lighting}.json")))?);
     }
     let world = mesh::World::load_habitat_scene(habitat_dir, scene)?;
     let worlds = lit_worlds(&world, &settings_of);
@@ -109,12 +107,12 @@ pub fn render_scene(
 /// `world` lit for each of the HaDaGe light settings `lightings` on its own
 /// ([`lit_world`]); lightings with the same static lights share one bake, and every
 /// result shares `world`'s geometry.
-pub fn lit_worlds(world: &mesh::World, lightings: &[serde_json::Value]) -> Vec<mesh::World> {
+pub fn lit_worlds(world: &mesh::World, lightings: &[LightSettings]) -> Vec<mesh::World> {
     let mut baked: Vec<(Vec<[f32; 3]>, bool, mesh::World)> = Vec::new();
     lightings
         .iter()
         .map(|settings| {
-            let key = (static_light_positions(std::slice::from_ref(settings)), sequence::has_no_lights(settings));
+            let key = (static_light_positions(std::slice::from_ref(settings)), settings.is_unlit());
             if let Some((_, _, lit)) = baked.iter().find(|(positions, flat, _)| (positions, flat) == (&key.0, &key.1)) {
                 return lit.clone();
             }
@@ -128,8 +126,8 @@ pub fn lit_worlds(world: &mesh::World, lightings: &[serde_json::Value]) -> Vec<m
 /// `world` with its light baked for the static lights of the HaDaGe light settings
 /// `lightings` (all their positions, whatever goals they shine in), when any of them is lit:
 /// ambient occlusion and shadows. The ceiling's fixtures cast no shadow.
-pub fn lit_world(world: mesh::World, lightings: &[serde_json::Value]) -> mesh::World {
-    if lightings.iter().all(sequence::has_no_lights) {
+pub fn lit_world(world: mesh::World, lightings: &[LightSettings]) -> mesh::World {
+    if lightings.iter().all(LightSettings::is_unlit) {
         return world;
     }
     let positions = static_light_positions(lightings);
@@ -139,13 +137,12 @@ pub fn lit_world(world: mesh::World, lightings: &[serde_json::Value]) -> mesh::W
 
 /// The positions of the lights of `lightings` that are not attached to the camera, each
 /// once, in the order the settings list them.
-fn static_light_positions(lightings: &[serde_json::Value]) -> Vec<[f32; 3]> {
+fn static_light_positions(lightings: &[LightSettings]) -> Vec<[f32; 3]> {
     let mut positions: Vec<[f32; 3]> = Vec::new();
     for settings in lightings {
-        for light in settings["lights"].as_object().into_iter().flat_map(|l| l.values()) {
-            let p = &light["position"];
-            let position = [0, 1, 2].map(|k| p[k].as_f64().unwrap_or(0.0) as f32);
-            if light["type"] != "camera" && !positions.contains(&position) {
+        for light in settings.lights.values() {
+            let position = light.position.map(|v| v as f32);
+            if !light.attached_to_camera() && !positions.contains(&position) {
                 positions.push(position);
             }
         }

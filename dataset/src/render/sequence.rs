@@ -23,32 +23,25 @@ use super::mesh::World;
 use super::raster::{Frame, Light, Shading, find_visible, shade};
 use super::trajectory::AgentState;
 use super::view::{Observed, View, ViewpointRule, digest64, exposure, visible_classes};
+use crate::convert::light_settings::LightSettings;
 
 /// A HaDaGe light-settings file as the renderer's lights for navigation segment `goal`
 /// (a light is on when one of its `life_intervals` [start, end) holds the segment).
-pub fn lights_for_goal(settings: &Value, goal: usize) -> Vec<Light> {
-    let mut lights = Vec::new();
-    for (_, l) in settings["lights"].as_object().into_iter().flatten() {
-        let active = l["life_intervals"].as_array().is_none_or(|intervals| {
-            intervals.iter().any(|iv| {
-                let start = iv[0].as_u64().map_or(true, |s| s as usize <= goal);
-                let end = iv[1].as_u64().map_or(true, |e| goal < e as usize);
-                start && end
-            })
-        });
-        if !active {
-            continue;
-        }
-        let f = |k: &str, i: usize| l[k][i].as_f64().unwrap_or(0.0) as f32;
-        let intensity = l["intensity"].as_f64().unwrap_or(0.0) as f32;
-        let scale = intensity * if intensity < 0.0 { 0.1 } else { 2.5 };
-        lights.push(Light {
-            position: [f("position", 0), f("position", 1), f("position", 2)],
-            color: [f("color", 0).clamp(0.0, 1.0) * scale, f("color", 1).clamp(0.0, 1.0) * scale, f("color", 2).clamp(0.0, 1.0) * scale],
-            attached_to_camera: l["type"] == "camera",
-        });
-    }
-    lights
+pub fn lights_for_goal(settings: &LightSettings, goal: usize) -> Vec<Light> {
+    settings
+        .lights
+        .values()
+        .filter(|l| l.shines_in(goal))
+        .map(|l| {
+            let intensity = l.intensity as f32;
+            let scale = intensity * if intensity < 0.0 { 0.1 } else { 2.5 };
+            Light {
+                position: l.position.map(|v| v as f32),
+                color: l.color.map(|c| (c as f32).clamp(0.0, 1.0) * scale),
+                attached_to_camera: l.attached_to_camera(),
+            }
+        })
+        .collect()
 }
 
 /// Measures of one frame, for the quality report.
@@ -118,7 +111,7 @@ pub struct SequenceSummary {
 /// copied beside it, and its folder.
 pub struct SequenceTarget<'a> {
     pub world: &'a World,
-    pub light_settings: &'a Value,
+    pub light_settings: &'a LightSettings,
     pub settings_copy: Value,
     pub dir: PathBuf,
 }
@@ -151,7 +144,7 @@ pub fn render_sequences(
     let rule = CoverageGoals::default().viewpoint_rule(sensor.width, sensor.height);
     // A lighting without any light is flat; one whose lights are all off in a segment
     // is lit by the ambient term only (never brighter than with them on).
-    let flat: Vec<bool> = targets.iter().map(|t| has_no_lights(t.light_settings)).collect();
+    let flat: Vec<bool> = targets.iter().map(|t| t.light_settings.is_unlit()).collect();
     let dirs: Vec<&Path> = targets.iter().map(|t| t.dir.as_path()).collect();
     const BATCH: usize = 8;
     let mut frames: Vec<Frame> = (0..BATCH).map(|_| Frame::default()).collect();
@@ -205,7 +198,7 @@ pub fn render_sequences(
 
 /// Make `dir` afresh for a sequence: its results folder, camera parameters, classes,
 /// loader configs and the settings it was rendered with.
-fn prepare_sequence_folder(dir: &Path, sensor: &SensorSettings, light_settings: &Value, classes: &ClassList, settings_copy: &Value) -> Result<()> {
+fn prepare_sequence_folder(dir: &Path, sensor: &SensorSettings, light_settings: &LightSettings, classes: &ClassList, settings_copy: &Value) -> Result<()> {
     let results = dir.join("results");
     if dir.exists() {
         std::fs::remove_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
@@ -224,10 +217,12 @@ fn prepare_sequence_folder(dir: &Path, sensor: &SensorSettings, light_settings: 
     classes.write(&dir.join("embed_semseg_classes.json"))?;
     super::loaders::write_loader_configs(dir, &params)?;
     let configs = dir.join("configs");
-    for (sub, value) in [("sim_settings/settings.json", settings_copy), ("lighting/light_settings.json", light_settings)] {
+    for (sub, text) in
+        [("sim_settings/settings.json", serde_json::to_string_pretty(settings_copy).expect("json")), ("lighting/light_settings.json", light_settings.to_json())]
+    {
         let path = configs.join(sub);
         std::fs::create_dir_all(path.parent().expect("nested")).map_err(|e| InputError::io(&path, &e))?;
-        std::fs::write(&path, serde_json::to_string_pretty(value).expect("json")).map_err(|e| InputError::io(&path, &e))?;
+        std::fs::write(&path, text).map_err(|e| InputError::io(&path, &e))?;
     }
     Ok(())
 }
@@ -302,11 +297,6 @@ fn encode_geometry(dirs: &[&Path], sensor: &SensorSettings, rule: &ViewpointRule
     write_png_gray16_to_all(&paths("depth"), &GrayImage16 { width: w, height: h, pixels: depth }, Packing::Gradients)?;
     write_png_gray16_to_all(&paths("semantic"), &GrayImage16 { width: w, height: h, pixels: f.semantic.clone() }, Packing::FewValues)?;
     Ok((measures, view))
-}
-
-/// Whether a light-settings file holds no light at all (the `no_lights` condition).
-pub fn has_no_lights(settings: &Value) -> bool {
-    settings["lights"].as_object().is_none_or(|lights| lights.is_empty())
 }
 
 /// The summary of a sequence on disk (one rendered by an external tool): frames, class

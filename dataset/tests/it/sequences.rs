@@ -226,19 +226,21 @@ fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
 
 #[test]
 fn lights_switch_with_their_life_intervals_and_switched_off_lights_leave_the_ambient_term() {
-    use osmab_dataset::render::sequence::{has_no_lights, lights_for_goal};
-    let settings = serde_json::json!({"lights": {
+    use osmab_dataset::convert::light_settings::LightSettings;
+    use osmab_dataset::render::sequence::lights_for_goal;
+    let settings: LightSettings = serde_json::from_value(serde_json::json!({"lights": {
         "0": {"type": "point", "position": [0.0, 2.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, 1]]},
         "1": {"type": "point", "position": [1.0, 2.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[2, 4]]},
         "2": {"type": "camera", "position": [0.0, 0.0, 0.0], "intensity": 1.0, "color": [1.0, 1.0, 1.0], "life_intervals": [[null, null]]}
-    }});
+    }}))
+    .unwrap();
     let on = |goal| lights_for_goal(&settings, goal).iter().map(|l| l.position[0]).collect::<Vec<_>>();
     assert_eq!(on(0), vec![0.0, 0.0]);
     assert_eq!(on(1), vec![0.0]);
     assert_eq!(on(2), vec![1.0, 0.0]);
     assert_eq!(on(4), vec![0.0]);
-    assert!(!has_no_lights(&settings));
-    assert!(has_no_lights(&serde_json::json!({"lights": {}})));
+    assert!(!settings.is_unlit());
+    assert!(serde_json::from_str::<LightSettings>(r#"{"lights": {}}"#).unwrap().is_unlit());
 }
 
 #[test]

@@ -90,7 +90,8 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Opti
     let (world, shading, bake) = match lighting {
         Some(lighting) => {
             let path = work.join(format!("lighting_hadage/light_settings_{}_{lighting}.json", scene.name));
-            let settings: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("{}: no such lighting", path.display()))?)?;
+            let settings =
+                osmab_dataset::convert::light_settings::LightSettings::read(&path).with_context(|| format!("{}: no such lighting", path.display()))?;
             let clock = Instant::now();
             let world = lit_world(world, std::slice::from_ref(&settings));
             (world, Shading::Lit(lights_for_goal(&settings, 0)), Some(clock.elapsed().as_secs_f64()))

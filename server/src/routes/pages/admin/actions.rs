@@ -14,7 +14,7 @@ use crate::state::AppState;
 
 /// A console form posted in a signed-in session, its form token checked (and where it came
 /// from, see `origin.rs`): what every form handler takes, after its path.
-pub(super) struct Checked<T> {
+pub struct Checked<T> {
     session: AdminSession,
     form: T,
 }
@@ -33,7 +33,7 @@ impl<T: FormWithToken> FromRequest<AppState> for Checked<T> {
     }
 }
 
-pub(super) trait FormWithToken: serde::de::DeserializeOwned {
+pub trait FormWithToken: serde::de::DeserializeOwned {
     fn form_token(&self) -> &str;
 }
 
@@ -66,12 +66,12 @@ fn urlencoding(text: &str) -> String {
 }
 
 #[derive(Deserialize)]
-pub(super) struct TokenOnly {
+pub struct TokenOnly {
     form_token: String,
 }
 
 #[derive(Deserialize)]
-pub(super) struct RegenerateForm {
+pub struct RegenerateForm {
     form_token: String,
     config: String,
     /// Checkboxes: present ("on") when ticked.
@@ -83,7 +83,7 @@ pub(super) struct RegenerateForm {
 
 /// `POST /admin/regenerate` (`config`, `publish`, `baselines`): queue a release build and
 /// follow it on its job's page.
-pub(super) async fn regenerate(State(state): State<AppState>, Checked { form, .. }: Checked<RegenerateForm>) -> Response {
+pub async fn regenerate(State(state): State<AppState>, Checked { form, .. }: Checked<RegenerateForm>) -> Response {
     let config = Some(form.config.replace("\r\n", "\n")).filter(|c| !c.trim().is_empty());
     match admin::queue_release_build(&state, config, form.publish.is_some(), form.baselines.is_some(), form.identical.is_some()).await {
         Ok((job, _)) => Redirect::to(&format!("/admin/jobs/{job}")).into_response(),
@@ -100,28 +100,28 @@ fn done(session: &AdminSession, outcome: Result<String, Problem>) -> Response {
 }
 
 /// `POST /admin/releases/{version}/publish`.
-pub(super) async fn publish(State(state): State<AppState>, ApiPath(version): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+pub async fn publish(State(state): State<AppState>, ApiPath(version): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
     done(&session, admin::publish(&state, &version).await.map(|()| format!("Release {version} is published and current.")))
 }
 
 #[derive(Deserialize)]
-pub(super) struct FlagForm {
+pub struct FlagForm {
     form_token: String,
     reason: String,
 }
 
 /// `POST /admin/submissions/{id}/flag` (`reason`).
-pub(super) async fn flag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<FlagForm>) -> Response {
+pub async fn flag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<FlagForm>) -> Response {
     done(&session, admin::set_flag(&state, &id, Some(&form.reason)).await.map(|()| format!("{id} is flagged.")))
 }
 
 /// `POST /admin/submissions/{id}/unflag`.
-pub(super) async fn unflag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+pub async fn unflag(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
     done(&session, admin::set_flag(&state, &id, None).await.map(|()| format!("{id} is no longer flagged.")))
 }
 
 /// `POST /admin/submissions/{id}/refund`.
-pub(super) async fn refund(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+pub async fn refund(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
     let refunded = admin::refund(&state, &id).await.map(|newly| match newly {
         true => format!("{id}: its quota unit is given back to the team."),
         false => format!("{id}: its quota unit had been given back already."),
@@ -130,7 +130,7 @@ pub(super) async fn refund(State(state): State<AppState>, ApiPath(id): ApiPath<S
 }
 
 #[derive(Deserialize)]
-pub(super) struct QuotaForm {
+pub struct QuotaForm {
     form_token: String,
     split: String,
     limit: String,
@@ -138,7 +138,7 @@ pub(super) struct QuotaForm {
 }
 
 /// `POST /admin/quotas` (`split`, `limit`, `window_hours`): a split's limit per window.
-pub(super) async fn set_quota(State(state): State<AppState>, Checked { session, form }: Checked<QuotaForm>) -> Response {
+pub async fn set_quota(State(state): State<AppState>, Checked { session, form }: Checked<QuotaForm>) -> Response {
     let number = |field: &str, text: &str| {
         text.trim().parse::<i64>().map_err(|_| {
             AdminMessage::problem(Problem::new(
@@ -159,32 +159,32 @@ pub(super) async fn set_quota(State(state): State<AppState>, Checked { session, 
 
 /// `POST /admin/access-requests/{id}/approve`: create the requested team; the requester
 /// collects its token with the claim code.
-pub(super) async fn approve_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
+pub async fn approve_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, .. }: Checked<TokenOnly>) -> Response {
     let approved = crate::access_requests::approve(&state, &id).await;
     done(&session, approved.map(|r| format!("Team {} is created; its requester collects the token with the claim code.", r.team_name)))
 }
 
 #[derive(Deserialize)]
-pub(super) struct DeclineForm {
+pub struct DeclineForm {
     form_token: String,
     reason: String,
 }
 
 /// `POST /admin/access-requests/{id}/decline` (`reason`, which the requester reads).
-pub(super) async fn decline_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<DeclineForm>) -> Response {
+pub async fn decline_access(State(state): State<AppState>, ApiPath(id): ApiPath<String>, Checked { session, form }: Checked<DeclineForm>) -> Response {
     let declined = crate::access_requests::decline(&state, &id, &form.reason).await;
     done(&session, declined.map(|r| format!("The request for team {} is declined.", r.team_name)))
 }
 
 #[derive(Deserialize)]
-pub(super) struct TeamForm {
+pub struct TeamForm {
     form_token: String,
     name: String,
 }
 
 /// `POST /admin/teams`: create a team; the answer shows its first token, once (it never
 /// travels in a URL, so no redirect).
-pub(super) async fn create_team(State(state): State<AppState>, Checked { session, form }: Checked<TeamForm>) -> Response {
+pub async fn create_team(State(state): State<AppState>, Checked { session, form }: Checked<TeamForm>) -> Response {
     match admin_teams::new_team(&state, &admin_teams::NewTeam { name: form.name, daily_quota: None }).await {
         Ok(team) => (
             axum::http::StatusCode::CREATED,

@@ -16,7 +16,7 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
 
-use actions::{approve_access, create_team, decline_access, flag, publish, refund, regenerate, set_quota, unflag};
+pub use actions::{approve_access, create_team, decline_access, flag, publish, refund, regenerate, set_quota, unflag};
 pub use console::{console, job};
 pub use quality::{file as release_file, quality};
 pub use session::{AdminSession, LOGIN_PATH, login, login_form, logout};

@@ -25,7 +25,7 @@ use crate::blobs::Scratch;
 use crate::clock::{new_id, now_ms};
 use crate::jobs::scoring::ScoreSubmission;
 use crate::state::AppState;
-use crate::store::{NewSubmission, Recorded, ReleaseState, StoreError, Team};
+use crate::store::{NewSubmission, Recorded, ReleaseState, StoreError, StoredCard, Team};
 
 /// What the uploader asks for.
 #[derive(Debug, Clone, Default)]
@@ -157,19 +157,13 @@ async fn record(
         id: id.clone(),
         team_id: team.id.clone(),
         release: submission.release.clone(),
-        method_name: submission.method.name.trim().to_string(),
-        method_description: submission.method.description.clone(),
-        paper_url: submission.method.paper_url.clone(),
-        code_url: submission.method.code_url.clone(),
+        card: StoredCard::from(&submission.method),
         public: request.public,
         baseline: request.baseline,
         complete: submission.complete,
         archive_size: upload.size as i64,
         archive_sha256: upload.sha256_hex(),
         idempotency_key: request.idempotency_key.clone(),
-        external_data: submission.method.external_data.clone(),
-        compute: submission.method.compute.clone(),
-        anonymous: submission.method.anonymous,
         split,
         received_at: upload.received_at,
         validating_at,

@@ -82,9 +82,7 @@ pub async fn queue_reference_entries(state: &AppState, version: &str, release: &
         let missing: Vec<Split> = splits
             .iter()
             .copied()
-            .filter(|split| {
-                !existing.iter().any(|s| s.release == version && s.method_name == method && s.split == *split && s.state != SubmissionState::Failed)
-            })
+            .filter(|split| !existing.iter().any(|s| s.release == version && s.card.name == method && s.split == *split && s.state != SubmissionState::Failed))
             .collect();
         if missing.is_empty() {
             continue;

@@ -51,15 +51,16 @@ pub fn rank(release: &str, lightings: Vec<Lighting>, split: Split, splits: Vec<S
                     .map(|l| l.bootstrap_miou.clone())
                     .unwrap_or_default(),
             };
-            let reference = row.baseline && crate::reserved_names::is_reference_mapper(&row.method_name);
+            let reference = row.baseline && crate::reserved_names::is_reference_mapper(&row.card.name);
+            let card = row.card;
             let entry = Entry {
-                anonymous: row.anonymous,
+                anonymous: card.anonymous,
                 baseline: row.baseline,
-                code_url: row.code_url.filter(|_| !row.anonymous),
+                code_url: card.code_url.filter(|_| !card.anonymous),
                 complete: row.complete,
                 flagged: row.flag,
-                method: row.method_name,
-                paper_url: row.paper_url.filter(|_| !row.anonymous),
+                method: card.name,
+                paper_url: card.paper_url.filter(|_| !card.anonymous),
                 rank: 0,
                 rank_group: 0,
                 reference,
@@ -67,7 +68,7 @@ pub fn rank(release: &str, lightings: Vec<Lighting>, split: Split, splits: Vec<S
                 scores: if significance { shown.summary() } else { shown.summary().without_intervals() },
                 submission_id: row.submission_id,
                 submitted_at: crate::clock::rfc3339(row.created_at),
-                team: if row.anonymous { ANONYMOUS.to_string() } else { row.team },
+                team: if card.anonymous { ANONYMOUS.to_string() } else { row.team },
             };
             (entry, standing)
         })

@@ -300,7 +300,7 @@ pub async fn list_submissions(State(state): State<AppState>, _: AdminCaller) -> 
             baseline: s.baseline,
             created_at: rfc3339(s.created_at),
             id: s.id,
-            method: s.method_name,
+            method: s.card.name,
             reason: s.reason,
             release: s.release,
             state: s.state,

@@ -53,14 +53,14 @@ pub async fn receipt(State(state): State<AppState>, caller: Caller, ApiPath(id):
     let team = state.store.team(&submission.team_id).await?;
     let release = state.store.release(&submission.release).await?;
     // An entry that stays anonymous gets an anonymous receipt (a new one once revealed).
-    let team_name = if submission.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
-    let commitment = submission.anonymous.then(|| crate::receipts::team_commitment(&team.name, &state.receipts.claim_code(&submission.id)));
+    let team_name = if submission.card.anonymous { crate::leaderboard::ANONYMOUS } else { team.name.as_str() };
+    let commitment = submission.card.anonymous.then(|| crate::receipts::team_commitment(&team.name, &state.receipts.claim_code(&submission.id)));
     let receipt = receipts::issue(&Facts {
         // `serve` sets it (to where it listens when not configured).
         issuer: state.settings.public_url.as_deref().unwrap_or("osmab"),
         submission_id: &submission.id,
         team: team_name,
-        method: &submission.method_name,
+        method: &submission.card.name,
         upload_sha256: &submission.archive_sha256,
         release_digest: &release.digest,
         scored_at_ms,

@@ -19,7 +19,7 @@ use crate::store::{JobRecord, JobState, SubmissionRecord, SubmissionState};
 /// The view of `s` from the store, as `caller` may see it (an anonymous entry's team
 /// and links only for its team and the organisers).
 pub async fn load(state: &AppState, s: &SubmissionRecord, caller: &Caller) -> ApiResult<SubmissionView> {
-    let hidden = s.anonymous && !caller.can_see_team(&s.team_id);
+    let hidden = s.card.anonymous && !caller.can_see_team(&s.team_id);
     let team = state.store.team(&s.team_id).await?;
     let history = state.store.submission_events(&s.id).await?.into_iter().map(|e| EventView { at: rfc3339(e.at), reason: e.reason, state: e.state }).collect();
     let mut scores = state.store.scores(&s.id).await?;
@@ -36,7 +36,7 @@ pub async fn load(state: &AppState, s: &SubmissionRecord, caller: &Caller) -> Ap
     Ok(SubmissionView {
         archive: ArchiveView { sha256: s.archive_sha256.clone(), size: s.archive_size },
         baseline: s.baseline,
-        claim_code: (s.anonymous && caller.can_see_team(&s.team_id)).then(|| state.receipts.claim_code(&s.id)),
+        claim_code: (s.card.anonymous && caller.can_see_team(&s.team_id)).then(|| state.receipts.claim_code(&s.id)),
         complete: s.complete,
         created_at: rfc3339(s.created_at),
         history,
@@ -44,13 +44,13 @@ pub async fn load(state: &AppState, s: &SubmissionRecord, caller: &Caller) -> Ap
         jobs,
         flagged: s.flag.clone(),
         method: MethodView {
-            anonymous: s.anonymous,
-            code_url: s.code_url.clone().filter(|_| !hidden),
-            compute: s.compute.clone(),
-            description: s.method_description.clone(),
-            external_data: s.external_data.clone(),
-            name: s.method_name.clone(),
-            paper_url: s.paper_url.clone().filter(|_| !hidden),
+            anonymous: s.card.anonymous,
+            code_url: s.card.code_url.clone().filter(|_| !hidden),
+            compute: s.card.compute.clone(),
+            description: s.card.description.clone(),
+            external_data: s.card.external_data.clone(),
+            name: s.card.name.clone(),
+            paper_url: s.card.paper_url.clone().filter(|_| !hidden),
         },
         public: s.public,
         queue: in_queue,
@@ -90,7 +90,7 @@ impl From<&SubmissionRecord> for SubmissionItem {
             complete: s.complete,
             created_at: rfc3339(s.created_at),
             id: s.id.clone(),
-            method: s.method_name.clone(),
+            method: s.card.name.clone(),
             public: s.public,
             reason: s.reason.clone(),
             release: s.release.clone(),

@@ -304,39 +304,32 @@ pub async fn update(
     caller.may_change(&s.team_id, "edit a submission")?;
     // The body is looked at only once the caller may edit.
     let ApiJson(change) = change?;
+    let card = &mut s.card;
     if let Some(name) = change.name {
-        s.method_name = name.trim().to_string();
+        card.name = name.trim().to_string();
     }
     if let Some(description) = change.description {
-        s.method_description = description;
+        card.description = description;
     }
     if let Some(url) = change.paper_url {
-        s.paper_url = url;
+        card.paper_url = url;
     }
     if let Some(url) = change.code_url {
-        s.code_url = url;
+        card.code_url = url;
     }
     if let Some(text) = change.external_data {
-        s.external_data = text;
+        card.external_data = text;
     }
     if let Some(text) = change.compute {
-        s.compute = text;
+        card.compute = text;
     }
     if let Some(anonymous) = change.anonymous {
-        s.anonymous = anonymous;
+        card.anonymous = anonymous;
     }
     if let Some(public) = change.public {
         s.public = public;
     }
-    let card = osmab_evaluator::submission::MethodCard {
-        name: s.method_name.clone(),
-        description: s.method_description.clone(),
-        paper_url: s.paper_url.clone(),
-        code_url: s.code_url.clone(),
-        external_data: s.external_data.clone(),
-        compute: s.compute.clone(),
-        anonymous: s.anonymous,
-    };
+    let card = osmab_evaluator::submission::MethodCard::from(&s.card);
     card.check("request body").map_err(|e| {
         Problem::new(StatusCode::UNPROCESSABLE_ENTITY, ProblemCode::InvalidRequest, "Invalid method card", format!("{}: {}", e.field, e.message))
     })?;

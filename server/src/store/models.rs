@@ -53,6 +53,57 @@ pub struct ReleaseFile {
     pub kind: ReleaseFileKind,
 }
 
+/// A submission's method card as the store keeps it: the columns of the card a team
+/// writes (`osmab_evaluator::submission::MethodCard`), read, written and edited together.
+#[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
+pub struct StoredCard {
+    #[sqlx(rename = "method_name")]
+    pub name: String,
+    #[sqlx(rename = "method_description")]
+    pub description: String,
+    pub paper_url: Option<String>,
+    pub code_url: Option<String>,
+    /// Data used beyond the release, in the team's words.
+    pub external_data: Option<String>,
+    /// Compute used, in the team's words.
+    pub compute: Option<String>,
+    /// Shown without its team and links until the team reveals it.
+    pub anonymous: bool,
+}
+
+impl StoredCard {
+    /// The columns, in the order [`StoredCard::bind`]s them.
+    pub const COLUMNS: [&str; 7] = ["method_name", "method_description", "paper_url", "code_url", "external_data", "compute", "anonymous"];
+}
+
+impl From<&osmab_evaluator::submission::MethodCard> for StoredCard {
+    fn from(card: &osmab_evaluator::submission::MethodCard) -> Self {
+        StoredCard {
+            name: card.name.trim().to_string(),
+            description: card.description.clone(),
+            paper_url: card.paper_url.clone(),
+            code_url: card.code_url.clone(),
+            external_data: card.external_data.clone(),
+            compute: card.compute.clone(),
+            anonymous: card.anonymous,
+        }
+    }
+}
+
+impl From<&StoredCard> for osmab_evaluator::submission::MethodCard {
+    fn from(card: &StoredCard) -> Self {
+        osmab_evaluator::submission::MethodCard {
+            name: card.name.clone(),
+            description: card.description.clone(),
+            paper_url: card.paper_url.clone(),
+            code_url: card.code_url.clone(),
+            external_data: card.external_data.clone(),
+            compute: card.compute.clone(),
+            anonymous: card.anonymous,
+        }
+    }
+}
+
 /// A submission.
 #[derive(Debug, Clone, PartialEq, Eq, sqlx::FromRow)]
 pub struct SubmissionRecord {
@@ -61,10 +112,8 @@ pub struct SubmissionRecord {
     pub release: String,
     pub state: SubmissionState,
     pub reason: Option<String>,
-    pub method_name: String,
-    pub method_description: String,
-    pub paper_url: Option<String>,
-    pub code_url: Option<String>,
+    #[sqlx(flatten)]
+    pub card: StoredCard,
     pub public: bool,
     pub baseline: bool,
     pub complete: bool,
@@ -74,12 +123,6 @@ pub struct SubmissionRecord {
     pub updated_at: i64,
     /// It failed through no fault of its team and does not count against the quota.
     pub quota_refunded: bool,
-    /// Data used beyond the release, in the team's words.
-    pub external_data: Option<String>,
-    /// Compute used, in the team's words.
-    pub compute: Option<String>,
-    /// Shown without its team and links until the team reveals it.
-    pub anonymous: bool,
     /// An organiser's flag on the entry (its reason).
     pub flag: Option<String>,
     /// The split it was made to.
@@ -132,12 +175,10 @@ pub struct JobRecord {
 pub struct LeaderboardRow {
     pub submission_id: String,
     pub team: String,
-    pub method_name: String,
-    pub paper_url: Option<String>,
-    pub code_url: Option<String>,
+    #[sqlx(flatten)]
+    pub card: StoredCard,
     pub baseline: bool,
     pub complete: bool,
-    pub anonymous: bool,
     pub flag: Option<String>,
     pub created_at: i64,
     #[sqlx(try_from = "String")]
@@ -152,10 +193,7 @@ pub struct NewSubmission {
     pub id: String,
     pub team_id: String,
     pub release: String,
-    pub method_name: String,
-    pub method_description: String,
-    pub paper_url: Option<String>,
-    pub code_url: Option<String>,
+    pub card: StoredCard,
     pub public: bool,
     pub baseline: bool,
     pub complete: bool,
@@ -163,9 +201,6 @@ pub struct NewSubmission {
     pub archive_sha256: String,
     /// The client's `Idempotency-Key`, when it sent one.
     pub idempotency_key: Option<String>,
-    pub external_data: Option<String>,
-    pub compute: Option<String>,
-    pub anonymous: bool,
     /// The split it is made to.
     pub split: Split,
     /// When the upload began and when validation began and ended (history timestamps).

@@ -69,7 +69,7 @@ impl Store {
     pub async fn leaderboard_rows(&self, release: &str) -> StoreResult<Vec<LeaderboardRow>> {
         let rows: Vec<BoardRow> = on_pool!(self, |pool| {
             sqlx::query_as(
-            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.paper_url, s.code_url, s.baseline, s.complete, s.anonymous, s.flag, s.created_at, s.split, c.body \
+            "SELECT c.id AS score_id, s.id AS submission_id, t.name AS team, s.method_name, s.method_description, s.paper_url, s.code_url, s.external_data, s.compute, s.anonymous, s.baseline, s.complete, s.flag, s.created_at, s.split, c.body \
              FROM submissions s JOIN teams t ON t.id = s.team_id \
              JOIN scores c ON c.id = (SELECT MAX(id) FROM scores WHERE submission_id = s.id) \
              WHERE s.release = $1 AND s.state <> $2 AND (s.public = TRUE OR s.baseline = TRUE) \

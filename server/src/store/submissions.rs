@@ -2,7 +2,8 @@
 //! changes (each with one history event), scoring results and failures, quota counts.
 
 use super::{
-    JobRecord, JobState, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, SubmissionEvent, SubmissionRecord, SubmissionState, on_pool,
+    JobRecord, JobState, NewJob, NewSubmission, Recorded, Store, StoreError, StoreResult, StoredCard, SubmissionEvent, SubmissionRecord, SubmissionState,
+    on_pool,
 };
 use osmab_evaluator::scores::{Scores, Split};
 
@@ -22,10 +23,29 @@ fn repeat_of((id, earlier_archive, _key): (String, String, Option<String>), arch
     if earlier_archive == archive { Recorded::Repeat(id) } else { Recorded::KeyReused(id) }
 }
 
-const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, method_name, method_description, paper_url, code_url, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
+const SUBMISSION_COLUMNS: &str = "id, team_id, release, state, reason, public, baseline, complete, archive_size, archive_sha256, created_at, updated_at";
 
 /// Columns later migrations added, read with the others.
-const SUBMISSION_LATER_COLUMNS: &str = "quota_refunded, external_data, compute, anonymous, flag, split";
+const SUBMISSION_LATER_COLUMNS: &str = "quota_refunded, flag, split";
+
+/// Every column a submission record reads: its own, and its method card's.
+fn record_columns() -> String {
+    format!("{SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS}, {}", StoredCard::COLUMNS.join(", "))
+}
+
+/// `$query` with the columns of the method card `$card` bound next, in [`StoredCard::COLUMNS`]' order.
+macro_rules! bind_card {
+    ($query:expr, $card:expr) => {
+        $query
+            .bind(&$card.name)
+            .bind(&$card.description)
+            .bind(&$card.paper_url)
+            .bind(&$card.code_url)
+            .bind(&$card.external_data)
+            .bind(&$card.compute)
+            .bind($card.anonymous)
+    };
+}
 
 /// The history event of `$submission` entering `$state` (a [`SubmissionState`]) with
 /// `$reason` at `$at`, for either backend (a macro so each infers its own types).
@@ -87,8 +107,9 @@ impl Store {
     /// transaction, so parallel uploads cannot overrun it).
     pub async fn create_submission(&self, s: &NewSubmission, job: &NewJob, quota: Option<(i64, i64)>) -> StoreResult<Recorded> {
         let sql = format!(
-            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, external_data, compute, anonymous, split) \
-             VALUES ($1, $2, $3, $20, NULL, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19)"
+            "INSERT INTO submissions ({SUBMISSION_COLUMNS}, idempotency_key, split, {}) \
+             VALUES ($1, $2, $3, $4, NULL, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20)",
+            StoredCard::COLUMNS.join(", ")
         );
         let postgres = matches!(self, Store::Postgres(_));
         on_pool!(self, |pool| {
@@ -99,14 +120,11 @@ impl Store {
             }
             // The insert comes first: on SQLite a transaction that reads before it writes
             // cannot wait for another writer (it fails "database is locked" at once).
-            sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
+            let insert = sqlx::query(sqlx::AssertSqlSafe(sql.clone()))
                 .bind(&s.id)
                 .bind(&s.team_id)
                 .bind(&s.release)
-                .bind(&s.method_name)
-                .bind(&s.method_description)
-                .bind(&s.paper_url)
-                .bind(&s.code_url)
+                .bind(SubmissionState::Queued)
                 .bind(s.public)
                 .bind(s.baseline)
                 .bind(s.complete)
@@ -117,13 +135,8 @@ impl Store {
                 .bind(s.queued_at)
                 .bind(s.queued_at)
                 .bind(&s.idempotency_key)
-                .bind(&s.external_data)
-                .bind(&s.compute)
-                .bind(s.anonymous)
-                .bind(s.split.name())
-                .bind(SubmissionState::Queued)
-                .execute(&mut *tx)
-                .await?;
+                .bind(s.split.name());
+            bind_card!(insert, s.card).execute(&mut *tx).await?;
             let earlier: Option<(String, String, Option<String>)> = sqlx::query_as(REPEAT_QUERY)
                 .bind(&s.team_id)
                 .bind(&s.idempotency_key)
@@ -275,7 +288,7 @@ impl Store {
 
     /// Submission `id`.
     pub async fn submission(&self, id: &str) -> StoreResult<SubmissionRecord> {
-        let sql = format!("SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions WHERE id = $1");
+        let sql = format!("SELECT {} FROM submissions WHERE id = $1", record_columns());
         Ok(on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(id).fetch_one(pool).await)?)
     }
 
@@ -283,13 +296,11 @@ impl Store {
     pub async fn submissions(&self, team_id: Option<&str>, limit: i64) -> StoreResult<Vec<SubmissionRecord>> {
         Ok(match team_id {
             Some(team) => {
-                let sql = format!(
-                    "SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2"
-                );
+                let sql = format!("SELECT {} FROM submissions WHERE team_id = $1 ORDER BY created_at DESC, id LIMIT $2", record_columns());
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(team).bind(limit).fetch_all(pool).await)?
             }
             None => {
-                let sql = format!("SELECT {SUBMISSION_COLUMNS}, {SUBMISSION_LATER_COLUMNS} FROM submissions ORDER BY created_at DESC, id LIMIT $1");
+                let sql = format!("SELECT {} FROM submissions ORDER BY created_at DESC, id LIMIT $1", record_columns());
                 on_pool!(self, |pool| sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(limit).fetch_all(pool).await)?
             }
         })
@@ -320,23 +331,12 @@ impl Store {
 
     /// Edit the method card and visibility of a submission.
     pub async fn update_method_card(&self, id: &str, s: &SubmissionRecord, at: i64) -> StoreResult<()> {
-        let done = on_pool!(self, |pool| sqlx::query(
-            "UPDATE submissions SET method_name = $2, method_description = $3, paper_url = $4, code_url = $5, public = $6, updated_at = $7, \
-             external_data = $8, compute = $9, anonymous = $10 WHERE id = $1"
-        )
-        .bind(id)
-        .bind(&s.method_name)
-        .bind(&s.method_description)
-        .bind(&s.paper_url)
-        .bind(&s.code_url)
-        .bind(s.public)
-        .bind(at)
-        .bind(&s.external_data)
-        .bind(&s.compute)
-        .bind(s.anonymous)
-        .execute(pool)
-        .await
-        .map(|r| r.rows_affected()))?;
+        let card: Vec<String> = StoredCard::COLUMNS.iter().enumerate().map(|(k, column)| format!("{column} = ${}", k + 4)).collect();
+        let sql = format!("UPDATE submissions SET public = $2, updated_at = $3, {} WHERE id = $1", card.join(", "));
+        let done = on_pool!(self, |pool| bind_card!(sqlx::query(sqlx::AssertSqlSafe(sql.clone())).bind(id).bind(s.public).bind(at), s.card)
+            .execute(pool)
+            .await
+            .map(|r| r.rows_affected()))?;
         if done == 0 { Err(StoreError::NotFound) } else { Ok(()) }
     }
 

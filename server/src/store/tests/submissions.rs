@@ -73,13 +73,15 @@ async fn submissions_scores_and_releases_keep_their_history() {
         assert_eq!((rows.len(), &rows[0].scores, rows[0].team.as_str()), (1, &score(2), "Team A"), "the latest score counts");
         // The card's later fields and the organisers' flag are kept and reach the board.
         let mut card = store.submission("sub_1").await.unwrap();
-        (card.external_data, card.compute, card.anonymous) = (Some("CLIP".into()), Some("1 GPU".into()), true);
+        (card.card.external_data, card.card.compute, card.card.anonymous) = (Some("CLIP".into()), Some("1 GPU".into()), true);
+        card.card.description = "A method, described.".into();
         store.update_method_card("sub_1", &card, t + 9).await.unwrap();
         store.set_flag("sub_1", Some("check the training data"), t + 9).await.unwrap();
         let kept = store.submission("sub_1").await.unwrap();
-        assert_eq!((kept.external_data.as_deref(), kept.compute.as_deref(), kept.anonymous), (Some("CLIP"), Some("1 GPU"), true));
+        assert_eq!(kept.card, card.card, "the whole card is kept");
+        assert_eq!((kept.card.external_data.as_deref(), kept.card.compute.as_deref(), kept.card.anonymous), (Some("CLIP"), Some("1 GPU"), true));
         let row = &store.leaderboard_rows("r1").await.unwrap()[0];
-        assert_eq!((row.anonymous, row.flag.as_deref()), (true, Some("check the training data")));
+        assert_eq!((&row.card, row.flag.as_deref()), (&kept.card, Some("check the training data")), "the board reads the same card");
         store.set_flag("sub_1", None, t + 10).await.unwrap();
         assert_eq!(store.submission("sub_1").await.unwrap().flag, None);
         assert!(matches!(store.set_flag("nope", Some("x"), t).await, Err(StoreError::NotFound)));

@@ -155,7 +155,7 @@ pub async fn console(State(state): State<AppState>, session: AdminSession, ApiQu
             .iter()
             .map(|s| SubmissionRow {
                 id: s.id.clone(),
-                method: s.method_name.clone(),
+                method: s.card.name.clone(),
                 team: team_name(&s.team_id),
                 state: s.state.to_string(),
                 created_at: rfc3339(s.created_at),

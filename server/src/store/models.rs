@@ -76,23 +76,11 @@ impl StoredCard {
     pub const COLUMNS: [&str; 7] = ["method_name", "method_description", "paper_url", "code_url", "external_data", "compute", "anonymous"];
 }
 
-impl From<&osmab_evaluator::submission::MethodCard> for StoredCard {
-    fn from(card: &osmab_evaluator::submission::MethodCard) -> Self {
-        StoredCard {
-            name: card.name.trim().to_string(),
-            description: card.description.clone(),
-            paper_url: card.paper_url.clone(),
-            code_url: card.code_url.clone(),
-            external_data: card.external_data.clone(),
-            compute: card.compute.clone(),
-            anonymous: card.anonymous,
-        }
-    }
-}
-
-impl From<&StoredCard> for osmab_evaluator::submission::MethodCard {
-    fn from(card: &StoredCard) -> Self {
-        osmab_evaluator::submission::MethodCard {
+/// The card's fields, the same in the store's card and the team's: both conversions copy them.
+macro_rules! card_copy {
+    ($card:expr => $to:path) => {{
+        let card = $card;
+        $to {
             name: card.name.clone(),
             description: card.description.clone(),
             paper_url: card.paper_url.clone(),
@@ -101,6 +89,21 @@ impl From<&StoredCard> for osmab_evaluator::submission::MethodCard {
             compute: card.compute.clone(),
             anonymous: card.anonymous,
         }
+    }};
+}
+
+/// The card a team wrote, as stored (its name trimmed).
+impl From<&osmab_evaluator::submission::MethodCard> for StoredCard {
+    fn from(card: &osmab_evaluator::submission::MethodCard) -> Self {
+        let stored = card_copy!(card => StoredCard);
+        StoredCard { name: stored.name.trim().to_string(), ..stored }
+    }
+}
+
+/// The stored card as the team's, to check it as an upload's is checked.
+impl From<&StoredCard> for osmab_evaluator::submission::MethodCard {
+    fn from(card: &StoredCard) -> Self {
+        card_copy!(card => osmab_evaluator::submission::MethodCard)
     }
 }
 

@@ -73,28 +73,16 @@ impl Store {
 
     /// Claim the next ready job for `owner` with a lease until `lease_expires`.
     pub async fn claim_next_job(&self, owner: &str, now: i64, lease_expires: i64) -> StoreResult<Option<ClaimedJob>> {
-        Ok(match self {
-            Store::Sqlite(pool) => {
-                sqlx::query_as(CLAIM_SQLITE)
-                    .bind(owner)
-                    .bind(lease_expires)
-                    .bind(now)
-                    .bind(JobState::Running)
-                    .bind(JobState::Queued)
-                    .fetch_optional(pool)
-                    .await?
-            }
-            Store::Postgres(pool) => {
-                sqlx::query_as(CLAIM_POSTGRES)
-                    .bind(owner)
-                    .bind(lease_expires)
-                    .bind(now)
-                    .bind(JobState::Running)
-                    .bind(JobState::Queued)
-                    .fetch_optional(pool)
-                    .await?
-            }
-        })
+        // SQLite has no row locks: its writers are serialised already.
+        let sql = if matches!(self, Store::Postgres(_)) { CLAIM_POSTGRES } else { CLAIM_SQLITE };
+        Ok(on_pool!(self, |pool| sqlx::query_as(sql)
+            .bind(owner)
+            .bind(lease_expires)
+            .bind(now)
+            .bind(JobState::Running)
+            .bind(JobState::Queued)
+            .fetch_optional(pool)
+            .await)?)
     }
 
     /// Extend `owner`'s lease on job `id`; false when the lease was lost (expired and taken).

@@ -143,6 +143,24 @@ impl NearestCount {
         self.counts.iter_mut().zip(counts).for_each(|(total, c)| *total += c);
     }
 
+    /// Each map point's column: the class an association that answers classes needs
+    /// ([`NearestIndex::point_classes`]), whose answers [`NearestCount::add_columns`] counts.
+    ///
+    /// [`NearestIndex::point_classes`]: super::nearest::NearestIndex::point_classes
+    pub fn point_columns(&self) -> &[u32] {
+        &self.point_columns
+    }
+
+    /// Count ground-truth points given as (label, column of the nearest map point) pairs,
+    /// in parts of at most [`COUNT_CHUNK`] taken in parallel.
+    pub fn add_columns<P>(&mut self, parts: impl ParallelIterator<Item = P>)
+    where
+        P: Iterator<Item = (i64, u32)> + Send,
+    {
+        let counts = self.counter.count(parts.map(|part| part.map(|(label, column)| (label, column as usize))));
+        self.counts.iter_mut().zip(counts).for_each(|(total, c)| *total += c);
+    }
+
     /// The matrix of every point counted.
     pub fn into_matrix(self) -> ConfusionMatrix {
         self.counter.into_matrix(self.counts)

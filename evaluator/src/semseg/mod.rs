@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 pub use confusion::{ConfusionMatrix, NearestCount};
 pub use metrics::{ClassScore, SegmentationMetrics};
-pub use nearest::NearestIndex;
+pub use nearest::{NearestIndex, PointClasses};
 pub use report::{LightingComparison, MetricTriple, MetricsTable};
 pub use vocabulary::Vocabulary;
 
@@ -192,16 +192,21 @@ fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList,
     Ok(SceneScore { confusion, metrics, timings })
 }
 
-/// The confusion matrix of a cloud already in Z-order: every point's nearest map point,
-/// answered in the cloud's order, then counted.
+/// The confusion matrix of a cloud already in Z-order: the class of every point's nearest
+/// map point, answered in the cloud's order, then counted.
 fn count_in_order(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], timings: &mut StageTimings) -> ConfusionMatrix {
     let clock = Instant::now();
-    let nearest = index.nearest_all_in_order(ground_truth.points);
+    let mut count = NearestCount::new(ground_truth.vocabulary.ids(), point_labels);
+    let classes = index.point_classes(count.point_columns());
+    timings.confusion = clock.elapsed();
+    let clock = Instant::now();
+    let columns = index.nearest_classes_in_order(ground_truth.points, &classes);
     timings.query = clock.elapsed();
     let clock = Instant::now();
-    let confusion = ConfusionMatrix::from_nearest(ground_truth.labels, &nearest, point_labels, ground_truth.vocabulary.ids());
-    timings.confusion = clock.elapsed();
-    confusion
+    let parts = ground_truth.labels.par_chunks(confusion::COUNT_CHUNK).zip(columns.par_chunks(confusion::COUNT_CHUNK));
+    count.add_columns(parts.map(|(labels, columns)| labels.iter().copied().zip(columns.iter().copied())));
+    timings.confusion += clock.elapsed();
+    count.into_matrix()
 }
 
 /// The confusion matrix of a cloud in any order: each block's answers are counted as they
@@ -210,12 +215,13 @@ fn count_in_order(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: 
 fn count_by_block(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], timings: &mut StageTimings) -> ConfusionMatrix {
     let clock = Instant::now();
     let mut count = NearestCount::new(ground_truth.vocabulary.ids(), point_labels);
+    let classes = index.point_classes(count.point_columns());
     let mut counting = clock.elapsed();
     let clock = Instant::now();
     let labels = ground_truth.labels;
-    index.nearest_by_block(ground_truth.points, |answers| {
+    index.nearest_classes_by_block(ground_truth.points, &classes, |answers| {
         let block = Instant::now();
-        count.add(answers.par_parts(confusion::COUNT_CHUNK).map(|part| part.map(|(point, nearest)| (labels[point], nearest))));
+        count.add_columns(answers.par_parts(confusion::COUNT_CHUNK).map(|part| part.map(|(point, column)| (labels[point], column))));
         counting += block.elapsed();
     });
     timings.query = clock.elapsed().saturating_sub(counting);

@@ -23,6 +23,13 @@
 //! answer bounds the members instead. Queries so far from every point that even then
 //! their candidate leaves are too many to share are searched one by one, the first
 //! warm-started from the centre's answer, each next from its predecessor's.
+//!
+//! Scoring needs only the class of each answer. Given the class of every indexed point
+//! ([`PointClasses`]), a batch all of whose candidate leaves hold points of one class takes
+//! that class without its members meeting those leaves: every member's answer lies in one
+//! of them, whichever it is. In other batches, a group of lanes whose bests are all of one
+//! class passes over the leaves of that class unless a leaf of another class changes a
+//! lane's class. The classes are those of the exact answers, ties included.
 
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
@@ -96,6 +103,8 @@ struct Split {
 
 /// A k-d tree over predicted points, answering exact nearest-point queries.
 pub struct NearestIndex {
+    /// Points indexed.
+    len: usize,
     /// Leaves are at this level (the root, node 1, is level 0; node i has children 2i, 2i+1).
     depth: u32,
     /// Positions in tree order, structure of arrays, [`LEAF_SIZE`] slots a leaf (leaf
@@ -160,6 +169,9 @@ struct Members {
     z: Lanes<f32>,
     distance: Lanes<f32>,
     id: Lanes<u32>,
+    /// The class every answer of a group has, where it is known without its lanes' answers
+    /// ([`PointClasses::MIXED`] where it is not).
+    class: [u32; GROUPS],
     /// Groups in use.
     groups: usize,
     /// Members in use.
@@ -172,7 +184,8 @@ struct Members {
 impl Members {
     fn new() -> Self {
         let (zero, far) = ([[0.0; LANES]; GROUPS], [[f32::INFINITY; LANES]; GROUPS]);
-        Self { x: zero, y: zero, z: zero, distance: far, id: [[u32::MAX; LANES]; GROUPS], groups: 0, count: 0, warm_slot: 0 }
+        let (id, class) = ([[u32::MAX; LANES]; GROUPS], [PointClasses::MIXED; GROUPS]);
+        Self { x: zero, y: zero, z: zero, distance: far, id, class, groups: 0, count: 0, warm_slot: 0 }
     }
 
     /// Take a batch's queries (at least one, at most [`BATCH_QUERIES`]), none answered yet.
@@ -189,6 +202,7 @@ impl Members {
             }
             self.distance[g] = [f32::INFINITY; LANES];
             self.id[g] = [u32::MAX; LANES];
+            self.class[g] = PointClasses::MIXED;
         }
     }
 
@@ -213,9 +227,10 @@ impl Members {
         self.distance[..self.groups].iter().flatten().fold(0.0, |r, &d| r.max(d))
     }
 
-    /// Each member's answer, in the batch's order.
-    fn answers(&self) -> impl Iterator<Item = u32> + '_ {
-        self.id[..self.groups].iter().flatten().copied().take(self.count)
+    /// Each member's answer, in the batch's order: its nearest point, or that point's class.
+    fn answers<'a>(&'a self, answer: Answer<'a>) -> impl Iterator<Item = u32> + 'a {
+        let groups = self.id[..self.groups].iter().zip(&self.class[..self.groups]);
+        groups.flat_map(move |(ids, &class)| ids.iter().map(move |&id| if class == PointClasses::MIXED { answer.of(id) } else { class })).take(self.count)
     }
 }
 
@@ -269,6 +284,62 @@ fn better(d: f32, id: u32, best: &Best) -> bool {
     d < best.distance || (d == best.distance && id < best.id)
 }
 
+/// The class of every indexed point, and of every leaf whose points share one: what lets
+/// an association answer a query's class without finding its nearest point.
+pub struct PointClasses {
+    /// The class of each point, by its index in the map.
+    of_point: Vec<u32>,
+    /// The class every point of a leaf has, [`PointClasses::MIXED`] where they differ.
+    of_leaf: Vec<u32>,
+}
+
+impl PointClasses {
+    /// A leaf whose points are of more than one class.
+    const MIXED: u32 = u32::MAX;
+
+    /// The class of every lane's best point, [`PointClasses::MIXED`] unless they share one.
+    #[inline]
+    fn group_class(&self, ids: &[u32; LANES]) -> u32 {
+        let class = self.of_point[ids[0] as usize];
+        if ids[1..].iter().all(|&id| self.of_point[id as usize] == class) { class } else { Self::MIXED }
+    }
+
+    /// The one class of every point in `leaves`, if they share one.
+    #[inline]
+    fn shared_by(&self, mut leaves: impl Iterator<Item = usize>) -> Option<u32> {
+        let first = self.of_leaf[leaves.next()?];
+        (first != Self::MIXED && leaves.all(|leaf| self.of_leaf[leaf] == first)).then_some(first)
+    }
+}
+
+/// What an association gives each query: its nearest point's index, or that point's class.
+#[derive(Clone, Copy)]
+enum Answer<'a> {
+    Point,
+    Class(&'a PointClasses),
+}
+
+impl Answer<'_> {
+    /// The answer for the indexed point `id`.
+    #[inline(always)]
+    fn of(self, id: u32) -> u32 {
+        match self {
+            Answer::Point => id,
+            Answer::Class(classes) => classes.of_point[id as usize],
+        }
+    }
+}
+
+/// How a batch of queries was answered.
+enum Batch {
+    /// Each member holds its nearest point.
+    Answered,
+    /// Every candidate leaf's points are of this class, so every member's answer is.
+    OneClass(u32),
+    /// The members are too far from every point to share their search: answer them one by one.
+    GaveUp,
+}
+
 /// The axis along which a box is widest (the split rule of the build).
 fn widest_axis(lo: [f32; 3], hi: [f32; 3]) -> usize {
     (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).expect("three axes")
@@ -299,6 +370,7 @@ impl NearestIndex {
         }
         let slots = first_leaf * LEAF_SIZE;
         let mut index = Self {
+            len: n,
             depth,
             xs: vec![f32::INFINITY; slots],
             ys: vec![f32::INFINITY; slots],
@@ -423,6 +495,23 @@ impl NearestIndex {
         self.nearest_from(q, 0).id
     }
 
+    /// The classes of the indexed points (`of_point[i]` is point `i`'s, below `u32::MAX`),
+    /// for the associations that answer classes.
+    pub fn point_classes(&self, of_point: &[u32]) -> PointClasses {
+        assert_eq!(of_point.len(), self.len, "one class per indexed point");
+        assert!(!of_point.contains(&PointClasses::MIXED), "classes are below u32::MAX");
+        let of_leaf = self
+            .ids
+            .chunks_exact(LEAF_SIZE)
+            .map(|leaf| {
+                let mut classes = leaf.iter().take_while(|&&id| id != u32::MAX).map(|&id| of_point[id as usize]);
+                let first = classes.next().expect("every leaf holds points");
+                if classes.all(|class| class == first) { first } else { PointClasses::MIXED }
+            })
+            .collect();
+        PointClasses { of_point: of_point.to_vec(), of_leaf }
+    }
+
     /// The leaves whose boxes come within `reach` (squared) of the box `lo..=hi`, into
     /// `leaves`; false, with `leaves` incomplete, if there are more than `most`.
     fn leaves_within(&self, lo: [f32; 3], hi: [f32; 3], reach: f32, most: usize, leaves: &mut Vec<u32>) -> bool {
@@ -456,7 +545,7 @@ impl NearestIndex {
     /// Answer queries `0..count` (neighbours in space follow each other), giving each
     /// query's answer to `record`. Consecutive queries whose box stays within about two
     /// leaves' size form a batch, answered together ([`NearestIndex::answer_batch`]).
-    fn answer_batches(&self, count: usize, query: impl Fn(usize) -> [f32; 3], mut record: impl FnMut(usize, u32)) {
+    fn answer_batches(&self, count: usize, query: impl Fn(usize) -> [f32; 3], answer: Answer<'_>, mut record: impl FnMut(usize, u32)) {
         let mut leaves = Vec::with_capacity(FAR_BATCH_LEAVES);
         let mut members = Members::new();
         let mut start = 0;
@@ -474,18 +563,22 @@ impl NearestIndex {
                 end += 1;
             }
             members.gather((start..end).map(&query));
-            if self.answer_batch(&mut members, lo, hi, &mut leaves) {
-                for (k, id) in (start..end).zip(members.answers()) {
-                    record(k, id);
+            match self.answer_batch(&mut members, lo, hi, &mut leaves, answer) {
+                Batch::Answered => {
+                    for (k, value) in (start..end).zip(members.answers(answer)) {
+                        record(k, value);
+                    }
                 }
-            } else {
-                // The batch's centre was searched for before it gave up: its answer is
-                // the nearest start.
-                let mut hint = members.warm_slot;
-                for k in start..end {
-                    let best = self.nearest_from(query(k), hint);
-                    hint = best.position;
-                    record(k, best.id);
+                Batch::OneClass(class) => (start..end).for_each(|k| record(k, class)),
+                Batch::GaveUp => {
+                    // The batch's centre was searched for before it gave up: its answer is
+                    // the nearest start.
+                    let mut hint = members.warm_slot;
+                    for k in start..end {
+                        let best = self.nearest_from(query(k), hint);
+                        hint = best.position;
+                        record(k, answer.of(best.id));
+                    }
                 }
             }
             start = end;
@@ -497,9 +590,11 @@ impl NearestIndex {
     /// the largest of those bounds every answer), then every other leaf within that bound
     /// of the box. If those leaves are more than [`BATCH_LEAVES`], the centre's own nearest
     /// point is found first and the members meet its leaf, a bound as tight as the batch is
-    /// small. False, with the answers incomplete, if the leaves within that bound are more
-    /// than [`FAR_BATCH_LEAVES`]: the members are then better searched one by one.
-    fn answer_batch(&self, members: &mut Members, lo: [f32; 3], hi: [f32; 3], leaves: &mut Vec<u32>) -> bool {
+    /// small. [`Batch::GaveUp`], with the answers incomplete, if the leaves within that
+    /// bound are more than [`FAR_BATCH_LEAVES`]: the members are then better searched one
+    /// by one. When classes are the answer and every leaf that can hold an answer holds
+    /// points of one class, [`Batch::OneClass`] before the members meet them.
+    fn answer_batch(&self, members: &mut Members, lo: [f32; 3], hi: [f32; 3], leaves: &mut Vec<u32>, answer: Answer<'_>) -> Batch {
         let center: [f32; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
         let home = self.home_leaf(center);
         members.warm_slot = home * LEAF_SIZE;
@@ -514,13 +609,44 @@ impl NearestIndex {
                 self.scan_leaf_for_members(anchor, members);
             }
             if !self.leaves_within(lo, hi, members.reach(), FAR_BATCH_LEAVES, leaves) {
-                return false;
+                return Batch::GaveUp;
             }
         }
-        for &leaf in leaves.iter().filter(|&&leaf| leaf as usize != home && leaf as usize != anchor) {
-            self.scan_leaf_for_members(leaf as usize, members);
+        // Every member's answer lies in one of these leaves.
+        if let Answer::Class(classes) = answer
+            && let Some(class) = classes.shared_by([home, anchor].into_iter().chain(leaves.iter().map(|&leaf| leaf as usize)))
+        {
+            return Batch::OneClass(class);
         }
-        true
+        let others = leaves.iter().map(|&leaf| leaf as usize).filter(|&leaf| leaf != home && leaf != anchor);
+        match answer {
+            Answer::Point => others.for_each(|leaf| self.scan_leaf_for_members(leaf, members)),
+            Answer::Class(classes) => (0..members.groups).for_each(|g| self.settle_class_of_group(members, g, others.clone(), classes)),
+        }
+        Batch::Answered
+    }
+
+    /// Meet group `g` with `leaves` (those that may hold its answers and it has not met),
+    /// when classes are the answer. While every lane's best is of one class, a leaf of that
+    /// class cannot change any answer's class: it is passed over. If a leaf of another class
+    /// then gives a lane a best of another class, the group meets the leaves passed over;
+    /// else every answer is of the class, which the group keeps instead of its lanes' points.
+    fn settle_class_of_group(&self, members: &mut Members, g: usize, leaves: impl Iterator<Item = usize> + Clone, classes: &PointClasses) {
+        let class = classes.group_class(&members.id[g]);
+        // Where the class stopped being every lane's (at once if it never was).
+        let mut broken_at = (class == PointClasses::MIXED).then_some(0);
+        for (k, leaf) in leaves.clone().enumerate() {
+            if broken_at.is_none() && classes.of_leaf[leaf] == class {
+                continue;
+            }
+            if self.scan_leaf_for_group(leaf, members, g) && broken_at.is_none() && classes.group_class(&members.id[g]) != class {
+                broken_at = Some(k);
+            }
+        }
+        match broken_at {
+            None => members.class[g] = class,
+            Some(k) => leaves.take(k).filter(|&leaf| classes.of_leaf[leaf] == class).for_each(|leaf| _ = self.scan_leaf_for_group(leaf, members, g)),
+        }
     }
 
     /// The home leaf of `q`: the leaf whose cell holds it, found by split planes alone,
@@ -539,19 +665,28 @@ impl NearestIndex {
     /// of lanes of which the leaf's box cannot improve any.
     #[inline(always)]
     fn scan_leaf_for_members(&self, leaf: usize, members: &mut Members) {
-        let node = &self.nodes[(1usize << self.depth) + leaf];
-        let LeafSlots { xs, ys, zs, ids } = self.leaf_slots(leaf);
         for g in 0..members.groups {
-            if members.may_improve(g, node) {
-                // The group on the stack while it meets the leaf: the compiler then keeps its
-                // lanes in vector registers (working on `members` in place, it did not).
-                let (x, y, z, mut distance, mut id) = (members.x[g], members.y[g], members.z[g], members.distance[g], members.id[g]);
-                for slot in 0..LEAF_SIZE {
-                    offer_to_lanes(&x, &y, &z, &mut distance, &mut id, xs[slot], ys[slot], zs[slot], ids[slot]);
-                }
-                (members.distance[g], members.id[g]) = (distance, id);
-            }
+            self.scan_leaf_for_group(leaf, members, g);
         }
+    }
+
+    /// Improve the best of every lane of group `g` with the points of leaf `leaf`, unless
+    /// the leaf's box cannot improve any; whether it was met.
+    #[inline(always)]
+    fn scan_leaf_for_group(&self, leaf: usize, members: &mut Members, g: usize) -> bool {
+        let node = &self.nodes[(1usize << self.depth) + leaf];
+        let improves = members.may_improve(g, node);
+        if improves {
+            let LeafSlots { xs, ys, zs, ids } = self.leaf_slots(leaf);
+            // The group on the stack while it meets the leaf: the compiler then keeps its
+            // lanes in vector registers (working on `members` in place, it did not).
+            let (x, y, z, mut distance, mut id) = (members.x[g], members.y[g], members.z[g], members.distance[g], members.id[g]);
+            for slot in 0..LEAF_SIZE {
+                offer_to_lanes(&x, &y, &z, &mut distance, &mut id, xs[slot], ys[slot], zs[slot], ids[slot]);
+            }
+            (members.distance[g], members.id[g]) = (distance, id);
+        }
+        improves
     }
 
     /// The nearest indexed point of every query, in parallel, whatever the queries'
@@ -573,7 +708,17 @@ impl NearestIndex {
     /// for their candidate leaves. A block is a quarter of the queries, kept within 2²⁰ to
     /// 2²², so the ordering takes no more memory than an answer array would for a large
     /// cloud.
-    pub fn nearest_by_block(&self, queries: &[[f32; 3]], mut visit: impl FnMut(BlockAnswers<'_>)) {
+    pub fn nearest_by_block(&self, queries: &[[f32; 3]], visit: impl FnMut(BlockAnswers<'_>)) {
+        self.answer_by_block(queries, Answer::Point, visit);
+    }
+
+    /// As [`NearestIndex::nearest_by_block`], each query given the class of its nearest
+    /// point instead of its index.
+    pub fn nearest_classes_by_block(&self, queries: &[[f32; 3]], classes: &PointClasses, visit: impl FnMut(BlockAnswers<'_>)) {
+        self.answer_by_block(queries, Answer::Class(classes), visit);
+    }
+
+    fn answer_by_block(&self, queries: &[[f32; 3]], answer: Answer<'_>, mut visit: impl FnMut(BlockAnswers<'_>)) {
         let grid = ZGrid::over(self.nodes[1].min, self.nodes[1].max);
         let block_len = locality_block(queries.len());
         // The block's keys in Z-order, then its answers in that order in the sort's spare buffer.
@@ -586,7 +731,12 @@ impl NearestIndex {
                 // (48 KiB): read as batches form, each one waited for, the same
                 // answers took 1.2-1.3x as long in random order.
                 let chunk: Vec<[f32; 3]> = keys.iter().map(|key| block[position_of(key)]).collect();
-                self.answer_batches(chunk.len(), |k| chunk[k], |k, id| found[k].store(((position_of(&keys[k]) as u64) << 32) | u64::from(id), Relaxed))
+                self.answer_batches(
+                    chunk.len(),
+                    |k| chunk[k],
+                    answer,
+                    |k, found_k| found[k].store(((position_of(&keys[k]) as u64) << 32) | u64::from(found_k), Relaxed),
+                )
             });
             visit(BlockAnswers { first, pairs: found });
         }
@@ -594,7 +744,8 @@ impl NearestIndex {
 }
 
 /// The answers of one block of queries, in the order they were answered (along the
-/// curve, not the queries' order): each query of the block with its nearest point.
+/// curve, not the queries' order): each query of the block with its nearest point (or
+/// that point's class).
 pub struct BlockAnswers<'a> {
     /// The block's first query.
     first: usize,
@@ -627,10 +778,22 @@ impl NearestIndex {
     /// in [`super::z_order::z_order`] once and scored against several maps — else this is
     /// slower than [`NearestIndex::nearest_all`] (the answers are the same).
     pub fn nearest_all_in_order(&self, queries: &[[f32; 3]]) -> Vec<u32> {
+        self.answer_in_order(queries, Answer::Point)
+    }
+
+    /// The class of the nearest indexed point of every query (`classes` of
+    /// [`NearestIndex::nearest_all_in_order`]'s answers), in the queries' own order, which
+    /// must visit neighbours one after another. Batches whose candidate leaves all hold
+    /// points of one class are answered without searching for each member's nearest point.
+    pub fn nearest_classes_in_order(&self, queries: &[[f32; 3]], classes: &PointClasses) -> Vec<u32> {
+        self.answer_in_order(queries, Answer::Class(classes))
+    }
+
+    fn answer_in_order(&self, queries: &[[f32; 3]], answer: Answer<'_>) -> Vec<u32> {
         let mut out = vec![0u32; queries.len()];
         out.par_chunks_mut(QUERY_CHUNK)
             .zip(queries.par_chunks(QUERY_CHUNK))
-            .for_each(|(found, qs)| self.answer_batches(qs.len(), |k| qs[k], |k, id| found[k] = id));
+            .for_each(|(found, qs)| self.answer_batches(qs.len(), |k| qs[k], answer, |k, value| found[k] = value));
         out
     }
 }
@@ -714,12 +877,47 @@ mod tests {
                 continue;
             }
             members.gather(queries.iter().copied());
-            assert!(index.answer_batch(&mut members, lo, hi, &mut leaves), "place {place}: shared within the centre's answer's bound");
+            let shared = index.answer_batch(&mut members, lo, hi, &mut leaves, Answer::Point);
+            assert!(matches!(shared, Batch::Answered), "place {place}: shared within the centre's answer's bound");
             let exhaustive: Vec<u32> = queries.iter().map(|&q| nearest_brute_force(&points, q)).collect();
-            assert_eq!(members.answers().collect::<Vec<_>>(), exhaustive, "place {place}");
+            assert_eq!(members.answers(Answer::Point).collect::<Vec<_>>(), exhaustive, "place {place}");
             bounded_by_centre += 1;
         }
         assert!(bounded_by_centre >= 50, "{bounded_by_centre} of 100 batches bounded by their centre's answer");
+    }
+
+    #[test]
+    fn a_batch_whose_candidate_leaves_share_a_class_takes_it_without_searching() {
+        // Two halves of a surface, class 0 left of x = 1 and class 1 right of it.
+        let mut rng = Rng::new(41);
+        let points: Vec<[f32; 3]> = (0..30_000).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect();
+        let of_point: Vec<u32> = points.iter().map(|p| u32::from(p[0] > 1.0)).collect();
+        let index = NearestIndex::build(&points);
+        let classes = index.point_classes(&of_point);
+        let (mut members, mut leaves) = (Members::new(), Vec::new());
+        let mut outcome = |x: f32, step: f32| {
+            // 16 queries `step` apart on the surface, from (x, 1) on.
+            let queries: Vec<[f32; 3]> = (0..16).map(|i| [x + step * (i % 4) as f32, 1.0 + 0.002 * (i / 4) as f32, 0.0]).collect();
+            let lo: [f32; 3] = std::array::from_fn(|a| queries.iter().map(|q| q[a]).fold(f32::INFINITY, f32::min));
+            let hi: [f32; 3] = std::array::from_fn(|a| queries.iter().map(|q| q[a]).fold(f32::NEG_INFINITY, f32::max));
+            members.gather(queries.iter().copied());
+            let batch = index.answer_batch(&mut members, lo, hi, &mut leaves, Answer::Class(&classes));
+            let exact: Vec<u32> = queries.iter().map(|&q| of_point[nearest_brute_force(&points, q) as usize]).collect();
+            let answered: Vec<u32> = match batch {
+                Batch::OneClass(class) => vec![class; queries.len()],
+                _ => members.answers(Answer::Class(&classes)).collect(),
+            };
+            assert_eq!(answered, exact, "the classes of the exact answers");
+            (batch, exact)
+        };
+        for x in [0.3, 1.6] {
+            let (batch, _) = outcome(x, 0.002);
+            let class = u32::from(x > 1.0);
+            assert!(matches!(batch, Batch::OneClass(c) if c == class), "inside the half of class {class}");
+        }
+        let (batch, exact) = outcome(0.985, 0.01);
+        assert!(matches!(batch, Batch::Answered), "across the border the members are searched");
+        assert!(exact.contains(&0) && exact.contains(&1), "the border's answers are of both classes");
     }
 
     #[test]

@@ -212,3 +212,50 @@ fn queries_in_z_order_get_the_answers_of_any_order() {
         assert_eq!(any_order[k], nearest_brute_force(&points, queries[k]), "query {k}");
     }
 }
+
+/// The class of each point of `points`: the cell of a `cell`-sized grid over the surface it
+/// lies in, among `classes` classes (regions of one class, as a map's objects are).
+fn classes_by_region(points: &[[f32; 3]], cell: f32, classes: u32) -> Vec<u32> {
+    points.iter().map(|p| ((p[0] / cell) as u32 * 7 + (p[1] / cell) as u32 * 13) % classes).collect()
+}
+
+#[test]
+fn the_class_of_each_query_s_nearest_point_is_that_of_its_exact_answer() {
+    use osmab_evaluator::semseg::z_order::z_order;
+    let mut rng = Rng::new(39);
+    let points = surface_points(&mut rng, 30_000, 3.0, 0.01, Some(0.004));
+    let index = NearestIndex::build(&points);
+    // On the surface (batches inside one region share its class), half a metre above it
+    // (batches bounded by their centre's answer) and far away (queries one by one).
+    let mut queries = surface_points(&mut rng, 200_000, 3.2, 0.02, Some(0.002));
+    queries.extend(surface_points(&mut rng, 50_000, 3.0, 0.01, None).into_iter().map(|[x, y, z]| [x, y, z + 0.5]));
+    queries.extend(random_points(&mut rng, 2_000, 40.0, None));
+    let order = z_order(&queries);
+    let sorted: Vec<[f32; 3]> = order.iter().map(|&i| queries[i as usize]).collect();
+    let nearest = index.nearest_all_in_order(&sorted);
+    for (cell, count) in [(0.5, 5), (0.05, 3), (100.0, 1)] {
+        let of_point = classes_by_region(&points, cell, count);
+        let classes = index.point_classes(&of_point);
+        let expected: Vec<u32> = nearest.iter().map(|&id| of_point[id as usize]).collect();
+        assert_eq!(index.nearest_classes_in_order(&sorted, &classes), expected, "regions of {cell} m, in order");
+        let mut by_block = vec![u32::MAX; queries.len()];
+        index.nearest_classes_by_block(&queries, &classes, |answers| answers.pairs().for_each(|(q, class)| by_block[q] = class));
+        let expected_by_query: Vec<u32> = index.nearest_all(&queries).iter().map(|&id| of_point[id as usize]).collect();
+        assert_eq!(by_block, expected_by_query, "regions of {cell} m, by block");
+    }
+}
+
+#[test]
+fn tied_points_of_different_classes_give_the_class_of_the_lowest_index() {
+    // Duplicated grid points, each copy of another class: only the tie rule decides.
+    let mut rng = Rng::new(40);
+    let grid = surface_points(&mut rng, 4_000, 1.0, 0.05, Some(0.05));
+    let points: Vec<[f32; 3]> = grid.iter().chain(&grid).copied().collect();
+    let of_point: Vec<u32> = (0..points.len()).map(|i| u32::from(i >= grid.len())).collect();
+    let index = NearestIndex::build(&points);
+    let classes = index.point_classes(&of_point);
+    let queries = surface_points(&mut rng, 40_000, 1.0, 0.05, Some(0.025));
+    let mut by_block = vec![u32::MAX; queries.len()];
+    index.nearest_classes_by_block(&queries, &classes, |answers| answers.pairs().for_each(|(q, class)| by_block[q] = class));
+    assert!(by_block.iter().all(|&class| class == 0), "every answer is a first copy, of class 0");
+}

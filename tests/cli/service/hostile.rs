@@ -49,12 +49,27 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
 fn stored_state(server: &super::Server<'_>, token: &str) -> (Value, Value, usize) {
     let submissions: Value = server.get("/api/v1/submissions").bearer_auth(token).send().unwrap().json().unwrap();
     let board: Value = server.get("/api/v1/leaderboard").send().unwrap().json().unwrap();
-    // Scratch files: entries of the processes' own scratch directories under .incoming.
-    let incoming = walk(&server.deployment.data.path().join("blobs/.incoming"))
-        .iter()
-        .filter(|p| p.parent().is_some_and(|d| d.is_dir() && d.file_name().is_some_and(|n| n.to_string_lossy().starts_with("owner-"))))
-        .count();
-    (submissions, board, incoming)
+    (submissions, board, scratch_left(server))
+}
+
+/// Entries of the processes' own scratch directories under `.incoming`, once the server
+/// has had a moment to remove them: a scratch folder goes on a blocking thread when its
+/// request or job ends, which may be just after the answer (or the score) is out.
+fn scratch_left(server: &super::Server<'_>) -> usize {
+    let count = || {
+        walk(&server.deployment.data.path().join("blobs/.incoming"))
+            .iter()
+            .filter(|p| p.parent().is_some_and(|d| d.is_dir() && d.file_name().is_some_and(|n| n.to_string_lossy().starts_with("owner-"))))
+            .count()
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    loop {
+        let left = count();
+        if left == 0 || std::time::Instant::now() > deadline {
+            return left;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }
 
 fn hostile_uploads(backend: Backend) {
@@ -69,6 +84,7 @@ fn hostile_uploads(backend: Backend) {
     let id = accepted.json::<Value>().unwrap()["id"].as_str().unwrap().to_string();
     server.wait_done(&id, &token);
     let before = stored_state(&server, &token);
+    assert_eq!(before.2, 0, "the scoring's scratch files are removed");
 
     // The README's own archive command, literally: `tar -cf sub.tar -C my-submission .`
     // (its first entry is `./`).
@@ -198,7 +214,10 @@ fn hostile_uploads(backend: Backend) {
     assert!(body["errors"][0]["message"].as_str().unwrap().contains("another frame"), "{body}");
 
     // Nothing changed: the same submissions, the same leaderboard, no scratch files left.
-    assert_eq!(stored_state(&server, &token), before);
+    let (submissions, board, scratch) = stored_state(&server, &token);
+    assert_eq!(submissions, before.0, "the team's submissions");
+    assert_eq!(board, before.1, "the leaderboard");
+    assert_eq!(scratch, 0, "scratch files left");
     let release_page = server.get(&format!("/releases/{version}")).send().unwrap();
     assert_eq!(release_page.status(), 200);
 }

@@ -132,11 +132,25 @@ fn squared_distance(q: [f32; 3], x: f32, y: f32, z: f32) -> f32 {
     (dx * dx + dy * dy) + dz * dz
 }
 
+/// The larger of `a` and `b`, for finite values (every coordinate and bound here): one
+/// instruction, where `f32::max` adds two to handle NaN. For ±0 it may give the other
+/// zero, which squares to the same bound.
+#[inline(always)]
+fn larger(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The smaller of `a` and `b`, for finite values (as [`larger`]).
+#[inline(always)]
+fn smaller(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
 /// A lower bound of `squared_distance` from `q` to any point inside the node's box.
 /// Per axis the gap is `min − q` below the box, `q − max` above it and 0 inside.
 #[inline(always)]
 fn box_bound(q: [f32; 3], node: &Node) -> f32 {
-    let gap = |a: usize| (node.min[a] - q[a]).max(q[a] - node.max[a]).max(0.0);
+    let gap = |a: usize| larger(larger(node.min[a] - q[a], q[a] - node.max[a]), 0.0);
     let (gx, gy, gz) = (gap(0), gap(1), gap(2));
     (gx * gx + gy * gy) + gz * gz
 }
@@ -146,7 +160,7 @@ fn box_bound(q: [f32; 3], node: &Node) -> f32 {
 /// each computed coordinate difference is at least the computed gap between the boxes.
 #[inline(always)]
 fn box_box_bound(lo: [f32; 3], hi: [f32; 3], node: &Node) -> f32 {
-    let gap = |a: usize| (node.min[a] - hi[a]).max(lo[a] - node.max[a]).max(0.0);
+    let gap = |a: usize| larger(larger(node.min[a] - hi[a], lo[a] - node.max[a]), 0.0);
     let (gx, gy, gz) = (gap(0), gap(1), gap(2));
     (gx * gx + gy * gy) + gz * gz
 }
@@ -213,9 +227,9 @@ impl Members {
         let (x, y, z, distance, id) = (&self.x[g], &self.y[g], &self.z[g], &self.distance[g], &self.id[g]);
         let mut any = false;
         for l in 0..LANES {
-            let gx = (node.min[0] - x[l]).max(x[l] - node.max[0]).max(0.0);
-            let gy = (node.min[1] - y[l]).max(y[l] - node.max[1]).max(0.0);
-            let gz = (node.min[2] - z[l]).max(z[l] - node.max[2]).max(0.0);
+            let gx = larger(larger(node.min[0] - x[l], x[l] - node.max[0]), 0.0);
+            let gy = larger(larger(node.min[1] - y[l], y[l] - node.max[1]), 0.0);
+            let gz = larger(larger(node.min[2] - z[l], z[l] - node.max[2]), 0.0);
             let bound = (gx * gx + gy * gy) + gz * gz;
             any |= (bound < distance[l]) | ((bound == distance[l]) & (node.min_id < id[l]));
         }
@@ -224,7 +238,14 @@ impl Members {
 
     /// The largest best distance of any member: no answer is farther.
     fn reach(&self) -> f32 {
-        self.distance[..self.groups].iter().flatten().fold(0.0, |r, &d| r.max(d))
+        // Lane by lane first (one vector instruction a group), then across the lanes.
+        let mut most = [0.0f32; LANES];
+        for distances in &self.distance[..self.groups] {
+            for l in 0..LANES {
+                most[l] = larger(most[l], distances[l]);
+            }
+        }
+        most.into_iter().fold(0.0, larger)
     }
 
     /// Each member's answer, in the batch's order: its nearest point, or that point's class.
@@ -259,6 +280,20 @@ fn offer_to_lanes(
         let wins = (d < distance[l]) | ((d == distance[l]) & (p_id < id[l]));
         distance[l] = if wins { d } else { distance[l] };
         id[l] = if wins { p_id } else { id[l] };
+    }
+}
+
+/// Independent bests a group keeps while it meets a leaf (a power of two dividing
+/// [`LEAF_SIZE`]).
+const CHAINS: usize = 2;
+
+/// Each lane keeps the better of its best and `other`'s, by [`better`]'s rule.
+#[inline(always)]
+fn keep_better_of_lanes(distance: &mut [f32; LANES], id: &mut [u32; LANES], other_distance: &[f32; LANES], other_id: &[u32; LANES]) {
+    for l in 0..LANES {
+        let wins = (other_distance[l] < distance[l]) | ((other_distance[l] == distance[l]) & (other_id[l] < id[l]));
+        distance[l] = if wins { other_distance[l] } else { distance[l] };
+        id[l] = if wins { other_id[l] } else { id[l] };
     }
 }
 
@@ -517,11 +552,27 @@ impl NearestIndex {
     fn leaves_within(&self, lo: [f32; 3], hi: [f32; 3], reach: f32, most: usize, leaves: &mut Vec<u32>) -> bool {
         leaves.clear();
         let first_leaf = 1usize << self.depth;
+        // Down from the root while the split planes alone leave one side within reach: the
+        // points on the other side are beyond the plane, and rounding is monotone, so their
+        // boxes' bounds would exceed `reach` too.
+        let mut start = 1;
+        while start < first_leaf {
+            let Split { pivot, axis } = self.splits[start];
+            let axis = axis as usize;
+            let (below, above) = (pivot - hi[axis], lo[axis] - pivot);
+            if below > 0.0 && below * below > reach {
+                start *= 2;
+            } else if above > 0.0 && above * above > reach {
+                start = 2 * start + 1;
+            } else {
+                break;
+            }
+        }
         // Depth-first: each step pops one node and pushes at most two, so the stack
         // never holds more than one node a level plus one.
         let mut stack = [0usize; 66];
         let mut top = 1;
-        stack[0] = 1;
+        stack[0] = start;
         while top > 0 {
             top -= 1;
             let node = stack[top];
@@ -550,18 +601,7 @@ impl NearestIndex {
         let mut members = Members::new();
         let mut start = 0;
         while start < count {
-            let first = query(start);
-            let (mut lo, mut hi) = (first, first);
-            let mut end = start + 1;
-            while end < count && end - start < BATCH_QUERIES {
-                let q = query(end);
-                let (grown_lo, grown_hi) = (std::array::from_fn(|a| lo[a].min(q[a])), std::array::from_fn(|a| hi[a].max(q[a])));
-                if span(grown_lo, grown_hi) > self.batch_span {
-                    break;
-                }
-                (lo, hi) = (grown_lo, grown_hi);
-                end += 1;
-            }
+            let (end, lo, hi) = self.next_batch(start, count, &query);
             members.gather((start..end).map(&query));
             match self.answer_batch(&mut members, lo, hi, &mut leaves, answer) {
                 Batch::Answered => {
@@ -583,6 +623,39 @@ impl NearestIndex {
             }
             start = end;
         }
+    }
+
+    /// The batch of queries from `start`: up to `end`, the first query that would make its
+    /// box `lo..=hi` span more than the batch may (or [`BATCH_QUERIES`] of them, or the
+    /// last query). Queries join [`LANES`] at a time while their box stays within the span
+    /// (the boxes of fewer are inside it, and their computed spans no larger), then one by
+    /// one: the batch is the same as one query at a time makes, with one check in eight.
+    #[inline(always)]
+    fn next_batch(&self, start: usize, count: usize, query: &impl Fn(usize) -> [f32; 3]) -> (usize, [f32; 3], [f32; 3]) {
+        let grow = |lo: [f32; 3], hi: [f32; 3], q: [f32; 3]| -> ([f32; 3], [f32; 3]) {
+            (std::array::from_fn(|a| smaller(lo[a], q[a])), std::array::from_fn(|a| larger(hi[a], q[a])))
+        };
+        let last = count.min(start + BATCH_QUERIES);
+        let (mut lo, mut hi) = (query(start), query(start));
+        let mut end = start + 1;
+        while end + LANES <= last {
+            let (mut chunk_lo, mut chunk_hi) = (lo, hi);
+            for k in end..end + LANES {
+                (chunk_lo, chunk_hi) = grow(chunk_lo, chunk_hi, query(k));
+            }
+            if span(chunk_lo, chunk_hi) > self.batch_span {
+                break;
+            }
+            (lo, hi, end) = (chunk_lo, chunk_hi, end + LANES);
+        }
+        while end < last {
+            let (grown_lo, grown_hi) = grow(lo, hi, query(end));
+            if span(grown_lo, grown_hi) > self.batch_span {
+                break;
+            }
+            (lo, hi, end) = (grown_lo, grown_hi, end + 1);
+        }
+        (end, lo, hi)
     }
 
     /// Answer a batch of `members` inside the box `lo..=hi`: the leaf holding the box's
@@ -680,11 +753,28 @@ impl NearestIndex {
             let LeafSlots { xs, ys, zs, ids } = self.leaf_slots(leaf);
             // The group on the stack while it meets the leaf: the compiler then keeps its
             // lanes in vector registers (working on `members` in place, it did not).
-            let (x, y, z, mut distance, mut id) = (members.x[g], members.y[g], members.z[g], members.distance[g], members.id[g]);
-            for slot in 0..LEAF_SIZE {
-                offer_to_lanes(&x, &y, &z, &mut distance, &mut id, xs[slot], ys[slot], zs[slot], ids[slot]);
+            let (x, y, z) = (members.x[g], members.y[g], members.z[g]);
+            // Each lane's best is the least (distance, index) pair, whatever the order the
+            // pairs are compared in: the slots go to [`CHAINS`] bests at once, merged at
+            // the end, so no slot waits for the one before it.
+            let mut distance = [[f32::INFINITY; LANES]; CHAINS];
+            let mut id = [[u32::MAX; LANES]; CHAINS];
+            (distance[0], id[0]) = (members.distance[g], members.id[g]);
+            for slots in (0..LEAF_SIZE).step_by(CHAINS) {
+                for c in 0..CHAINS {
+                    let slot = slots + c;
+                    offer_to_lanes(&x, &y, &z, &mut distance[c], &mut id[c], xs[slot], ys[slot], zs[slot], ids[slot]);
+                }
             }
-            (members.distance[g], members.id[g]) = (distance, id);
+            let mut width = CHAINS;
+            while width > 1 {
+                width /= 2;
+                for c in 0..width {
+                    let (other_distance, other_id) = (distance[c + width], id[c + width]);
+                    keep_better_of_lanes(&mut distance[c], &mut id[c], &other_distance, &other_id);
+                }
+            }
+            (members.distance[g], members.id[g]) = (distance[0], id[0]);
         }
         improves
     }
@@ -931,5 +1021,74 @@ mod tests {
         for queries in [4 << 20, 10_000_000, 10_000_003, 16 << 20, 100_000_000] {
             assert!(16 * locality_block(queries) <= 4 * queries + 16, "{queries} queries");
         }
+    }
+}
+
+#[cfg(test)]
+mod shortcut_tests {
+    //! The shortcuts of the batch search give what their plain forms give.
+    use super::*;
+    use crate::synthetic::Rng;
+
+    /// A thin noisy surface of `n` points over 2 m × 2 m, as a map of a floor is.
+    fn surface(rng: &mut Rng, n: usize) -> Vec<[f32; 3]> {
+        (0..n).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect()
+    }
+
+    #[test]
+    fn the_leaves_within_reach_are_those_whose_boxes_are_within_it() {
+        let mut rng = Rng::new(7);
+        let index = NearestIndex::build(&surface(&mut rng, 20_000));
+        let first_leaf = 1usize << index.depth;
+        let mut leaves = Vec::new();
+        let mut descended = 0;
+        for case in 0..300 {
+            let corner = [rng.range(-0.2, 2.2) as f32, rng.range(-0.2, 2.2) as f32, rng.range(-0.3, 0.3) as f32];
+            let size = rng.range(0.0, 0.05) as f32;
+            let (lo, hi) = (corner, corner.map(|c| c + size));
+            let reach = (rng.range(0.0, 0.2) as f32).powi(2);
+            let complete = index.leaves_within(lo, hi, reach, usize::MAX, &mut leaves);
+            assert!(complete);
+            let every: Vec<u32> = (0..first_leaf as u32).filter(|&l| box_box_bound(lo, hi, &index.nodes[first_leaf + l as usize]) <= reach).collect();
+            let mut found = leaves.clone();
+            found.sort_unstable();
+            assert_eq!(found, every, "case {case}: reach {reach} of {lo:?}..{hi:?}");
+            descended += usize::from(every.len() < first_leaf / 4);
+        }
+        assert!(descended > 100, "most cases need a part of the tree: {descended}");
+    }
+
+    #[test]
+    fn a_batch_takes_queries_while_their_box_stays_within_the_span_as_one_at_a_time_would() {
+        let mut rng = Rng::new(11);
+        let index = NearestIndex::build(&surface(&mut rng, 20_000));
+        // A walk in stretches of small, middling and large steps: batches end at every length.
+        let mut q = [1.0f32, 1.0, 0.0];
+        let queries: Vec<[f32; 3]> = (0..20_000)
+            .map(|i| {
+                let step = [0.0005, 0.005, 0.02][(i / 500) % 3];
+                q = [q[0] + rng.range(-step, step) as f32, q[1] + rng.range(-step, step) as f32, rng.range(-0.01, 0.01) as f32];
+                q
+            })
+            .collect();
+        let mut start = 0;
+        let mut lengths = std::collections::BTreeSet::new();
+        while start < queries.len() {
+            let (end, lo, hi) = index.next_batch(start, queries.len(), &|k| queries[k]);
+            // One at a time: the longest run from `start` whose box spans no more than the batch may.
+            let (mut one_lo, mut one_hi, mut one_end) = (queries[start], queries[start], start + 1);
+            while one_end < queries.len() && one_end - start < BATCH_QUERIES {
+                let p = queries[one_end];
+                let (grown_lo, grown_hi) = (std::array::from_fn(|a| one_lo[a].min(p[a])), std::array::from_fn(|a| one_hi[a].max(p[a])));
+                if span(grown_lo, grown_hi) > index.batch_span {
+                    break;
+                }
+                (one_lo, one_hi, one_end) = (grown_lo, grown_hi, one_end + 1);
+            }
+            assert_eq!((end, lo, hi), (one_end, one_lo, one_hi), "batch from {start}");
+            lengths.insert(end - start);
+            start = end;
+        }
+        assert!(lengths.len() > 40 && lengths.contains(&BATCH_QUERIES), "batches of many lengths: {lengths:?}");
     }
 }

@@ -940,6 +940,11 @@ mod tests {
     use super::*;
     use crate::synthetic::Rng;
 
+    /// A thin noisy surface of `n` points over 2 m × 2 m, as a map of a floor is.
+    fn surface(rng: &mut Rng, n: usize) -> Vec<[f32; 3]> {
+        (0..n).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect()
+    }
+
     #[test]
     fn batches_half_a_metre_above_a_surface_are_bounded_by_their_centres_answer() {
         // The geometry of `dense_queries_half_a_metre_from_every_point_are_answered_exactly`
@@ -947,7 +952,7 @@ mod tests {
         // bound reaches more than BATCH_LEAVES leaves, the bound of the centre's answer
         // at most FAR_BATCH_LEAVES, and the answers are exact.
         let mut rng = Rng::new(38);
-        let points: Vec<[f32; 3]> = (0..30_000).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect();
+        let points = surface(&mut rng, 30_000);
         let index = NearestIndex::build(&points);
         let (mut members, mut leaves) = (Members::new(), Vec::new());
         let mut bounded_by_centre = 0;
@@ -980,7 +985,7 @@ mod tests {
     fn a_batch_whose_candidate_leaves_share_a_class_takes_it_without_searching() {
         // Two halves of a surface, class 0 left of x = 1 and class 1 right of it.
         let mut rng = Rng::new(41);
-        let points: Vec<[f32; 3]> = (0..30_000).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect();
+        let points = surface(&mut rng, 30_000);
         let of_point: Vec<u32> = points.iter().map(|p| u32::from(p[0] > 1.0)).collect();
         let index = NearestIndex::build(&points);
         let classes = index.point_classes(&of_point);
@@ -1021,18 +1026,6 @@ mod tests {
         for queries in [4 << 20, 10_000_000, 10_000_003, 16 << 20, 100_000_000] {
             assert!(16 * locality_block(queries) <= 4 * queries + 16, "{queries} queries");
         }
-    }
-}
-
-#[cfg(test)]
-mod shortcut_tests {
-    //! The shortcuts of the batch search give what their plain forms give.
-    use super::*;
-    use crate::synthetic::Rng;
-
-    /// A thin noisy surface of `n` points over 2 m × 2 m, as a map of a floor is.
-    fn surface(rng: &mut Rng, n: usize) -> Vec<[f32; 3]> {
-        (0..n).map(|_| [rng.range(0.0, 2.0) as f32, rng.range(0.0, 2.0) as f32, rng.range(-0.01, 0.01) as f32]).collect()
     }
 
     #[test]

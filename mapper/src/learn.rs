@@ -1,7 +1,8 @@
 //! Learning what regions are, from the val split's frames under baseline lighting: each
-//! region of every used frame, labelled with the class most of its blocks show, trains a
-//! random forest (smartcore's CART trees, each grown on its own bootstrap sample with its
-//! own seed, so the forest is the same on any number of threads).
+//! region of every used frame, labelled with the class most of its blocks show, trains two
+//! random forests (smartcore's CART trees, each grown on its own bootstrap sample with its
+//! own seed, so the forests are the same on any number of threads) whose trees vote
+//! together: one reads every feature of the set, the other the geometry alone.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -19,7 +20,7 @@ use crate::frame::{Frame, block_side, read_frame};
 use crate::public::PublicSequence;
 use crate::regions::{NONE, Regions, segment};
 
-/// Trees of the forest.
+/// Trees of each of the classifier's two forests.
 pub const TREES: u64 = 32;
 /// At most this many training regions of one class (frequent classes are thinned evenly,
 /// so walls and floors do not drown the small objects the scores average over).
@@ -28,14 +29,24 @@ const SEED: u64 = 20_261_128;
 
 type Tree = RandomForestClassifier<f64, u32, DenseMatrix<f64>, Vec<u32>>;
 
-/// The trained region classifier.
+/// The trained region classifier: two forests of [`TREES`] trees each, whose trees vote
+/// together. The first reads every feature of the set; the second reads the geometry
+/// alone (the last columns of a row), so a region whose colour no val region of its class
+/// showed (a finish the val scenes never had) still gets the votes its height,
+/// orientation and size earn, where trees that split on colour first would send it
+/// anywhere. The geometry-only twin has two geometry forests of other seeds, so both
+/// methods have as many trees.
 pub struct RegionClassifier {
-    trees: Vec<Tree>,
+    whole: Vec<Tree>,
+    geometry: Vec<Tree>,
     /// The features it reads.
     pub set: FeatureSet,
     /// Training regions it learned from, per class id.
     pub examples: BTreeMap<u32, usize>,
 }
+
+/// The votes of the trees for one region: how many trees name each class.
+pub type Votes = BTreeMap<u32, u32>;
 
 /// A sequence's frames read and segmented, with its levels.
 pub struct SeenSequence {
@@ -131,14 +142,14 @@ impl RegionClassifier {
         Self::fit(&rows, &classes, set).map_err(|e| InputError::new(release, "(training)", e))
     }
 
-    /// Grow the forest on `rows` labelled `classes`.
+    /// Grow both forests on `rows` labelled `classes`.
     pub fn fit(rows: &[Vec<f64>], classes: &[u32], set: FeatureSet) -> std::result::Result<Self, String> {
         if rows.is_empty() {
             return Err("no region to learn from".into());
         }
-        let x = matrix(rows, set.len());
+        let (whole, geometry) = (matrix(rows, set.len()), matrix(&geometry_columns(rows, set), FeatureSet::GeometryOnly.len()));
         let y = classes.to_vec();
-        let trees = (0..TREES)
+        let mut trees = (0..2 * TREES)
             .into_par_iter()
             .map(|t| {
                 let parameters = RandomForestClassifierParameters {
@@ -151,31 +162,45 @@ impl RegionClassifier {
                     keep_samples: false,
                     seed: SEED + 7919 * t,
                 };
-                Tree::fit(&x, &y, parameters).map_err(|e| e.to_string())
+                Tree::fit(if t < TREES { &whole } else { &geometry }, &y, parameters).map_err(|e| e.to_string())
             })
             .collect::<std::result::Result<Vec<_>, _>>()?;
+        let geometry = trees.split_off(TREES as usize);
         let mut examples = BTreeMap::new();
         for &c in classes {
             *examples.entry(c).or_default() += 1;
         }
-        Ok(Self { trees, set, examples })
+        Ok(Self { whole: trees, geometry, set, examples })
     }
 
     /// The class of each row: the trees' majority (ties to the lowest class id).
     pub fn classify(&self, rows: &[Vec<f64>]) -> Vec<u32> {
+        self.votes(rows).iter().map(crate::majority).collect()
+    }
+
+    /// The votes of every tree of both forests for each row.
+    pub fn votes(&self, rows: &[Vec<f64>]) -> Vec<Votes> {
         if rows.is_empty() {
             return vec![];
         }
-        let x = matrix(rows, self.set.len());
-        let mut votes: Vec<BTreeMap<u32, u32>> = vec![BTreeMap::new(); rows.len()];
-        for tree in &self.trees {
-            let predicted = tree.predict(&x).expect("a fitted tree predicts");
+        let mut votes: Vec<Votes> = vec![BTreeMap::new(); rows.len()];
+        let whole = matrix(rows, self.set.len());
+        let geometry = matrix(&geometry_columns(rows, self.set), FeatureSet::GeometryOnly.len());
+        let forests = self.whole.iter().map(|tree| (tree, &whole)).chain(self.geometry.iter().map(|tree| (tree, &geometry)));
+        for (tree, x) in forests {
+            let predicted = tree.predict(x).expect("a fitted tree predicts");
             for (v, c) in votes.iter_mut().zip(predicted) {
                 *v.entry(c).or_default() += 1;
             }
         }
-        votes.iter().map(crate::majority).collect()
+        votes
     }
+}
+
+/// The geometry features of each row of `set` (a row's last columns).
+fn geometry_columns(rows: &[Vec<f64>], set: FeatureSet) -> Vec<Vec<f64>> {
+    let skip = set.len() - FeatureSet::GeometryOnly.len();
+    rows.iter().map(|row| row[skip..].to_vec()).collect()
 }
 
 #[cfg(test)]
@@ -198,6 +223,29 @@ mod tests {
         let probe: Vec<Vec<f64>> = (0..50).map(|i| vec![i as f64 * 0.04; FeatureSet::GeometryOnly.len()]).collect();
         assert_eq!(forest.classify(&probe), again.classify(&probe));
         assert_eq!(forest.examples, BTreeMap::from([(3, 100), (7, 100)]));
+    }
+
+    #[test]
+    fn a_region_of_a_colour_never_learned_keeps_the_votes_of_its_geometry() {
+        // Class 3 is low and red, class 7 high and blue, in every training region: either
+        // the colour or the height tells them apart.
+        let set = FeatureSet::Seeing;
+        let region = |red: f64, blue: f64, height: f64, i: usize| -> Vec<f64> {
+            let wobble = (i % 7) as f64 * 0.01;
+            let mut row = vec![0.3 + wobble; set.len()];
+            (row[0], row[2]) = (red + wobble, blue + wobble);
+            let geometry = set.len() - FeatureSet::GeometryOnly.len();
+            row[geometry..].iter_mut().for_each(|g| *g = height + wobble);
+            row
+        };
+        let rows: Vec<Vec<f64>> = (0..200).map(|i| if i % 2 == 0 { region(0.9, 0.1, 0.2, i) } else { region(0.1, 0.9, 1.5, i) }).collect();
+        let classes: Vec<u32> = (0..200).map(|i| if i % 2 == 0 { 3 } else { 7 }).collect();
+        let forest = RegionClassifier::fit(&rows, &classes, set).unwrap();
+        // A low region painted blue: the trees that read colour may call it 7, but the 32
+        // that read geometry alone all call it 3.
+        let votes = &forest.votes(&[region(0.1, 0.9, 0.2, 0)])[0];
+        assert_eq!(votes.values().sum::<u32>(), 2 * TREES as u32, "every tree of both forests votes");
+        assert!(votes.get(&3).copied().unwrap_or(0) >= TREES as u32, "the geometry forest's votes: {votes:?}");
     }
 
     #[test]

@@ -3,12 +3,13 @@
 //! to learn from, the val split's semantic frames. It never reads a scene's ground truth,
 //! prompt or questions, nor any test scene's semantics.
 //!
-//! - [`learn`]: a random forest classifies image regions ([`regions`]) by what their
-//!   pixels show and the geometry their depth gives ([`features`]), trained on the val
-//!   split's frames under baseline lighting.
-//! - [`voxels`]: every used frame's regions are classified, their pixels lifted with depth
-//!   and pose into a voxel map that votes per voxel, and objects cut as connected voxels
-//!   of one class.
+//! - [`learn`]: two random forests classify image regions ([`regions`]), one by what their
+//!   pixels show and the geometry their depth gives ([`features`]), one by the geometry
+//!   alone, their trees voting together; trained on the val split's frames under baseline
+//!   lighting.
+//! - [`voxels`]: every used frame's regions get the trees' votes, their pixels are lifted
+//!   with depth and pose into a voxel map that sums the votes per voxel, and objects are
+//!   cut as connected voxels of one class.
 //! - [`submission`]: the maps and scene graphs in the submission format, for every scene
 //!   and lighting.
 

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use crate::features::FeatureSet;
-use crate::learn::{RegionClassifier, see};
+use crate::learn::{RegionClassifier, Votes, see};
 use crate::public::PublicSequence;
 use crate::regions::NONE;
 use crate::voxels::{CutMap, GRAPH_MIN_VOXELS, VoxelMap};
@@ -40,12 +40,13 @@ pub fn method_name(set: FeatureSet) -> &'static str {
 fn method_description(set: FeatureSet) -> &'static str {
     match set {
         FeatureSet::Seeing => {
-            "The project's reference mapper: image regions (colour superpixels cut at depth steps) classified by a random forest \
-             from their colour, texture and geometry, learned on the val split's frames under baseline lighting; lifted with \
-             depth and pose into 5 cm voxels that vote; objects are connected voxels of one class. Reads only what a team downloads."
+            "The project's reference mapper: image regions (colour superpixels cut at depth steps) classified by two random forests \
+             whose trees vote together, one from the regions' colour, texture and geometry, one from their geometry alone, learned on \
+             the val split's frames under baseline lighting; lifted with depth and pose into 5 cm voxels that sum the trees' votes; \
+             objects are connected voxels of one class. Reads only what a team downloads."
         }
         FeatureSet::GeometryOnly => {
-            "The reference mapper without colour and texture: regions classified from their geometry alone (height, orientation, size, range)."
+            "The reference mapper without colour and texture: regions classified by two forests from their geometry alone (height, orientation, size, range)."
         }
     }
 }
@@ -76,12 +77,12 @@ pub fn perceive(release: &Path, out: &Path, set: FeatureSet) -> Result<Perceived
 pub fn map_sequence(release: &Path, scene: &ReleaseScene, lighting: Lighting, classifier: &RegionClassifier) -> Result<CutMap> {
     let sequence = PublicSequence::open(release, lighting, &scene.id, scene.split)?;
     let seen = see(&sequence, false)?;
-    let region_classes: Vec<Vec<u32>> = (0..seen.frames.len()).into_par_iter().map(|k| classifier.classify(&seen.features(k, classifier.set))).collect();
+    let region_votes: Vec<Vec<Votes>> = (0..seen.frames.len()).into_par_iter().map(|k| classifier.votes(&seen.features(k, classifier.set))).collect();
     let mut map = VoxelMap::default();
-    for ((frame, regions), classes) in seen.frames.iter().zip(&seen.regions).zip(&region_classes) {
+    for ((frame, regions), votes) in seen.frames.iter().zip(&seen.regions).zip(&region_votes) {
         for (i, &r) in regions.of_block.iter().enumerate() {
             if r != NONE {
-                map.add(frame.world[i], classes[r as usize], frame.rgb[i]);
+                map.add(frame.world[i], &votes[r as usize], frame.rgb[i]);
             }
         }
     }

@@ -1,7 +1,10 @@
-//! The map: labelled pixels lifted into 5 cm voxels that vote per voxel, and objects cut
-//! as connected voxels of one class.
+//! The map: classified pixels lifted into 5 cm voxels, where each pixel brings the votes
+//! its region got from the classifier's trees, and objects cut as connected voxels of one
+//! class.
 
 use std::collections::{BTreeMap, HashMap};
+
+use crate::learn::Votes;
 
 /// Side of a voxel in metres.
 pub const VOXEL_M: f32 = 0.05;
@@ -51,11 +54,15 @@ pub struct CutMap {
 }
 
 impl VoxelMap {
-    /// Add a point of class `class` whose pixel showed `rgb` (each channel in [0, 1]).
-    pub fn add(&mut self, point: [f32; 3], class: u32, rgb: [f32; 3]) {
+    /// Add a point whose region the trees voted for as `votes` (class id to trees), and
+    /// whose pixel showed `rgb` (each channel in [0, 1]). A region the trees were unsure of
+    /// weighs in its voxels as unsure: its runner-up classes keep their votes.
+    pub fn add(&mut self, point: [f32; 3], votes: &Votes, rgb: [f32; 3]) {
         let key = point.map(|c| (c / VOXEL_M).floor() as i32);
         let cell = self.cells.entry(key).or_default();
-        *cell.votes.entry(class).or_default() += 1;
+        for (&class, &trees) in votes {
+            *cell.votes.entry(class).or_default() += trees;
+        }
         for c in 0..3 {
             cell.rgb[c] += rgb[c] as f64 * 255.0;
         }
@@ -72,7 +79,7 @@ impl VoxelMap {
         self.cells.is_empty()
     }
 
-    /// Each voxel takes the class most of its points voted for (ties to the lowest id), and
+    /// Each voxel takes the class with the most votes of its points (ties to the lowest id), and
     /// 26-connected voxels of one class make an object.
     pub fn cut(&self) -> CutMap {
         let mut keys: Vec<Key> = self.cells.keys().copied().collect();
@@ -135,15 +142,20 @@ fn neighbours(k: Key) -> impl Iterator<Item = Key> {
 mod tests {
     use super::*;
 
+    /// One tree's vote for `class`.
+    fn one(class: u32) -> Votes {
+        Votes::from([(class, 1)])
+    }
+
     #[test]
     fn voxels_take_the_majority_class_and_touching_voxels_of_a_class_are_one_object() {
         let mut map = VoxelMap::default();
         // A 3-voxel bar of class 4 along x, and one voxel of class 9 two voxels away.
         for x in 0..3 {
-            map.add([x as f32 * VOXEL_M + 0.01, 0.01, 0.01], 4, [1.0, 0.0, 0.0]);
+            map.add([x as f32 * VOXEL_M + 0.01, 0.01, 0.01], &one(4), [1.0, 0.0, 0.0]);
         }
-        map.add([0.01, 0.01, 0.01], 9, [0.0, 0.0, 1.0]); // outvoted? no: a tie goes to the lower id
-        map.add([5.0 * VOXEL_M + 0.01, 0.01, 0.01], 9, [0.0, 0.0, 1.0]);
+        map.add([0.01, 0.01, 0.01], &one(9), [0.0, 0.0, 1.0]); // outvoted? no: a tie goes to the lower id
+        map.add([5.0 * VOXEL_M + 0.01, 0.01, 0.01], &one(9), [0.0, 0.0, 1.0]);
         let cut = map.cut();
         assert_eq!(cut.points.len(), 4);
         assert_eq!(cut.object_ids, vec![0, 0, 0, 1]);
@@ -159,11 +171,22 @@ mod tests {
     #[test]
     fn diagonal_voxels_connect_and_classes_split_objects() {
         let mut map = VoxelMap::default();
-        map.add([0.01, 0.01, 0.01], 2, [0.5; 3]);
-        map.add([0.06, 0.06, 0.06], 2, [0.5; 3]);
-        map.add([0.11, 0.11, 0.11], 3, [0.5; 3]);
+        map.add([0.01, 0.01, 0.01], &one(2), [0.5; 3]);
+        map.add([0.06, 0.06, 0.06], &one(2), [0.5; 3]);
+        map.add([0.11, 0.11, 0.11], &one(3), [0.5; 3]);
         let cut = map.cut();
         assert_eq!(cut.objects.len(), 2);
         assert_eq!(cut.object_ids, vec![0, 0, 1]);
+    }
+
+    #[test]
+    fn a_voxel_sums_the_trees_votes_of_its_points_so_sure_regions_outweigh_unsure_ones() {
+        let mut map = VoxelMap::default();
+        // Two points whose regions the trees called 5 by 34 to 30, and one called 7 by 60 to 4.
+        map.add([0.01, 0.01, 0.01], &Votes::from([(5, 34), (7, 30)]), [0.5; 3]);
+        map.add([0.02, 0.01, 0.01], &Votes::from([(5, 34), (7, 30)]), [0.5; 3]);
+        map.add([0.03, 0.01, 0.01], &Votes::from([(7, 60), (5, 4)]), [0.5; 3]);
+        // Class 5 names two of the three points, but class 7 has 120 votes to its 72.
+        assert_eq!(map.cut().objects[0].class, 7);
     }
 }

@@ -837,9 +837,9 @@ impl Lod {
     }
 }
 
-/// The albedo of `surface` at barycentrics `b` of `tri` — its colour, times its texture's
-/// texel there (of mipmap `level`, or the smallest) when it has one — and the ambient
-/// occlusion the texel carries (its alpha, when the surface keeps one there:
+/// The albedo of `surface` at barycentrics `b` of `tri` — its colour, times its texture
+/// there (of mipmap `level`, or the smallest) when it has one — and the ambient occlusion
+/// the texture carries (its alpha, when the surface keeps one there:
 /// [`Surface::occlusion_in_alpha`]; else 1).
 #[inline(always)]
 fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3], level: usize) -> [f32; 4] {
@@ -848,14 +848,40 @@ fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3], level: usize) -> [f
     let tex = &mips.levels[level.min(mips.levels.len() - 1)];
     let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
     let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
-    // Through u32, which converts in one instruction where usize takes
-    // several; the values are the same (the product is below the width).
+    let t = bilinear(tex, u, v);
+    let occlusion = if surface.occlusion_in_alpha { t[3] * INV_255 } else { 1.0 };
+    [c[0] * t[0] * INV_255, c[1] * t[1] * INV_255, c[2] * t[2] * INV_255, occlusion]
+}
+
+/// The texture at `(u, v)`, repeated beyond 0..1, blended from the four texels around the
+/// point (their centres at half-texel offsets), channels 0..255. Read the nearest texel
+/// instead, a texture seen close up shows its texels as squares (a picture's print, a
+/// rug's weave, the grain of a table at arm's length).
+#[inline(always)]
+fn bilinear(tex: &crate::convert::gltf::Texture, u: f32, v: f32) -> [f32; 4] {
     let (tw, th) = (tex.width as usize, tex.height as usize);
-    let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
-    let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
-    let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 4];
-    let occlusion = if surface.occlusion_in_alpha { t[3] as f32 * INV_255 } else { 1.0 };
-    [c[0] * t[0] as f32 * INV_255, c[1] * t[1] as f32 * INV_255, c[2] * t[2] as f32 * INV_255, occlusion]
+    // The texel left of (above) the point and the weight of the one right of (below) it.
+    // Shifted by a whole texture so the value is positive: the float-to-integer conversion
+    // then floors, and the texel wraps with one comparison. Through u32, which converts in
+    // one instruction where usize takes several; the values are below 2·width.
+    let axis = |t: f32, n: usize| -> (usize, usize, f32) {
+        let s = fract(t) * n as f32 + (n as f32 - 0.5);
+        let floor = s as u32 as usize;
+        let weight = s - floor as f32;
+        let first = if floor >= n { floor - n } else { floor };
+        let first = first.min(n - 1);
+        let second = if first + 1 == n { 0 } else { first + 1 };
+        (first, second, weight)
+    };
+    let (x0, x1, wx) = axis(u, tw);
+    let (y0, y1, wy) = axis(v, th);
+    let texel = |x: usize, y: usize| -> &[u8] { &tex.rgba[4 * (y * tw + x)..4 * (y * tw + x) + 4] };
+    let (a, b, c, d) = (texel(x0, y0), texel(x1, y0), texel(x0, y1), texel(x1, y1));
+    std::array::from_fn(|k| {
+        let top = a[k] as f32 + wx * (b[k] as f32 - a[k] as f32);
+        let bottom = c[k] as f32 + wx * (d[k] as f32 - c[k] as f32);
+        top + wy * (bottom - top)
+    })
 }
 
 /// 3. Colour: albedo times light, clipped, rounded half up (without libm's roundf, which
@@ -974,5 +1000,25 @@ mod tests {
         let clusters = 24 * clustered.clusters().len();
         assert!(drawn > 24 * 160 * 120 / 10, "the objects are in view: {drawn} pixels");
         assert!(culled > clusters / 2, "{culled} of {clusters} clusters culled");
+    }
+
+    #[test]
+    fn a_texture_is_blended_between_texel_centres_and_wraps_at_its_edges() {
+        use crate::convert::gltf::Texture;
+        // Two texels side by side, one row: black then white (alpha 0 then 200).
+        let tex = Texture { width: 2, height: 1, rgba: vec![0, 0, 0, 0, 255, 255, 255, 200] };
+        let red = |u: f32| bilinear(&tex, u, 0.5)[0];
+        // At a texel's centre, that texel alone.
+        assert_eq!(red(0.25), 0.0);
+        assert_eq!(red(0.75), 255.0);
+        // Halfway between the centres, the mean; a quarter of the way, a quarter of the step.
+        assert_eq!(red(0.5), 127.5);
+        assert_eq!(red(0.375), 63.75);
+        // At the texture's edge, halfway between its last texel and (repeated) its first.
+        assert_eq!(red(0.0), 127.5);
+        assert_eq!(red(1.0), 127.5);
+        assert_eq!(red(-0.25), 255.0);
+        // Every channel is blended alike, alpha too.
+        assert_eq!(bilinear(&tex, 0.5, 0.9), [127.5, 127.5, 127.5, 100.0]);
     }
 }

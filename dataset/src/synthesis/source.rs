@@ -39,11 +39,14 @@ pub struct ShellTexture {
     pub tile: f64,
 }
 
-/// The floor and wall textures of one room.
+/// The floor and wall textures of one room, and the paint its walls are drawn in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RoomShell {
     pub floor: ShellTexture,
     pub wall: ShellTexture,
+    /// A finish of the wall class's palette (the class table); `None` keeps the wall
+    /// texture's own colour.
+    pub wall_paint: Option<&'static Finish>,
 }
 
 /// The synthesizer's asset source: the procedural library, or a pack in front of it.
@@ -102,8 +105,8 @@ impl AssetSource {
         Some(pack_asset(pack, entry, scale, finish))
     }
 
-    /// The floor and wall textures of a room, drawn from `seed`; `None` without a pack or
-    /// when it has no floor or no wall texture.
+    /// The floor and wall textures of a room and its walls' paint, drawn from `seed`; `None`
+    /// without a pack or when it has no floor or no wall texture.
     pub fn room_shell(&self, seed: u64) -> Option<RoomShell> {
         let pack = self.pack.as_deref()?;
         let mut rng = Rng::new(seed ^ 0x5BE1_1);
@@ -114,7 +117,8 @@ impl AssetSource {
                 ShellTexture { name: s.name.clone(), file: pack.path(&s.path), tile: s.tile }
             })
         };
-        Some(RoomShell { floor: pick(ShellKind::Floor)?, wall: pick(ShellKind::Wall)? })
+        let (floor, wall) = (pick(ShellKind::Floor)?, pick(ShellKind::Wall)?);
+        Some(RoomShell { floor, wall, wall_paint: finish_drawn("wall", &rng) })
     }
 }
 

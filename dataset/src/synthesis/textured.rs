@@ -94,21 +94,25 @@ const MAIN_FAR: f32 = 85.0;
 /// far as the finish's material shows a pattern (wood its grain, fabric its weave, lacquer
 /// little), bounded either way so no texel turns into a speck; a main material the bake left
 /// flat gets a fine pattern of its finish's material. It averages to the finish; texels of
-/// other colours (a chair's black legs, a desk's white frame) keep theirs.
+/// other colours (a chair's black legs, a desk's white frame) keep theirs, unless they lie
+/// scattered among the main material's ([`among_main`]): a weave's dark threads, a
+/// granite's flecks, a bake's aliasing are the material's pattern, and kept in their own
+/// colours they were the yellow and black "starfield" on a navy sofa.
 fn recolour(texture: &Texture, meshes: &[&TriangleMesh], finish: &Finish) -> Vec<u8> {
     let samples = shown_texels(texture, meshes);
     let main = main_colour(&samples);
     let main_luminance = luminance(main);
     let flat = brightness_spread(&samples, main) < FLAT;
     let strength = finish.material.pattern();
-    let width = texture.width as usize;
-    texture
-        .rgba
-        .chunks_exact(4)
+    let (width, height) = (texture.width as usize, texture.height as usize);
+    let texels: Vec<[f32; 3]> = texture.rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]].map(f32::from)).collect();
+    let of_main: Vec<f32> = texels.iter().map(|&t| ((MAIN_FAR - distance(t, main)) / (MAIN_FAR - MAIN_NEAR)).clamp(0.0, 1.0)).collect();
+    let among = among_main(&of_main, width, height);
+    texels
+        .iter()
         .enumerate()
-        .flat_map(|(i, p)| {
-            let texel = [p[0], p[1], p[2]].map(f32::from);
-            let weight = ((MAIN_FAR - distance(texel, main)) / (MAIN_FAR - MAIN_NEAR)).clamp(0.0, 1.0);
+        .flat_map(|(i, &texel)| {
+            let weight = of_main[i].max(among[i]);
             let deviation = if flat {
                 material_pattern(finish.material, i % width, i / width)
             } else {
@@ -118,6 +122,36 @@ fn recolour(texture: &Texture, meshes: &[&TriangleMesh], finish: &Finish) -> Vec
             std::array::from_fn::<u8, 3, _>(|c| (weight * finish.colour[c] * gain * 255.0 + (1.0 - weight) * texel[c]).round().clamp(0.0, 255.0) as u8)
         })
         .collect()
+}
+
+/// Texels around a texel (either way, along each axis) that say whether it lies among the
+/// main material: a weave's threads and a stone's flecks are a texel or two wide.
+const AMONG_RADIUS: usize = 2;
+/// Share of the texels around a texel that are of the main material (`of_main`, averaged)
+/// below which it is wholly apart from it, and above which wholly among it.
+const AMONG_APART: f32 = 0.3;
+const AMONG_WITHIN: f32 = 0.55;
+
+/// For each texel, how far it lies among texels of the main material (0 to 1): the mean of
+/// `of_main` over the square of [`AMONG_RADIUS`] around it (cut at the texture's edges),
+/// mapped from [`AMONG_APART`]..[`AMONG_WITHIN`] to 0..1. A part of another colour (legs,
+/// a handle, a frame) is a patch of its own, so its texels, all but its rim, stay apart.
+fn among_main(of_main: &[f32], width: usize, height: usize) -> Vec<f32> {
+    // A box filter, rows then columns: each texel the mean of the texels within the radius.
+    let mean_along = |values: &[f32], len: usize, count: usize, at: &dyn Fn(usize, usize) -> usize| -> Vec<f32> {
+        let mut out = vec![0.0f32; values.len()];
+        for line in 0..count {
+            for k in 0..len {
+                let (lo, hi) = (k.saturating_sub(AMONG_RADIUS), (k + AMONG_RADIUS).min(len - 1));
+                let sum: f32 = (lo..=hi).map(|j| values[at(line, j)]).sum();
+                out[at(line, k)] = sum / (hi - lo + 1) as f32;
+            }
+        }
+        out
+    };
+    let rows = mean_along(of_main, width, height, &|y, x| y * width + x);
+    let around = mean_along(&rows, height, width, &|x, y| y * width + x);
+    around.into_iter().map(|share| ((share - AMONG_APART) / (AMONG_WITHIN - AMONG_APART)).clamp(0.0, 1.0)).collect()
 }
 
 fn luminance(p: [f32; 3]) -> f32 {
@@ -224,14 +258,45 @@ fn main_colour(samples: &[([f32; 3], f32)]) -> [f32; 3] {
     if samples.is_empty() { [128.0; 3] } else { main }
 }
 
+/// The largest relative brightness a shell texture's marks (plaster, brush strokes) give a
+/// painted texel, either way.
+const PAINT_DEVIATION: f32 = 0.25;
+
+/// `texture` in `paint`: every texel the paint's colour, as much brighter or darker as the
+/// texel is against the texture's mean brightness (within [`PAINT_DEVIATION`]), so the
+/// wall keeps its plaster and loses the texture's own hue (every room's walls were one
+/// lilac before).
+fn painted(texture: &Texture, paint: &Finish) -> Vec<u8> {
+    let texels = || texture.rgba.chunks_exact(4).map(|p| luminance([p[0], p[1], p[2]].map(f32::from)));
+    let mean = texels().sum::<f32>() / texels().len().max(1) as f32;
+    texels()
+        .flat_map(|l| {
+            let gain = 1.0 + ((l - mean) / mean.max(PATTERN_FLOOR)).clamp(-PAINT_DEVIATION, PAINT_DEVIATION);
+            paint.colour.map(|c| (c * gain * 255.0).round().clamp(0.0, 255.0) as u8)
+        })
+        .collect()
+}
+
 /// A box of `size` (Drake axes, centred at the origin) as `dir/stem.gltf`, its faces
-/// textured with `shell` tiled in world metres: floors and walls.
-pub fn write_shell_box(shell: &ShellTexture, size: [f64; 3], dir: &Path, stem: &str) -> Result<()> {
+/// textured with `shell` tiled in world metres: floors and walls; with a `paint`, the
+/// texture in that paint ([`painted`]).
+pub fn write_shell_box(shell: &ShellTexture, paint: Option<&Finish>, size: [f64; 3], dir: &Path, stem: &str) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
-    let extension = shell.file.extension().and_then(|e| e.to_str()).unwrap_or("jpg").to_ascii_lowercase();
-    let image = format!("{}_texture.{extension}", shell.name);
-    let target = dir.join(&image);
-    std::fs::copy(&shell.file, &target).map_err(|e| InputError::io(&shell.file, &e))?;
+    let image = match paint {
+        Some(paint) => {
+            let image = format!("{}_{}_texture.png", shell.name, paint.name);
+            let bytes = std::fs::read(&shell.file).map_err(|e| InputError::io(&shell.file, &e))?;
+            let texture = crate::convert::gltf::decode_image(&bytes).map_err(|why| InputError::new(&shell.file, "image", why))?;
+            write_png_rgb(&dir.join(&image), &RgbImage { width: texture.width, height: texture.height, pixels: painted(&texture, paint) })?;
+            image
+        }
+        None => {
+            let extension = shell.file.extension().and_then(|e| e.to_str()).unwrap_or("jpg").to_ascii_lowercase();
+            let image = format!("{}_texture.{extension}", shell.name);
+            std::fs::copy(&shell.file, dir.join(&image)).map_err(|e| InputError::io(&shell.file, &e))?;
+            image
+        }
+    };
     let h = size.map(|v| v / 2.0);
     let (mut positions, mut normals, mut uvs, mut indices) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     // Each face: its normal axis and sign; texture axes are the other two, in metres / tile.
@@ -267,4 +332,78 @@ pub fn write_shell_box(shell: &ShellTexture, size: [f64; 3], dir: &Path, stem: &
         material: OutMaterial { name: &shell.name, color: [1.0; 4], texture: Some(&image), occlusion: None },
     };
     write_gltf(dir, stem, stem, "osmab room shell", &[primitive])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::classes::table;
+
+    /// A `size`×`size` texture of `base`, with `paint` at the texels `at` says.
+    fn texture(size: usize, base: [u8; 3], paint: [u8; 3], at: impl Fn(usize, usize) -> bool) -> Texture {
+        let rgba = (0..size * size)
+            .flat_map(|i| {
+                let c = if at(i % size, i / size) { paint } else { base };
+                [c[0], c[1], c[2], 255]
+            })
+            .collect();
+        Texture { width: size as u32, height: size as u32, rgba }
+    }
+
+    /// A grid of 8 × 8 quads over the whole texture (its triangles' centres sample it).
+    fn grid() -> TriangleMesh {
+        let n = 8;
+        let corner = |i: usize, j: usize| [i as f32 / n as f32, j as f32 / n as f32];
+        let positions: Vec<[f32; 3]> = (0..=n).flat_map(|j| (0..=n).map(move |i| [i as f32, j as f32, 0.0])).collect();
+        let uvs = (0..=n).flat_map(|j| (0..=n).map(move |i| corner(i, j))).collect();
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let indices =
+            (0..n).flat_map(|j| (0..n).flat_map(move |i| [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)])).collect();
+        TriangleMesh { normals: vec![[0.0, 0.0, 1.0]; positions.len()], positions, uvs: Some(uvs), indices, material: Some(0) }
+    }
+
+    fn texel(rgb: &[u8], size: usize, x: usize, y: usize) -> [u8; 3] {
+        let i = 3 * (y * size + x);
+        [rgb[i], rgb[i + 1], rgb[i + 2]]
+    }
+
+    #[test]
+    fn a_painted_wall_takes_the_paints_colour_on_average_and_keeps_the_textures_marks() {
+        let paint = table().finish("pale_blue_paint").expect("a finish of the table");
+        // A lilac plaster: two brightnesses in stripes.
+        let plaster = texture(8, [170, 160, 180], [150, 140, 160], |x, _| x % 2 == 0);
+        let out = painted(&plaster, paint);
+        let mean: [f32; 3] = std::array::from_fn(|c| out.chunks_exact(3).map(|t| t[c] as f32).sum::<f32>() / 64.0);
+        for c in 0..3 {
+            assert!((mean[c] - paint.colour[c] * 255.0).abs() < 1.5, "channel {c}: {mean:?} against {:?}", paint.colour);
+        }
+        // The darker stripes stay darker, by their share of the brightness.
+        let (light, dark) = (texel(&out, 8, 1, 0), texel(&out, 8, 0, 0));
+        assert!(dark.iter().zip(light).all(|(&d, l)| (d as f32) < l as f32 * 0.95), "{dark:?} {light:?}");
+    }
+
+    #[test]
+    fn scattered_threads_of_another_colour_take_the_finish_as_its_pattern_and_a_part_of_its_own_keeps_its_colour() {
+        let navy = table().finish("navy_fabric").expect("a finish of the table");
+        let size = 64;
+        // A yellow fabric of two shades woven with black threads every fourth texel, and a
+        // black leg: the square in the corner, 16 texels a side.
+        let leg = |x: usize, y: usize| x < 16 && y < 16;
+        let mut fabric = texture(size, [190, 188, 110], [12, 12, 12], |x, y| leg(x, y) || (x % 4 == 0 && y % 4 == 0));
+        for (i, t) in fabric.rgba.chunks_exact_mut(4).enumerate() {
+            let (x, y) = (i % size, i / size);
+            if t[0] == 190 && (x + 2 * y) % 3 == 0 {
+                t[..3].copy_from_slice(&[172, 170, 100]);
+            }
+        }
+        let out = recolour(&fabric, &[&grid()], navy);
+        let navy_rgb = navy.colour.map(|c| c * 255.0);
+        let near_navy = |t: [u8; 3], tolerance: f32| (0..3).all(|c| (t[c] as f32 - navy_rgb[c]).abs() <= tolerance * navy_rgb[c].max(1.0));
+        // A thread among the weave is a darker navy, not black; the weave beside it is navy.
+        let (thread, weave) = (texel(&out, size, 40, 40), texel(&out, size, 41, 42));
+        assert!(near_navy(thread, 0.3) && thread.iter().zip(weave).all(|(&t, w)| t < w), "thread {thread:?}, weave {weave:?}");
+        assert!(near_navy(weave, 0.05), "{weave:?}");
+        // The leg keeps its black, away from its rim.
+        assert_eq!(texel(&out, size, 5, 5), [12, 12, 12]);
+    }
 }

@@ -119,10 +119,10 @@ fn write_room(dir: &Path, layout: &Layout, ceiling: bool, shell: Option<&RoomShe
             }
         };
         let is_surface = matches!(name, "floor" | "left_wall" | "right_wall" | "back_wall" | "front_wall");
-        let texture = shell.filter(|_| is_surface).map(|shell| if name == "floor" { &shell.floor } else { &shell.wall });
+        let texture = shell.filter(|_| is_surface).map(|shell| if name == "floor" { (&shell.floor, None) } else { (&shell.wall, shell.wall_paint) });
         let visual = match (texture, &part.shape) {
-            (Some(texture), RoomShape::Box(s)) => {
-                write_shell_box(texture, *s, &dir.join("room_geometry"), name)?;
+            (Some((texture, paint)), RoomShape::Box(s)) => {
+                write_shell_box(texture, paint, *s, &dir.join("room_geometry"), name)?;
                 format!("<mesh>\n            <uri>{name}.gltf</uri>\n          </mesh>")
             }
             _ => primitive.clone(),

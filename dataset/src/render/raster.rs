@@ -665,7 +665,7 @@ impl<'a> Resolver<'a> {
             if !self.coloured {
                 continue;
             }
-            let [red, green, blue, occlusion] = albedo_at(run.surface, tri, b, run.lod.level(depth[px]));
+            let [red, green, blue, occlusion] = albedo_at(run.surface, tri, b, run.lod.sampling(depth[px]));
             (ar[px], ag[px], ab[px]) = (red, green, blue);
             if !self.lit {
                 (lr[px], lg[px], lb[px]) = (1.0, 1.0, 1.0);
@@ -827,30 +827,63 @@ impl Lod {
         Lod { at_mean: (0.5 * (texels / screen).log2()) as f32, inv_mean_depth: 1.0 / mean_inv_z.max(1e-6) }
     }
 
-    /// The level at depth `z` (rounded down).
+    /// How the texture is read at depth `z`: its level (rounded down), or, where a texel
+    /// covers more than a pixel, the texture itself, blended between texels.
     #[inline(always)]
-    fn level(self, z: f32) -> usize {
+    fn sampling(self, z: f32) -> Sampling {
         // log2 by the float's bits: the exponent plus the mantissa as a fraction (within 0.09).
         let ratio = (z * self.inv_mean_depth).max(1e-6);
         let log2 = ratio.to_bits() as f32 * (1.0 / (1u32 << 23) as f32) - 127.0;
-        (self.at_mean + log2).max(0.0) as usize
+        let level = self.at_mean + log2;
+        if level < MAGNIFIED { Sampling::Magnified } else { Sampling::Level(level.max(0.0) as usize) }
     }
 }
 
+/// The level of detail below which a texture is blended between texels: a texel spans
+/// √2 pixels or more (closer, nearest texels of a pixel or so are not seen as squares, and
+/// blending every pixel cost a tenth of a frame).
+const MAGNIFIED: f32 = -0.5;
+
+/// How a pixel reads its texture.
+#[derive(Debug, Clone, Copy)]
+enum Sampling {
+    /// A texel covers more than the pixel: the texture (level 0), blended between the four
+    /// texels around the point ([`bilinear`]); read nearest, close-up prints, weaves and
+    /// grain showed their texels as squares.
+    Magnified,
+    /// A pixel covers a texel or more: the nearest texel of this mipmap level (the level's
+    /// texels are already the means of the finer ones).
+    Level(usize),
+}
+
 /// The albedo of `surface` at barycentrics `b` of `tri` — its colour, times its texture
-/// there (of mipmap `level`, or the smallest) when it has one — and the ambient occlusion
-/// the texture carries (its alpha, when the surface keeps one there:
-/// [`Surface::occlusion_in_alpha`]; else 1).
+/// there (read by `sampling`) when it has one — and the ambient occlusion the texture
+/// carries (its alpha, when the surface keeps one there: [`Surface::occlusion_in_alpha`];
+/// else 1).
 #[inline(always)]
-fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3], level: usize) -> [f32; 4] {
+fn albedo_at(surface: &Surface, tri: &Triangle, b: [f32; 3], sampling: Sampling) -> [f32; 4] {
     let c = surface.color;
     let Some(mips) = &surface.texture else { return [c[0], c[1], c[2], 1.0] };
-    let tex = &mips.levels[level.min(mips.levels.len() - 1)];
     let u = b[0] * tri.uvs[0][0] + b[1] * tri.uvs[1][0] + b[2] * tri.uvs[2][0];
     let v = b[0] * tri.uvs[0][1] + b[1] * tri.uvs[1][1] + b[2] * tri.uvs[2][1];
-    let t = bilinear(tex, u, v);
+    let t = match sampling {
+        Sampling::Magnified => bilinear(&mips.levels[0], u, v),
+        Sampling::Level(level) => nearest(&mips.levels[level.min(mips.levels.len() - 1)], u, v),
+    };
     let occlusion = if surface.occlusion_in_alpha { t[3] * INV_255 } else { 1.0 };
     [c[0] * t[0] * INV_255, c[1] * t[1] * INV_255, c[2] * t[2] * INV_255, occlusion]
+}
+
+/// The texel of `tex` holding `(u, v)`, repeated beyond 0..1, channels 0..255.
+#[inline(always)]
+fn nearest(tex: &crate::convert::gltf::Texture, u: f32, v: f32) -> [f32; 4] {
+    // Through u32, which converts in one instruction where usize takes
+    // several; the values are the same (the product is below the width).
+    let (tw, th) = (tex.width as usize, tex.height as usize);
+    let tx = ((fract(u) * tex.width as f32) as u32 as usize).min(tw - 1);
+    let ty = ((fract(v) * tex.height as f32) as u32 as usize).min(th - 1);
+    let t = &tex.rgba[4 * (ty * tw + tx)..4 * (ty * tw + tx) + 4];
+    [t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32]
 }
 
 /// The texture at `(u, v)`, repeated beyond 0..1, blended from the four texels around the
@@ -875,11 +908,15 @@ fn bilinear(tex: &crate::convert::gltf::Texture, u: f32, v: f32) -> [f32; 4] {
     };
     let (x0, x1, wx) = axis(u, tw);
     let (y0, y1, wy) = axis(v, th);
-    let texel = |x: usize, y: usize| -> &[u8] { &tex.rgba[4 * (y * tw + x)..4 * (y * tw + x) + 4] };
+    let texel = |x: usize, y: usize| -> [f32; 4] {
+        let at = 4 * (y * tw + x);
+        let channels: [u8; 4] = tex.rgba[at..at + 4].try_into().expect("four channels a texel");
+        channels.map(f32::from)
+    };
     let (a, b, c, d) = (texel(x0, y0), texel(x1, y0), texel(x0, y1), texel(x1, y1));
     std::array::from_fn(|k| {
-        let top = a[k] as f32 + wx * (b[k] as f32 - a[k] as f32);
-        let bottom = c[k] as f32 + wx * (d[k] as f32 - c[k] as f32);
+        let top = a[k] + wx * (b[k] - a[k]);
+        let bottom = c[k] + wx * (d[k] - c[k]);
         top + wy * (bottom - top)
     })
 }

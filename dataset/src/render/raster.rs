@@ -828,7 +828,7 @@ impl Lod {
     }
 
     /// How the texture is read at depth `z`: its level (rounded down), or, where a texel
-    /// covers more than a pixel, the texture itself, blended between texels.
+    /// spans [`MAGNIFIED`]'s √2 pixels or more, the texture itself, blended between texels.
     #[inline(always)]
     fn sampling(self, z: f32) -> Sampling {
         // log2 by the float's bits: the exponent plus the mantissa as a fraction (within 0.09).
@@ -847,11 +847,11 @@ const MAGNIFIED: f32 = -0.5;
 /// How a pixel reads its texture.
 #[derive(Debug, Clone, Copy)]
 enum Sampling {
-    /// A texel covers more than the pixel: the texture (level 0), blended between the four
+    /// A texel spans √2 pixels or more: the texture (level 0), blended between the four
     /// texels around the point ([`bilinear`]); read nearest, close-up prints, weaves and
     /// grain showed their texels as squares.
     Magnified,
-    /// A pixel covers a texel or more: the nearest texel of this mipmap level (the level's
+    /// Anything farther: the nearest texel of this mipmap level (the level's
     /// texels are already the means of the finer ones).
     Level(usize),
 }

@@ -78,8 +78,8 @@ pub struct Frame {
     pub(super) screen: Screen,
     /// Time spent in each pass, summed over the frames rendered into this one.
     pub pass_times: PassTimes,
-    /// The camera light's shadow map of the last frame rendered with one, kept for reuse.
-    pub(super) shadow: Option<Box<ShadowMap>>,
+    /// The camera lights' shadow maps of the last frame shaded, kept for reuse.
+    pub(super) shadows: Vec<Box<ShadowMap>>,
 }
 
 /// Depth seen from a light attached to the camera, and where that light is.
@@ -254,7 +254,7 @@ pub fn render(world: &World, camera: &Camera, shading: &Shading, frame: &mut Fra
 }
 
 /// The first half of [`render`]: the nearest triangle of every pixel of `frame`, which
-/// [`shade`] then colours, as often as there are lightings to show it under.
+/// [`shade`] or [`shade_lightings`] then colours.
 pub fn find_visible(world: &World, camera: &Camera, frame: &mut Frame) {
     rasterize(world, camera, NEAR, frame);
 }
@@ -264,21 +264,47 @@ pub fn find_visible(world: &World, camera: &Camera, frame: &mut Frame) {
 /// shaded by `shading`. `world` must hold the same triangles as the world visibility was
 /// found in (the same scene, lit another way: its light bake is the only difference).
 pub fn shade(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) {
-    let shadow = camera_light_shadow(world, camera, shading, frame);
-    resolve(world, camera, Some(shading), shadow.as_deref(), frame);
-    frame.shadow = shadow;
-    frame.pass_times.frames += 1;
+    let mut rgb = std::mem::take(&mut frame.rgb);
+    shade_lightings(&[Lighting { world, shading }], camera, frame, std::slice::from_mut(&mut rgb));
+    frame.rgb = rgb;
+}
+
+/// One way a frame is lit: the world lit that way (the same triangles as the world the
+/// frame's visibility was found in; its light bake is the only difference) and its shading.
+#[derive(Debug, Clone, Copy)]
+pub struct Lighting<'a> {
+    pub world: &'a World,
+    pub shading: &'a Shading,
+}
+
+/// [`shade`] under several lightings at once: depth, classes and instances into `frame`,
+/// and the colour image under `lightings[l]` into `rgbs[l]` (resized to the frame), each
+/// the bytes [`shade`] gives under that lighting alone. What the lightings share — which
+/// surface each pixel shows, its texture, its normal — is worked out once a pixel, and
+/// only the light is worked out once a lighting.
+pub fn shade_lightings(lightings: &[Lighting], camera: &Camera, frame: &mut Frame, rgbs: &mut [Vec<u8>]) {
+    assert_eq!(lightings.len(), rgbs.len(), "one colour image a lighting");
+    let mut spare = std::mem::take(&mut frame.shadows);
+    let shadows: Vec<Option<Box<ShadowMap>>> = lightings.iter().map(|l| camera_light_shadow(l.world, camera, l.shading, &mut spare)).collect();
+    let passes: Vec<LightingPass> = lightings.iter().zip(&shadows).map(|(l, s)| LightingPass { lighting: *l, shadow: s.as_deref() }).collect();
+    let world = lightings.first().map(|l| l.world);
+    if let Some(world) = world {
+        resolve(world, camera, &passes, frame, rgbs);
+    }
+    drop(passes);
+    frame.shadows = shadows.into_iter().flatten().chain(spare).collect();
+    frame.pass_times.frames += lightings.len() as u32;
 }
 
 /// The shadow map of the first light attached to the camera, when the world's light is
 /// baked (a world rendered with shadows): depth seen from the light, looking where the
 /// camera looks, at half the frame's size; what lies nearer the light than the camera
-/// itself (a wall behind it) casts no shadow into the view. Reuses the frame's last one.
-fn camera_light_shadow(world: &World, camera: &Camera, shading: &Shading, frame: &mut Frame) -> Option<Box<ShadowMap>> {
+/// itself (a wall behind it) casts no shadow into the view. Reuses one of `spare`.
+fn camera_light_shadow(world: &World, camera: &Camera, shading: &Shading, spare: &mut Vec<Box<ShadowMap>>) -> Option<Box<ShadowMap>> {
     let Shading::Lit(lights) = shading else { return None };
     let offset = lights.iter().find(|l| l.attached_to_camera)?.position;
     world.light_bake()?;
-    let mut map = frame.shadow.take().unwrap_or_default();
+    let mut map = spare.pop().unwrap_or_default();
     // Habitat's camera frame (y up, z backward) in OpenCV's (y down, z forward).
     map.offset = [offset[0], -offset[1], -offset[2]];
     let (w, h) = ((camera.width / 2).max(1), (camera.height / 2).max(1));
@@ -299,7 +325,7 @@ fn camera_light_shadow(world: &World, camera: &Camera, shading: &Shading, frame:
 /// needs to know before choosing a view (the colour image is left as it was).
 pub fn render_visibility(world: &World, camera: &Camera, frame: &mut Frame) {
     rasterize(world, camera, NEAR, frame);
-    resolve(world, camera, None, None, frame);
+    resolve(world, camera, &[], frame, &mut []);
     frame.pass_times.frames += 1;
 }
 
@@ -465,14 +491,23 @@ impl RowDraw {
 /// Pixels of a row resolved together.
 const CHUNK: usize = 128;
 
-/// One chunk of a row's surface attributes, for shading it all at once: albedo, the light
-/// each pixel starts from (ambient and what is baked), and — when a light moves with the
-/// camera — world position, unit normal (facing the camera) and how much of that light
-/// reaches it; structure-of-arrays, so the loop over lights runs across pixels
-/// (independent, vectorisable) rather than as one long chain per pixel.
+/// One chunk of a row's surface attributes, for shading it all at once under each
+/// lighting: what every lighting shares — albedo and the texture's occlusion, where in
+/// its triangle each pixel lies and which run of pixels (one triangle) it belongs to, and,
+/// when some lighting lights pixels one by one, world position and unit normal (facing the
+/// camera) — and what one lighting gives: the light each pixel gets and how much of the
+/// camera light reaches it. Structure-of-arrays, so the loop over lights runs across
+/// pixels (independent, vectorisable) rather than as one long chain per pixel.
 #[derive(Default)]
 struct RowScratch {
     albedo: [Vec<f32>; 3],
+    occlusion: Vec<f32>,
+    /// Barycentrics in the source triangle.
+    bary: [Vec<f32>; 3],
+    /// The pixel's run (an index into `runs`); [`NO_RUN`] where nothing is hit.
+    run: Vec<u32>,
+    /// The source triangle each run of the chunk shows.
+    runs: Vec<u32>,
     position: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
     light: [Vec<f32>; 3],
@@ -480,30 +515,47 @@ struct RowScratch {
     shadow: Vec<f32>,
 }
 
+/// A pixel that shows nothing, in [`RowScratch::run`].
+const NO_RUN: u32 = u32::MAX;
+
 impl RowScratch {
     fn resize(&mut self, w: usize) {
-        for v in self.albedo.iter_mut().chain(&mut self.position).chain(&mut self.normal).chain(&mut self.light) {
+        let planes = self.albedo.iter_mut().chain(&mut self.bary).chain(&mut self.position).chain(&mut self.normal).chain(&mut self.light);
+        for v in planes.chain([&mut self.occlusion]) {
             v.resize(w, 0.0);
         }
+        self.run.resize(w, NO_RUN);
         self.shadow.resize(w, 1.0);
     }
 }
 
-/// Per pixel, from what is visible: depth (0 for no hit), class, instance and, with a
-/// shading, colour (with `shadow`, the camera light's shadows).
-fn resolve(world: &World, camera: &Camera, shading: Option<&Shading>, shadow: Option<&ShadowMap>, frame: &mut Frame) {
+/// One lighting to resolve a frame under, with its camera light's shadow map.
+struct LightingPass<'a> {
+    lighting: Lighting<'a>,
+    shadow: Option<&'a ShadowMap>,
+}
+
+/// Per pixel, from what is visible: depth (0 for no hit), class, instance and, under each
+/// of `lightings`, colour into its image of `rgbs`.
+fn resolve(world: &World, camera: &Camera, lightings: &[LightingPass], frame: &mut Frame, rgbs: &mut [Vec<u8>]) {
     let start = Instant::now();
-    let w = camera.width as usize;
-    let resolver = Resolver::new(world, &frame.screen, camera, shading, shadow);
-    frame
-        .rgb
-        .par_chunks_mut(w * 3)
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let resolver = Resolver::new(world, &frame.screen, camera, lightings);
+    // Each row's piece of every lighting's image.
+    let mut rows: Vec<Vec<&mut [u8]>> = (0..h).map(|_| Vec::with_capacity(rgbs.len())).collect();
+    for rgb in rgbs.iter_mut() {
+        rgb.resize(w * h * 3, 0);
+        for (row, piece) in rows.iter_mut().zip(rgb.chunks_mut(w * 3)) {
+            row.push(piece);
+        }
+    }
+    rows.par_iter_mut()
         .zip(frame.semantic.par_chunks_mut(w).zip(frame.instance.par_chunks_mut(w)))
         .zip(frame.depth.par_chunks_mut(w))
         .zip(frame.hit.par_chunks(w).zip(frame.weights.par_chunks(w)))
         .enumerate()
-        .for_each_init(RowScratch::default, |row, (py, (((rgb, (semantic, instance)), depth), (hit, weights)))| {
-            resolver.row(py, row, RowOut { rgb, semantic, instance, depth, hit, weights });
+        .for_each_init(RowScratch::default, |row, (py, (((rgbs, (semantic, instance)), depth), (hit, weights)))| {
+            resolver.row(py, row, RowOut { rgbs, semantic, instance, depth, hit, weights });
         });
     frame.pass_times.resolve += start.elapsed();
 }
@@ -525,9 +577,10 @@ fn world_lights(lights: &[Light], pose: &Matrix4<f64>) -> Vec<Light> {
         .collect()
 }
 
-/// One row of a frame: its outputs, and the visibility they are resolved from.
-struct RowOut<'a> {
-    rgb: &'a mut [u8],
+/// One row of a frame: its outputs (a piece of each lighting's colour image), and the
+/// visibility they are resolved from.
+struct RowOut<'a, 'b> {
+    rgbs: &'b mut [&'a mut [u8]],
     semantic: &'a mut [u16],
     instance: &'a mut [u16],
     depth: &'a mut [f32],
@@ -536,21 +589,14 @@ struct RowOut<'a> {
 }
 
 /// What resolving every row of a frame shares: the world, the visible triangles, the
-/// camera and the lights.
+/// camera and the lightings.
 struct Resolver<'a> {
     world: &'a World,
     screen: &'a Screen,
     w: usize,
-    /// Lights lit per pixel: those that move with the camera, and static ones the world's
-    /// bake does not hold.
-    lights: Vec<Light>,
-    /// Whether each of `lights` is the shadowed camera light.
-    shadowed: Vec<bool>,
-    /// Light baked for this frame's static lights, per sample of the bake.
-    baked: Option<(Arc<BakedLight>, &'a LightBake)>,
-    shadow: Option<&'a ShadowMap>,
-    lit: bool,
-    coloured: bool,
+    lightings: Vec<LightingResolver<'a>>,
+    /// Whether some lighting lights pixels one by one (which needs their positions and normals).
+    per_pixel: bool,
     /// The camera pose's rotation and translation, and its origin.
     r: [[f32; 4]; 3],
     camera_origin: [f32; 3],
@@ -560,29 +606,48 @@ struct Resolver<'a> {
     inv_fy: f32,
 }
 
-impl<'a> Resolver<'a> {
-    /// The resolver of `camera`'s frame of `world`, whose visible triangles are `screen`.
-    fn new(world: &'a World, screen: &'a Screen, camera: &Camera, shading: Option<&Shading>, shadow: Option<&'a ShadowMap>) -> Self {
-        let pose = camera.pose;
+/// What resolving a frame under one lighting needs beyond what the lightings share.
+struct LightingResolver<'a> {
+    /// Lights lit per pixel: those that move with the camera, and static ones the world's
+    /// bake does not hold.
+    lights: Vec<Light>,
+    /// Whether each of `lights` is the shadowed camera light.
+    shadowed: Vec<bool>,
+    /// Light baked for this frame's static lights, per sample of the bake.
+    baked: Option<(Arc<BakedLight>, &'a LightBake)>,
+    shadow: Option<&'a ShadowMap>,
+    lit: bool,
+}
+
+impl<'a> LightingResolver<'a> {
+    fn new(pass: &LightingPass<'a>, pose: &Matrix4<f64>) -> Self {
+        let Lighting { world, shading } = pass.lighting;
         let lit_lights: &[Light] = match shading {
-            Some(Shading::Lit(lights)) => lights,
-            _ => &[],
+            Shading::Lit(lights) => lights,
+            Shading::Flat => &[],
         };
-        let bake = world.light_bake().filter(|_| matches!(shading, Some(Shading::Lit(_))));
+        let lit = matches!(shading, Shading::Lit(_));
+        let bake = world.light_bake().filter(|_| lit);
         let (static_baked, per_pixel): (Vec<Light>, Vec<Light>) =
             lit_lights.iter().partition(|l| !l.attached_to_camera && bake.is_some_and(|b| b.has_light(l.position)));
         let first_camera_light = per_pixel.iter().position(|l| l.attached_to_camera);
-        let shadowed = (0..per_pixel.len()).map(|i| shadow.is_some() && Some(i) == first_camera_light).collect();
+        let shadowed = (0..per_pixel.len()).map(|i| pass.shadow.is_some() && Some(i) == first_camera_light).collect();
+        LightingResolver { lights: world_lights(&per_pixel, pose), shadowed, baked: bake.map(|b| (b.sample_light(&static_baked), b)), shadow: pass.shadow, lit }
+    }
+}
+
+impl<'a> Resolver<'a> {
+    /// The resolver of `camera`'s frame of `world`, whose visible triangles are `screen`,
+    /// under `lightings` (none: depth, classes and instances only).
+    fn new(world: &'a World, screen: &'a Screen, camera: &Camera, lightings: &[LightingPass<'a>]) -> Self {
+        let pose = camera.pose;
+        let lightings: Vec<LightingResolver> = lightings.iter().map(|pass| LightingResolver::new(pass, &pose)).collect();
         Resolver {
             world,
             screen,
             w: camera.width as usize,
-            lights: world_lights(&per_pixel, &pose),
-            shadowed,
-            baked: bake.map(|b| (b.sample_light(&static_baked), b)),
-            shadow,
-            lit: matches!(shading, Some(Shading::Lit(_))),
-            coloured: shading.is_some(),
+            per_pixel: lightings.iter().any(|l| !l.lights.is_empty()),
+            lightings,
             r: std::array::from_fn(|i| std::array::from_fn(|j| pose[(i, j)] as f32)),
             camera_origin: [pose[(0, 3)] as f32, pose[(1, 3)] as f32, pose[(2, 3)] as f32],
             cx: camera.cx as f32,
@@ -590,6 +655,11 @@ impl<'a> Resolver<'a> {
             inv_fx: 1.0 / camera.fx as f32,
             inv_fy: 1.0 / camera.fy as f32,
         }
+    }
+
+    /// Whether the frame is coloured at all.
+    fn coloured(&self) -> bool {
+        !self.lightings.is_empty()
     }
 
     /// Resolve row `py` into `out`, with `row` as scratch, [`CHUNK`] pixels at a time (so
@@ -601,22 +671,26 @@ impl<'a> Resolver<'a> {
             let span = x0..x0 + n;
             let (semantic, instance, depth) = (&mut out.semantic[span.clone()], &mut out.instance[span.clone()], &mut out.depth[span.clone()]);
             self.gather_surfaces(row, n, semantic, instance, depth, &out.hit[span.clone()], &out.weights[span.clone()]);
-            if !self.coloured {
+            if !self.coloured() {
                 continue;
             }
-            if !self.lights.is_empty() {
+            if self.per_pixel {
                 self.positions_and_normals(py, x0, n, row, depth);
-                self.light(row, n);
             }
-            colour(row, &mut out.rgb[3 * x0..3 * (x0 + n)], n);
+            for (lighting, rgb) in self.lightings.iter().zip(out.rgbs.iter_mut()) {
+                self.start_light(lighting, row, n);
+                if !lighting.lights.is_empty() {
+                    self.shadows(lighting, py, x0, n, row, depth);
+                    light(lighting, row, n);
+                }
+                colour(row, &mut rgb[3 * x0..3 * (x0 + n)], n);
+            }
         }
     }
 
-    /// 1. What each pixel shows: class, instance, depth and (when coloured) its albedo and
-    ///    the light it starts from: flat, none to add; lit, the ambient term (darkened by the
-    ///    texture's occlusion) and the static lights' light baked for the side it shows, read
-    ///    from its plane's light map or interpolated from its triangle's vertices; and, for
-    ///    lights lit per pixel, its interpolated normal.
+    /// 1. What each pixel shows, the same under every lighting: class, instance, depth and
+    ///    (when coloured) its albedo, the texture's occlusion, where in its triangle it lies
+    ///    and, when some lighting lights pixels one by one, its interpolated normal.
     #[allow(clippy::too_many_arguments)]
     fn gather_surfaces(
         &self,
@@ -629,13 +703,15 @@ impl<'a> Resolver<'a> {
         weights: &[[f32; 2]],
     ) {
         let mut finder = self.screen.finder();
-        // Neighbouring pixels mostly show the same triangle: it is looked up once a run,
-        // with the side of it the camera sees.
+        // Neighbouring pixels mostly show the same triangle: it is looked up once a run.
         let mut showing: Option<Showing> = None;
-        let [ar, ag, ab] = row.albedo.each_mut().map(|v| &mut v[..w]);
-        let [nx, ny, nz] = row.normal.each_mut().map(|v| &mut v[..w]);
-        let [lr, lg, lb] = row.light.each_mut().map(|v| &mut v[..w]);
-        let per_pixel = !self.lights.is_empty();
+        let coloured = self.coloured();
+        let RowScratch { albedo, occlusion, bary, run, runs, normal, .. } = row;
+        runs.clear();
+        let [ar, ag, ab] = albedo.each_mut().map(|v| &mut v[..w]);
+        let [b0, b1, b2] = bary.each_mut().map(|v| &mut v[..w]);
+        let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
+        let (occlusion, run) = (&mut occlusion[..w], &mut run[..w]);
         let (semantic, instance, depth, hit, weights) = (&mut semantic[..w], &mut instance[..w], &mut depth[..w], &hit[..w], &weights[..w]);
         for px in 0..w {
             if hit[px] == u32::MAX {
@@ -644,34 +720,76 @@ impl<'a> Resolver<'a> {
                 depth[px] = 0.0;
                 (ar[px], ag[px], ab[px]) = (0.0, 0.0, 0.0);
                 (nx[px], ny[px], nz[px]) = (0.0, 0.0, 0.0);
-                (lr[px], lg[px], lb[px]) = (0.0, 0.0, 0.0);
+                run[px] = NO_RUN;
                 continue;
             }
-            let run = match showing {
-                Some(run) if run.hit == hit[px] => run,
+            let current = match showing {
+                Some(current) if current.hit == hit[px] => current,
                 _ => {
-                    let run = self.showing(hit[px], finder.triangle(hit[px]));
-                    showing = Some(run);
-                    run
+                    let current = self.showing(hit[px], finder.triangle(hit[px]), coloured);
+                    runs.push(current.screen.source);
+                    showing = Some(current);
+                    current
                 }
             };
-            let (st, tri) = (run.screen, run.triangle);
+            let (st, tri) = (current.screen, current.triangle);
             let [w1, w2] = weights[px];
             let w0 = 1.0 - w1 - w2;
             // Barycentrics in the source triangle.
             let b: [f32; 3] = std::array::from_fn(|k| w0 * st.bary[0][k] + w1 * st.bary[1][k] + w2 * st.bary[2][k]);
             semantic[px] = tri.class_id;
             instance[px] = tri.instance_id;
-            if !self.coloured {
+            if !coloured {
                 continue;
             }
-            let [red, green, blue, occlusion] = albedo_at(run.surface, tri, b, run.lod.sampling(depth[px]));
-            (ar[px], ag[px], ab[px]) = (red, green, blue);
-            if !self.lit {
-                (lr[px], lg[px], lb[px]) = (1.0, 1.0, 1.0);
+            let [red, green, blue, occluded] = albedo_at(current.surface, tri, b, current.lod.sampling(depth[px]));
+            (ar[px], ag[px], ab[px], occlusion[px]) = (red, green, blue, occluded);
+            (b0[px], b1[px], b2[px]) = (b[0], b[1], b[2]);
+            run[px] = (runs.len() - 1) as u32;
+            if self.per_pixel {
+                let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
+                (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
+            }
+        }
+    }
+
+    /// What a run of pixels showing the (clipped) triangle numbered `hit` shares.
+    #[inline(always)]
+    fn showing<'s>(&'s self, hit: u32, screen: &'s ScreenTriangle, coloured: bool) -> Showing<'s> {
+        let triangle = &self.world.triangles()[screen.source as usize];
+        let surface = &self.world.surfaces()[triangle.surface as usize];
+        let lod = if coloured { Lod::of(screen, triangle, surface) } else { Lod::default() };
+        Showing { hit, screen, triangle, surface, lod }
+    }
+
+    /// 2. The light each pixel starts from under `lighting`: flat, the albedo as it is;
+    ///    lit, the ambient term (darkened by the texture's occlusion) and the static
+    ///    lights' light baked for the side it shows, read from its plane's light map or
+    ///    interpolated from its triangle's vertices. A pixel that shows nothing gets none.
+    fn start_light(&self, lighting: &LightingResolver, row: &mut RowScratch, w: usize) {
+        let RowScratch { occlusion, bary, run, runs, light, .. } = row;
+        let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
+        let (occlusion, run, [b0, b1, b2]) = (&occlusion[..w], &run[..w], bary.each_ref().map(|v| &v[..w]));
+        if !lighting.lit {
+            for px in 0..w {
+                let on = if run[px] == NO_RUN { 0.0 } else { 1.0 };
+                (lr[px], lg[px], lb[px]) = (on, on, on);
+            }
+            return;
+        }
+        let mut current = (NO_RUN, Baked::None);
+        for px in 0..w {
+            if run[px] == NO_RUN {
+                (lr[px], lg[px], lb[px]) = (0.0, 0.0, 0.0);
                 continue;
             }
-            let [ambient, r, g, bl] = match run.baked {
+            let t = runs[run[px] as usize] as usize;
+            let tri = &self.world.triangles()[t];
+            if current.0 != run[px] {
+                current = (run[px], self.baked(lighting, t, tri));
+            }
+            let b = [b0[px], b1[px], b2[px]];
+            let [ambient, r, g, bl] = match current.1 {
                 Baked::Plane(plane, texels) => {
                     plane.sample(texels, std::array::from_fn(|k| b[0] * tri.positions[0][k] + b[1] * tri.positions[1][k] + b[2] * tri.positions[2][k]))
                 }
@@ -681,30 +799,21 @@ impl<'a> Resolver<'a> {
                 }
                 Baked::None => [AMBIENT, 0.0, 0.0, 0.0],
             };
-            let ambient = ambient * occlusion;
+            let ambient = ambient * occlusion[px];
             (lr[px], lg[px], lb[px]) = (ambient + r, ambient + g, ambient + bl);
-            if per_pixel {
-                let n: [f32; 3] = std::array::from_fn(|k| b[0] * tri.normals[0][k] + b[1] * tri.normals[1][k] + b[2] * tri.normals[2][k]);
-                (nx[px], ny[px], nz[px]) = (n[0], n[1], n[2]);
-            }
         }
     }
 
-    /// What a run of pixels showing the (clipped) triangle numbered `hit` shares.
+    /// Where `lighting`'s baked light of triangle `t` (`tri`) is read.
     #[inline(always)]
-    fn showing<'s>(&'s self, hit: u32, screen: &'s ScreenTriangle) -> Showing<'s> {
-        let t = screen.source as usize;
-        let triangle = &self.world.triangles()[t];
-        let surface = &self.world.surfaces()[triangle.surface as usize];
-        let lod = if self.coloured { Lod::of(screen, triangle, surface) } else { Lod::default() };
-        let baked = match &self.baked {
-            Some((light, bake)) if self.lit => match bake.plane_of(t) {
+    fn baked<'s>(&self, lighting: &'s LightingResolver, t: usize, tri: &Triangle) -> Baked<'s> {
+        match &lighting.baked {
+            Some((light, bake)) => match bake.plane_of(t) {
                 Some(plane) => Baked::Plane(plane, &light.texels),
-                None => Baked::Vertices(bake.corners()[t].map(|k| &light.samples[k as usize]), self.side_seen(triangle)),
+                None => Baked::Vertices(bake.corners()[t].map(|k| &light.samples[k as usize]), self.side_seen(tri)),
             },
-            _ => Baked::None,
-        };
-        Showing { hit, screen, triangle, surface, lod, baked }
+            None => Baked::None,
+        }
     }
 
     /// The side of `tri` the camera sees: 0, the side its vertex normals point to; 1, the other.
@@ -719,13 +828,13 @@ impl<'a> Resolver<'a> {
         usize::from((dot(face, to_camera) >= 0.0) != (dot(face, normals) >= 0.0))
     }
 
-    /// 1b. Lights lit per pixel: world positions from depth, and the normals turned to the
-    ///     camera's side (two-sided) and made unit length — across the chunk, branch-free,
-    ///     so it vectorises — and, with a shadow map, how much of the camera light reaches
-    ///     each pixel. A pixel without a hit has a zero normal: it gets no light.
+    /// 1b. For lights lit per pixel, under any lighting: world positions from depth, and
+    ///     the normals turned to the camera's side (two-sided) and made unit length —
+    ///     across the chunk, branch-free, so it vectorises. A pixel without a hit has a
+    ///     zero normal: it gets no light.
     fn positions_and_normals(&self, py: usize, x0: usize, w: usize, row: &mut RowScratch, depth: &[f32]) {
         let (r, camera_origin) = (&self.r, self.camera_origin);
-        let RowScratch { position, normal, shadow, .. } = row;
+        let RowScratch { position, normal, .. } = row;
         let [px_, py_, pz_] = position.each_mut().map(|v| &mut v[..w]);
         let [nx, ny, nz] = normal.each_mut().map(|v| &mut v[..w]);
         let depth = &depth[..w];
@@ -741,42 +850,46 @@ impl<'a> Resolver<'a> {
             (px_[px], py_[px], pz_[px]) = (p[0], p[1], p[2]);
             (nx[px], ny[px], nz[px]) = (n[0] * unit, n[1] * unit, n[2] * unit);
         }
-        if let Some(map) = self.shadow {
-            let shadow = &mut shadow[..w];
-            for px in 0..w {
-                let z = depth[px];
-                shadow[px] = if z > 0.0 { map.visibility([(column(x0 + px) - self.cx) * self.inv_fx * z, y * z, z]) } else { 1.0 };
-            }
-        }
     }
 
-    /// 2. Lights lit per pixel, added light by light across the chunk to what each pixel
-    ///    starts from (1): Lambert (n·d / |d|) times Magnum PhongGL's attenuation
-    ///    1/(1 + |d|²) for an unbounded range, the camera light times its shadow; a light
-    ///    behind the surface adds nothing.
-    fn light(&self, row: &mut RowScratch, w: usize) {
-        let RowScratch { position, normal, light, shadow, .. } = row;
-        for (l, &shadowed) in self.lights.iter().zip(&self.shadowed) {
-            // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
-            let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
-            let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
-            let shadow = &shadow[..w];
-            for i in 0..w {
-                let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
-                let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let reach = if shadowed { shadow[i] } else { 1.0 };
-                let factor = reach * facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
-                lr[i] += factor * l.color[0];
-                lg[i] += factor * l.color[1];
-                lb[i] += factor * l.color[2];
-            }
+    /// 2b. With `lighting`'s shadow map, how much of its camera light reaches each pixel.
+    fn shadows(&self, lighting: &LightingResolver, py: usize, x0: usize, w: usize, row: &mut RowScratch, depth: &[f32]) {
+        let Some(map) = lighting.shadow else { return };
+        let y = (py as f32 - self.cy) * self.inv_fy;
+        let shadow = &mut row.shadow[..w];
+        for px in 0..w {
+            let z = depth[px];
+            shadow[px] = if z > 0.0 { map.visibility([(column(x0 + px) - self.cx) * self.inv_fx * z, y * z, z]) } else { 1.0 };
+        }
+    }
+}
+
+/// 3. `lighting`'s lights lit per pixel, added light by light across the chunk to what
+///    each pixel starts from (2): Lambert (n·d / |d|) times Magnum PhongGL's attenuation
+///    1/(1 + |d|²) for an unbounded range, the camera light times its shadow; a light
+///    behind the surface adds nothing.
+fn light(lighting: &LightingResolver, row: &mut RowScratch, w: usize) {
+    let RowScratch { position, normal, light, shadow, .. } = row;
+    for (l, &shadowed) in lighting.lights.iter().zip(&lighting.shadowed) {
+        // Slices of exactly `w` (no bounds checks in the loop, so it vectorises).
+        let ([px_, py_, pz_], [nx, ny, nz]) = (position.each_ref().map(|v| &v[..w]), normal.each_ref().map(|v| &v[..w]));
+        let [lr, lg, lb] = light.each_mut().map(|v| &mut v[..w]);
+        let shadow = &shadow[..w];
+        for i in 0..w {
+            let d = [l.position[0] - px_[i], l.position[1] - py_[i], l.position[2] - pz_[i]];
+            let facing = (nx[i] * d[0] + ny[i] * d[1] + nz[i] * d[2]).max(0.0);
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let reach = if shadowed { shadow[i] } else { 1.0 };
+            let factor = reach * facing / (d2.sqrt().max(1e-6) * (1.0 + d2));
+            lr[i] += factor * l.color[0];
+            lg[i] += factor * l.color[1];
+            lb[i] += factor * l.color[2];
         }
     }
 }
 
 /// What the pixels of a run showing one (clipped) triangle share: the triangle, its
-/// surface, its level of detail and where its baked light is read.
+/// surface and its level of detail.
 #[derive(Clone, Copy)]
 struct Showing<'a> {
     hit: u32,
@@ -784,7 +897,6 @@ struct Showing<'a> {
     triangle: &'a Triangle,
     surface: &'a Surface,
     lod: Lod,
-    baked: Baked<'a>,
 }
 
 /// Where a triangle's baked light is read: its plane's light map (and the texels' light),

@@ -20,7 +20,7 @@ use serde_json::Value;
 use super::camera::{SensorSettings, camera_pose};
 use super::coverage::CoverageGoals;
 use super::mesh::World;
-use super::raster::{Frame, Light, Shading, find_visible, shade};
+use super::raster::{Frame, Light, Lighting, Shading, find_visible, shade_lightings};
 use super::trajectory::AgentState;
 use super::view::{Observed, View, ViewpointRule, digest64, exposure, visible_classes};
 use crate::convert::light_settings::LightSettings;
@@ -155,11 +155,13 @@ pub fn render_sequences(
         for (k, i) in (start..end).enumerate() {
             let camera = sensor.camera(poses[i]);
             find_visible(first.world, &camera, &mut frames[k]);
-            for (l, t) in targets.iter().enumerate() {
-                let shading = if flat[l] { Shading::Flat } else { Shading::Lit(lights_for_goal(t.light_settings, states[i].goal_index)) };
-                shade(t.world, &camera, &shading, &mut frames[k]);
-                colours[k * targets.len() + l].clone_from(&frames[k].rgb);
-            }
+            let shadings: Vec<Shading> = targets
+                .iter()
+                .zip(&flat)
+                .map(|(t, &flat)| if flat { Shading::Flat } else { Shading::Lit(lights_for_goal(t.light_settings, states[i].goal_index)) })
+                .collect();
+            let lightings: Vec<Lighting> = targets.iter().zip(&shadings).map(|(t, shading)| Lighting { world: t.world, shading }).collect();
+            shade_lightings(&lightings, &camera, &mut frames[k], &mut colours[k * targets.len()..(k + 1) * targets.len()]);
             for &c in &frames[k].semantic {
                 pixel_counts[c as usize] += 1;
             }

@@ -69,7 +69,8 @@ pub enum BenchCommand {
         /// and ambient occlusion baked first (the bake is timed apart).
         #[arg(long)]
         lit: bool,
-        /// The lighting `--lit` renders: baseline, camera or dynamic_lights (its first goal).
+        /// The lighting `--lit` renders: baseline, camera or dynamic_lights (its first goal);
+        /// or `all`, the release's four shaded from one visibility pass, as a release draws them.
         #[arg(long, default_value = "baseline")]
         lighting: String,
         /// Write the last frame's RGB here (PNG).

@@ -75,10 +75,11 @@ pub fn scenes(furniture_pool: usize, manipuland_pool: usize, furniture: usize, m
 
 pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Option<&str>, save: Option<&std::path::Path>) -> anyhow::Result<()> {
     use osmab_dataset::convert::habitat::{ConvertOptions, write_habitat_scene};
+    use osmab_dataset::convert::light_settings::LightSettings;
     use osmab_dataset::convert::scene::load_scene;
-    use osmab_dataset::render::lit_world;
+    use osmab_dataset::render::lit_worlds;
     use osmab_dataset::render::mesh::World;
-    use osmab_dataset::render::raster::{Camera, Frame, Shading, render};
+    use osmab_dataset::render::raster::{Camera, Frame, Lighting, Shading, find_visible, shade_lightings};
     use osmab_dataset::render::sequence::lights_for_goal;
 
     let work = std::env::temp_dir().join(format!("osmab-bench-render-{}", std::process::id()));
@@ -87,21 +88,32 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Opti
     let clock = Instant::now();
     let world = World::load_habitat_scene(&work, &scene.name)?;
     let load = clock.elapsed().as_secs_f64();
-    let (world, shading, bake) = match lighting {
-        Some(lighting) => {
-            let path = work.join(format!("lighting_hadage/light_settings_{}_{lighting}.json", scene.name));
-            let settings =
-                osmab_dataset::convert::light_settings::LightSettings::read(&path).with_context(|| format!("{}: no such lighting", path.display()))?;
-            let clock = Instant::now();
-            let world = lit_world(world, std::slice::from_ref(&settings));
-            (world, Shading::Lit(lights_for_goal(&settings, 0)), Some(clock.elapsed().as_secs_f64()))
-        }
-        None => (world, Shading::Flat, None),
+    // `all`: the four lightings of a release, shaded from one visibility pass as a release
+    // build draws them.
+    let names: Vec<&str> = match lighting {
+        Some("all") => vec!["baseline", "camera", "dynamic_lights", "no_lights"],
+        Some(lighting) => vec![lighting],
+        None => Vec::new(),
     };
-    if let Some(seconds) = bake {
-        println!("light bake (ambient occlusion, shadows of the static lights): {seconds:.2} s");
-    }
+    let settings = names
+        .iter()
+        .map(|lighting| {
+            let path = work.join(format!("lighting_hadage/light_settings_{}_{lighting}.json", scene.name));
+            LightSettings::read(&path).with_context(|| format!("{}: no such lighting", path.display()))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let (worlds, shadings) = if settings.is_empty() {
+        (vec![world], vec![Shading::Flat])
+    } else {
+        let clock = Instant::now();
+        let worlds = lit_worlds(&world, &settings);
+        println!("light bake (ambient occlusion, shadows of the static lights): {:.2} s", clock.elapsed().as_secs_f64());
+        let shadings = settings.iter().map(|s| if s.is_unlit() { Shading::Flat } else { Shading::Lit(lights_for_goal(s, 0)) }).collect();
+        (worlds, shadings)
+    };
+    let lightings: Vec<Lighting> = worlds.iter().zip(&shadings).map(|(world, shading)| Lighting { world, shading }).collect();
     let mut frame = Frame::default();
+    let mut rgbs = vec![Vec::new(); lightings.len()];
     let clock = Instant::now();
     for i in 0..frames {
         // Turn on the spot at the room centre, 1 m up (OpenCV axes in the Habitat world).
@@ -109,17 +121,18 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Opti
         let (c, s) = (a.cos(), a.sin());
         let pose = nalgebra::Matrix4::new(c, 0.0, -s, 0.0, 0.0, -1.0, 0.0, 1.0, -s, 0.0, -c, 0.0, 0.0, 0.0, 0.0, 1.0);
         let camera = Camera { width: 1200, height: 680, fx: 600.0, fy: 600.0, cx: 599.5, cy: 339.5, pose };
-        render(&world, &camera, &shading, &mut frame);
+        find_visible(&worlds[0], &camera, &mut frame);
+        shade_lightings(&lightings, &camera, &mut frame, &mut rgbs);
     }
     let seconds = clock.elapsed().as_secs_f64();
     println!(
         "{} triangles (loaded in {load:.2} s); {frames} frames of 1200x680 in {seconds:.2} s: {:.1} frames/s ({})",
-        world.triangles().len(),
+        worlds[0].triangles().len(),
         frames as f64 / seconds,
-        lighting.unwrap_or("flat")
+        if names.is_empty() { "flat".to_string() } else { names.join(" + ") }
     );
     let passes = frame.pass_times;
-    let per_frame = |d: std::time::Duration| 1e3 * d.as_secs_f64() / passes.frames.max(1) as f64;
+    let per_frame = |d: std::time::Duration| 1e3 * d.as_secs_f64() / frames.max(1) as f64;
     println!(
         "per frame: transform {:.2} ms, visibility {:.2} ms, resolve {:.2} ms (each pass on all cores)",
         per_frame(passes.transform),
@@ -131,7 +144,7 @@ pub fn render_frames(scenesmith: &std::path::Path, frames: usize, lighting: Opti
         let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 1200, 680);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
-        encoder.write_header()?.write_image_data(&frame.rgb)?;
+        encoder.write_header()?.write_image_data(&rgbs[0])?;
     }
     let _ = std::fs::remove_dir_all(&work);
     Ok(())

@@ -39,7 +39,8 @@ pub struct ShellTexture {
     pub tile: f64,
 }
 
-/// The floor and wall textures of one room, and the paint its walls are drawn in.
+/// The floor and wall textures of one room, the paint its walls are drawn in and the dye
+/// of its carpet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RoomShell {
     pub floor: ShellTexture,
@@ -47,6 +48,15 @@ pub struct RoomShell {
     /// A finish of the wall class's palette (the class table); `None` keeps the wall
     /// texture's own colour.
     pub wall_paint: Option<&'static Finish>,
+    /// For a carpeted floor, a finish of the floor class's palette; `None` keeps the floor
+    /// texture's own colour (wood and tile, and the carpet without a palette).
+    pub floor_dye: Option<&'static Finish>,
+}
+
+/// Whether a floor texture of the pack is a carpet, which is dyed (its shell's name says so:
+/// the pack's carpet is a single flat colour, where wood and tile show their own).
+fn is_carpet(floor: &ShellTexture) -> bool {
+    floor.name.contains("carpet")
 }
 
 /// The synthesizer's asset source: the procedural library, or a pack in front of it.
@@ -105,8 +115,8 @@ impl AssetSource {
         Some(pack_asset(pack, entry, scale, finish))
     }
 
-    /// The floor and wall textures of a room and its walls' paint, drawn from `seed`; `None`
-    /// without a pack or when it has no floor or no wall texture.
+    /// The floor and wall textures of a room, its walls' paint and its carpet's dye, drawn
+    /// from `seed`; `None` without a pack or when it has no floor or no wall texture.
     pub fn room_shell(&self, seed: u64) -> Option<RoomShell> {
         let pack = self.pack.as_deref()?;
         let mut rng = Rng::new(seed ^ 0x5BE1_1);
@@ -118,7 +128,10 @@ impl AssetSource {
             })
         };
         let (floor, wall) = (pick(ShellKind::Floor)?, pick(ShellKind::Wall)?);
-        Some(RoomShell { floor, wall, wall_paint: finish_drawn("wall", &rng) })
+        let wall_paint = finish_drawn("wall", &rng);
+        rng.next_u64();
+        let floor_dye = if is_carpet(&floor) { finish_drawn("floor", &rng) } else { None };
+        Some(RoomShell { floor, wall, wall_paint, floor_dye })
     }
 }
 

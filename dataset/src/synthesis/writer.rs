@@ -119,7 +119,7 @@ fn write_room(dir: &Path, layout: &Layout, ceiling: bool, shell: Option<&RoomShe
             }
         };
         let is_surface = matches!(name, "floor" | "left_wall" | "right_wall" | "back_wall" | "front_wall");
-        let texture = shell.filter(|_| is_surface).map(|shell| if name == "floor" { (&shell.floor, None) } else { (&shell.wall, shell.wall_paint) });
+        let texture = shell.filter(|_| is_surface).map(|shell| if name == "floor" { (&shell.floor, shell.floor_dye) } else { (&shell.wall, shell.wall_paint) });
         let visual = match (texture, &part.shape) {
             (Some((texture, paint)), RoomShape::Box(s)) => {
                 write_shell_box(texture, paint, *s, &dir.join("room_geometry"), name)?;

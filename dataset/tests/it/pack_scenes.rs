@@ -159,7 +159,7 @@ fn classes_the_pack_lacks_come_from_the_procedural_library() {
 }
 
 #[test]
-fn a_pack_dresses_the_room_in_its_floor_and_wall_textures_tiled_in_metres_and_paints_the_walls() {
+fn a_pack_dresses_the_room_in_its_floor_and_wall_textures_tiled_in_metres_paints_the_walls_and_dyes_the_carpet() {
     let pack = AssetPack::open(&fixture()).unwrap();
     let assets = AssetSource::open(&fixture()).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -179,13 +179,13 @@ fn a_pack_dresses_the_room_in_its_floor_and_wall_textures_tiled_in_metres_and_pa
         let span = uvs.iter().map(|uv| uv[0]).fold(f32::NEG_INFINITY, f32::max) - uvs.iter().map(|uv| uv[0]).fold(f32::INFINITY, f32::min);
         let longest = (hi[0] - lo[0]).max(hi[2] - lo[2]);
         assert!((span * shell.tile as f32 - longest).abs() < 0.01, "{part}: {span} tiles over {longest} m");
-        // The walls are in one paint of the wall class's palette, whatever the texture's own hue.
-        if part != "floor" {
-            let texels = texture.rgba.len() as f32 / 4.0;
-            let mean: [f32; 3] = std::array::from_fn(|c| texture.rgba.chunks_exact(4).map(|t| t[c] as f32).sum::<f32>() / texels);
-            let paints = table().class("wall").unwrap().finishes();
-            assert!(paints.iter().any(|p| (0..3).all(|c| (mean[c] - p.colour[c] * 255.0).abs() < 2.0)), "{part}: mean {mean:?} is no wall paint");
-        }
+        // The walls are in one paint of the wall class's palette, and the (carpeted) floor in
+        // one dye of the floor class's, whatever the texture's own hue.
+        let class = if part == "floor" { "floor" } else { "wall" };
+        let texels = texture.rgba.len() as f32 / 4.0;
+        let mean: [f32; 3] = std::array::from_fn(|c| texture.rgba.chunks_exact(4).map(|t| t[c] as f32).sum::<f32>() / texels);
+        let finishes = table().class(class).unwrap().finishes();
+        assert!(finishes.iter().any(|p| (0..3).all(|c| (mean[c] - p.colour[c] * 255.0).abs() < 2.0)), "{part}: mean {mean:?} is no {class} finish");
     }
     // Converted, the floor and walls keep their textures and their classes.
     let report = write_habitat_scene(&load_scene(&dir.path().join("scene")).unwrap(), &dir.path().join("habitat"), &ConvertOptions::default()).unwrap();

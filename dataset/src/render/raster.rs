@@ -777,19 +777,25 @@ impl<'a> Resolver<'a> {
             }
             return;
         }
-        let mut current = (NO_RUN, Baked::None);
+        // The run's triangle and where its light is read, looked up once a run.
+        let mut current: Option<(u32, &Triangle, Baked)> = None;
         for px in 0..w {
             if run[px] == NO_RUN {
                 (lr[px], lg[px], lb[px]) = (0.0, 0.0, 0.0);
                 continue;
             }
-            let t = runs[run[px] as usize] as usize;
-            let tri = &self.world.triangles()[t];
-            if current.0 != run[px] {
-                current = (run[px], self.baked(lighting, t, tri));
-            }
+            let (tri, baked) = match current {
+                Some((at, tri, baked)) if at == run[px] => (tri, baked),
+                _ => {
+                    let t = runs[run[px] as usize] as usize;
+                    let tri = &self.world.triangles()[t];
+                    let baked = self.baked(lighting, t, tri);
+                    current = Some((run[px], tri, baked));
+                    (tri, baked)
+                }
+            };
             let b = [b0[px], b1[px], b2[px]];
-            let [ambient, r, g, bl] = match current.1 {
+            let [ambient, r, g, bl] = match baked {
                 Baked::Plane(plane, texels) => {
                     plane.sample(texels, std::array::from_fn(|k| b[0] * tri.positions[0][k] + b[1] * tri.positions[1][k] + b[2] * tri.positions[2][k]))
                 }

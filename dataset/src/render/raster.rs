@@ -287,9 +287,8 @@ pub fn shade_lightings(lightings: &[Lighting], camera: &Camera, frame: &mut Fram
     let mut spare = std::mem::take(&mut frame.shadows);
     let shadows: Vec<Option<Box<ShadowMap>>> = lightings.iter().map(|l| camera_light_shadow(l.world, camera, l.shading, &mut spare)).collect();
     let passes: Vec<LightingPass> = lightings.iter().zip(&shadows).map(|(l, s)| LightingPass { lighting: *l, shadow: s.as_deref() }).collect();
-    let world = lightings.first().map(|l| l.world);
-    if let Some(world) = world {
-        resolve(world, camera, &passes, frame, rgbs);
+    if let Some(first) = lightings.first() {
+        resolve(first.world, camera, &passes, frame, rgbs);
     }
     drop(passes);
     frame.shadows = shadows.into_iter().flatten().chain(spare).collect();

@@ -11,6 +11,7 @@
 
 pub mod draw;
 pub mod facts;
+pub mod grounding;
 pub mod objects;
 pub mod priors;
 pub mod prompt;

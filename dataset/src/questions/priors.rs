@@ -4,14 +4,17 @@
 //! ([`super::facts::SceneFacts::truth`]). The pool follows from the published config, so
 //! anyone can compute these odds; the questions are drawn so that they tell nothing
 //! ([`super::draw`]): a question whose answer the odds make likely is asked that much less.
+//! A prompt-grounded question's odds are read only off the layouts whose prompt settles it
+//! ([`super::grounding`]), as it is only asked of such scenes.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Mutex;
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
 
 use super::facts::{SceneFacts, oracle_scene_graph};
+use super::grounding::{prompt_settles, stated_classes};
 use super::objects::{SceneObject, object_id};
 use crate::convert::lexicon::{is_shell_class, normalise_name};
 use crate::prompts::{PromptPool, ScenePrompt};
@@ -23,10 +26,21 @@ use crate::synthesis::source::AssetSource;
 /// Layouts of the same room at least, before a room's own odds count fully.
 const ROOM_WEIGHT: f64 = 1.0;
 
-/// One simulated scene: its room, subset, objects and the oracle's graph of them.
+/// Which templates ask a question, and so which layouts its odds are read off: the
+/// standard ones ask of every scene that settles a form; the prompt-grounded ones only of
+/// scenes whose prompt settles it ([`super::grounding::prompt_settles`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AskedAs {
+    Standard,
+    PromptGrounded,
+}
+
+/// One simulated scene: its room, subset, the classes its prompt states, objects and the
+/// oracle's graph of them.
 struct Simulated {
     room: String,
     regime: Regime,
+    stated: BTreeSet<&'static str>,
     objects: Vec<SceneObject>,
     graph: osmab_evaluator::vqa::graph::SceneGraph,
 }
@@ -56,7 +70,13 @@ impl PoolLayouts {
             layouts.extend((0..FRESH_PLACEMENTS).map(|_| placed(&fresh(), rng.next_u64(), assets)));
             for layout in layouts {
                 let objects = layout_objects(&layout);
-                scenes.push(Simulated { room: prompt.spec.room.clone(), regime: prompt.spec.regime, graph: oracle_scene_graph(&objects), objects });
+                scenes.push(Simulated {
+                    room: prompt.spec.room.clone(),
+                    regime: prompt.spec.regime,
+                    stated: stated_classes(&prompt.spec),
+                    graph: oracle_scene_graph(&objects),
+                    objects,
+                });
             }
         }
         PoolLayouts { scenes, assets: assets.clone() }
@@ -68,11 +88,19 @@ impl PoolLayouts {
     }
 }
 
-/// One layout's facts, with its room and subset.
+/// One layout's facts, with its room, subset and stated classes.
 struct LayoutFacts<'a> {
     room: &'a str,
     regime: Regime,
+    stated: &'a BTreeSet<&'static str>,
     facts: SceneFacts<'a>,
+}
+
+impl LayoutFacts<'_> {
+    /// Whether questions `asked` so would ask `form` of this layout.
+    fn asks(&self, asked: AskedAs, form: &QuestionForm) -> bool {
+        asked == AskedAs::Standard || prompt_settles(form, self.stated, &self.facts)
+    }
 }
 
 /// The odds of every question form, per room, from the layouts of a prompt pool.
@@ -127,8 +155,11 @@ fn placed(prompt: &ScenePrompt, seed: u64, assets: &AssetSource) -> Layout {
 impl<'a> QuestionPriors<'a> {
     /// The odds read off `layouts`.
     pub fn new(layouts: &'a PoolLayouts, lexicon: &'a [String]) -> Self {
-        let facts =
-            layouts.scenes.iter().map(|s| LayoutFacts { room: &s.room, regime: s.regime, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) }).collect();
+        let facts = layouts
+            .scenes
+            .iter()
+            .map(|s| LayoutFacts { room: &s.room, regime: s.regime, stated: &s.stated, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) })
+            .collect();
         QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: Mutex::new(HashMap::new()) }
     }
 
@@ -138,12 +169,12 @@ impl<'a> QuestionPriors<'a> {
     }
 
     /// (answered yes, settled) over the layouts `which` admits, each asked what `forms`
-    /// makes of it (one form, or every form of a family).
-    fn tally(&self, which: impl Fn(&LayoutFacts) -> bool, forms: impl Fn(&SceneFacts) -> Vec<QuestionForm>) -> (f64, f64) {
+    /// makes of it (one form, or every form of a family) where questions `asked` so ask it.
+    fn tally(&self, asked: AskedAs, which: impl Fn(&LayoutFacts) -> bool, forms: impl Fn(&SceneFacts) -> Vec<QuestionForm>) -> (f64, f64) {
         let (mut yes, mut settled) = (0.0, 0.0);
         for layout in self.layouts.iter().filter(|s| which(s)) {
             let facts = &layout.facts;
-            for form in forms(facts) {
+            for form in forms(facts).into_iter().filter(|f| layout.asks(asked, f)) {
                 if let Some(answer) = facts.truth(&form) {
                     settled += 1.0;
                     yes += f64::from(u8::from(answer == "Yes" || (matches!(form, QuestionForm::Count { .. }) && answer != "0")));
@@ -165,16 +196,16 @@ impl<'a> QuestionPriors<'a> {
     }
 
     /// The odds that `form`'s answer is "Yes" (a count's is not zero) in a scene of `room`
-    /// (of `regime`), among the layouts where it is asked at all: the room's own layouts,
-    /// drawn towards the odds over the whole subset where it has few, and those towards
-    /// the odds of the form's family ([`QuestionPriors::family_odds`]).
-    pub fn yes_odds(&self, room: &str, regime: Regime, form: &QuestionForm) -> f64 {
-        let key = (room.to_string(), regime, serde_json::to_string(form).expect("serialisable"));
+    /// (of `regime`), among the layouts where questions `asked` so ask it: the room's own
+    /// layouts, drawn towards the odds over the whole subset where it has few, and those
+    /// towards the odds of the form's family ([`QuestionPriors::family_odds`]).
+    pub fn yes_odds(&self, asked: AskedAs, room: &str, regime: Regime, form: &QuestionForm) -> f64 {
+        let key = (room.to_string(), regime, format!("{asked:?} {}", serde_json::to_string(form).expect("serialisable")));
         self.memoised(key, || {
-            let family = self.family_odds(regime, form);
-            let (yes_subset, n_subset) = self.tally(|s| s.regime == regime, |_| vec![form.clone()]);
+            let family = self.family_odds(asked, regime, form);
+            let (yes_subset, n_subset) = self.tally(asked, |s| s.regime == regime, |_| vec![form.clone()]);
             let subset = (yes_subset + ROOM_WEIGHT * family) / (n_subset + ROOM_WEIGHT);
-            let (yes_room, n_room) = self.tally(|s| s.regime == regime && s.room == room, |_| vec![form.clone()]);
+            let (yes_room, n_room) = self.tally(asked, |s| s.regime == regime && s.room == room, |_| vec![form.clone()]);
             (yes_room + ROOM_WEIGHT * subset) / (n_room + ROOM_WEIGHT)
         })
     }
@@ -184,16 +215,16 @@ impl<'a> QuestionPriors<'a> {
     /// resting on the same support, being the nearest of the same class, the same relation
     /// to the same class, any pair's sizes as the asset library makes them, two classes'
     /// presence taken apart.
-    fn family_odds(&self, regime: Regime, form: &QuestionForm) -> f64 {
-        let key = (String::from("(family)"), regime, family_key(form));
+    fn family_odds(&self, asked: AskedAs, regime: Regime, form: &QuestionForm) -> f64 {
+        let key = (String::from("(family)"), regime, format!("{asked:?} {}", family_key(form)));
         self.memoised(key, || {
             let subset = |s: &LayoutFacts| s.regime == regime;
             let (yes, n) = match form {
                 QuestionForm::Exists { .. } | QuestionForm::Count { .. } => {
-                    self.tally(subset, |_| self.lexicon.iter().map(|c| QuestionForm::Exists { class: c.clone() }).collect())
+                    self.tally(asked, subset, |_| self.lexicon.iter().map(|c| QuestionForm::Exists { class: c.clone() }).collect())
                 }
                 QuestionForm::ExistsAll { classes } | QuestionForm::ExistsAny { classes } => {
-                    let each: Vec<f64> = classes.iter().map(|c| self.family_free_presence(regime, c)).collect();
+                    let each: Vec<f64> = classes.iter().map(|c| self.family_free_presence(asked, regime, c)).collect();
                     let p = match form {
                         QuestionForm::ExistsAll { .. } => each.iter().product(),
                         _ => 1.0 - each.iter().map(|p| 1.0 - p).product::<f64>(),
@@ -201,16 +232,16 @@ impl<'a> QuestionPriors<'a> {
                     return p;
                 }
                 QuestionForm::LargerThan { a, b } => return library_larger_odds(self.assets, a, b),
-                QuestionForm::RestsOn { support, .. } => self.tally(subset, |facts| {
+                QuestionForm::RestsOn { support, .. } => self.tally(asked, subset, |facts| {
                     facts.singles().into_iter().map(|x| QuestionForm::RestsOn { class: x.label.clone(), support: support.clone() }).collect()
                 }),
-                QuestionForm::NearestIs { nearest, .. } => self.tally(subset, |facts| {
+                QuestionForm::NearestIs { nearest, .. } => self.tally(asked, subset, |facts| {
                     facts.singles().into_iter().map(|x| QuestionForm::NearestIs { class: x.label.clone(), nearest: nearest.clone() }).collect()
                 }),
-                QuestionForm::Related { relation, object, .. } => self.tally(subset, |facts| {
+                QuestionForm::Related { relation, object, .. } => self.tally(asked, subset, |facts| {
                     facts.classes().map(|s| QuestionForm::Related { subject: s.to_string(), relation: *relation, object: object.clone() }).collect()
                 }),
-                QuestionForm::MoreThan { .. } => self.tally(subset, |facts| {
+                QuestionForm::MoreThan { .. } => self.tally(asked, subset, |facts| {
                     let classes: Vec<&str> = facts.classes().collect();
                     classes
                         .iter()
@@ -226,14 +257,15 @@ impl<'a> QuestionPriors<'a> {
     }
 
     /// The odds of `class` being in a scene of the subset (no room, no family).
-    fn family_free_presence(&self, regime: Regime, class: &str) -> f64 {
-        let (yes, n) = self.tally(|s| s.regime == regime, |_| vec![QuestionForm::Exists { class: class.to_string() }]);
+    fn family_free_presence(&self, asked: AskedAs, regime: Regime, class: &str) -> f64 {
+        let (yes, n) = self.tally(asked, |s| s.regime == regime, |_| vec![QuestionForm::Exists { class: class.to_string() }]);
         (yes + 0.5) / (n + 1.0)
     }
 
-    /// The odds that a scene of `room` has `class` (a count question's answer is not zero).
-    pub fn presence_odds(&self, room: &str, regime: Regime, class: &str) -> f64 {
-        self.yes_odds(room, regime, &QuestionForm::Exists { class: class.to_string() })
+    /// The odds that a scene of `room` has `class` (a count question's answer is not zero),
+    /// among the layouts where questions `asked` so ask it.
+    pub fn presence_odds(&self, asked: AskedAs, room: &str, regime: Regime, class: &str) -> f64 {
+        self.yes_odds(asked, room, regime, &QuestionForm::Exists { class: class.to_string() })
     }
 }
 
@@ -282,11 +314,11 @@ mod tests {
         let priors = QuestionPriors::new(&layouts, &lexicon);
         assert_eq!(priors.layouts(), 120 * 4);
         let dining = pools[0].accepted.iter().find(|p| p.spec.room == "dining room").map(|p| p.spec.room.clone()).expect("a dining room in 120");
-        let table = priors.presence_odds(&dining, Regime::Furniture, "dining table");
-        let bed = priors.presence_odds(&dining, Regime::Furniture, "bed");
+        let table = priors.presence_odds(AskedAs::Standard, &dining, Regime::Furniture, "dining table");
+        let bed = priors.presence_odds(AskedAs::Standard, &dining, Regime::Furniture, "bed");
         assert!(table > 0.8 && bed < 0.2, "a dining room has its table ({table}) and no bed ({bed})");
         let no_layouts = PoolLayouts::none();
         let none = QuestionPriors::new(&no_layouts, &lexicon);
-        assert_eq!(none.presence_odds(&dining, Regime::Furniture, "bed"), 0.5, "without layouts, even odds");
+        assert_eq!(none.presence_odds(AskedAs::Standard, &dining, Regime::Furniture, "bed"), 0.5, "without layouts, even odds");
     }
 }

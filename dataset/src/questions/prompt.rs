@@ -3,20 +3,22 @@
 //! prompt — which the release's quality control verified the scene to satisfy — and by the
 //! scene where the prompt is silent (a class it never names is absent: zero, no). A class the
 //! prompt does not name but the room's dressing holds (a rug, a vase) is not asked here: the
-//! prompt cannot answer it (the standard questions do). Drawn
+//! prompt cannot answer it (the standard questions do; [`super::grounding`]). Drawn
 //! like every question ([`super::draw`]): as many yes as no per scene, each against its
-//! odds, so the text tells nothing; relations are asked between the scene's classes (the
-//! prompt's stated ones among them) and answered by the scene's boxes.
+//! odds among the layouts where the prompt settles it, so the text tells nothing; relations
+//! are asked between the classes the prompt states and the camera saw, and answered by the
+//! scene's boxes.
 //! Relations a scene graph's boxes cannot decide (behind, in front of: they need an
 //! object's facing) are not asked.
 
 use osmab_evaluator::vqa::{QuestionForm, Relation};
 
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
+pub use super::grounding::class_of;
+use super::grounding::{prompt_settles, stated_classes};
+use super::priors::AskedAs;
 use super::standard::Asking;
 use super::wording::{plural, with_article};
-use crate::convert::lexicon::is_shell_class;
-use crate::convert::lexicon::normalise_name;
 use crate::spec::{RelationKind, SceneSpec};
 
 /// The relations asked, each decided by boxes (see `osmab_evaluator::vqa::answer`).
@@ -36,11 +38,6 @@ fn relation_form(kind: RelationKind) -> Option<Relation> {
     })
 }
 
-/// The release class of a prompt category (none for the room's shell or unknown names).
-pub fn class_of(category: &str) -> Option<&'static str> {
-    normalise_name(category).filter(|c| !is_shell_class(c))
-}
-
 /// A stable seed per scene.
 pub fn scene_seed(scene: &str, seed: u64) -> u64 {
     scene.bytes().fold(seed ^ 0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
@@ -55,16 +52,14 @@ fn relation_text(subject: &str, relation: Relation, object: &str, room: &str) ->
 pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let room = spec.room.clone();
     let mut out: Vec<(&'static str, Candidate)> = Vec::new();
-    let stated: Vec<&str> = spec.objects.iter().filter_map(|o| class_of(&o.category)).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let stated = stated_classes(spec);
     let per_side = stated.len().clamp(1, 3);
 
-    // Only what the prompt settles: a class it states, or one the scene lacks altogether.
-    let settled = |c: &Candidate| match &c.form {
-        QuestionForm::Count { class } | QuestionForm::Exists { class } => stated.contains(&class.as_str()) || asking.facts.counted(class) == Some(0),
-        _ => true,
-    };
+    // Only what the prompt settles: a class it states, or one the scene lacks altogether;
+    // relations between stated classes the camera saw.
+    let settled = |c: &Candidate| prompt_settles(&c.form, &stated, asking.facts);
     // Measurement: the stated count of a class (categories of one class add up), or zero.
-    let mut counts = asking.counts(|c| format!("How many {} are in the {room}?", plural(c)));
+    let mut counts = asking.counts(AskedAs::PromptGrounded, |c| format!("How many {} are in the {room}?", plural(c)));
     counts.retain(settled);
     out.extend(draw_balanced(counts, is_nonzero, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Measurement", c)));
 
@@ -74,28 +69,27 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     for relation in &spec.relations {
         let (Some(form), [target]) = (relation_form(relation.kind), relation.targets.as_slice()) else { continue };
         let (Some(subject), Some(object)) = (class_of(&relation.subject), class_of(target)) else { continue };
-        relations.extend(
-            asking.candidate(
-                QuestionForm::Related { subject: subject.into(), relation: form, object: object.into() },
-                relation_text(subject, form, object, &room),
-            ),
-        );
+        relations.extend(asking.candidate(
+            AskedAs::PromptGrounded,
+            QuestionForm::Related { subject: subject.into(), relation: form, object: object.into() },
+            relation_text(subject, form, object, &room),
+        ));
     }
     let present: Vec<&str> = asking.facts.classes().filter(|c| asking.facts.seen(c) && stated.contains(c)).collect();
     for subject in &present {
         for object in present.iter().filter(|o| *o != subject) {
             for relation in ASKED_RELATIONS {
                 let form = QuestionForm::Related { subject: subject.to_string(), relation, object: object.to_string() };
-                relations.extend(asking.candidate(form, relation_text(subject, relation, object, &room)));
+                relations.extend(asking.candidate(AskedAs::PromptGrounded, form, relation_text(subject, relation, object, &room)));
             }
         }
     }
     let mut seen = std::collections::BTreeSet::new();
-    relations.retain(|c| seen.insert(c.text.to_lowercase()));
+    relations.retain(|c| settled(c) && seen.insert(c.text.to_lowercase()));
     out.extend(draw_balanced(relations, is_yes, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Relations", c)));
 
     // Existence: classes the prompt states (yes) and classes it does not (no).
-    let mut existence = asking.existence(|c| format!("Is there {} in the {room}?", with_article(c)));
+    let mut existence = asking.existence(AskedAs::PromptGrounded, |c| format!("Is there {} in the {room}?", with_article(c)));
     existence.retain(settled);
     out.extend(draw_balanced(existence, is_yes, 2, &mut asking.rng).into_iter().map(|c| ("PromptGT-Existence", c)));
     out

@@ -19,7 +19,7 @@ use osmab_evaluator::vqa::{QuestionForm, Relation};
 
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
 use super::facts::SceneFacts;
-use super::priors::QuestionPriors;
+use super::priors::{AskedAs, QuestionPriors};
 use super::wording::{plural, with_article};
 use crate::convert::lexicon::is_shell_class;
 use crate::spec::Regime;
@@ -40,30 +40,32 @@ impl Asking<'_> {
         self.lexicon.iter().map(String::as_str).filter(|c| !is_shell_class(c)).collect()
     }
 
-    /// `form` as a candidate, when the scene settles it.
-    pub fn candidate(&self, form: QuestionForm, text: String) -> Option<Candidate> {
+    /// `form` as a candidate, when the scene settles it, with its odds among the layouts
+    /// where questions `asked` that way would ask it.
+    pub fn candidate(&self, asked: AskedAs, form: QuestionForm, text: String) -> Option<Candidate> {
         let answer = self.facts.truth(&form)?;
         let odds = match &form {
-            QuestionForm::Count { class } => self.priors.presence_odds(self.room, self.regime, class),
-            other => self.priors.yes_odds(self.room, self.regime, other),
+            QuestionForm::Count { class } => self.priors.presence_odds(asked, self.room, self.regime, class),
+            other => self.priors.yes_odds(asked, self.room, self.regime, other),
         };
         Some(Candidate { form, text, answer, odds })
     }
 
     /// Existence candidates over every askable class, worded by `text`.
-    pub fn existence(&self, text: impl Fn(&str) -> String) -> Vec<Candidate> {
-        self.askable().into_iter().filter_map(|c| self.candidate(QuestionForm::Exists { class: c.into() }, text(c))).collect()
+    pub fn existence(&self, asked: AskedAs, text: impl Fn(&str) -> String) -> Vec<Candidate> {
+        self.askable().into_iter().filter_map(|c| self.candidate(asked, QuestionForm::Exists { class: c.into() }, text(c))).collect()
     }
 
     /// Count candidates over every askable class (zero for a class the scene lacks).
-    pub fn counts(&self, text: impl Fn(&str) -> String) -> Vec<Candidate> {
-        self.askable().into_iter().filter_map(|c| self.candidate(QuestionForm::Count { class: c.into() }, text(c))).collect()
+    pub fn counts(&self, asked: AskedAs, text: impl Fn(&str) -> String) -> Vec<Candidate> {
+        self.askable().into_iter().filter_map(|c| self.candidate(asked, QuestionForm::Count { class: c.into() }, text(c))).collect()
     }
 
     /// `n` distinct pairs of askable classes, each class drawn as often as a room like this
     /// one has it (the odds, not this scene: the pairs must not depend on its answers).
     fn pairs(&mut self, n: usize) -> Vec<(String, String)> {
-        let classes: Vec<(String, f64)> = self.askable().into_iter().map(|c| (c.to_string(), self.priors.presence_odds(self.room, self.regime, c))).collect();
+        let classes: Vec<(String, f64)> =
+            self.askable().into_iter().map(|c| (c.to_string(), self.priors.presence_odds(AskedAs::Standard, self.room, self.regime, c))).collect();
         let total: f64 = classes.iter().map(|(_, w)| w).sum();
         let draw = |rng: &mut Rng| {
             let mut at = rng.unit() * total;
@@ -93,7 +95,7 @@ impl Asking<'_> {
 pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let mut out = existence_questions(asking);
     out.extend(logical_questions(asking));
-    let counts = asking.counts(|c| format!("How many {} are there in the scene?", plural(c)));
+    let counts = asking.counts(AskedAs::Standard, |c| format!("How many {} are there in the scene?", plural(c)));
     out.extend(in_category("Measurement", draw_balanced(counts, is_nonzero, 2, &mut asking.rng)));
     out.extend(in_category("Object Attributes", colours(asking, 3)));
     out.extend(relation_questions(asking));
@@ -110,7 +112,7 @@ fn in_category(category: &'static str, drawn: Vec<Candidate>) -> impl Iterator<I
 /// categories, so they never ask the same question, then "is the X <colour>".
 fn existence_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let in_scene = |c: &str| format!("Is there {} in the scene?", with_article(c));
-    let existence = draw_balanced(asking.existence(in_scene), is_yes, 3, &mut asking.rng);
+    let existence = draw_balanced(asking.existence(AskedAs::Standard, in_scene), is_yes, 3, &mut asking.rng);
     let per_side = existence.len() / 2;
     let (yes, no) = existence.split_at(per_side);
     let general = if per_side == 3 { 1 } else { 0 };
@@ -128,14 +130,14 @@ fn logical_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
         .iter()
         .filter_map(|(a, b)| {
             let text = format!("Is there {} and {} in the scene?", with_article(a), with_article(b));
-            asking.candidate(QuestionForm::ExistsAll { classes: vec![a.clone(), b.clone()] }, text)
+            asking.candidate(AskedAs::Standard, QuestionForm::ExistsAll { classes: vec![a.clone(), b.clone()] }, text)
         })
         .collect();
     let any: Vec<Candidate> = pairs
         .iter()
         .filter_map(|(a, b)| {
             let text = format!("Is there {} or {} in the scene?", with_article(a), with_article(b));
-            asking.candidate(QuestionForm::ExistsAny { classes: vec![a.clone(), b.clone()] }, text)
+            asking.candidate(AskedAs::Standard, QuestionForm::ExistsAny { classes: vec![a.clone(), b.clone()] }, text)
         })
         .collect();
     let mut out: Vec<(&'static str, Candidate)> = in_category("Binary Logical", draw_balanced(all, is_yes, 1, &mut asking.rng)).collect();
@@ -152,11 +154,11 @@ fn relation_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     for x in &singles {
         for y in present.iter().filter(|y| **y != x.label) {
             let form = QuestionForm::NearestIs { class: x.label.clone(), nearest: y.to_string() };
-            nearest.extend(asking.candidate(form, format!("Is the {y} the closest object to the {}?", x.label)));
+            nearest.extend(asking.candidate(AskedAs::Standard, form, format!("Is the {y} the closest object to the {}?", x.label)));
         }
         for support in present.iter().copied().filter(|s| *s != x.label).chain(["floor"]) {
             let form = QuestionForm::RestsOn { class: x.label.clone(), support: support.to_string() };
-            resting.extend(asking.candidate(form, format!("Is the {} resting on the {support}?", x.label)));
+            resting.extend(asking.candidate(AskedAs::Standard, form, format!("Is the {} resting on the {support}?", x.label)));
         }
     }
     let mut beside = Vec::new();
@@ -164,7 +166,7 @@ fn relation_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
         for b in present.iter().filter(|b| *b != a) {
             for relation in [Relation::NextTo, Relation::Near] {
                 let form = QuestionForm::Related { subject: a.to_string(), relation, object: b.to_string() };
-                beside.extend(asking.candidate(form, format!("Is there {} {} the {b} in the scene?", with_article(a), relation.words())));
+                beside.extend(asking.candidate(AskedAs::Standard, form, format!("Is there {} {} the {b} in the scene?", with_article(a), relation.words())));
             }
         }
     }
@@ -182,14 +184,14 @@ fn comparison_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     for a in &present {
         for b in present.iter().filter(|b| *b != a) {
             let form = QuestionForm::MoreThan { more: a.to_string(), fewer: b.to_string() };
-            more.extend(asking.candidate(form, format!("Are there more {} than {} in the scene?", plural(a), plural(b))));
+            more.extend(asking.candidate(AskedAs::Standard, form, format!("Are there more {} than {} in the scene?", plural(a), plural(b))));
         }
     }
     let mut larger = Vec::new();
     for a in &singles {
         for b in singles.iter().filter(|b| b.label != a.label) {
             let form = QuestionForm::LargerThan { a: a.label.clone(), b: b.label.clone() };
-            larger.extend(asking.candidate(form, format!("Is the {} larger than the {}?", a.label, b.label)));
+            larger.extend(asking.candidate(AskedAs::Standard, form, format!("Is the {} larger than the {}?", a.label, b.label)));
         }
     }
     let mut out: Vec<(&'static str, Candidate)> = in_category("Comparison", draw_balanced(more, is_yes, 1, &mut asking.rng)).collect();
@@ -222,7 +224,7 @@ fn has_colour(asking: &mut Asking) -> Vec<Candidate> {
         .into_iter()
         .filter_map(|(o, colour)| {
             let form = QuestionForm::HasColour { class: o.label.clone(), colour: colour.clone() };
-            asking.candidate(form, format!("Is the {} {colour}?", o.label))
+            asking.candidate(AskedAs::Standard, form, format!("Is the {} {colour}?", o.label))
         })
         .collect()
 }
@@ -233,7 +235,7 @@ fn colours(asking: &mut Asking, n: usize) -> Vec<Candidate> {
     let mut out = Vec::new();
     while out.len() < n && !coloured.is_empty() {
         let o = coloured.swap_remove(asking.rng.below(coloured.len()));
-        out.extend(asking.candidate(QuestionForm::Colour { class: o.label.clone() }, format!("What colour is the {}?", o.label)));
+        out.extend(asking.candidate(AskedAs::Standard, QuestionForm::Colour { class: o.label.clone() }, format!("What colour is the {}?", o.label)));
     }
     out
 }

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use osmab_dataset::prompts::PromptPool;
-use osmab_dataset::questions::priors::{PoolLayouts, QuestionPriors};
+use osmab_dataset::questions::priors::{AskedAs, PoolLayouts, QuestionPriors};
 use osmab_evaluator::scores::{Regime, Split};
 use osmab_evaluator::submission::release::ReleaseIndex;
 use osmab_evaluator::vqa::{Question, QuestionForm, SceneQuestions};
@@ -131,7 +131,7 @@ fn stated_counts(pools: &[PromptPool]) -> BTreeMap<(String, String), Vec<String>
     for prompt in pools.iter().flat_map(|p| &p.accepted) {
         let mut per_class: BTreeMap<&str, u32> = BTreeMap::new();
         for o in &prompt.spec.objects {
-            if let Some(class) = osmab_dataset::questions::prompt::class_of(&o.category) {
+            if let Some(class) = osmab_dataset::questions::grounding::class_of(&o.category) {
                 *per_class.entry(class).or_default() += o.count;
             }
         }
@@ -173,13 +173,15 @@ impl Predictors<'_> {
         same_form.or_else(same_class).or_else(|| self.val_majority(&template(q)))
     }
 
-    /// The answer the pool's odds favour (none for colours).
+    /// The answer the pool's odds favour (none for colours), read as the generator reads
+    /// them: a prompt-grounded question's off the layouts whose prompt settles it.
     fn pool_odds(&self, regime: Regime, q: &Question) -> Option<String> {
         let form = q.form.as_ref()?;
         let room = room_of(&q.question).unwrap_or_default();
+        let asked = if q.category.starts_with("PromptGT") { AskedAs::PromptGrounded } else { AskedAs::Standard };
         match form {
             QuestionForm::Count { class } => {
-                if self.priors.presence_odds(&room, regime, class) < 0.5 {
+                if self.priors.presence_odds(asked, &room, regime, class) < 0.5 {
                     return Some("0".into());
                 }
                 let key = (room.clone(), class.clone());
@@ -187,7 +189,7 @@ impl Predictors<'_> {
                 mode(counts.iter().map(String::as_str))
             }
             QuestionForm::Colour { .. } => None,
-            other => Some(if self.priors.yes_odds(&room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
+            other => Some(if self.priors.yes_odds(asked, &room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
         }
     }
 

@@ -50,10 +50,17 @@ pub struct Withheld {
     pub note: String,
 }
 
-/// `value` to the nearest multiple of [`SHOWN_RESOLUTION`] (undefined stays undefined).
+/// `value` to the nearest multiple of [`SHOWN_RESOLUTION`] (undefined stays undefined), the
+/// step chosen as the pages write the value (`{:.1}` of its percent, which rounds the exact
+/// double): `value * 1000` could itself round a value just short of a half step onto it, and
+/// the API would then say −28.8 % where the board writes −28.7 %.
 pub fn rounded(value: f64) -> f64 {
+    if !value.is_finite() {
+        return value;
+    }
+    let percent: f64 = format!("{:.1}", 100.0 * value).parse().expect("a formatted finite float parses");
     // `+ 0.0` turns a rounded -0.0 into 0.0.
-    if value.is_finite() { (value * STEPS_PER_UNIT).round() / STEPS_PER_UNIT + 0.0 } else { value }
+    (percent * 10.0).round() / STEPS_PER_UNIT + 0.0
 }
 
 fn rounded_pair(pair: [f64; 2]) -> [f64; 2] {

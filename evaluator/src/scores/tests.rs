@@ -246,3 +246,20 @@ fn a_question_set_or_a_subsets_group_withheld_anywhere_leaves_nothing_to_subtrac
     }
     assert_eq!(disclosure::rounded(-0.0004).to_string(), "0", "no negative zero");
 }
+
+#[test]
+fn a_shown_relative_change_reads_as_the_board_writes_the_change_of_the_shown_values() {
+    // Changes of shown (rounded) scores, many of them a hair from a half step of 0.1 %.
+    let page = |x: f64| format!("{:+.1}%", 100.0 * x);
+    let mut checked = 0;
+    for base in (100..=1000).step_by(7) {
+        for value in (0..=1000).step_by(3) {
+            let (value, base) = (disclosure::rounded(value as f64 / 1000.0), disclosure::rounded(base as f64 / 1000.0));
+            let change = (value - base) / base;
+            assert_eq!(page(disclosure::rounded(change)), page(change), "{value} against {base}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 40_000);
+    assert_eq!(disclosure::rounded((0.024 - 0.128) / 0.128), -0.812, "−81.25 % exactly is −81.2 %, as the board writes it");
+}

@@ -14,8 +14,7 @@
 use osmab_evaluator::vqa::{QuestionForm, Relation};
 
 use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
-pub use super::grounding::class_of;
-use super::grounding::{prompt_settles, stated_classes};
+use super::grounding::{class_of, prompt_settles, stated_classes};
 use super::priors::AskedAs;
 use super::standard::Asking;
 use super::wording::{plural, with_article};

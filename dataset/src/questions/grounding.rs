@@ -60,7 +60,7 @@ mod tests {
                 let objects = layout_objects(&layout);
                 let scene = format!("scene_{k:03}");
                 let questions = crate::questions::scene_questions(&scene, &prompt.spec, &objects, lexicon, priors, 77 + draw);
-                for q in questions.questions.into_iter().filter(|q| q.category.starts_with("PromptGT")) {
+                for q in questions.questions.into_iter().filter(|q| osmab_evaluator::vqa::is_prompt_grounded(&q.category)) {
                     let form = q.form.clone().expect("every question has a form");
                     let odds = match &form {
                         QuestionForm::Count { class } => priors.presence_odds(AskedAs::PromptGrounded, &prompt.spec.room, prompt.spec.regime, class),

@@ -178,7 +178,7 @@ impl Predictors<'_> {
     fn pool_odds(&self, regime: Regime, q: &Question) -> Option<String> {
         let form = q.form.as_ref()?;
         let room = room_of(&q.question).unwrap_or_default();
-        let asked = if q.category.starts_with("PromptGT") { AskedAs::PromptGrounded } else { AskedAs::Standard };
+        let asked = if osmab_evaluator::vqa::is_prompt_grounded(&q.category) { AskedAs::PromptGrounded } else { AskedAs::Standard };
         match form {
             QuestionForm::Count { class } => {
                 if self.priors.presence_odds(asked, &room, regime, class) < 0.5 {

@@ -276,3 +276,49 @@ fn an_archive_unpacks_to_at_most_its_expansion_limit_and_its_total_limit() {
     let unbounded = ArchiveLimits::default();
     assert_eq!(unpack(&bomb, &dir.path().join("out-free"), unbounded).unwrap().bytes, 4 << 20, "without a ratio only the total limit counts");
 }
+
+#[test]
+fn files_of_several_megabytes_unpack_byte_for_byte_in_every_format_up_to_the_exact_total_limit() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    // 3.5 MiB that never repeats within a copy buffer, and a small file after it.
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let large: Vec<u8> = (0..(7 << 19))
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state as u8
+        })
+        .collect();
+    let files = [("maps/baseline/scene_000.npz", &large[..]), ("submission.json", &b"{}"[..])];
+    let mut builder = tar::Builder::new(Vec::new());
+    for (name, data) in files {
+        let mut header = tar::Header::new_gnu();
+        header.set_size(data.len() as u64);
+        header.set_mode(0o644);
+        header.set_entry_type(tar::EntryType::Regular);
+        builder.append_data(&mut header, name, data).unwrap();
+    }
+    let tar_bytes = builder.into_inner().unwrap();
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(&tar_bytes).unwrap();
+    let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    for (name, data) in files {
+        zip.start_file(name, zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored)).unwrap();
+        zip.write_all(data).unwrap();
+    }
+    let total = (large.len() + 2) as u64;
+    for (archive, bytes) in [("sub.tar", tar_bytes.clone()), ("sub.tar.gz", gz.finish().unwrap()), ("sub.zip", zip.finish().unwrap().into_inner())] {
+        let path = dir.path().join(archive);
+        std::fs::write(&path, bytes).unwrap();
+        let exact = ArchiveLimits { max_total_bytes: total, max_expansion_ratio: None, ..ArchiveLimits::default() };
+        let out = dir.path().join(format!("out-{archive}"));
+        assert_eq!(unpack(&path, &out, exact).unwrap_or_else(|e| panic!("{archive}: {e}")).bytes, total, "{archive}");
+        assert!(std::fs::read(out.join("maps/baseline/scene_000.npz")).unwrap() == large, "{archive}: the large file byte for byte");
+        assert_eq!(std::fs::read(out.join("submission.json")).unwrap(), b"{}", "{archive}");
+        let one_short = ArchiveLimits { max_total_bytes: total - 1, max_expansion_ratio: None, ..ArchiveLimits::default() };
+        let err = unpack(&path, &dir.path().join(format!("short-{archive}")), one_short).unwrap_err();
+        assert!(err.to_string().contains(&format!("more than {} bytes", total - 1)), "{archive}: {err}");
+    }
+}

@@ -8,6 +8,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -281,6 +282,10 @@ fn check_frame(map: &PredictedMap, (lo, hi): Extent, name: &str) -> Result<(), I
     Ok(())
 }
 
+/// Files checked at once. A map is read whole to be checked, so this bounds validation's
+/// memory to two maps' whatever the cores (scoring holds one map and its index).
+const FILES_AT_ONCE: usize = 2;
+
 /// Check the unpacked submission in `unpacked` against `release`; on failure, every
 /// problem found (at most [`MAX_REPORTED_PROBLEMS`], then a count of the rest).
 pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimits) -> Result<ValidSubmission, Vec<InputError>> {
@@ -290,7 +295,9 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
     let card = read_card(&root, release, limits, &mut problems);
     let text = read_text_features(&root, release, limits, &mut problems);
     let mut found = Found::default();
-    let against = Against { root: &root, release, text: text.as_ref(), limits };
+    // Each file is placed and recorded in order, then checked [`FILES_AT_ONCE`] at a time,
+    // its problems kept in the files' order.
+    let mut to_check = Vec::new();
     for name in &files {
         if is_archiver_noise(name) || name == "submission.json" || name == "text_features.npz" {
             continue;
@@ -298,9 +305,27 @@ pub fn validate(unpacked: &Path, release: &ReleaseIndex, limits: SubmissionLimit
         match place(name, release) {
             Placed::Ignored => {}
             Placed::OtherSplit => found.outside_split.push(name.clone()),
-            Placed::Refused(problem) => problems.push(problem),
-            Placed::File { kind, lighting, scene } => problems.extend(found.check_file(&against, name, kind, lighting, scene)),
+            Placed::Refused(problem) => to_check.push(Err(problem)),
+            Placed::File { kind, lighting, scene } => {
+                found.record(&root.join(name), kind, lighting, &scene, release);
+                to_check.push(Ok((name, kind, lighting, scene)));
+            }
         }
+    }
+    let map_scenes: BTreeSet<&str> = to_check.iter().filter_map(|file| file.as_ref().ok()).filter(|file| file.1 == FileKind::Map).map(|file| file.3).collect();
+    let extents: BTreeMap<&str, Option<Extent>> = map_scenes.into_iter().map(|scene| (scene, ground_truth_extent(release, scene))).collect();
+    let against = Against { root: &root, release, text: text.as_ref(), limits, extents: &extents };
+    let check = |file: Result<(&String, FileKind, crate::scores::Lighting, &str), InputError>| match file {
+        Err(problem) => (0, vec![problem]),
+        Ok((name, kind, lighting, scene)) => check_file(&against, name, kind, lighting, scene),
+    };
+    let checked: Vec<(u64, Vec<InputError>)> = match rayon::ThreadPoolBuilder::new().num_threads(FILES_AT_ONCE).build() {
+        Ok(pool) => pool.install(|| to_check.into_par_iter().map(|file| check(file)).collect()),
+        Err(_) => to_check.into_iter().map(|file| check(file)).collect(),
+    };
+    for (points, file_problems) in checked {
+        found.points += points;
+        problems.extend(file_problems);
     }
     if found.entries.values().all(|e| e.map.is_none() && e.graph.is_none()) && problems.is_empty() {
         problems.push(nothing_to_score(release, &found.outside_split));
@@ -457,23 +482,22 @@ struct Against<'a> {
     release: &'a ReleaseIndex,
     text: Option<&'a TextFeatures>,
     limits: SubmissionLimits,
+    /// Each mapped scene's ground-truth extent, read once.
+    extents: &'a BTreeMap<&'a str, Option<Extent>>,
 }
 
 /// What the files of a submission hold so far.
 #[derive(Default)]
 struct Found {
     entries: BTreeMap<(crate::scores::Lighting, String), SceneEntry>,
-    /// Each scene's ground-truth extent, read once.
-    extents: BTreeMap<String, Option<Extent>>,
     points: u64,
     outside_split: Vec<String>,
 }
 
 impl Found {
-    /// Check the file `name` of `kind` for (`lighting`, `scene`) and record it; its problems.
-    fn check_file(&mut self, against: &Against<'_>, name: &str, kind: FileKind, lighting: crate::scores::Lighting, scene: &str) -> Vec<InputError> {
-        let Against { root, release, text, limits } = *against;
-        let path = root.join(name);
+    /// Record the file at `path` of `kind` for (`lighting`, `scene`): answers for a test
+    /// scene are refused when checked, and recorded as no file.
+    fn record(&mut self, path: &Path, kind: FileKind, lighting: crate::scores::Lighting, scene: &str, release: &ReleaseIndex) {
         let entry = self.entries.entry((lighting, scene.to_string())).or_insert_with(|| SceneEntry {
             lighting,
             scene: scene.to_string(),
@@ -482,39 +506,53 @@ impl Found {
             answers: None,
         });
         match kind {
-            FileKind::Map => {
-                entry.map = Some(path.clone());
-                let map = match PredictedMap::read(&path, limits.arrays) {
-                    Ok(map) => map,
-                    Err(e) => return vec![relative(root, e)],
-                };
-                self.points += map.points.len() as u64;
-                let extent = *self.extents.entry(scene.to_string()).or_insert_with(|| ground_truth_extent(release, scene));
-                let semantics = check_semantics(&map, release, text, name).err();
-                let frame = extent.and_then(|extent| check_frame(&map, extent, name).err());
-                semantics.into_iter().chain(frame).collect()
-            }
-            FileKind::Graph => {
-                entry.graph = Some(path.clone());
-                read_json(&path, name, limits).and_then(|v| check_graph(&v, name, text)).err().into_iter().collect()
-            }
-            FileKind::Answers if release.scene(scene).is_some_and(|s| s.split == crate::scores::Split::Test) => vec![InputError::new(
+            FileKind::Map => entry.map = Some(path.to_path_buf()),
+            FileKind::Graph => entry.graph = Some(path.to_path_buf()),
+            FileKind::Answers if is_test_scene(release, scene) => {}
+            FileKind::Answers => entry.answers = Some(path.to_path_buf()),
+        }
+    }
+}
+
+fn is_test_scene(release: &ReleaseIndex, scene: &str) -> bool {
+    release.scene(scene).is_some_and(|s| s.split == crate::scores::Split::Test)
+}
+
+/// Check the file `name` of `kind` for (`lighting`, `scene`): the points it holds (a map's)
+/// and its problems.
+fn check_file(against: &Against<'_>, name: &str, kind: FileKind, lighting: crate::scores::Lighting, scene: &str) -> (u64, Vec<InputError>) {
+    let Against { root, release, text, limits, extents } = *against;
+    let path = root.join(name);
+    match kind {
+        FileKind::Map => {
+            let map = match PredictedMap::read(&path, limits.arrays) {
+                Ok(map) => map,
+                Err(e) => return (0, vec![relative(root, e)]),
+            };
+            let extent = extents.get(scene).copied().flatten();
+            let semantics = check_semantics(&map, release, text, name).err();
+            let frame = extent.and_then(|extent| check_frame(&map, extent, name).err());
+            (map.points.len() as u64, semantics.into_iter().chain(frame).collect())
+        }
+        FileKind::Graph => (0, read_json(&path, name, limits).and_then(|v| check_graph(&v, name, text)).err().into_iter().collect()),
+        FileKind::Answers if is_test_scene(release, scene) => (
+            0,
+            vec![InputError::new(
                 name,
                 "(file)",
                 format!(
                     "{scene} is a test scene: its questions are hidden and the server answers them from your scene graph (graphs/{lighting}/{scene}.json); answers/ is for val scenes only"
                 ),
             )],
-            FileKind::Answers => {
-                entry.answers = Some(path.clone());
-                let known = release
-                    .public_questions(scene)
-                    .ok()
-                    .flatten()
-                    .or_else(|| release.answered_questions(scene).ok().flatten())
-                    .map(|questions| questions.questions.into_iter().map(|q| q.id).collect::<BTreeSet<String>>());
-                read_json(&path, name, limits).and_then(|v| check_answers(&v, name, scene, known.as_ref())).err().into_iter().collect()
-            }
+        ),
+        FileKind::Answers => {
+            let known = release
+                .public_questions(scene)
+                .ok()
+                .flatten()
+                .or_else(|| release.answered_questions(scene).ok().flatten())
+                .map(|questions| questions.questions.into_iter().map(|q| q.id).collect::<BTreeSet<String>>());
+            (0, read_json(&path, name, limits).and_then(|v| check_answers(&v, name, scene, known.as_ref())).err().into_iter().collect())
         }
     }
 }

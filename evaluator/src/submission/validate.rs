@@ -283,7 +283,7 @@ fn check_frame(map: &PredictedMap, (lo, hi): Extent, name: &str) -> Result<(), I
 }
 
 /// Files checked at once. A map is read whole to be checked, so this bounds validation's
-/// memory to two maps' whatever the cores (scoring holds one map and its index).
+/// memory to that of two maps, whatever the cores (scoring holds one map and its index).
 const FILES_AT_ONCE: usize = 2;
 
 /// Check the unpacked submission in `unpacked` against `release`; on failure, every

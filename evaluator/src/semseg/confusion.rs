@@ -212,9 +212,24 @@ impl MatrixCounter {
                 |mut total, part| {
                     let mut counts = vec![0u32; (n + 1) * n];
                     let mut counted = 0usize;
-                    for (label, column) in part {
-                        counts[self.rows.get(label) * n + column] += 1;
+                    // Neighbouring points mostly share their pair (a cloud in Z-order, an
+                    // object at a time): a run of equal pairs is counted in a register and
+                    // added once, where adding each point to its cell would wait on the
+                    // store of the point before it.
+                    let mut run: Option<((i64, usize), u32)> = None;
+                    for pair in part {
                         counted += 1;
+                        match &mut run {
+                            Some((same, length)) if *same == pair => *length += 1,
+                            _ => {
+                                if let Some(((label, column), length)) = run.replace((pair, 1)) {
+                                    counts[self.rows.get(label) * n + column] += length;
+                                }
+                            }
+                        }
+                    }
+                    if let Some(((label, column), length)) = run {
+                        counts[self.rows.get(label) * n + column] += length;
                     }
                     assert!(counted <= COUNT_CHUNK, "a part of at most {COUNT_CHUNK} points");
                     total.iter_mut().zip(counts).for_each(|(t, c)| *t += u64::from(c));

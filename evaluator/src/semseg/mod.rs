@@ -14,6 +14,7 @@ pub mod metrics;
 pub mod nearest;
 pub mod prepared_cache;
 pub mod report;
+pub mod scratch;
 pub mod vocabulary;
 pub mod z_order;
 
@@ -23,6 +24,7 @@ pub use confusion::{ConfusionMatrix, NearestCount};
 pub use metrics::{ClassScore, SegmentationMetrics};
 pub use nearest::{NearestIndex, PointClasses};
 pub use report::{LightingComparison, MetricTriple, MetricsTable};
+pub use scratch::Scratch;
 pub use vocabulary::Vocabulary;
 
 use rayon::prelude::*;
@@ -73,7 +75,7 @@ pub fn score_scene(ground_truth: &GroundTruth, map: &PredictedMap, classes: &Cla
     check_finite(ground_truth)?;
     let vocabulary = scored_vocabulary(ground_truth, classes)?;
     let cloud = Cloud { points: &ground_truth.points, labels: &ground_truth.labels, vocabulary: &vocabulary, in_z_order: false };
-    score_cloud(cloud, map, classes, text)
+    score_cloud(cloud, map, classes, text, &mut Scratch::default())
 }
 
 /// A scene's ground truth prepared once for scoring several maps against it (the maps
@@ -110,6 +112,11 @@ impl PreparedGroundTruth {
         Ok(Self { source: ground_truth.source, points: ground_truth.points, labels: ground_truth.labels, vocabulary })
     }
 
+    /// Its points' and labels' memory, for another cloud to be read into.
+    pub(crate) fn into_buffers(self) -> (Vec<[f32; 3]>, Vec<i64>) {
+        (self.points, self.labels)
+    }
+
     /// The directory of the release's ground-truth files it was prepared from.
     pub fn source(&self) -> &std::path::Path {
         &self.source
@@ -138,8 +145,20 @@ impl PreparedGroundTruth {
 
 /// Score `map` against a prepared ground truth.
 pub fn score_prepared(ground_truth: &PreparedGroundTruth, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
+    score_prepared_reusing(ground_truth, map, classes, text, &mut Scratch::default())
+}
+
+/// [`score_prepared`] in the memory `scratch` kept from the map scored before (the same
+/// score), keeping this map's for the next.
+pub fn score_prepared_reusing(
+    ground_truth: &PreparedGroundTruth,
+    map: &PredictedMap,
+    classes: &ClassList,
+    text: Option<&TextFeatures>,
+    scratch: &mut Scratch,
+) -> Result<SceneScore> {
     let cloud = Cloud { points: &ground_truth.points, labels: &ground_truth.labels, vocabulary: &ground_truth.vocabulary, in_z_order: true };
-    score_cloud(cloud, map, classes, text)
+    score_cloud(cloud, map, classes, text, scratch)
 }
 
 fn check_finite(ground_truth: &GroundTruth) -> Result<()> {
@@ -166,7 +185,7 @@ struct Cloud<'a> {
     in_z_order: bool,
 }
 
-fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>) -> Result<SceneScore> {
+fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList, text: Option<&TextFeatures>, scratch: &mut Scratch) -> Result<SceneScore> {
     if map.points.len() >= u32::MAX as usize {
         return Err(InputError::new(&map.source, "points", format!("{} points are more than the evaluator indexes (2^32 - 1)", map.points.len())));
     }
@@ -178,14 +197,20 @@ fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList,
     timings.labels = clock.elapsed();
 
     let clock = Instant::now();
-    let index = NearestIndex::build(&map.points);
+    let index = match scratch.index.take() {
+        Some(mut index) => {
+            index.rebuild(&map.points);
+            index
+        }
+        None => NearestIndex::build(&map.points),
+    };
     timings.index = clock.elapsed();
     let confusion = if ground_truth.in_z_order {
-        count_in_order(&ground_truth, &index, &point_labels, &mut timings)
+        count_in_order(&ground_truth, &index, &point_labels, &mut scratch.answers, &mut timings)
     } else {
         count_by_block(&ground_truth, &index, &point_labels, &mut timings)
     };
-    drop(index);
+    scratch.index = Some(index);
     let clock = Instant::now();
     let metrics = SegmentationMetrics::from_confusion(&confusion);
     timings.confusion += clock.elapsed();
@@ -193,14 +218,14 @@ fn score_cloud(ground_truth: Cloud<'_>, map: &PredictedMap, classes: &ClassList,
 }
 
 /// The confusion matrix of a cloud already in Z-order: the class of every point's nearest
-/// map point, answered in the cloud's order, then counted.
-fn count_in_order(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], timings: &mut StageTimings) -> ConfusionMatrix {
+/// map point, answered in the cloud's order into `columns`, then counted.
+fn count_in_order(ground_truth: &Cloud<'_>, index: &NearestIndex, point_labels: &[i64], columns: &mut Vec<u32>, timings: &mut StageTimings) -> ConfusionMatrix {
     let clock = Instant::now();
     let mut count = NearestCount::new(ground_truth.vocabulary.ids(), point_labels);
     let classes = index.point_classes(count.point_columns());
     timings.confusion = clock.elapsed();
     let clock = Instant::now();
-    let columns = index.nearest_classes_in_order(ground_truth.points, &classes);
+    index.nearest_classes_in_order_into(ground_truth.points, &classes, columns);
     timings.query = clock.elapsed();
     let clock = Instant::now();
     let parts = ground_truth.labels.par_chunks(confusion::COUNT_CHUNK).zip(columns.par_chunks(confusion::COUNT_CHUNK));

@@ -35,6 +35,7 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
+use super::scratch::{refill, resize_to_overwrite};
 use super::z_order::{ZGrid, ZOrderKeys, position_of};
 
 /// Points per leaf at most; every leaf has this many slots, the unused ones padded with
@@ -121,6 +122,8 @@ pub struct NearestIndex {
     /// Squared diagonal a batch of queries may span: about two leaves', so that the
     /// leaves near a batch are few.
     batch_span: f32,
+    /// The build's working copy of the points, kept by [`NearestIndex::rebuild`] for the next.
+    build_order: Vec<IndexedPoint>,
 }
 
 /// Squared distance exactly as pytorch3d accumulates it in float32.
@@ -383,6 +386,29 @@ fn widest_axis(lo: [f32; 3], hi: [f32; 3]) -> usize {
 impl NearestIndex {
     /// Build the index. Points must be finite (the map readers guarantee it) and fewer than 2³² − 1.
     pub fn build(points: &[[f32; 3]]) -> Self {
+        let mut index = Self {
+            len: 0,
+            depth: 0,
+            xs: Vec::new(),
+            ys: Vec::new(),
+            zs: Vec::new(),
+            ids: Vec::new(),
+            splits: Vec::new(),
+            nodes: Vec::new(),
+            batch_span: 0.0,
+            build_order: Vec::new(),
+        };
+        index.rebuild(points);
+        // Kept only by an index that is rebuilt.
+        index.build_order = Vec::new();
+        index
+    }
+
+    /// Index `points` instead, in the memory of the index before: the same index as
+    /// [`NearestIndex::build`] makes. A scorer rebuilds one index map after map, since the
+    /// fresh pages of a new one's arrays (about 30 bytes a point, build included) cost more
+    /// to fault in than to fill on the virtual machines measured (docs/performance.md).
+    pub fn rebuild(&mut self, points: &[[f32; 3]]) {
         assert!(!points.is_empty(), "cannot index an empty map");
         assert!(points.len() < u32::MAX as usize, "too many points for 32-bit ids");
         let n = points.len();
@@ -392,43 +418,45 @@ impl NearestIndex {
         }
         // The build moves the points themselves (with their indices), not indices into
         // them: each level's passes then read memory in order.
-        let mut order: Vec<IndexedPoint> = points.par_iter().enumerate().map(|(id, &p)| IndexedPoint { p, id: id as u32 }).collect();
+        let mut order = std::mem::take(&mut self.build_order);
+        order.clear();
+        order.par_extend(points.par_iter().enumerate().map(|(id, &p)| IndexedPoint { p, id: id as u32 }));
         split(&mut order, depth);
         let first_leaf = 1usize << depth;
-        // Ranges follow the build's rule: a range splits at its middle position.
-        let mut ranges = vec![(0usize, n); 2 * first_leaf];
-        for node in 1..first_leaf {
-            let (start, end) = ranges[node];
-            let mid = start + (end - start) / 2;
-            ranges[2 * node] = (start, mid);
-            ranges[2 * node + 1] = (mid, end);
-        }
         let slots = first_leaf * LEAF_SIZE;
-        let mut index = Self {
-            len: n,
-            depth,
-            xs: vec![f32::INFINITY; slots],
-            ys: vec![f32::INFINITY; slots],
-            zs: vec![f32::INFINITY; slots],
-            ids: vec![u32::MAX; slots],
-            splits: vec![Split { pivot: 0.0, axis: 0 }; first_leaf],
-            nodes: vec![Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX }; 2 * first_leaf],
-            batch_span: 0.0,
-        };
-        for (leaf, &(start, end)) in ranges[first_leaf..].iter().enumerate() {
-            let box_ = &mut index.nodes[first_leaf + leaf];
-            for (slot, &IndexedPoint { p, id }) in (leaf * LEAF_SIZE..).zip(&order[start..end]) {
-                (index.xs[slot], index.ys[slot], index.zs[slot], index.ids[slot]) = (p[0], p[1], p[2], id);
-                for a in 0..3 {
-                    box_.min[a] = box_.min[a].min(p[a]);
-                    box_.max[a] = box_.max[a].max(p[a]);
-                }
-                box_.min_id = box_.min_id.min(id);
-            }
+        (self.len, self.depth) = (n, depth);
+        refill(&mut self.xs, slots, f32::INFINITY);
+        refill(&mut self.ys, slots, f32::INFINITY);
+        refill(&mut self.zs, slots, f32::INFINITY);
+        refill(&mut self.ids, slots, u32::MAX);
+        refill(&mut self.splits, first_leaf, Split { pivot: 0.0, axis: 0 });
+        refill(&mut self.nodes, 2 * first_leaf, Node { min: [f32::INFINITY; 3], max: [f32::NEG_INFINITY; 3], min_id: u32::MAX });
+        self.fill_leaves(&order, 1, 0..n);
+        self.build_order = order;
+        self.fill_inner_nodes();
+        self.batch_span = BATCH_SPAN_LEAVES * self.typical_leaf_span();
+    }
+
+    /// Put the points `order[range]` of node `node` into its leaves, with their boxes: a
+    /// range splits at its middle position, as the build split it.
+    fn fill_leaves(&mut self, order: &[IndexedPoint], node: usize, range: std::ops::Range<usize>) {
+        let first_leaf = 1usize << self.depth;
+        if node < first_leaf {
+            let mid = range.start + range.len() / 2;
+            self.fill_leaves(order, 2 * node, range.start..mid);
+            self.fill_leaves(order, 2 * node + 1, mid..range.end);
+            return;
         }
-        index.fill_inner_nodes();
-        index.batch_span = BATCH_SPAN_LEAVES * index.typical_leaf_span();
-        index
+        let leaf = node - first_leaf;
+        let box_ = &mut self.nodes[node];
+        for (slot, &IndexedPoint { p, id }) in (leaf * LEAF_SIZE..).zip(&order[range]) {
+            (self.xs[slot], self.ys[slot], self.zs[slot], self.ids[slot]) = (p[0], p[1], p[2], id);
+            for a in 0..3 {
+                box_.min[a] = box_.min[a].min(p[a]);
+                box_.max[a] = box_.max[a].max(p[a]);
+            }
+            box_.min_id = box_.min_id.min(id);
+        }
     }
 
     /// Boxes bottom-up, and the split plane the build used at each node.
@@ -868,7 +896,9 @@ impl NearestIndex {
     /// in [`super::z_order::z_order`] once and scored against several maps — else this is
     /// slower than [`NearestIndex::nearest_all`] (the answers are the same).
     pub fn nearest_all_in_order(&self, queries: &[[f32; 3]]) -> Vec<u32> {
-        self.answer_in_order(queries, Answer::Point)
+        let mut out = Vec::new();
+        self.answer_in_order(queries, Answer::Point, &mut out);
+        out
     }
 
     /// The class of the nearest indexed point of every query (`classes` of
@@ -876,15 +906,23 @@ impl NearestIndex {
     /// must visit neighbours one after another. Batches whose candidate leaves all hold
     /// points of one class are answered without searching for each member's nearest point.
     pub fn nearest_classes_in_order(&self, queries: &[[f32; 3]], classes: &PointClasses) -> Vec<u32> {
-        self.answer_in_order(queries, Answer::Class(classes))
+        let mut out = Vec::new();
+        self.nearest_classes_in_order_into(queries, classes, &mut out);
+        out
     }
 
-    fn answer_in_order(&self, queries: &[[f32; 3]], answer: Answer<'_>) -> Vec<u32> {
-        let mut out = vec![0u32; queries.len()];
+    /// [`NearestIndex::nearest_classes_in_order`] into `out` (made as long as `queries`),
+    /// in the memory `out` has when that is enough: a scorer keeps one answer array from
+    /// map to map.
+    pub fn nearest_classes_in_order_into(&self, queries: &[[f32; 3]], classes: &PointClasses, out: &mut Vec<u32>) {
+        self.answer_in_order(queries, Answer::Class(classes), out);
+    }
+
+    fn answer_in_order(&self, queries: &[[f32; 3]], answer: Answer<'_>, out: &mut Vec<u32>) {
+        resize_to_overwrite(out, queries.len());
         out.par_chunks_mut(QUERY_CHUNK)
             .zip(queries.par_chunks(QUERY_CHUNK))
             .for_each(|(found, qs)| self.answer_batches(qs.len(), |k| qs[k], answer, |k, value| found[k] = value));
-        out
     }
 }
 
@@ -913,7 +951,18 @@ fn split(order: &mut [IndexedPoint], depth: u32) {
     }
     let axis = widest_axis(lo, hi);
     let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |a, b| a.p[axis].total_cmp(&b.p[axis]));
+    // Coordinates are finite, so `<` orders them totally (±0 as equals, as a split plane
+    // compares them too), in fewer instructions than `total_cmp`.
+    order.select_nth_unstable_by(mid, |a, b| {
+        let (x, y) = (a.p[axis], b.p[axis]);
+        if x < y {
+            std::cmp::Ordering::Less
+        } else if x > y {
+            std::cmp::Ordering::Greater
+        } else {
+            std::cmp::Ordering::Equal
+        }
+    });
     let (left, right) = order.split_at_mut(mid);
     if left.len() > 1 << 14 {
         rayon::join(|| split(left, depth - 1), || split(right, depth - 1));

@@ -17,6 +17,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use rayon::prelude::*;
 
 use super::PreparedGroundTruth;
+use super::scratch::resize_to_overwrite;
 use crate::formats::classes::ClassList;
 
 /// First bytes of an entry (the trailing digit is the format's version).
@@ -78,11 +79,25 @@ impl PreparedCache {
     /// The prepared ground truth stored under `key`, checked against `classes` as a
     /// freshly read one is; `Err` says why there is none to use.
     pub fn load(&self, key: &CacheKey, gt_dir: &Path, classes: &ClassList) -> Result<PreparedGroundTruth, CacheMiss> {
+        self.load_reusing(key, gt_dir, classes, None)
+    }
+
+    /// [`PreparedCache::load`] into the memory of `spare`, a prepared ground truth no longer
+    /// needed (the scene scored before), where it is large enough: a scorer reads scene after
+    /// scene into the same memory (see [`crate::semseg::scratch`]).
+    pub fn load_reusing(
+        &self,
+        key: &CacheKey,
+        gt_dir: &Path,
+        classes: &ClassList,
+        spare: Option<PreparedGroundTruth>,
+    ) -> Result<PreparedGroundTruth, CacheMiss> {
         let path = self.dir.join(key.file_name());
         if !path.is_file() {
             return Err(CacheMiss("not cached yet".into()));
         }
-        let (points, labels) = read_entry(&path, key).map_err(|why| CacheMiss(format!("{}: {why}", path.display())))?;
+        let buffers = spare.map(PreparedGroundTruth::into_buffers).unwrap_or_default();
+        let (points, labels) = read_entry(&path, key, buffers).map_err(|why| CacheMiss(format!("{}: {why}", path.display())))?;
         // Marks the entry as used (eviction drops the least recently used first).
         if let Ok(file) = std::fs::File::options().append(true).open(&path) {
             let _ = file.set_modified(SystemTime::now());
@@ -268,12 +283,14 @@ fn read_header(path: &Path, key: &CacheKey) -> Result<Header, String> {
 }
 
 /// The points and labels of the entry at `path` made for `key`, or why it cannot be used:
-/// read in chunks by all cores, each decoded while it is in cache.
-fn read_entry(path: &Path, key: &CacheKey) -> Result<(Vec<[f32; 3]>, Vec<i64>), String> {
+/// read in chunks by all cores, each decoded while it is in cache, into `buffers` (points and
+/// labels, of any length: every element is overwritten).
+fn read_entry(path: &Path, key: &CacheKey, buffers: (Vec<[f32; 3]>, Vec<i64>)) -> Result<(Vec<[f32; 3]>, Vec<i64>), String> {
     let Header { len: header_len, count, width, crc } = read_header(path, key)?;
     let (points_at, labels_at) = (header_len as u64, (header_len + 12 * count) as u64);
-    let mut points = vec![[0f32; 3]; count];
-    let mut labels = vec![0i64; count];
+    let (mut points, mut labels) = buffers;
+    resize_to_overwrite(&mut points, count);
+    resize_to_overwrite(&mut labels, count);
     let chunks: Vec<(flate2::Crc, flate2::Crc)> = points
         .par_chunks_mut(READ_CHUNK)
         .zip(labels.par_chunks_mut(READ_CHUNK))

@@ -22,7 +22,7 @@ use crate::semseg::confusion::ConfusionMatrix;
 use crate::semseg::metrics::ClassCount;
 use crate::semseg::prepared_cache::{CacheKey, CacheMiss, PreparedCache};
 use crate::semseg::report::{MetricTriple, MetricsTable};
-use crate::semseg::{PreparedGroundTruth, StageTimings, score_prepared};
+use crate::semseg::{PreparedGroundTruth, Scratch, StageTimings, score_prepared_reusing};
 
 /// Where the time of scoring a submission went, summed over its maps.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -49,7 +49,8 @@ pub struct ScoringTimings {
     /// What the scoring waited for that thread: to hand it a scene while it was still
     /// writing the one before, and at the end, for the last one.
     pub wait_for_cache: Duration,
-    /// Reading the maps.
+    /// Waiting for the maps: each is read on a thread of its own while the one before it is
+    /// scored, so this is the part of reading them that the scoring did not hide.
     pub read_maps: Duration,
     /// The stages of [`score_scene`], summed.
     pub scenes: StageTimings,
@@ -73,13 +74,22 @@ pub fn score_submission(
     score_submission_timed(submission, release, limits, open, None, progress).map(|(scores, _)| scores)
 }
 
-/// The ground truth in `dir` prepared for scoring: from `keeper`'s cache when it holds it,
-/// else read and put in Z-order, and handed to `keeper` to keep.
-fn prepared_ground_truth(dir: &Path, classes: &ClassList, keeper: Option<&BackgroundStore>, timings: &mut ScoringTimings) -> Result<Arc<PreparedGroundTruth>> {
+/// The ground truth in `dir` prepared for scoring: from `keeper`'s cache when it holds it
+/// (read into `spare`'s memory, the scene scored before, when no one else holds that), else
+/// read and put in Z-order, and handed to `keeper` to keep.
+fn prepared_ground_truth(
+    dir: &Path,
+    classes: &ClassList,
+    keeper: Option<&BackgroundStore>,
+    spare: Option<Arc<PreparedGroundTruth>>,
+    timings: &mut ScoringTimings,
+) -> Result<Arc<PreparedGroundTruth>> {
     let clock = Instant::now();
+    // The background store may still hold the scene before while it writes it.
+    let spare = spare.and_then(|gt| Arc::try_unwrap(gt).ok());
     let cached = keeper.and_then(|keeper| CacheKey::of(dir).map(|key| (keeper, key)));
     if let Some((keeper, key)) = &cached {
-        match keeper.cache().load(key, dir, classes) {
+        match keeper.cache().load_reusing(key, dir, classes, spare) {
             Ok(gt) => {
                 timings.read_ground_truth += clock.elapsed();
                 timings.ground_truth_cached += 1;
@@ -87,6 +97,8 @@ fn prepared_ground_truth(dir: &Path, classes: &ClassList, keeper: Option<&Backgr
             }
             Err(CacheMiss(why)) => timings.cache_misses.push(format!("{}: {why}", dir.display())),
         }
+    } else {
+        drop(spare);
     }
     let clock = Instant::now();
     let gt = GroundTruth::read(dir, classes)?;
@@ -163,26 +175,45 @@ fn score_maps(
     let keeper = cache.map(|cache| BackgroundStore::start(cache.clone()));
     let mut ground_truth: Option<(&str, Arc<PreparedGroundTruth>, ClassList)> = None;
     let mut by_lighting: BTreeMap<Lighting, Vec<(String, ConfusionMatrix)>> = BTreeMap::new();
-    for (done, (entry, map_path)) in maps.iter().enumerate() {
-        if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
-            // The scorer lets go of the previous scene's cloud before the next one is read
-            // (the background store may still hold it while it writes it).
-            drop(ground_truth.take());
-            let classes = release.scene_classes(&entry.scene).map_err(ScoreError::Service)?;
-            let gt = prepared_ground_truth(&release.ground_truth_dir(&entry.scene), &classes, keeper.as_ref(), timings).map_err(ScoreError::Service)?;
-            ground_truth = Some((entry.scene.as_str(), gt, classes));
+    // Memory kept from map to map (see `semseg::scratch`).
+    let mut scratch = Scratch::default();
+    std::thread::scope(|scope| -> std::result::Result<(), ScoreError> {
+        // Each map is read on a thread of its own while the one before it is scored, one map
+        // ahead at most: reading a map is one core's work, which the scoring would leave
+        // the other cores waiting for.
+        let (send_map, next_map) = std::sync::mpsc::sync_channel(0);
+        let paths: Vec<&Path> = maps.iter().map(|(_, path)| path.as_path()).collect();
+        scope.spawn(move || {
+            for path in paths {
+                // A scorer that stopped (at an error) takes no more maps.
+                if send_map.send(PredictedMap::read(path, limits.arrays)).is_err() {
+                    break;
+                }
+            }
+        });
+        for (done, (entry, _)) in maps.iter().enumerate() {
+            if ground_truth.as_ref().is_none_or(|(scene, _, _)| *scene != entry.scene) {
+                // The scorer lets go of the previous scene's cloud before the next one is
+                // read, into its memory where it can.
+                let spare = ground_truth.take().map(|(_, gt, _)| gt);
+                let classes = release.scene_classes(&entry.scene).map_err(ScoreError::Service)?;
+                let dir = release.ground_truth_dir(&entry.scene);
+                let gt = prepared_ground_truth(&dir, &classes, keeper.as_ref(), spare, timings).map_err(ScoreError::Service)?;
+                ground_truth = Some((entry.scene.as_str(), gt, classes));
+            }
+            let (_, gt, classes) = ground_truth.as_ref().expect("read above");
+            let clock = Instant::now();
+            let map = next_map.recv().expect("the reader sends every map until the scorer stops").map_err(ScoreError::Submission)?;
+            timings.read_maps += clock.elapsed();
+            let scored = score_prepared_reusing(gt, &map, classes, text.as_ref(), &mut scratch).map_err(ScoreError::Submission)?;
+            timings.scenes = timings.scenes + scored.timings;
+            timings.maps += 1;
+            timings.ground_truth_points += gt.len() as u64;
+            by_lighting.entry(entry.lighting).or_default().push((entry.scene.clone(), scored.confusion));
+            progress(done + 1, maps.len());
         }
-        let (_, gt, classes) = ground_truth.as_ref().expect("read above");
-        let clock = Instant::now();
-        let map = PredictedMap::read(map_path, limits.arrays).map_err(ScoreError::Submission)?;
-        timings.read_maps += clock.elapsed();
-        let scored = score_prepared(gt, &map, classes, text.as_ref()).map_err(ScoreError::Submission)?;
-        timings.scenes = timings.scenes + scored.timings;
-        timings.maps += 1;
-        timings.ground_truth_points += gt.len() as u64;
-        by_lighting.entry(entry.lighting).or_default().push((entry.scene.clone(), scored.confusion));
-        progress(done + 1, maps.len());
-    }
+        Ok(())
+    })?;
     drop(ground_truth);
     if let Some(keeper) = keeper {
         let clock = Instant::now();

@@ -259,3 +259,27 @@ fn tied_points_of_different_classes_give_the_class_of_the_lowest_index() {
     index.nearest_classes_by_block(&queries, &classes, |answers| answers.pairs().for_each(|(q, class)| by_block[q] = class));
     assert!(by_block.iter().all(|&class| class == 0), "every answer is a first copy, of class 0");
 }
+
+#[test]
+fn an_index_rebuilt_in_the_memory_of_another_answers_as_one_built_afresh() {
+    // A scorer rebuilds one index map after map: larger, smaller, then with ties and ±0
+    // coordinates, each in the memory of the index before.
+    let mut rng = Rng::new(23);
+    let mut reused = NearestIndex::build(&random_points(&mut rng, 9_000, 2.0, None));
+    let mut signed_zeros = random_points(&mut rng, 2_000, 1.0, Some(0.5));
+    for (i, p) in signed_zeros.iter_mut().enumerate() {
+        p[i % 3] = if i % 2 == 0 { 0.0 } else { -0.0 };
+    }
+    let maps =
+        [random_points(&mut rng, 20_000, 2.0, None), random_points(&mut rng, 37, 1.0, None), random_points(&mut rng, 3_000, 1.0, Some(0.25)), signed_zeros];
+    for (m, points) in maps.iter().enumerate() {
+        reused.rebuild(points);
+        let fresh = NearestIndex::build(points);
+        let qs = random_points(&mut rng, 3_000, 1.5, Some(0.125));
+        let answers = reused.nearest_all(&qs);
+        assert_eq!(answers, fresh.nearest_all(&qs), "map {m}");
+        for (q, &a) in qs.iter().zip(&answers) {
+            assert_eq!(a, nearest_brute_force(points, *q), "map {m}, query {q:?}");
+        }
+    }
+}

@@ -56,6 +56,32 @@ fn a_stored_ground_truth_comes_back_exactly_as_prepared_and_scores_alike() {
 }
 
 #[test]
+fn a_ground_truth_read_into_the_memory_of_another_is_the_one_stored() {
+    // A scorer reads each scene into the memory of the scene before: larger, smaller or
+    // of the same size, what comes back is the entry, to the last point.
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = PreparedCache::new(tmp.path().join("cache"), 1 << 30);
+    let mut stored = Vec::new();
+    for (name, gt_points) in [("large", 40_000), ("small", 7_000), ("middle", 20_000)] {
+        let spec = SceneSpec { gt_points, seed: gt_points as u64, ..SPEC };
+        let scene = generate(spec);
+        let gt_dir = tmp.path().join(name);
+        scene.ground_truth.write(&gt_dir).unwrap();
+        let key = CacheKey::of(&gt_dir).unwrap();
+        let prepared = prepare(&gt_dir, &scene.classes);
+        cache.store(&key, &prepared).unwrap();
+        stored.push((key, gt_dir, scene.classes, prepared));
+    }
+    let mut spare = None;
+    for (key, gt_dir, classes, prepared) in stored.iter().chain(&stored) {
+        let loaded = cache.load_reusing(key, gt_dir, classes, spare.take()).unwrap();
+        assert_eq!(loaded.points(), prepared.points(), "{}", gt_dir.display());
+        assert_eq!(loaded.labels(), prepared.labels(), "{}", gt_dir.display());
+        spare = Some(loaded);
+    }
+}
+
+#[test]
 fn labels_beyond_32_bits_are_kept_exactly() {
     let tmp = tempfile::tempdir().unwrap();
     let mut scene = generate(SPEC);

@@ -195,6 +195,56 @@ fn a_prepared_ground_truth_scores_every_map_as_scoring_it_alone_does() {
 }
 
 #[test]
+fn maps_scored_one_after_another_in_the_same_memory_score_as_each_alone() {
+    // A scorer keeps one index and one answer array from map to map (`Scratch`): maps of
+    // other sizes, in any order, and a map of another scene in between, score as each does
+    // alone.
+    use osmab_evaluator::semseg::{PreparedGroundTruth, Scratch, score_prepared, score_prepared_reusing};
+    use osmab_evaluator::synthetic::{SceneSpec, generate};
+    let spec = |gt_points, map_points, seed| SceneSpec { gt_points, map_points, objects: 10, feature_dim: 8, seed, map_covers_room: false };
+    let (large, small) = (generate(spec(50_000, 8_000, 4)), generate(spec(9_000, 700, 5)));
+    let (large_gt, small_gt) = (
+        PreparedGroundTruth::new(large.ground_truth.clone(), &large.classes).unwrap(),
+        PreparedGroundTruth::new(small.ground_truth.clone(), &small.classes).unwrap(),
+    );
+    let mut scratch = Scratch::default();
+    for (scene, gt, spec, seed) in
+        [(&large, &large_gt, spec(50_000, 8_000, 4), 1), (&small, &small_gt, spec(9_000, 700, 5), 2), (&large, &large_gt, spec(50_000, 3_000, 4), 3)]
+    {
+        let map = scene.another_map(spec, &scene.text, seed);
+        let alone = score_prepared(gt, &map, &scene.classes, Some(&scene.text)).unwrap();
+        let reusing = score_prepared_reusing(gt, &map, &scene.classes, Some(&scene.text), &mut scratch).unwrap();
+        assert_eq!(reusing.confusion, alone.confusion, "map {seed}");
+        assert_eq!(reusing.metrics, alone.metrics, "map {seed}");
+    }
+}
+
+#[test]
+fn runs_of_equal_pairs_and_pairs_that_change_at_every_point_count_alike() {
+    // The counter adds a run of equal (label, prediction) pairs at once: sorted labels
+    // (long runs), alternating ones (no runs), and a run across the end of a part.
+    use osmab_evaluator::semseg::ConfusionMatrix;
+    use osmab_evaluator::semseg::confusion::COUNT_CHUNK;
+    let vocabulary = [1i64, 2, 5];
+    let n = 3 * COUNT_CHUNK + 17;
+    let labels: Vec<i64> = (0..n).map(|i| [1, 2, 5, 0, -1, 9][(i / 1000) % 6]).collect();
+    let predicted: Vec<i64> = (0..n).map(|i| [1, 2, 5, 7][(i / 700) % 4]).collect();
+    let alternating: Vec<i64> = (0..n).map(|i| [1, 2, 5, 0, -1, 9][i % 6]).collect();
+    for (name, gt) in [("runs", &labels), ("alternating", &alternating)] {
+        let matrix = ConfusionMatrix::from_labels(gt, &predicted, &vocabulary);
+        let mut expected = vec![0u64; 16];
+        let (row, column) = (|l: i64| [1, 2, 5, -1].iter().position(|&v| v == l), |p: i64| [1, 2, 5].iter().position(|&v| v == p).unwrap_or(3));
+        for (&g, &p) in gt.iter().zip(&predicted) {
+            if let Some(r) = row(g) {
+                expected[r * 4 + column(p)] += 1;
+            }
+        }
+        let counted: Vec<u64> = (0..4).flat_map(|r| matrix.row(r).to_vec()).collect();
+        assert_eq!(counted, expected, "{name}");
+    }
+}
+
+#[test]
 fn preparing_a_ground_truth_refuses_what_scoring_refuses() {
     use osmab_evaluator::semseg::PreparedGroundTruth;
     let mut gt = ground_truth();

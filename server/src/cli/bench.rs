@@ -163,6 +163,11 @@ pub enum BenchCommand {
         /// run 0 is then the first submission on a node that was idle before it came.
         #[arg(long, conflicts_with = "no_ground_truth_cache")]
         warm_node: bool,
+        /// Keep the cache of prepared ground truth an earlier bench left under `--data`
+        /// (entries that no longer match the release are prepared again): every run is then
+        /// warm, for comparing two binaries without the cold run's minute each time.
+        #[arg(long, conflicts_with_all = ["no_ground_truth_cache", "warm_node"])]
+        keep_cache: bool,
         #[arg(long, default_value_t = 1)]
         repeat: usize,
     },
@@ -201,12 +206,13 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
             super::bench_vqa::run(super::bench_vqa::VqaBenchSize { scenes, lightings, objects, questions, repeat })
         }
         BenchCommand::Ranking { entries, repeat } => ranking(entries, repeat),
-        BenchCommand::Submission { data, scenes, gt_points, map_points, objects, map_covers_room, no_ground_truth_cache, warm_node, repeat } => {
+        BenchCommand::Submission { data, scenes, gt_points, map_points, objects, map_covers_room, no_ground_truth_cache, warm_node, keep_cache, repeat } => {
             let size = super::bench_submission::SubmissionBenchSize { scenes, gt_points, map_points, objects, map_covers_room };
-            let node = match (no_ground_truth_cache, warm_node) {
-                (true, _) => super::bench_submission::Node::WithoutCache,
-                (false, false) => super::bench_submission::Node::Cold,
-                (false, true) => super::bench_submission::Node::Warmed,
+            let node = match (no_ground_truth_cache, warm_node, keep_cache) {
+                (true, _, _) => super::bench_submission::Node::WithoutCache,
+                (false, true, _) => super::bench_submission::Node::Warmed,
+                (false, false, true) => super::bench_submission::Node::Kept,
+                (false, false, false) => super::bench_submission::Node::Cold,
             };
             super::bench_submission::run(&size, &data, node, repeat)
         }

@@ -62,6 +62,8 @@ pub enum Node {
     Cold,
     /// The cache emptied, then filled before the first run as an idle worker fills it.
     Warmed,
+    /// The cache as an earlier bench left it: runs read what it holds for this release.
+    Kept,
 }
 
 /// Generate the data (unless `data` already holds it at these sizes) and time `repeat`
@@ -71,7 +73,7 @@ pub fn run(size: &SubmissionBenchSize, data: &Path, node: Node, repeat: usize) -
     let archive = ensure_data(size, data)?;
     let release = data.join("release");
     let cache_dir = data.join("prepared-ground-truth");
-    if cache_dir.exists() {
+    if cache_dir.exists() && node != Node::Kept {
         std::fs::remove_dir_all(&cache_dir).with_context(|| format!("emptying {}", cache_dir.display()))?;
     }
     let cache = (node != Node::WithoutCache).then(|| PreparedCache::new(&cache_dir, 1 << 40));
@@ -140,7 +142,7 @@ fn print_stages(unpack_time: Duration, validate_time: Duration, t: &ScoringTimin
         ("put ground truth in Z-order (once a scene, uncached)", t.prepare_ground_truth),
         ("  keep it in the node's cache (beside the rest, not in the sum)", t.keep_ground_truth),
         ("  wait for the cache's writer", t.wait_for_cache),
-        ("read maps", t.read_maps),
+        ("wait for maps (read while the one before is scored)", t.read_maps),
         ("label map points", t.scenes.labels),
         ("build nearest-neighbour indexes", t.scenes.index),
         ("associate ground-truth points", t.scenes.query),

@@ -212,24 +212,26 @@ impl MatrixCounter {
                 |mut total, part| {
                     let mut counts = vec![0u32; (n + 1) * n];
                     let mut counted = 0usize;
+                    let mut add = |(label, column): (i64, usize), length: u32| {
+                        counts[self.rows.get(label) * n + column] += length;
+                        counted += length as usize;
+                    };
                     // Neighbouring points mostly share their pair (a cloud in Z-order, an
                     // object at a time): a run of equal pairs is counted in a register and
                     // added once, where adding each point to its cell would wait on the
                     // store of the point before it.
-                    let mut run: Option<((i64, usize), u32)> = None;
-                    for pair in part {
-                        counted += 1;
-                        match &mut run {
-                            Some((same, length)) if *same == pair => *length += 1,
-                            _ => {
-                                if let Some(((label, column), length)) = run.replace((pair, 1)) {
-                                    counts[self.rows.get(label) * n + column] += length;
-                                }
+                    let mut part = part;
+                    if let Some(first) = part.next() {
+                        let (mut same, mut length) = (first, 1u32);
+                        for pair in part {
+                            if pair == same {
+                                length += 1;
+                            } else {
+                                add(same, length);
+                                (same, length) = (pair, 1);
                             }
                         }
-                    }
-                    if let Some(((label, column), length)) = run {
-                        counts[self.rows.get(label) * n + column] += length;
+                        add(same, length);
                     }
                     assert!(counted <= COUNT_CHUNK, "a part of at most {COUNT_CHUNK} points");
                     total.iter_mut().zip(counts).for_each(|(t, c)| *t += u64::from(c));

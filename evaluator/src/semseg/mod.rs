@@ -14,6 +14,7 @@ pub mod metrics;
 pub mod nearest;
 pub mod prepared_cache;
 pub mod report;
+pub mod reused_buffers;
 pub mod scratch;
 pub mod vocabulary;
 pub mod z_order;

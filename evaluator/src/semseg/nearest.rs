@@ -35,7 +35,7 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
-use super::scratch::{refill, resize_to_overwrite};
+use super::reused_buffers::{refill, resize_to_overwrite};
 use super::z_order::{ZGrid, ZOrderKeys, position_of};
 
 /// Points per leaf at most; every leaf has this many slots, the unused ones padded with

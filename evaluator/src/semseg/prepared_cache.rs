@@ -17,7 +17,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use rayon::prelude::*;
 
 use super::PreparedGroundTruth;
-use super::scratch::resize_to_overwrite;
+use super::reused_buffers::resize_to_overwrite;
 use crate::formats::classes::ClassList;
 
 /// First bytes of an entry (the trailing digit is the format's version).

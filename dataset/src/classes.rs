@@ -86,11 +86,26 @@ impl Finish {
     }
 }
 
+/// A tone a picture's print is drawn in (the table's `[print]`): its brightness mapped from
+/// `ink` to `paper`, plus `chroma` of its own colour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrintTone {
+    pub name: String,
+    /// sRGB, 0–1: what the print's black becomes.
+    pub ink: [f32; 3],
+    /// sRGB, 0–1: what the print's white becomes.
+    pub paper: [f32; 3],
+    /// The share of a texel's own colour (its difference from its grey) that stays, 0–1.
+    pub chroma: f32,
+}
+
 /// How a class's instances are coloured.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Colouring {
-    /// They keep their texture's colours (a screen, leaves, a picture); no colour is asked.
+    /// They keep their texture's colours (a screen, leaves, a book's cover); no colour is asked.
     Own,
+    /// Their own print toned in one of the table's print tones (a picture); no colour is asked.
+    Print,
     /// Drawn in one of these finishes (names in the table's `[finish]`).
     Drawn(Vec<String>),
 }
@@ -139,7 +154,7 @@ impl ClassDef {
     /// The finishes its instances are drawn in (none for own colours).
     pub fn finishes(&self) -> Vec<&'static Finish> {
         match &self.colouring {
-            Colouring::Own => Vec::new(),
+            Colouring::Own | Colouring::Print => Vec::new(),
             Colouring::Drawn(names) => names.iter().map(|n| table().finish(n).expect("checked when the table was read")).collect(),
         }
     }
@@ -161,12 +176,15 @@ impl ClassDef {
 pub struct ClassTable {
     classes: Vec<ClassDef>,
     finishes: BTreeMap<String, Finish>,
+    print_tones: Vec<PrintTone>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawTable {
     finish: BTreeMap<String, RawFinish>,
+    #[serde(default)]
+    print: BTreeMap<String, RawPrintTone>,
     #[serde(default)]
     palette: BTreeMap<String, Vec<String>>,
     class: Vec<RawClass>,
@@ -177,6 +195,14 @@ struct RawTable {
 struct RawFinish {
     colour: [f32; 3],
     material: MaterialKind,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPrintTone {
+    ink: [f32; 3],
+    paper: [f32; 3],
+    chroma: f32,
 }
 
 #[derive(Deserialize)]
@@ -203,7 +229,7 @@ struct RawClass {
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum RawFinishes {
-    /// `"own"` or `"@palette"`.
+    /// `"own"`, `"print"` or `"@palette"`.
     Word(String),
     List(Vec<String>),
 }
@@ -224,6 +250,7 @@ impl ClassTable {
                 Ok((name.clone(), Finish { name, colour: f.colour, material: f.material }))
             })
             .collect::<Result<_, String>>()?;
+        let print_tones = print_tones(raw.print)?;
         let mut classes = Vec::with_capacity(raw.class.len());
         let mut names: Vec<String> = Vec::new();
         for (id, c) in raw.class.into_iter().enumerate() {
@@ -237,11 +264,15 @@ impl ClassTable {
             let colouring = match c.finishes {
                 None => Colouring::Own,
                 Some(RawFinishes::Word(w)) if w == "own" => Colouring::Own,
+                Some(RawFinishes::Word(w)) if w == "print" && print_tones.is_empty() => {
+                    return Err(format!("{}: \"print\" needs at least one [print] tone", field("finishes")));
+                }
+                Some(RawFinishes::Word(w)) if w == "print" => Colouring::Print,
                 Some(RawFinishes::Word(w)) => {
                     let palette = w
                         .strip_prefix('@')
                         .and_then(|p| raw.palette.get(p))
-                        .ok_or_else(|| format!("{}: expected \"own\", \"@palette\" or a list, found '{w}'", field("finishes")))?;
+                        .ok_or_else(|| format!("{}: expected \"own\", \"print\", \"@palette\" or a list, found '{w}'", field("finishes")))?;
                     Colouring::Drawn(palette.clone())
                 }
                 Some(RawFinishes::List(list)) => Colouring::Drawn(list),
@@ -281,7 +312,7 @@ impl ClassTable {
         if classes.first().is_none_or(|c| c.name != "other") {
             return Err("class[0]: expected \"other\" (id 0 is excluded from scoring)".into());
         }
-        Ok(ClassTable { classes, finishes })
+        Ok(ClassTable { classes, finishes, print_tones })
     }
 
     /// Every class, in id order.
@@ -298,6 +329,11 @@ impl ClassTable {
         self.finishes.get(name)
     }
 
+    /// The tones a picture's print is drawn in, in name order.
+    pub fn print_tones(&self) -> &[PrintTone] {
+        &self.print_tones
+    }
+
     /// Whether `name` is a class of the room's shell (or "other").
     pub fn is_shell(&self, name: &str) -> bool {
         self.class(name).is_some_and(|c| c.role == Role::Shell)
@@ -307,6 +343,21 @@ impl ClassTable {
     pub fn prompt_words(&self, role: Role) -> Vec<&str> {
         self.classes.iter().filter(|c| c.role == role).flat_map(|c| std::iter::once(&c.name).chain(&c.synonyms).chain(&c.hints)).map(String::as_str).collect()
     }
+}
+
+/// The table's `[print]` tones, checked: colours in [0, 1] and a chroma share in [0, 1].
+fn print_tones(raw: BTreeMap<String, RawPrintTone>) -> Result<Vec<PrintTone>, String> {
+    raw.into_iter()
+        .map(|(name, t)| {
+            if t.ink.iter().chain(&t.paper).any(|c| !(0.0..=1.0).contains(c)) {
+                return Err(format!("print.{name}: expected ink and paper as three values in [0, 1]"));
+            }
+            if !(0.0..=1.0).contains(&t.chroma) {
+                return Err(format!("print.{name}.chroma: expected a share in [0, 1], found {}", t.chroma));
+            }
+            Ok(PrintTone { name, ink: t.ink, paper: t.paper, chroma: t.chroma })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -347,6 +398,33 @@ mod tests {
                 assert_eq!(crate::colour::colour_name(albedo), own, "{name} at {gain}× its brightness");
             }
         }
+    }
+
+    #[test]
+    fn pictures_are_toned_as_prints_whose_ink_and_paper_are_muted() {
+        assert_eq!(table().class("picture").map(|c| &c.colouring), Some(&Colouring::Print));
+        assert!(table().print_tones().len() >= 4, "a print's tone should say little of the room");
+        for t in table().print_tones() {
+            for (end, [r, g, b]) in [("ink", t.ink), ("paper", t.paper)] {
+                let (max, min) = (r.max(g).max(b), r.min(g).min(b));
+                assert!((max - min) / max <= 0.46, "{}: its {end} is saturated", t.name);
+            }
+            assert!(t.paper.iter().zip(&t.ink).all(|(p, i)| p > i), "{}: paper lighter than ink", t.name);
+        }
+    }
+
+    #[test]
+    fn a_print_tone_out_of_range_or_a_print_class_without_tones_is_refused_by_name() {
+        let base = "[finish]\nwhite = { colour = [0.9, 0.9, 0.9], material = \"paint\" }\n";
+        let classes = "[[class]]\nname = \"other\"\nrole = \"shell\"\n[[class]]\nname = \"picture\"\nrole = \"object\"\nsize = [[0.4, 1.2], [0.02, 0.06], [0.3, 0.9]]\nrests = \"wall\"\nfinishes = \"print\"\n";
+        let e = ClassTable::parse(&format!("{base}{classes}")).unwrap_err();
+        assert!(e.contains("(picture).finishes") && e.contains("[print]"), "{e}");
+        let bright = format!("{base}[print]\nsepia = {{ ink = [0.1, 0.1, 0.1], paper = [0.9, 0.8, 1.5], chroma = 0.0 }}\n{classes}");
+        assert!(ClassTable::parse(&bright).unwrap_err().contains("print.sepia"));
+        let chroma = format!("{base}[print]\nsepia = {{ ink = [0.1, 0.1, 0.1], paper = [0.9, 0.8, 0.7], chroma = 2.0 }}\n{classes}");
+        assert!(ClassTable::parse(&chroma).unwrap_err().contains("print.sepia.chroma"));
+        let fine = format!("{base}[print]\nsepia = {{ ink = [0.1, 0.1, 0.1], paper = [0.9, 0.8, 0.7], chroma = 0.0 }}\n{classes}");
+        assert_eq!(ClassTable::parse(&fine).map(|t| t.print_tones().len()), Ok(1));
     }
 
     #[test]

@@ -5,7 +5,43 @@
 
 use osmab_evaluator::synthetic::Rng;
 
-use crate::classes::{Colouring, Finish, table};
+use crate::classes::{Colouring, Finish, PrintTone, table};
+
+/// How an instance's pack texture is drawn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Look {
+    /// In its own colours (a screen, leaves, a book's cover).
+    Own,
+    /// Its main material recoloured in a finish of its class's palette.
+    Finish(&'static Finish),
+    /// Its own print toned (a picture).
+    Print(&'static PrintTone),
+}
+
+impl Look {
+    /// What a description says of it: " in oak", " printed in sepia", or nothing.
+    pub fn described(&self) -> String {
+        match self {
+            Look::Own => String::new(),
+            Look::Finish(f) => format!(" in {}", f.name.replace('_', " ")),
+            Look::Print(t) => format!(" printed in {}", t.name.replace('_', " ")),
+        }
+    }
+}
+
+/// The look of an instance of `category` drawn from the state of `rng` without advancing
+/// it: a finish ([`finish_drawn`]), a print tone drawn evenly for a class of prints, or its
+/// own colours.
+pub fn look_drawn(category: &str, rng: &Rng) -> Look {
+    let tones = table().print_tones();
+    match table().class(category).map(|c| &c.colouring) {
+        Some(Colouring::Print) if !tones.is_empty() => {
+            let mut draw = Rng::new(rng.clone().next_u64() ^ 0x9_1217);
+            Look::Print(&tones[draw.below(tones.len())])
+        }
+        _ => finish_drawn(category, rng).map_or(Look::Own, Look::Finish),
+    }
+}
 
 /// The finish of an instance of `category` drawn from the state of `rng` without advancing
 /// it (sizes and layouts stay those of the seed); `None` for classes that keep their own
@@ -24,7 +60,7 @@ pub fn finish_drawn(category: &str, rng: &Rng) -> Option<&'static Finish> {
 
 /// Whether instances of `category` keep their texture's own colours (no colour is asked).
 pub fn keeps_own_colours(category: &str) -> bool {
-    table().class(category).is_none_or(|c| matches!(c.colouring, Colouring::Own))
+    table().class(category).is_none_or(|c| matches!(c.colouring, Colouring::Own | Colouring::Print))
 }
 
 #[cfg(test)]
@@ -60,5 +96,25 @@ mod tests {
         let before = rng.clone().next_u64();
         let _ = finish_drawn("sofa", &rng);
         assert_eq!(rng.clone().next_u64(), before);
+    }
+
+    #[test]
+    fn a_picture_is_drawn_as_a_print_in_every_tone_and_asked_no_colour() {
+        assert!(keeps_own_colours("picture"));
+        assert_eq!(finish_drawn("picture", &Rng::new(1)), None);
+        let mut rng = Rng::new(5);
+        let mut tones = std::collections::BTreeSet::new();
+        for _ in 0..200 {
+            rng.next_u64();
+            let before = rng.clone().next_u64();
+            match look_drawn("picture", &rng) {
+                Look::Print(t) => tones.insert(t.name.as_str()),
+                other => panic!("a picture drawn as {other:?}"),
+            };
+            assert_eq!(rng.clone().next_u64(), before, "drawing a look does not advance the generator");
+        }
+        assert_eq!(tones.len(), table().print_tones().len(), "every tone is drawn: {tones:?}");
+        assert!(matches!(look_drawn("sofa", &rng), Look::Finish(_)));
+        assert_eq!(look_drawn("television", &rng), Look::Own);
     }
 }

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 
 use osmab_evaluator::synthetic::Rng;
 
-use super::finishes::finish_drawn;
-use crate::classes::{self, Finish};
+use super::finishes::{Look, finish_drawn};
+use crate::classes;
 
 /// A material: a name and a base colour.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,8 +48,8 @@ pub struct PackMesh {
     pub file: PathBuf,
     /// The uniform scale from the pack's size to the instance's.
     pub scale: f64,
-    /// The finish its texture's main material is recoloured in; `None` keeps its own colours.
-    pub finish: Option<&'static Finish>,
+    /// How its texture is drawn: its own colours, its main material in a finish, or toned.
+    pub look: Look,
     /// Where the geometry comes from ("infinigen", "scan", …) and what made it.
     pub source: String,
     pub generator: String,

@@ -10,6 +10,7 @@ pub mod gltf_out;
 pub mod layout;
 pub mod library;
 pub mod placement;
+pub mod recolour;
 pub mod relations;
 pub mod room;
 pub mod source;

@@ -21,7 +21,7 @@ pub fn assets_root() -> PathBuf {
 use osmab_evaluator::Result;
 use osmab_evaluator::synthetic::Rng;
 
-use super::finishes::finish_drawn;
+use super::finishes::{Look, finish_drawn, look_drawn};
 use super::library::{Asset, PackMesh, SupportSurface, make_asset};
 use crate::assets::{AssetPack, ObjectEntry, ShellKind};
 use crate::classes::Finish;
@@ -109,10 +109,10 @@ impl AssetSource {
         let Some(pack) = self.pack.as_deref().filter(|_| !variants.is_empty()) else {
             return make_asset(category, rng);
         };
-        let finish = finish_drawn(category, rng);
+        let look = look_drawn(category, rng);
         let entry = variants[rng.below(variants.len())];
         let scale = ((1.0 + rng.range(-SIZE_JITTER, SIZE_JITTER)) * 1000.0).round() / 1000.0;
-        Some(pack_asset(pack, entry, scale, finish))
+        Some(pack_asset(pack, entry, scale, look))
     }
 
     /// The floor and wall textures of a room, its walls' paint and its carpet's dye, drawn
@@ -137,7 +137,7 @@ impl AssetSource {
 
 /// `entry` of `pack` as an asset at `scale`: its size, surfaces and free floor from the
 /// catalogue, scaled.
-fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<&'static Finish>) -> Asset {
+fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, look: Look) -> Asset {
     let s2 = |v: [f64; 2]| v.map(|x| x * scale);
     let supports = entry
         .supports
@@ -155,10 +155,6 @@ fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<
         Some(u) => (u.clearance * scale, Some((s2(u.min), s2(u.max)))),
         None => (0.0, None),
     };
-    let look = match finish {
-        Some(f) => format!(" in {}", f.name.replace('_', " ")),
-        None => String::new(),
-    };
     Asset {
         category: entry.class.clone(),
         parts: Vec::new(),
@@ -166,7 +162,7 @@ fn pack_asset(pack: &AssetPack, entry: &ObjectEntry, scale: f64, finish: Option<
         supports,
         clearance,
         under,
-        description: format!("A {}{look} ({} variant {}).", entry.class, entry.source, entry.variant),
-        mesh: Some(PackMesh { file: pack.path(&entry.path), scale, finish, source: entry.source.clone(), generator: entry.generator.clone() }),
+        description: format!("A {}{} ({} variant {}).", entry.class, look.described(), entry.source, entry.variant),
+        mesh: Some(PackMesh { file: pack.path(&entry.path), scale, look, source: entry.source.clone(), generator: entry.generator.clone() }),
     }
 }

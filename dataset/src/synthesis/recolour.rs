@@ -22,10 +22,12 @@ const FLAT: f32 = 4.0;
 /// in metres on a finer texture ([`recolour`]): a 512-texel bake spread over a wardrobe
 /// (10–18 mm a texel) showed its grain and its bake's speckle as blurred blotches.
 const COARSE_GRAIN_TEXEL: f32 = 0.006;
-/// The texel a finer texture aims at, and the most it multiplies a side by (a 512 bake
-/// becomes at most 2048 a side: 16 MB in the renderer).
+/// The texel a finer texture aims at, the most it multiplies a side by, and the longest side
+/// it grows to (a 512 bake becomes at most 2048 a side: 16 MB in the renderer; a larger bake
+/// is already fine enough, and a hostile one must not grow past what the converter reads).
 const FINE_TEXEL: f32 = 0.004;
 const MAX_UPSAMPLE: usize = 4;
+const MAX_DRAWN_SIDE: usize = 2048;
 /// The texel assumed where the meshes give no texture area to measure it by.
 const DEFAULT_TEXEL: f32 = 0.005;
 
@@ -54,10 +56,11 @@ pub(super) fn recolour(texture: &Texture, meshes: &[&TriangleMesh], scale: f32, 
     let texel_size = texel_metres(texture, meshes, scale);
     let coarse_wood = finish.material == MaterialKind::Wood && texel_size > COARSE_GRAIN_TEXEL;
     let drawn = coarse_wood || brightness_spread(&samples, main) < FLAT;
-    let factor = if coarse_wood { ((texel_size / FINE_TEXEL).ceil() as usize).clamp(1, MAX_UPSAMPLE) } else { 1 };
+    let (width, height) = (texture.width as usize, texture.height as usize);
+    let most = (MAX_DRAWN_SIDE / width.max(height).max(1)).clamp(1, MAX_UPSAMPLE);
+    let factor = if coarse_wood { ((texel_size / FINE_TEXEL).ceil() as usize).clamp(1, most) } else { 1 };
     let out_texel = texel_size / factor as f32;
     let strength = finish.material.pattern();
-    let (width, height) = (texture.width as usize, texture.height as usize);
     let texels: Vec<[f32; 3]> = texture.rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]].map(f32::from)).collect();
     let of_main: Vec<f32> = texels.iter().map(|&t| ((MAIN_FAR - distance(t, main)) / (MAIN_FAR - MAIN_NEAR)).clamp(0.0, 1.0)).collect();
     let among = among_main(&of_main, width, height);
@@ -414,5 +417,9 @@ mod tests {
         // A fabric on the same mesh keeps its bake's size.
         let fabric = table().finish("navy_fabric").expect("a finish of the table");
         assert_eq!(recolour(&bake, &[&grid()], scale, fabric).width, size as u32);
+        // A bake half the longest drawn side grows only twice, whatever its texel.
+        let long = Texture { width: (MAX_DRAWN_SIDE / 2) as u32, height: 1, rgba: [205, 200, 190, 255].repeat(MAX_DRAWN_SIDE / 2) };
+        let wide = recolour(&long, &[&grid()], 1.0, oak);
+        assert_eq!((wide.width, wide.height), (MAX_DRAWN_SIDE as u32, 2));
     }
 }

@@ -183,6 +183,8 @@ mod release_questions {
     fn the_release_asks_prompt_grounded_and_standard_questions_with_hidden_answers() {
         let index = ReleaseIndex::read(test_release()).unwrap();
         let mut prompt_grounded = std::collections::BTreeSet::new();
+        // Positive answers (yes, a count above zero) and negative ones over the release.
+        let mut sides = [0usize; 2];
         for scene in &index.scenes {
             let public = index.public_questions(&scene.id).unwrap().expect("public questions");
             let answered = index.answered_questions(&scene.id).unwrap().expect("answers with the ground truth");
@@ -202,22 +204,14 @@ mod release_questions {
             assert!(answered.questions.len() >= 8, "{}: {per:?}", scene.id);
             assert!(per.keys().filter(|c| !is_prompt_grounded(c)).count() >= 3, "{}: standard categories {per:?}", scene.id);
             prompt_grounded.extend(per.keys().filter(|c| is_prompt_grounded(c)).map(|c| c.to_string()));
-            // Every yes/no template asks as many yes as no, every count template as many
-            // zeros as not: the template tells nothing of the answer.
-            let mut sides: BTreeMap<(String, &str), [usize; 2]> = BTreeMap::new();
             for q in &answered.questions {
-                let answer = q.answer.as_deref().unwrap();
-                let side = match answer {
+                let side = match q.answer.as_deref().unwrap() {
                     "Yes" => 0,
-                    "No" => 1,
-                    "0" => 1,
+                    "No" | "0" => 1,
                     a if a.bytes().all(|b| b.is_ascii_digit()) => 0,
                     _ => continue,
                 };
-                sides.entry((q.category.clone(), q.form.as_ref().unwrap().kind())).or_default()[side] += 1;
-            }
-            for (template, [positive, negative]) in &sides {
-                assert_eq!(positive, negative, "{}: {template:?} asks {positive} positive and {negative} negative", scene.id);
+                sides[side] += 1;
             }
             // Ids and order tell nothing either: opaque ids, in id order.
             let ids: Vec<&str> = answered.questions.iter().map(|q| q.id.as_str()).collect();
@@ -233,6 +227,11 @@ mod release_questions {
             assert_eq!(manifest["files"].as_array().unwrap().iter().any(|f| f["path"] == answered), scene.split == Split::Val);
         }
         assert!(prompt_grounded.len() >= 2, "the release asks prompt-grounded questions of several kinds: {prompt_grounded:?}");
+        // Every question is asked with either answer equally often (drawn against its odds),
+        // so an answerer that always says yes, or always no, is right about half the time.
+        let [positive, negative] = sides;
+        let share = positive as f64 / (positive + negative) as f64;
+        assert!(positive + negative >= 100 && (0.4..0.6).contains(&share), "{positive} positive and {negative} negative answers");
     }
 
     /// A graph crafted to probe the answerer without mapping anything: one object of every

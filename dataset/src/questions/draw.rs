@@ -1,13 +1,26 @@
-//! Drawing questions so that their text tells nothing of their answer. Each candidate is
-//! first kept or dropped on its own, with the odds against its answer ([`super::priors`]):
-//! a "yes" is kept with chance `1 − p`, a "no" with chance `p`, where `p` is the odds of
-//! "yes" before the scene is seen; a question about a class (or pair, or relation) is then
-//! kept with either answer equally often over scenes (`p · (1 − p)` both ways), so neither
-//! its template nor its classes predict its answer. Of the kept ones, every scene asks as
-//! many answered yes as answered no, picked evenly.
+//! Drawing questions so that their text tells nothing of their answer. A template's
+//! candidates are first put in an order that knows nothing of their answers, and a prefix
+//! of that order is taken that would ask, on average, as many questions as the template
+//! wants (its length follows from the candidates' odds alone). Each candidate of the
+//! prefix is then kept on its own, with the odds against its answer ([`super::priors`]):
+//! a positive answer (yes; a count above zero) is kept with chance `1 − p`, a negative one
+//! with chance `p`, where `p` is the calibrated odds of the positive answer before the
+//! scene is seen. A question is so asked with either answer equally often over scenes
+//! (`p · (1 − p)` both ways), and neither its template, nor its classes, nor its odds tell
+//! its answer.
+//!
+//! Which candidates are considered never depends on an answer: picking, say, one kept
+//! "yes" and one kept "no" per scene would make a candidate's chance of being asked depend
+//! on how many others share its answer, and candidates whose answers are tied (the X is
+//! larger than the Y, or the Y than the X; the X rests on the floor, or on the table) would
+//! then lean against their odds (measured: the odds read backwards answered 81 % of the
+//! size comparisons). So a scene asks a varying number of each template, balanced over the
+//! release rather than within each scene.
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
+
+use super::priors::AskedAs;
 
 /// A question a template may ask of a scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,47 +29,61 @@ pub struct Candidate {
     pub text: String,
     /// The scene's answer.
     pub answer: String,
+    /// Which templates ask it, and so which layouts its odds come from.
+    pub asked: AskedAs,
     /// The odds of the positive answer (yes; a count above zero) before the scene is seen.
     pub odds: f64,
 }
 
-/// `count` of `items` picked evenly, without replacement.
-fn pick<T>(mut items: Vec<T>, count: usize, rng: &mut Rng) -> Vec<T> {
-    let mut out = Vec::with_capacity(count);
-    while out.len() < count && !items.is_empty() {
-        let k = rng.below(items.len());
-        out.push(items.swap_remove(k));
+impl Candidate {
+    /// Whether the answer is positive: yes, or a count above zero.
+    pub fn is_positive(&self) -> bool {
+        !matches!(self.answer.as_str(), "No" | "0")
     }
-    out
-}
 
-/// Up to `per_side` candidates with a positive answer and as many with a negative one
-/// (`positive` decides which is which), each kept against its odds first (see the module's
-/// header); both sides get the same number, so every scene is balanced.
-pub fn draw_balanced(candidates: Vec<Candidate>, positive: impl Fn(&Candidate) -> bool, per_side: usize, rng: &mut Rng) -> Vec<Candidate> {
-    let mut kept_yes = Vec::new();
-    let mut kept_no = Vec::new();
-    for candidate in candidates {
-        let is_positive = positive(&candidate);
-        let keep = if is_positive { 1.0 - candidate.odds } else { candidate.odds };
-        if rng.unit() < keep {
-            if is_positive { kept_yes.push(candidate) } else { kept_no.push(candidate) }
-        }
+    /// How many times this candidate is asked on average when it is considered: `p · (1 − p)`
+    /// each way.
+    fn expected_asked(&self) -> f64 {
+        2.0 * self.odds * (1.0 - self.odds)
     }
-    let n = per_side.min(kept_yes.len()).min(kept_no.len());
-    let mut out = pick(kept_yes, n, rng);
-    out.extend(pick(kept_no, n, rng));
-    out
 }
 
-/// Whether a yes/no candidate's answer is yes.
-pub fn is_yes(c: &Candidate) -> bool {
-    c.answer == "Yes"
+/// About `per_template` of `candidates` (as many as their odds make likely; see the
+/// module's header), each kept against its odds.
+pub fn draw(candidates: Vec<Candidate>, per_template: usize, rng: &mut Rng) -> Vec<Candidate> {
+    let considered = considered(candidates, per_template, rng);
+    kept(considered, rng)
 }
 
-/// Whether a count candidate's answer is above zero.
-pub fn is_nonzero(c: &Candidate) -> bool {
-    c.answer != "0"
+/// The candidates a draw considers: a prefix of an order that knows nothing of the answers,
+/// long enough that keeping each against its odds asks `per_template` on average.
+pub fn considered(mut candidates: Vec<Candidate>, per_template: usize, rng: &mut Rng) -> Vec<Candidate> {
+    for k in (1..candidates.len()).rev() {
+        candidates.swap(k, rng.below(k + 1));
+    }
+    let mut expected = 0.0;
+    let length = candidates
+        .iter()
+        .take_while(|c| {
+            let more = expected < per_template as f64;
+            expected += c.expected_asked();
+            more
+        })
+        .count();
+    candidates.truncate(length);
+    candidates
+}
+
+/// Each of `considered` kept against its odds: a positive answer with chance `1 − p`, a
+/// negative one with chance `p`.
+pub fn kept(considered: Vec<Candidate>, rng: &mut Rng) -> Vec<Candidate> {
+    considered
+        .into_iter()
+        .filter(|c| {
+            let keep = if c.is_positive() { 1.0 - c.odds } else { c.odds };
+            rng.unit() < keep
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -64,43 +91,60 @@ mod tests {
     use super::*;
 
     fn candidate(class: &str, answer: &str, odds: f64) -> Candidate {
-        Candidate { form: QuestionForm::Exists { class: class.into() }, text: format!("Is there a {class}?"), answer: answer.into(), odds }
-    }
-
-    #[test]
-    fn every_scene_asks_as_many_yes_as_no_and_never_a_certainty() {
-        let candidates = vec![
-            candidate("table", "Yes", 1.0),
-            candidate("chair", "Yes", 0.6),
-            candidate("lamp", "Yes", 0.3),
-            candidate("bed", "No", 0.0),
-            candidate("sofa", "No", 0.4),
-        ];
-        for seed in 0..50 {
-            let drawn = draw_balanced(candidates.clone(), is_yes, 3, &mut Rng::new(seed));
-            assert!(drawn.len() <= 2, "one no with odds above zero: at most one of each");
-            assert!(!drawn.iter().any(|c| c.text.contains("table") || c.text.contains("bed")), "certain answers are never asked: {drawn:?}");
-            assert_eq!(drawn.iter().filter(|c| is_yes(c)).count() * 2, drawn.len());
+        Candidate {
+            form: QuestionForm::Exists { class: class.into() },
+            text: format!("Is there a {class}?"),
+            answer: answer.into(),
+            asked: AskedAs::Standard,
+            odds,
         }
     }
 
     #[test]
-    fn over_many_scenes_a_class_is_asked_with_either_answer_alike() {
-        // A class present in 80 % of scenes, among others with their own odds.
+    fn a_certain_answer_is_never_asked() {
+        let candidates = vec![candidate("table", "Yes", 1.0), candidate("bed", "No", 0.0), candidate("chair", "Yes", 0.6), candidate("sofa", "No", 0.4)];
+        for seed in 0..200 {
+            let drawn = draw(candidates.clone(), 2, &mut Rng::new(seed));
+            assert!(!drawn.iter().any(|c| c.text.contains("table") || c.text.contains("bed")), "{drawn:?}");
+        }
+    }
+
+    #[test]
+    fn a_template_asks_about_as_many_as_it_wants() {
+        let mut rng = Rng::new(3);
+        let mut asked = 0;
+        for _ in 0..2_000 {
+            let candidates: Vec<Candidate> = (0..30)
+                .map(|k| {
+                    let odds = 0.1 + 0.8 * rng.unit();
+                    candidate(&format!("thing{k}"), if rng.unit() < odds { "Yes" } else { "No" }, odds)
+                })
+                .collect();
+            asked += draw(candidates, 3, &mut rng).len();
+        }
+        let mean = asked as f64 / 2_000.0;
+        assert!((2.8..3.6).contains(&mean), "{mean} a scene");
+    }
+
+    /// Tied candidates, as size comparisons are: exactly one of "the X is larger than the Y"
+    /// and "the Y is larger than the X" is yes, and the odds say which is likely.
+    #[test]
+    fn tied_candidates_are_asked_with_either_answer_alike() {
         let mut rng = Rng::new(7);
-        let (mut yes, mut no) = (0, 0);
-        for scene in 0..20_000 {
-            let present = scene % 5 != 0;
-            let mut candidates = vec![candidate("chair", if present { "Yes" } else { "No" }, 0.8)];
-            for (k, odds) in [0.5, 0.3, 0.7, 0.9, 0.2].into_iter().enumerate() {
-                let present = rng.unit() < odds;
-                candidates.push(candidate(&format!("thing{k}"), if present { "Yes" } else { "No" }, odds));
+        let (mut yes_where_likely, mut asked) = (0usize, 0usize);
+        for _ in 0..40_000 {
+            let mut candidates = Vec::new();
+            for (k, odds) in [0.9, 0.8, 0.7, 0.95].into_iter().enumerate() {
+                let larger = rng.unit() < odds;
+                candidates.push(candidate(&format!("x{k} over y{k}"), if larger { "Yes" } else { "No" }, odds));
+                candidates.push(candidate(&format!("y{k} over x{k}"), if larger { "No" } else { "Yes" }, 1.0 - odds));
             }
-            for c in draw_balanced(candidates, is_yes, 1, &mut rng).into_iter().filter(|c| c.text.contains("chair")) {
-                if is_yes(&c) { yes += 1 } else { no += 1 }
+            for c in draw(candidates, 1, &mut rng) {
+                asked += 1;
+                yes_where_likely += usize::from(c.is_positive() == (c.odds > 0.5));
             }
         }
-        let share = yes as f64 / (yes + no) as f64;
-        assert!((0.45..0.55).contains(&share), "asked {yes} times yes and {no} times no");
+        let share = yes_where_likely as f64 / asked as f64;
+        assert!((0.48..0.52).contains(&share), "the odds answer {share} of {asked}");
     }
 }

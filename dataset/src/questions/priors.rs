@@ -8,17 +8,18 @@
 //! ([`super::grounding`]), as it is only asked of such scenes.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
 
+use super::calibration::Calibration;
 use super::facts::{SceneFacts, oracle_scene_graph};
 use super::grounding::{prompt_settles, stated_classes};
 use super::objects::{SceneObject, object_id};
 use crate::convert::lexicon::{is_shell_class, normalise_name};
 use crate::prompts::{PromptPool, ScenePrompt};
-use crate::spec::Regime;
+use crate::spec::{Regime, SceneSpec};
 use crate::synthesis::dressing::furnished;
 use crate::synthesis::placement::Layout;
 use crate::synthesis::source::AssetSource;
@@ -45,10 +46,18 @@ struct Simulated {
     graph: osmab_evaluator::vqa::graph::SceneGraph,
 }
 
+/// A prompt placed afresh, held out of the odds: what the odds are calibrated on
+/// ([`super::calibration`]).
+pub struct HeldOut {
+    pub spec: SceneSpec,
+    pub objects: Vec<SceneObject>,
+}
+
 /// Every prompt of a pool placed as the built-in synthesizer places it: what
-/// [`QuestionPriors`] reads its odds from.
+/// [`QuestionPriors`] reads its odds from, and placements held out of them.
 pub struct PoolLayouts {
     scenes: Vec<Simulated>,
+    held_out: Vec<HeldOut>,
     /// The assets the layouts were placed with (their sizes decide size comparisons).
     assets: AssetSource,
 }
@@ -57,10 +66,14 @@ pub struct PoolLayouts {
 /// of val scenes) are placed afresh from other seeds, so the odds see those layouts too.
 const FRESH_PLACEMENTS: usize = 3;
 
+/// Fresh placements of each prompt held out of the odds, to calibrate them on.
+const HELD_OUT_PLACEMENTS: usize = 4;
+
 impl PoolLayouts {
     /// Every accepted prompt of `pools` placed as a val scene is (from its layout seed, when
     /// it has one) and [`FRESH_PLACEMENTS`] times afresh, honouring every relation, as a
-    /// test scene is (from seeds derived from `seed`).
+    /// test scene is (from seeds derived from `seed`); and [`HELD_OUT_PLACEMENTS`] times
+    /// more afresh, held out.
     pub fn place(pools: &[PromptPool], seed: u64, assets: &AssetSource) -> Self {
         let mut rng = Rng::new(seed ^ 0x5052_494f_5253);
         let mut scenes = Vec::new();
@@ -79,12 +92,26 @@ impl PoolLayouts {
                 });
             }
         }
-        PoolLayouts { scenes, assets: assets.clone() }
+        let mut rng = Rng::new(seed ^ 0x4845_4c44_4f55_54);
+        let mut held_out = Vec::new();
+        for prompt in pools.iter().flat_map(|pool| pool.accepted.iter()) {
+            let fresh = ScenePrompt { layout_seed: None, ..prompt.clone() };
+            for _ in 0..HELD_OUT_PLACEMENTS {
+                let layout = placed(&fresh, rng.next_u64(), assets);
+                held_out.push(HeldOut { spec: prompt.spec.clone(), objects: layout_objects(&layout) });
+            }
+        }
+        PoolLayouts { scenes, held_out, assets: assets.clone() }
     }
 
     /// No layouts at all: every yes/no question is even odds.
     pub fn none() -> Self {
-        PoolLayouts { scenes: Vec::new(), assets: AssetSource::procedural() }
+        PoolLayouts { scenes: Vec::new(), held_out: Vec::new(), assets: AssetSource::procedural() }
+    }
+
+    /// The placements held out of the odds.
+    pub fn held_out(&self) -> &[HeldOut] {
+        &self.held_out
     }
 }
 
@@ -109,6 +136,14 @@ pub struct QuestionPriors<'a> {
     lexicon: &'a [String],
     assets: &'a AssetSource,
     memo: Mutex<HashMap<(String, Regime, String), f64>>,
+    /// How the odds bear out, once measured ([`super::calibrated_priors`]).
+    calibration: OnceLock<Calibration>,
+}
+
+/// The template a calibration tells a form's odds by: the templates that ask it, and the
+/// form's kind.
+pub fn template_key(asked: AskedAs, form: &QuestionForm) -> String {
+    format!("{asked:?} {}", form.kind())
 }
 
 /// The objects of a layout as the question generator sees a rendered scene's (every one
@@ -160,7 +195,26 @@ impl<'a> QuestionPriors<'a> {
             .iter()
             .map(|s| LayoutFacts { room: &s.room, regime: s.regime, stated: &s.stated, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) })
             .collect();
-        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: Mutex::new(HashMap::new()) }
+        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: Mutex::new(HashMap::new()), calibration: OnceLock::new() }
+    }
+
+    /// Use `calibration` from now on ([`QuestionPriors::odds`]); a second one is ignored.
+    pub fn calibrate(&self, calibration: Calibration) {
+        let _ = self.calibration.set(calibration);
+    }
+
+    /// The odds of `form`'s positive answer (yes; a count above zero) in a scene of `room`,
+    /// as questions `asked` so ask it: the layouts' tally, calibrated once a calibration is
+    /// set. What the draw keeps each candidate against.
+    pub fn odds(&self, asked: AskedAs, room: &str, regime: Regime, form: &QuestionForm) -> f64 {
+        let tally = match form {
+            QuestionForm::Count { class } => self.presence_odds(asked, room, regime, class),
+            other => self.yes_odds(asked, room, regime, other),
+        };
+        match self.calibration.get() {
+            Some(calibration) => calibration.calibrated(&template_key(asked, form), tally),
+            None => tally,
+        }
     }
 
     /// How many layouts the odds come from.

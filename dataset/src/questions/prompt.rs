@@ -4,8 +4,8 @@
 //! scene where the prompt is silent (a class it never names is absent: zero, no). A class the
 //! prompt does not name but the room's dressing holds (a rug, a vase) is not asked here: the
 //! prompt cannot answer it (the standard questions do; [`super::grounding`]). Drawn
-//! like every question ([`super::draw`]): as many yes as no per scene, each against its
-//! odds among the layouts where the prompt settles it, so the text tells nothing; relations
+//! like every question ([`super::draw`]): each against its odds among the layouts where
+//! the prompt settles it, so the text tells nothing; relations
 //! are asked between the classes the prompt states and the camera saw, and answered by the
 //! scene's boxes.
 //! Relations a scene graph's boxes cannot decide (behind, in front of: they need an
@@ -13,7 +13,7 @@
 
 use osmab_evaluator::vqa::{QuestionForm, Relation};
 
-use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
+use super::draw::Candidate;
 use super::grounding::{class_of, prompt_settles, stated_classes};
 use super::priors::AskedAs;
 use super::standard::Asking;
@@ -52,7 +52,7 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     let room = spec.room.clone();
     let mut out: Vec<(&'static str, Candidate)> = Vec::new();
     let stated = stated_classes(spec);
-    let per_side = stated.len().clamp(1, 3);
+    let per_template = 2 * stated.len().clamp(1, 3);
 
     // Only what the prompt settles: a class it states, or one the scene lacks altogether;
     // relations between stated classes the camera saw.
@@ -60,7 +60,7 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     // Measurement: the stated count of a class (categories of one class add up), or zero.
     let mut counts = asking.counts(AskedAs::PromptGrounded, |c| format!("How many {} are in the {room}?", plural(c)));
     counts.retain(settled);
-    out.extend(draw_balanced(counts, is_nonzero, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Measurement", c)));
+    out.extend(asking.draw(counts, per_template).into_iter().map(|c| ("PromptGT-Measurement", c)));
 
     // Relations between the scene's classes, as its boxes decide them: what the prompt
     // states first (a stated relation the boxes confirm), then any other.
@@ -85,11 +85,11 @@ pub fn prompt_questions(spec: &SceneSpec, asking: &mut Asking) -> Vec<(&'static 
     }
     let mut seen = std::collections::BTreeSet::new();
     relations.retain(|c| settled(c) && seen.insert(c.text.to_lowercase()));
-    out.extend(draw_balanced(relations, is_yes, per_side, &mut asking.rng).into_iter().map(|c| ("PromptGT-Relations", c)));
+    out.extend(asking.draw(relations, per_template).into_iter().map(|c| ("PromptGT-Relations", c)));
 
     // Existence: classes the prompt states (yes) and classes it does not (no).
     let mut existence = asking.existence(AskedAs::PromptGrounded, |c| format!("Is there {} in the {room}?", with_article(c)));
     existence.retain(settled);
-    out.extend(draw_balanced(existence, is_yes, 2, &mut asking.rng).into_iter().map(|c| ("PromptGT-Existence", c)));
+    out.extend(asking.draw(existence, 4).into_iter().map(|c| ("PromptGT-Existence", c)));
     out
 }

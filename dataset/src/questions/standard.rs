@@ -3,23 +3,24 @@
 //! perfect map's graph gives the same answer ([`super::facts`]), and drawn so that neither
 //! a template nor its classes tell the answer ([`super::draw`]):
 //!
-//! | category | templates (per side: yes and no, or zero and not) |
+//! | category | templates (questions a scene asks on average, either answer equally often over the release) |
 //! |---|---|
-//! | Binary General | is there a X (1), is the X <colour> (1) |
-//! | Binary Existence-Based | is there a X (2) |
-//! | Binary Logical | X and Y (1), X or Y (1) |
-//! | Measurement | how many X (2; zero for a class the scene lacks) |
+//! | Binary General | is there a X (2), is the X <colour> (1 asked with its colour, 1 with another) |
+//! | Binary Existence-Based | is there a X (4) |
+//! | Binary Logical | X and Y (2), X or Y (2) |
+//! | Measurement | how many X (4; zero for a class the scene lacks) |
 //! | Object Attributes | what colour is the X (up to 3; colours are drawn evenly per object) |
-//! | Object Relations - Spatial | is the Y the closest object to the X (1), is there a X next to / near the Y (1) |
-//! | Object Relations - Functional | is the X resting on the Y / the floor (2) |
-//! | Comparison | more X than Y (1), is the X larger than the Y (1) |
+//! | Object Relations - Spatial | is the Y the closest object to the X (2), is there a X next to / near the Y (2) |
+//! | Object Relations - Functional | is the X resting on the Y / the floor (4) |
+//! | Comparison | more X than Y (2), is the X larger than the Y (2) |
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::{QuestionForm, Relation};
 
-use super::draw::{Candidate, draw_balanced, is_nonzero, is_yes};
+use super::calibration::Observed;
+use super::draw::{self, Candidate};
 use super::facts::SceneFacts;
-use super::priors::{AskedAs, QuestionPriors};
+use super::priors::{AskedAs, QuestionPriors, template_key};
 use super::wording::{plural, with_article};
 use crate::convert::lexicon::is_shell_class;
 use crate::spec::Regime;
@@ -32,6 +33,9 @@ pub struct Asking<'a> {
     pub regime: Regime,
     pub lexicon: &'a [String],
     pub rng: Rng,
+    /// Where every template's candidates are noted before they are drawn, when the odds
+    /// are being calibrated ([`super::calibrated_priors`]).
+    pub observed: Option<&'a std::cell::RefCell<Vec<Observed>>>,
 }
 
 impl Asking<'_> {
@@ -44,11 +48,19 @@ impl Asking<'_> {
     /// where questions `asked` that way would ask it.
     pub fn candidate(&self, asked: AskedAs, form: QuestionForm, text: String) -> Option<Candidate> {
         let answer = self.facts.truth(&form)?;
-        let odds = match &form {
-            QuestionForm::Count { class } => self.priors.presence_odds(asked, self.room, self.regime, class),
-            other => self.priors.yes_odds(asked, self.room, self.regime, other),
-        };
-        Some(Candidate { form, text, answer, odds })
+        let odds = self.priors.odds(asked, self.room, self.regime, &form);
+        Some(Candidate { form, text, answer, asked, odds })
+    }
+
+    /// About `per_template` of `candidates`, drawn so that they tell nothing ([`draw`]);
+    /// the candidates the draw considers are noted when calibrating.
+    pub fn draw(&mut self, candidates: Vec<Candidate>, per_template: usize) -> Vec<Candidate> {
+        let considered = draw::considered(candidates, per_template, &mut self.rng);
+        if let Some(observed) = self.observed {
+            let noted = considered.iter().map(|c| Observed { template: template_key(c.asked, &c.form), odds: c.odds, positive: c.is_positive() });
+            observed.borrow_mut().extend(noted);
+        }
+        draw::kept(considered, &mut self.rng)
     }
 
     /// Existence candidates over every askable class, worded by `text`.
@@ -96,7 +108,7 @@ pub fn standard_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)>
     let mut out = existence_questions(asking);
     out.extend(logical_questions(asking));
     let counts = asking.counts(AskedAs::Standard, |c| format!("How many {} are there in the scene?", plural(c)));
-    out.extend(in_category("Measurement", draw_balanced(counts, is_nonzero, 2, &mut asking.rng)));
+    out.extend(in_category("Measurement", asking.draw(counts, 4)));
     out.extend(in_category("Object Attributes", colours(asking, 3)));
     out.extend(relation_questions(asking));
     out.extend(comparison_questions(asking));
@@ -108,17 +120,15 @@ fn in_category(category: &'static str, drawn: Vec<Candidate>) -> impl Iterator<I
     drawn.into_iter().map(move |c| (category, c))
 }
 
-/// Binary General and Binary Existence-Based: one draw of "is there a X" for both
-/// categories, so they never ask the same question, then "is the X <colour>".
+/// Binary General and Binary Existence-Based: the "is there a X" candidates shared between
+/// the two categories (a third to General, by a draw that knows nothing of the answers), so
+/// they never ask the same question; then "is the X <colour>".
 fn existence_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
     let in_scene = |c: &str| format!("Is there {} in the scene?", with_article(c));
-    let existence = draw_balanced(asking.existence(AskedAs::Standard, in_scene), is_yes, 3, &mut asking.rng);
-    let per_side = existence.len() / 2;
-    let (yes, no) = existence.split_at(per_side);
-    let general = if per_side == 3 { 1 } else { 0 };
-    let mut out: Vec<(&'static str, Candidate)> = Vec::new();
-    out.extend(in_category("Binary General", yes[..general].iter().chain(&no[..general]).cloned().collect()));
-    out.extend(in_category("Binary Existence-Based", yes[general..].iter().chain(&no[general..]).cloned().collect()));
+    let candidates = asking.existence(AskedAs::Standard, in_scene);
+    let (general, existence_based): (Vec<_>, Vec<_>) = candidates.into_iter().partition(|_| asking.rng.below(3) == 0);
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Binary General", asking.draw(general, 2)).collect();
+    out.extend(in_category("Binary Existence-Based", asking.draw(existence_based, 4)));
     out.extend(in_category("Binary General", has_colour(asking)));
     out
 }
@@ -140,8 +150,8 @@ fn logical_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
             asking.candidate(AskedAs::Standard, QuestionForm::ExistsAny { classes: vec![a.clone(), b.clone()] }, text)
         })
         .collect();
-    let mut out: Vec<(&'static str, Candidate)> = in_category("Binary Logical", draw_balanced(all, is_yes, 1, &mut asking.rng)).collect();
-    out.extend(in_category("Binary Logical", draw_balanced(any, is_yes, 1, &mut asking.rng)));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Binary Logical", asking.draw(all, 2)).collect();
+    out.extend(in_category("Binary Logical", asking.draw(any, 2)));
     out
 }
 
@@ -170,9 +180,9 @@ fn relation_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
             }
         }
     }
-    let mut out: Vec<(&'static str, Candidate)> = in_category("Object Relations - Spatial", draw_balanced(nearest, is_yes, 1, &mut asking.rng)).collect();
-    out.extend(in_category("Object Relations - Spatial", draw_balanced(beside, is_yes, 1, &mut asking.rng)));
-    out.extend(in_category("Object Relations - Functional", draw_balanced(resting, is_yes, 2, &mut asking.rng)));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Object Relations - Spatial", asking.draw(nearest, 2)).collect();
+    out.extend(in_category("Object Relations - Spatial", asking.draw(beside, 2)));
+    out.extend(in_category("Object Relations - Functional", asking.draw(resting, 4)));
     out
 }
 
@@ -194,8 +204,8 @@ fn comparison_questions(asking: &mut Asking) -> Vec<(&'static str, Candidate)> {
             larger.extend(asking.candidate(AskedAs::Standard, form, format!("Is the {} larger than the {}?", a.label, b.label)));
         }
     }
-    let mut out: Vec<(&'static str, Candidate)> = in_category("Comparison", draw_balanced(more, is_yes, 1, &mut asking.rng)).collect();
-    out.extend(in_category("Comparison", draw_balanced(larger, is_yes, 1, &mut asking.rng)));
+    let mut out: Vec<(&'static str, Candidate)> = in_category("Comparison", asking.draw(more, 2)).collect();
+    out.extend(in_category("Comparison", asking.draw(larger, 2)));
     out
 }
 

@@ -109,8 +109,8 @@ pub fn build_release(config_path: &Path, out: &Path, secret: Option<&SplitSecret
     let lightings: &[ReleaseLighting] = &config.render.lightings;
     let lexicon: Vec<String> = crate::convert::lexicon::classes().into_iter().map(|c| c.name).collect();
     let layouts = build.pool_layouts()?;
-    let priors = QuestionPriors::new(&layouts, &lexicon);
-    progress(&format!("questions: odds from {} simulated layouts of the prompt pool", priors.layouts()));
+    let priors = crate::questions::calibrated_priors(&layouts, &lexicon);
+    progress(&format!("questions: odds from {} simulated layouts of the prompt pool, calibrated on {} held out", priors.layouts(), layouts.held_out().len()));
     let assembly = SceneAssembly { build: &build, out, lightings, lexicon: &lexicon, priors: &priors };
     let scenes = pipeline::assemble_in_order(
         selection.scenes.len(),

@@ -99,7 +99,7 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
     let assets =
         osmab_dataset::synthesis::source::AssetSource::for_config(config.synthesis.assets.as_deref(), &osmab_dataset::synthesis::source::assets_root())?;
     let layouts = PoolLayouts::place(&pools, seed, &assets);
-    let priors = QuestionPriors::new(&layouts, &lexicon);
+    let priors = osmab_dataset::questions::calibrated_priors(&layouts, &lexicon);
     let stated = stated_counts(&pools);
 
     let questions_of = |scene: &str, draw: u64| -> anyhow::Result<SceneQuestions> {
@@ -181,7 +181,7 @@ impl Predictors<'_> {
         let asked = if osmab_evaluator::vqa::is_prompt_grounded(&q.category) { AskedAs::PromptGrounded } else { AskedAs::Standard };
         match form {
             QuestionForm::Count { class } => {
-                if self.priors.presence_odds(asked, &room, regime, class) < 0.5 {
+                if self.priors.odds(asked, &room, regime, form) < 0.5 {
                     return Some("0".into());
                 }
                 let key = (room.clone(), class.clone());
@@ -189,7 +189,7 @@ impl Predictors<'_> {
                 mode(counts.iter().map(String::as_str))
             }
             QuestionForm::Colour { .. } => None,
-            other => Some(if self.priors.yes_odds(asked, &room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
+            other => Some(if self.priors.odds(asked, &room, regime, other) > 0.5 { "Yes".into() } else { "No".into() }),
         }
     }
 

@@ -21,7 +21,7 @@ use crate::convert::lexicon::{is_shell_class, normalise_name};
 use crate::prompts::{PromptPool, ScenePrompt};
 use crate::spec::{Regime, SceneSpec};
 use crate::synthesis::dressing::furnished;
-use crate::synthesis::placement::Layout;
+use crate::synthesis::placement::{Layout, PlacedObject};
 use crate::synthesis::source::AssetSource;
 
 /// Layouts of the same room at least, before a room's own odds count fully.
@@ -146,8 +146,41 @@ pub fn template_key(asked: AskedAs, form: &QuestionForm) -> String {
     format!("{asked:?} {}", form.kind())
 }
 
+/// What an object standing on the floor rests on, as [`super::support`] reads it off a
+/// rendered scene's surfaces: at each of its footprint's sample points, the highest surface
+/// within [`super::support::BASE_TOLERANCE`] of its base — the top of a rug it stands on, or
+/// the floor — and the commonest of those (the floor on a tie).
+fn floor_support(layout: &Layout, k: usize, ids: &BTreeMap<&str, String>) -> Option<String> {
+    let on_floor = |o: &PlacedObject| o.host.is_none() || o.position[2] <= 0.01;
+    let ([x0, y0], [x1, y1]) = layout.objects[k].footprint();
+    let mut votes: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut floor_votes = 0;
+    for [x, y] in super::support::footprint_samples([x0, 0.0, y0], [x1, 0.0, y1]) {
+        let (x, y) = (f64::from(x), f64::from(y));
+        let under = layout
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(j, o)| *j != k && on_floor(o) && o.asset.size[2] <= f64::from(super::support::BASE_TOLERANCE))
+            .filter(|(_, o)| {
+                let ([a0, b0], [a1, b1]) = o.footprint();
+                (a0..=a1).contains(&x) && (b0..=b1).contains(&y)
+            })
+            .max_by(|a, b| a.1.asset.size[2].total_cmp(&b.1.asset.size[2]).then(b.0.cmp(&a.0)));
+        match under {
+            Some((j, _)) => *votes.entry(j).or_default() += 1,
+            None => floor_votes += 1,
+        }
+    }
+    match votes.into_iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))) {
+        Some((j, n)) if n > floor_votes => ids.get(layout.objects[j].object_id.as_str()).cloned(),
+        _ => Some("floor".to_string()),
+    }
+}
+
 /// The objects of a layout as the question generator sees a rendered scene's (every one
-/// seen, y up, resting on its host or the floor; no colour: colours are drawn evenly).
+/// seen, y up, resting on its host, a rug it stands on, or the floor; no colour: colours are
+/// drawn evenly).
 pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
     let ids: BTreeMap<&str, String> = layout.objects.iter().enumerate().map(|(k, o)| (o.object_id.as_str(), object_id(k as i64 + 1))).collect();
     layout
@@ -163,7 +196,7 @@ pub fn layout_objects(layout: &Layout) -> Vec<SceneObject> {
             let extent = [x1 - x0, height, y1 - y0];
             let rests_on = match &o.host {
                 Some(host) if o.position[2] > 0.01 => ids.get(host.as_str()).cloned(),
-                _ => Some("floor".to_string()),
+                _ => floor_support(layout, k, &ids),
             };
             Some(SceneObject {
                 id: object_id(k as i64 + 1),
@@ -359,6 +392,33 @@ fn library_larger_odds(assets: &AssetSource, a: &str, b: &str) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A placed object of the procedural library's `category`, its footprint centred at `at`.
+    fn placed_at(category: &str, at: [f64; 2]) -> PlacedObject {
+        let asset = AssetSource::procedural().make(category, &mut Rng::new(1)).expect("a procedural asset");
+        PlacedObject {
+            object_id: format!("{category}_0"),
+            category: category.into(),
+            kind: crate::spec::ObjectKind::Furniture,
+            asset,
+            position: [at[0], at[1], 0.0],
+            yaw_deg: 0.0,
+            host: None,
+            dressing: false,
+        }
+    }
+
+    #[test]
+    fn a_chair_standing_on_a_rug_rests_on_the_rug_as_a_rendered_scene_reads_it() {
+        let rug = placed_at("rug", [0.0, 0.0]);
+        assert!(rug.asset.size[2] <= 0.03, "a rug is thin: {:?}", rug.asset.size);
+        let on_rug = PlacedObject { object_id: "chair_0".into(), ..placed_at("chair", [0.1, 0.1]) };
+        let off_rug = PlacedObject { object_id: "chair_1".into(), ..placed_at("chair", [5.0, 5.0]) };
+        let layout = Layout { width: 12.0, depth: 12.0, wall_height: 2.5, objects: vec![rug, on_rug, off_rug], notes: Vec::new() };
+        let objects = layout_objects(&layout);
+        let rests: Vec<Option<&str>> = objects.iter().map(|o| o.rests_on.as_deref()).collect();
+        assert_eq!(rests, [Some("floor"), Some(objects[0].id.as_str()), Some("floor")]);
+    }
 
     #[test]
     fn odds_follow_the_pool_s_rooms() {

@@ -20,12 +20,12 @@ pub enum Support {
 }
 
 /// A surface counts as under an object's base when within this height of it (metres).
-const BASE_TOLERANCE: f32 = 0.03;
+pub const BASE_TOLERANCE: f32 = 0.03;
 /// Triangles whose normal is this close to vertical are surfaces to rest on.
 const UPWARD: f32 = 0.9;
 
 /// Points of a footprint to test: the centre and four points halfway to its corners.
-fn footprint_samples(lo: [f64; 3], hi: [f64; 3]) -> [[f32; 2]; 5] {
+pub fn footprint_samples(lo: [f64; 3], hi: [f64; 3]) -> [[f32; 2]; 5] {
     let (cx, cz) = ((lo[0] + hi[0]) / 2.0, (lo[2] + hi[2]) / 2.0);
     let (hx, hz) = ((hi[0] - lo[0]) / 4.0, (hi[2] - lo[2]) / 4.0);
     [[cx, cz], [cx - hx, cz - hz], [cx + hx, cz - hz], [cx - hx, cz + hz], [cx + hx, cz + hz]].map(|p| [p[0] as f32, p[1] as f32])

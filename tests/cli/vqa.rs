@@ -228,10 +228,11 @@ mod release_questions {
         }
         assert!(prompt_grounded.len() >= 2, "the release asks prompt-grounded questions of several kinds: {prompt_grounded:?}");
         // Every question is asked with either answer equally often (drawn against its odds),
-        // so an answerer that always says yes, or always no, is right about half the time.
+        // so an answerer that always says yes, or always no, is right about half the time
+        // (this small release asks about fifty such questions: a wide band).
         let [positive, negative] = sides;
         let share = positive as f64 / (positive + negative) as f64;
-        assert!(positive + negative >= 100 && (0.4..0.6).contains(&share), "{positive} positive and {negative} negative answers");
+        assert!(positive + negative >= 40 && (0.3..0.7).contains(&share), "{positive} positive and {negative} negative answers");
     }
 
     /// A graph crafted to probe the answerer without mapping anything: one object of every

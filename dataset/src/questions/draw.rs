@@ -48,13 +48,6 @@ impl Candidate {
     }
 }
 
-/// About `per_template` of `candidates` (as many as their odds make likely; see the
-/// module's header), each kept against its odds.
-pub fn draw(candidates: Vec<Candidate>, per_template: usize, rng: &mut Rng) -> Vec<Candidate> {
-    let considered = considered(candidates, per_template, rng);
-    kept(considered, rng)
-}
-
 /// The candidates a draw considers: a prefix of an order that knows nothing of the answers,
 /// long enough that keeping each against its odds asks `per_template` on average.
 pub fn considered(mut candidates: Vec<Candidate>, per_template: usize, rng: &mut Rng) -> Vec<Candidate> {
@@ -89,6 +82,12 @@ pub fn kept(considered: Vec<Candidate>, rng: &mut Rng) -> Vec<Candidate> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A whole draw, as a template makes it: the considered candidates, each kept or not.
+    fn draw(candidates: Vec<Candidate>, per_template: usize, rng: &mut Rng) -> Vec<Candidate> {
+        let considered = considered(candidates, per_template, rng);
+        kept(considered, rng)
+    }
 
     fn candidate(class: &str, answer: &str, odds: f64) -> Candidate {
         Candidate {

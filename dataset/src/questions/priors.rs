@@ -8,7 +8,7 @@
 //! ([`super::grounding`]), as it is only asked of such scenes.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use osmab_evaluator::synthetic::Rng;
 use osmab_evaluator::vqa::QuestionForm;
@@ -136,6 +136,8 @@ pub struct QuestionPriors<'a> {
     lexicon: &'a [String],
     assets: &'a AssetSource,
     memo: Mutex<HashMap<(String, Regime, String), f64>>,
+    /// Per class, the volumes the asset library makes ([`library_volumes`]).
+    volumes: Mutex<HashMap<String, Arc<Vec<f64>>>>,
     /// How the odds bear out, once measured ([`super::calibrated_priors`]).
     calibration: OnceLock<Calibration>,
 }
@@ -228,7 +230,14 @@ impl<'a> QuestionPriors<'a> {
             .iter()
             .map(|s| LayoutFacts { room: &s.room, regime: s.regime, stated: &s.stated, facts: SceneFacts::new(&s.objects, &s.graph, lexicon) })
             .collect();
-        QuestionPriors { layouts: facts, lexicon, assets: &layouts.assets, memo: Mutex::new(HashMap::new()), calibration: OnceLock::new() }
+        QuestionPriors {
+            layouts: facts,
+            lexicon,
+            assets: &layouts.assets,
+            memo: Mutex::new(HashMap::new()),
+            volumes: Mutex::new(HashMap::new()),
+            calibration: OnceLock::new(),
+        }
     }
 
     /// Use `calibration` from now on ([`QuestionPriors::odds`]); a second one is ignored.
@@ -282,11 +291,29 @@ impl<'a> QuestionPriors<'a> {
         p
     }
 
+    /// The volumes the asset library makes of `class`, drawn once.
+    fn volumes(&self, class: &str) -> Arc<Vec<f64>> {
+        if let Some(v) = self.volumes.lock().expect("no panic while holding the volumes").get(class) {
+            return Arc::clone(v);
+        }
+        let v = Arc::new(library_volumes(self.assets, class));
+        self.volumes.lock().expect("no panic while holding the volumes").insert(class.to_string(), Arc::clone(&v));
+        v
+    }
+
     /// The odds that `form`'s answer is "Yes" (a count's is not zero) in a scene of `room`
     /// (of `regime`), among the layouts where questions `asked` so ask it: the room's own
     /// layouts, drawn towards the odds over the whole subset where it has few, and those
     /// towards the odds of the form's family ([`QuestionPriors::family_odds`]).
+    ///
+    /// A size comparison's odds are the asset library's alone: two objects' sizes follow from
+    /// their variants and size jitter, whatever the room, and a tally of layouts would give
+    /// odds of zero to an outcome they happen not to show (a credenza clearly larger than a
+    /// cabinet), which a scene then asks with certainty.
     pub fn yes_odds(&self, asked: AskedAs, room: &str, regime: Regime, form: &QuestionForm) -> f64 {
+        if matches!(form, QuestionForm::LargerThan { .. }) {
+            return self.family_odds(asked, regime, form);
+        }
         let key = (room.to_string(), regime, format!("{asked:?} {}", serde_json::to_string(form).expect("serialisable")));
         self.memoised(key, || {
             let family = self.family_odds(asked, regime, form);
@@ -318,7 +345,7 @@ impl<'a> QuestionPriors<'a> {
                     };
                     return p;
                 }
-                QuestionForm::LargerThan { a, b } => return library_larger_odds(self.assets, a, b),
+                QuestionForm::LargerThan { a, b } => return larger_odds(&self.volumes(a), &self.volumes(b)),
                 QuestionForm::RestsOn { support, .. } => self.tally(asked, subset, |facts| {
                     facts.singles().into_iter().map(|x| QuestionForm::RestsOn { class: x.label.clone(), support: support.clone() }).collect()
                 }),
@@ -367,26 +394,31 @@ fn family_key(form: &QuestionForm) -> String {
     }
 }
 
-/// The odds that the assets make an `a` clearly larger than a `b`, among pairs of them that
-/// differ clearly (sixteen of each, drawn alike every time).
-fn library_larger_odds(assets: &AssetSource, a: &str, b: &str) -> f64 {
-    let volumes = |class: &str| -> Vec<f64> {
-        let mut rng = Rng::new(0x5a5a_0001);
-        (0..16).filter_map(|_| assets.make(class, &mut rng)).map(|asset| asset.size.iter().product()).collect()
-    };
-    let (va, vb) = (volumes(a), volumes(b));
-    let (mut larger, mut clear) = (0.0, 0.0);
-    for x in &va {
-        for y in &vb {
-            if x / y >= super::facts::CLEARLY_LARGER {
-                larger += 1.0;
-                clear += 1.0;
-            } else if y / x >= super::facts::CLEARLY_LARGER {
-                clear += 1.0;
-            }
-        }
+/// Draws of each class that the odds of a size comparison are counted over: enough that an
+/// outcome the variants and their size jitter allow, however rare, gets odds above zero.
+const SIZE_DRAWS: usize = 512;
+
+/// The volumes of [`SIZE_DRAWS`] `class` objects as `assets` makes them (variant and
+/// size jitter), sorted; a stream of draws of the class's own, so that two classes'
+/// draws are independent.
+fn library_volumes(assets: &AssetSource, class: &str) -> Vec<f64> {
+    let stream = class.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let mut rng = Rng::new(0x5a5a_0001 ^ stream);
+    let mut volumes: Vec<f64> = (0..SIZE_DRAWS).filter_map(|_| assets.make(class, &mut rng)).map(|asset| asset.size.iter().product()).collect();
+    volumes.sort_by(f64::total_cmp);
+    volumes
+}
+
+/// The odds that an `a` (of `va`, its sorted volumes) is clearly larger than a `b` (of `vb`,
+/// sorted), among the pairs of them that differ clearly, as
+/// [`super::facts::SceneFacts::truth`] decides it.
+fn larger_odds(va: &[f64], vb: &[f64]) -> f64 {
+    let (mut larger, mut smaller) = (0usize, 0usize);
+    for &x in va {
+        larger += vb.partition_point(|&y| x / y >= super::facts::CLEARLY_LARGER);
+        smaller += vb.len() - vb.partition_point(|&y| x / y > 1.0 / super::facts::CLEARLY_LARGER);
     }
-    (larger + 0.5) / (clear + 1.0)
+    (larger as f64 + 0.5) / ((larger + smaller) as f64 + 1.0)
 }
 
 #[cfg(test)]
@@ -418,6 +450,29 @@ mod tests {
         let objects = layout_objects(&layout);
         let rests: Vec<Option<&str>> = objects.iter().map(|o| o.rests_on.as_deref()).collect();
         assert_eq!(rests, [Some("floor"), Some(objects[0].id.as_str()), Some("floor")]);
+    }
+
+    #[test]
+    fn a_size_comparison_s_odds_count_the_pairs_that_differ_clearly_as_a_scene_decides_them() {
+        // 3 is clearly larger than 2 (1.5 times), 2 than 1; 1.2 is clearly neither.
+        assert_eq!(larger_odds(&[3.0], &[2.0]), 1.5 / 2.0);
+        assert_eq!(larger_odds(&[2.0], &[3.0]), 0.5 / 2.0);
+        assert_eq!(larger_odds(&[1.2], &[1.0]), 0.5, "no clear pair: even odds");
+        // Of the six pairs of [1, 2, 3] and [1.2, 2.5]: 3 over 1.2 and 2 over 1.2 larger;
+        // 1 under 2.5 smaller; the rest unclear.
+        assert_eq!(larger_odds(&[1.0, 2.0, 3.0], &[1.2, 2.5]), 2.5 / 4.0);
+    }
+
+    #[test]
+    fn a_size_comparison_the_pack_rarely_decides_one_way_still_has_odds_above_zero() {
+        let pack = AssetSource::open(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets")).expect("the shipped pack");
+        let (credenza, cabinet) = (library_volumes(&pack, "credenza"), library_volumes(&pack, "cabinet"));
+        assert_eq!((credenza.len(), cabinet.len()), (SIZE_DRAWS, SIZE_DRAWS));
+        // Only the pack's smallest cabinet is ever clearly smaller than a credenza, and only
+        // when the size jitter widens the gap (scene builds saw it happen).
+        let odds = larger_odds(&credenza, &cabinet);
+        assert!(odds > 0.005 && odds < 0.2, "credenza over cabinet: {odds}");
+        assert!((odds + larger_odds(&cabinet, &credenza) - 1.0).abs() < 1e-3, "the two ways of asking add up to one");
     }
 
     #[test]

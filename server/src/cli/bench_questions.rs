@@ -18,7 +18,7 @@ use osmab_evaluator::vqa::{Question, QuestionForm, SceneQuestions};
 use serde::Serialize;
 
 /// What each predictor got right of one template's questions.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct TemplateTally {
     pub questions: usize,
     /// Always the majority answer of the template's test questions themselves.
@@ -31,6 +31,19 @@ pub struct TemplateTally {
     /// where they favour yes, zero where a class is more likely absent.
     pub pool_odds: usize,
 }
+
+impl TemplateTally {
+    fn add(&mut self, other: &TemplateTally) {
+        self.questions += other.questions;
+        self.majority += other.majority;
+        self.val_majority += other.val_majority;
+        self.val_lookup += other.val_lookup;
+        self.pool_odds += other.pool_odds;
+    }
+}
+
+/// One test scene's tally per template, over every draw of its questions.
+pub type SceneTally = BTreeMap<String, TemplateTally>;
 
 /// A question's template: its category and the kind of its form.
 fn template(q: &Question) -> String {
@@ -83,7 +96,9 @@ fn regenerate(release: &Path, scene: &str, index: usize, seed: u64, lexicon: &[S
 /// `regenerate`, the questions are drawn anew by this binary's generator from the scenes'
 /// objects and prompts (to measure a change of the generator without rendering again), as
 /// `draws` independent draws of the test scenes' questions (the first is the build's own).
-pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow::Result<BTreeMap<String, TemplateTally>> {
+/// One tally per test scene, so that how far the answers of a few scenes decide a
+/// template's figure can be measured ([`interval`]).
+pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow::Result<Vec<SceneTally>> {
     let index = ReleaseIndex::read(release)?;
     let generator = osmab_evaluator::formats::manifest::ReleaseManifest::read(&release.join("manifest.json"))?.generator;
     let seed = generator.seed;
@@ -114,14 +129,14 @@ pub fn measure(release: &Path, regenerate_questions: bool, draws: u64) -> anyhow
     anyhow::ensure!(!test.is_empty(), "{}: the release has no test scenes to measure", release.display());
     let val_questions: Vec<Question> =
         val.iter().map(|s| questions_of(&s.id, 0)).collect::<anyhow::Result<Vec<_>>>()?.into_iter().flat_map(|q| q.questions).collect();
-    let mut test_questions: Vec<(Regime, Question)> = Vec::new();
+    let mut test_questions: Vec<(usize, Regime, Question)> = Vec::new();
     for draw in 0..draws.max(1) {
-        for scene in &test {
-            test_questions.extend(questions_of(&scene.id, draw)?.questions.into_iter().map(|q| (scene.subset, q)));
+        for (k, scene) in test.iter().enumerate() {
+            test_questions.extend(questions_of(&scene.id, draw)?.questions.into_iter().map(|q| (k, scene.subset, q)));
         }
     }
     let predictors = Predictors { val: &val_questions, priors: &priors, stated: &stated };
-    Ok(predictors.tally(&test_questions))
+    Ok(predictors.tally(&test_questions, test.len()))
 }
 
 /// How many of a class a prompt of each room states, when it states the class (by room
@@ -193,22 +208,23 @@ impl Predictors<'_> {
         }
     }
 
-    /// How often each predictor hits the test answers, per template.
-    fn tally(&self, test_questions: &[(Regime, Question)]) -> BTreeMap<String, TemplateTally> {
-        let mut tallies: BTreeMap<String, TemplateTally> = BTreeMap::new();
+    /// How often each predictor hits the test answers, per template, for each of the
+    /// `scenes` test scenes (the first of each of `test_questions` is its scene's index).
+    fn tally(&self, test_questions: &[(usize, Regime, Question)], scenes: usize) -> Vec<SceneTally> {
+        let mut tallies: Vec<SceneTally> = vec![SceneTally::new(); scenes];
         let majorities: BTreeMap<String, Option<String>> = test_questions
             .iter()
-            .map(|(_, q)| template(q))
+            .map(|(_, _, q)| template(q))
             .map(|t| {
-                let majority = mode(test_questions.iter().filter(|(_, q)| template(q) == t).map(|(_, q)| q.answer.as_deref().unwrap_or("")));
+                let majority = mode(test_questions.iter().filter(|(_, _, q)| template(q) == t).map(|(_, _, q)| q.answer.as_deref().unwrap_or("")));
                 (t, majority)
             })
             .collect();
-        for (regime, q) in test_questions {
+        for (scene, regime, q) in test_questions {
             let t = template(q);
             let truth = q.answer.clone().unwrap_or_default();
             let hit = |guess: Option<String>| usize::from(guess.is_some_and(|g| g.eq_ignore_ascii_case(&truth)));
-            let tally = tallies.entry(t.clone()).or_default();
+            let tally = tallies[*scene].entry(t.clone()).or_default();
             tally.questions += 1;
             tally.majority += hit(majorities[&t].clone());
             tally.val_majority += hit(self.val_majority(&t));
@@ -219,38 +235,105 @@ impl Predictors<'_> {
     }
 }
 
-/// `osmab bench questions --release DIR…`: the table over every build given, summed.
+/// How far a predictor's lead over the majority answer (in points) could be the luck of
+/// which scenes were built: the 2.5th and 97.5th percentiles of that lead over
+/// [`RESAMPLES`] resamplings of the test scenes with replacement (a scene's questions stay
+/// together: its answers, not its questions, are what a build draws). `hits` picks the
+/// predictor's hits from a tally.
+fn interval(scenes: &[&TemplateTally], hits: impl Fn(&TemplateTally) -> usize) -> Option<(f64, f64)> {
+    if scenes.is_empty() {
+        return None;
+    }
+    let mut rng = osmab_evaluator::synthetic::Rng::new(0x0b00_7574_7261_7021);
+    let mut leads: Vec<f64> = (0..RESAMPLES)
+        .filter_map(|_| {
+            let (mut lead, mut questions) = (0.0, 0usize);
+            for _ in 0..scenes.len() {
+                let x = scenes[rng.below(scenes.len())];
+                lead += hits(x) as f64 - x.majority as f64;
+                questions += x.questions;
+            }
+            (questions > 0).then(|| 100.0 * lead / questions as f64)
+        })
+        .collect();
+    leads.sort_by(f64::total_cmp);
+    let at = |q: f64| leads[((leads.len() - 1) as f64 * q).round() as usize];
+    (!leads.is_empty()).then(|| (at(0.025), at(0.975)))
+}
+
+/// Resamplings of the test scenes behind each interval.
+const RESAMPLES: usize = 2000;
+
+/// `osmab bench questions --release DIR…`: the table over every build given, summed, with
+/// how far the scenes' luck could move each predictor's lead ([`interval`]).
 pub fn run(releases: &[PathBuf], regenerate: bool, draws: u64, json: Option<&Path>) -> anyhow::Result<()> {
-    let mut total: BTreeMap<String, TemplateTally> = BTreeMap::new();
+    let mut scenes: Vec<SceneTally> = Vec::new();
     for release in releases {
-        for (t, tally) in measure(release, regenerate, draws)? {
-            let sum = total.entry(t).or_default();
-            sum.questions += tally.questions;
-            sum.majority += tally.majority;
-            sum.val_majority += tally.val_majority;
-            sum.val_lookup += tally.val_lookup;
-            sum.pool_odds += tally.pool_odds;
+        scenes.extend(measure(release, regenerate, draws)?);
+    }
+    let mut total: BTreeMap<String, TemplateTally> = BTreeMap::new();
+    for scene in &scenes {
+        for (t, tally) in scene {
+            total.entry(t.clone()).or_default().add(tally);
         }
     }
     let pct = |k: usize, n: usize| if n == 0 { "—".to_string() } else { format!("{:.1}", 100.0 * k as f64 / n as f64) };
-    println!("| template (category / form) | test questions | majority % | val majority % | val lookup % | pool odds % |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    let row = |label: &str, x: &TemplateTally| {
+    let span = |i: Option<(f64, f64)>| i.map_or("—".to_string(), |(lo, hi)| format!("{lo:+.1} … {hi:+.1}"));
+    println!(
+        "| template (category / form) | test questions | majority % | val majority % | val lookup % | pool odds % | val lookup − majority, 95 % of scene resamplings | pool odds − majority, the same |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    let row = |label: &str, x: &TemplateTally, of_scenes: &[&TemplateTally]| {
         let cells = [x.majority, x.val_majority, x.val_lookup, x.pool_odds].map(|k| pct(k, x.questions));
-        println!("| {label} | {} | {} |", x.questions, cells.join(" | "));
+        let leads = [span(interval(of_scenes, |t| t.val_lookup)), span(interval(of_scenes, |t| t.pool_odds))];
+        println!("| {label} | {} | {} | {} |", x.questions, cells.join(" | "), leads.join(" | "));
     };
     let mut all = TemplateTally::default();
     for (t, x) in &total {
-        row(t, x);
-        all.questions += x.questions;
-        all.majority += x.majority;
-        all.val_majority += x.val_majority;
-        all.val_lookup += x.val_lookup;
-        all.pool_odds += x.pool_odds;
+        let of_scenes: Vec<&TemplateTally> = scenes.iter().map(|s| s.get(t).unwrap_or(&EMPTY)).collect();
+        row(t, x, &of_scenes);
+        all.add(x);
     }
-    row("**all**", &all);
+    let whole: Vec<TemplateTally> = scenes
+        .iter()
+        .map(|s| {
+            let mut sum = TemplateTally::default();
+            s.values().for_each(|x| sum.add(x));
+            sum
+        })
+        .collect();
+    row("**all**", &all, &whole.iter().collect::<Vec<_>>());
     if let Some(path) = json {
         std::fs::write(path, serde_json::to_vec_pretty(&total)?)?;
     }
     Ok(())
+}
+
+/// A scene that asks none of a template.
+const EMPTY: TemplateTally = TemplateTally { questions: 0, majority: 0, val_majority: 0, val_lookup: 0, pool_odds: 0 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(questions: usize, majority: usize, pool_odds: usize) -> TemplateTally {
+        TemplateTally { questions, majority, pool_odds, ..TemplateTally::default() }
+    }
+
+    #[test]
+    fn scenes_that_all_lead_alike_leave_no_doubt_about_the_lead() {
+        let scenes = vec![scene(10, 5, 6); 20];
+        assert_eq!(interval(&scenes.iter().collect::<Vec<_>>(), |t| t.pool_odds), Some((10.0, 10.0)));
+    }
+
+    #[test]
+    fn a_lead_that_a_few_scenes_make_is_uncertain_and_scenes_that_ask_nothing_still_count() {
+        // Two scenes of twenty carry the whole lead (+10 points overall); most ask nothing.
+        let mut scenes = vec![scene(0, 0, 0); 14];
+        scenes.extend([scene(10, 5, 5); 4]);
+        scenes.extend([scene(10, 5, 10); 2]);
+        let (lo, hi) = interval(&scenes.iter().collect::<Vec<_>>(), |t| t.pool_odds).expect("some resampling asks questions");
+        assert!(lo <= 0.0 && hi >= 30.0, "a lead resting on two scenes: {lo} … {hi}");
+        assert_eq!(interval(&[], |t| t.pool_odds), None);
+    }
 }

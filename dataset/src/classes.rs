@@ -102,9 +102,10 @@ pub struct PrintTone {
 /// How a class's instances are coloured.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Colouring {
-    /// They keep their texture's colours (a screen, leaves, a book's cover); no colour is asked.
+    /// They keep their texture's colours (a screen, leaves, a clock's face); no colour is asked.
     Own,
-    /// Their own print toned in one of the table's print tones (a picture); no colour is asked.
+    /// Their own print toned in one of the table's print tones (a picture, a book's cover);
+    /// no colour is asked.
     Print,
     /// Drawn in one of these finishes (names in the table's `[finish]`).
     Drawn(Vec<String>),

@@ -10,11 +10,11 @@ use crate::classes::{Colouring, Finish, PrintTone, table};
 /// How an instance's pack texture is drawn.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Look {
-    /// In its own colours (a screen, leaves, a book's cover).
+    /// In its own colours (a screen, leaves, a clock's face).
     Own,
     /// Its main material recoloured in a finish of its class's palette.
     Finish(&'static Finish),
-    /// Its own print toned (a picture).
+    /// Its own print toned (a picture; a book, whose cover art is Infinigen's toy colours).
     Print(&'static PrintTone),
 }
 
@@ -99,7 +99,7 @@ mod tests {
     }
 
     #[test]
-    fn a_picture_is_drawn_as_a_print_in_every_tone_and_asked_no_colour() {
+    fn a_picture_is_drawn_as_a_print_in_every_tone_and_asked_no_colour_and_so_is_a_book() {
         assert!(keeps_own_colours("picture"));
         assert_eq!(finish_drawn("picture", &Rng::new(1)), None);
         let mut rng = Rng::new(5);
@@ -114,6 +114,8 @@ mod tests {
             assert_eq!(rng.clone().next_u64(), before, "drawing a look does not advance the generator");
         }
         assert_eq!(tones.len(), table().print_tones().len(), "every tone is drawn: {tones:?}");
+        assert!(matches!(look_drawn("book", &rng), Look::Print(_)), "a book's toy-coloured cover art is toned as a print");
+        assert!(keeps_own_colours("book"));
         assert!(matches!(look_drawn("sofa", &rng), Look::Finish(_)));
         assert_eq!(look_drawn("television", &rng), Look::Own);
     }

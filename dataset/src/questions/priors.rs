@@ -454,7 +454,7 @@ mod tests {
 
     #[test]
     fn a_size_comparison_s_odds_count_the_pairs_that_differ_clearly_as_a_scene_decides_them() {
-        // 3 is clearly larger than 2 (1.5 times), 2 than 1; 1.2 is clearly neither.
+        // 3 is clearly larger than 2 (1.5 times, the bound counts); 1.2 and 1 are clearly neither.
         assert_eq!(larger_odds(&[3.0], &[2.0]), 1.5 / 2.0);
         assert_eq!(larger_odds(&[2.0], &[3.0]), 0.5 / 2.0);
         assert_eq!(larger_odds(&[1.2], &[1.0]), 0.5, "no clear pair: even odds");

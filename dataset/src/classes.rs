@@ -104,9 +104,10 @@ pub struct PrintTone {
 pub enum Colouring {
     /// They keep their texture's colours (a screen, leaves, a clock's face); no colour is asked.
     Own,
-    /// Their own print toned in one of the table's print tones (a picture, a book's cover);
-    /// no colour is asked.
+    /// Their own print toned in one of the table's print tones (a picture); no colour is asked.
     Print,
+    /// Their own cover art toned in one of the table's cover tones (a book); no colour is asked.
+    Cover,
     /// Drawn in one of these finishes (names in the table's `[finish]`).
     Drawn(Vec<String>),
 }
@@ -155,7 +156,7 @@ impl ClassDef {
     /// The finishes its instances are drawn in (none for own colours).
     pub fn finishes(&self) -> Vec<&'static Finish> {
         match &self.colouring {
-            Colouring::Own | Colouring::Print => Vec::new(),
+            Colouring::Own | Colouring::Print | Colouring::Cover => Vec::new(),
             Colouring::Drawn(names) => names.iter().map(|n| table().finish(n).expect("checked when the table was read")).collect(),
         }
     }
@@ -178,6 +179,7 @@ pub struct ClassTable {
     classes: Vec<ClassDef>,
     finishes: BTreeMap<String, Finish>,
     print_tones: Vec<PrintTone>,
+    cover_tones: Vec<PrintTone>,
 }
 
 #[derive(Deserialize)]
@@ -186,6 +188,8 @@ struct RawTable {
     finish: BTreeMap<String, RawFinish>,
     #[serde(default)]
     print: BTreeMap<String, RawPrintTone>,
+    #[serde(default)]
+    cover: BTreeMap<String, RawPrintTone>,
     #[serde(default)]
     palette: BTreeMap<String, Vec<String>>,
     class: Vec<RawClass>,
@@ -251,7 +255,8 @@ impl ClassTable {
                 Ok((name.clone(), Finish { name, colour: f.colour, material: f.material }))
             })
             .collect::<Result<_, String>>()?;
-        let print_tones = print_tones(raw.print)?;
+        let print_tones = tones_of("print", raw.print)?;
+        let cover_tones = tones_of("cover", raw.cover)?;
         let mut classes = Vec::with_capacity(raw.class.len());
         let mut names: Vec<String> = Vec::new();
         for (id, c) in raw.class.into_iter().enumerate() {
@@ -262,30 +267,7 @@ impl ClassTable {
                 }
                 names.push(n.clone());
             }
-            let colouring = match c.finishes {
-                None => Colouring::Own,
-                Some(RawFinishes::Word(w)) if w == "own" => Colouring::Own,
-                Some(RawFinishes::Word(w)) if w == "print" && print_tones.is_empty() => {
-                    return Err(format!("{}: \"print\" needs at least one [print] tone", field("finishes")));
-                }
-                Some(RawFinishes::Word(w)) if w == "print" => Colouring::Print,
-                Some(RawFinishes::Word(w)) => {
-                    let palette = w
-                        .strip_prefix('@')
-                        .and_then(|p| raw.palette.get(p))
-                        .ok_or_else(|| format!("{}: expected \"own\", \"print\", \"@palette\" or a list, found '{w}'", field("finishes")))?;
-                    Colouring::Drawn(palette.clone())
-                }
-                Some(RawFinishes::List(list)) => Colouring::Drawn(list),
-            };
-            if let Colouring::Drawn(list) = &colouring {
-                if list.is_empty() {
-                    return Err(format!("{}: no finish", field("finishes")));
-                }
-                if let Some(missing) = list.iter().find(|f| !finishes.contains_key(*f)) {
-                    return Err(format!("{}: no finish '{missing}'", field("finishes")));
-                }
-            }
+            let colouring = colouring_of(c.finishes, &field("finishes"), (&print_tones, &cover_tones), &raw.palette, &finishes)?;
             if let Some(size) = c.size {
                 if size.iter().any(|[lo, hi]| !(lo.is_finite() && hi.is_finite() && *lo > 0.0 && lo <= hi)) {
                     return Err(format!("{}: expected [min, max] ranges of positive metres", field("size")));
@@ -313,7 +295,7 @@ impl ClassTable {
         if classes.first().is_none_or(|c| c.name != "other") {
             return Err("class[0]: expected \"other\" (id 0 is excluded from scoring)".into());
         }
-        Ok(ClassTable { classes, finishes, print_tones })
+        Ok(ClassTable { classes, finishes, print_tones, cover_tones })
     }
 
     /// Every class, in id order.
@@ -335,6 +317,11 @@ impl ClassTable {
         &self.print_tones
     }
 
+    /// The tones a book's cover art is drawn in, in name order.
+    pub fn cover_tones(&self) -> &[PrintTone] {
+        &self.cover_tones
+    }
+
     /// Whether `name` is a class of the room's shell (or "other").
     pub fn is_shell(&self, name: &str) -> bool {
         self.class(name).is_some_and(|c| c.role == Role::Shell)
@@ -346,15 +333,53 @@ impl ClassTable {
     }
 }
 
-/// The table's `[print]` tones, checked: colours in [0, 1] and a chroma share in [0, 1].
-fn print_tones(raw: BTreeMap<String, RawPrintTone>) -> Result<Vec<PrintTone>, String> {
+/// A class's `finishes` (`field`, for messages), read and checked against the table's print
+/// and cover `tones`, its `palettes` and its `finishes`.
+fn colouring_of(
+    raw: Option<RawFinishes>,
+    field: &str,
+    tones: (&[PrintTone], &[PrintTone]),
+    palettes: &BTreeMap<String, Vec<String>>,
+    finishes: &BTreeMap<String, Finish>,
+) -> Result<Colouring, String> {
+    let (print, cover) = tones;
+    let colouring = match raw {
+        None => Colouring::Own,
+        Some(RawFinishes::Word(w)) if w == "own" => Colouring::Own,
+        Some(RawFinishes::Word(w)) if w == "print" && print.is_empty() => return Err(format!("{field}: \"print\" needs at least one [print] tone")),
+        Some(RawFinishes::Word(w)) if w == "print" => Colouring::Print,
+        Some(RawFinishes::Word(w)) if w == "cover" && cover.is_empty() => return Err(format!("{field}: \"cover\" needs at least one [cover] tone")),
+        Some(RawFinishes::Word(w)) if w == "cover" => Colouring::Cover,
+        Some(RawFinishes::Word(w)) => {
+            let palette = w
+                .strip_prefix('@')
+                .and_then(|p| palettes.get(p))
+                .ok_or_else(|| format!("{field}: expected \"own\", \"print\", \"cover\", \"@palette\" or a list, found '{w}'"))?;
+            Colouring::Drawn(palette.clone())
+        }
+        Some(RawFinishes::List(list)) => Colouring::Drawn(list),
+    };
+    if let Colouring::Drawn(list) = &colouring {
+        if list.is_empty() {
+            return Err(format!("{field}: no finish"));
+        }
+        if let Some(missing) = list.iter().find(|f| !finishes.contains_key(*f)) {
+            return Err(format!("{field}: no finish '{missing}'"));
+        }
+    }
+    Ok(colouring)
+}
+
+/// The table's `[print]` or `[cover]` tones (`section`), checked: colours in [0, 1] and a
+/// chroma share in [0, 1].
+fn tones_of(section: &str, raw: BTreeMap<String, RawPrintTone>) -> Result<Vec<PrintTone>, String> {
     raw.into_iter()
         .map(|(name, t)| {
             if t.ink.iter().chain(&t.paper).any(|c| !(0.0..=1.0).contains(c)) {
-                return Err(format!("print.{name}: expected ink and paper as three values in [0, 1]"));
+                return Err(format!("{section}.{name}: expected ink and paper as three values in [0, 1]"));
             }
             if !(0.0..=1.0).contains(&t.chroma) {
-                return Err(format!("print.{name}.chroma: expected a share in [0, 1], found {}", t.chroma));
+                return Err(format!("{section}.{name}.chroma: expected a share in [0, 1], found {}", t.chroma));
             }
             Ok(PrintTone { name, ink: t.ink, paper: t.paper, chroma: t.chroma })
         })
@@ -412,6 +437,22 @@ mod tests {
             }
             assert!(t.paper.iter().zip(&t.ink).all(|(p, i)| p > i), "{}: paper lighter than ink", t.name);
         }
+    }
+
+    #[test]
+    fn books_are_toned_in_cover_tones_of_dark_cloth_and_light_card() {
+        assert_eq!(table().class("book").map(|c| &c.colouring), Some(&Colouring::Cover));
+        let brightness = |c: [f32; 3]| (c[0] + c[1] + c[2]) / 3.0;
+        let (cloth, card): (Vec<&PrintTone>, Vec<&PrintTone>) = table().cover_tones().iter().partition(|t| brightness(t.paper) < brightness(t.ink));
+        assert!(cloth.len() >= 3 && card.len() >= 2, "books dark and light: {cloth:?} {card:?}");
+        let base = "[finish]\nwhite = { colour = [0.9, 0.9, 0.9], material = \"paint\" }\n";
+        let classes = "[[class]]\nname = \"other\"\nrole = \"shell\"\n[[class]]\nname = \"book\"\nrole = \"object\"\nsize = [[0.15, 0.24], [0.2, 0.3], [0.02, 0.06]]\nrests = \"surface\"\nfinishes = \"cover\"\n";
+        let e = ClassTable::parse(&format!("{base}{classes}")).unwrap_err();
+        assert!(e.contains("(book).finishes") && e.contains("[cover]"), "{e}");
+        let bright = format!("{base}[cover]\nnavy = {{ ink = [0.8, 0.7, 0.5], paper = [0.1, 0.1, 1.3], chroma = 0.0 }}\n{classes}");
+        assert!(ClassTable::parse(&bright).unwrap_err().contains("cover.navy"));
+        let fine = format!("{base}[cover]\nnavy = {{ ink = [0.8, 0.7, 0.5], paper = [0.1, 0.1, 0.3], chroma = 0.0 }}\n{classes}");
+        assert_eq!(ClassTable::parse(&fine).map(|t| (t.cover_tones().len(), t.print_tones().len())), Ok((1, 0)));
     }
 
     #[test]

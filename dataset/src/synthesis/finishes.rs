@@ -14,7 +14,7 @@ pub enum Look {
     Own,
     /// Its main material recoloured in a finish of its class's palette.
     Finish(&'static Finish),
-    /// Its own print toned (a picture; a book, whose cover art is Infinigen's toy colours).
+    /// Its own print toned (a picture; a book's cover art, in a cover tone).
     Print(&'static PrintTone),
 }
 
@@ -30,17 +30,19 @@ impl Look {
 }
 
 /// The look of an instance of `category` drawn from the state of `rng` without advancing
-/// it: a finish ([`finish_drawn`]), a print tone drawn evenly for a class of prints, or its
-/// own colours.
+/// it: a finish ([`finish_drawn`]), a print tone drawn evenly for a class of prints (a cover
+/// tone for a class of covers), or its own colours.
 pub fn look_drawn(category: &str, rng: &Rng) -> Look {
-    let tones = table().print_tones();
-    match table().class(category).map(|c| &c.colouring) {
-        Some(Colouring::Print) if !tones.is_empty() => {
-            let mut draw = Rng::new(rng.clone().next_u64() ^ 0x9_1217);
-            Look::Print(&tones[draw.below(tones.len())])
-        }
-        _ => finish_drawn(category, rng).map_or(Look::Own, Look::Finish),
+    let tones = match table().class(category).map(|c| &c.colouring) {
+        Some(Colouring::Print) => table().print_tones(),
+        Some(Colouring::Cover) => table().cover_tones(),
+        _ => &[],
+    };
+    if tones.is_empty() {
+        return finish_drawn(category, rng).map_or(Look::Own, Look::Finish);
     }
+    let mut draw = Rng::new(rng.clone().next_u64() ^ 0x9_1217);
+    Look::Print(&tones[draw.below(tones.len())])
 }
 
 /// The finish of an instance of `category` drawn from the state of `rng` without advancing
@@ -60,7 +62,7 @@ pub fn finish_drawn(category: &str, rng: &Rng) -> Option<&'static Finish> {
 
 /// Whether instances of `category` keep their texture's own colours (no colour is asked).
 pub fn keeps_own_colours(category: &str) -> bool {
-    table().class(category).is_none_or(|c| matches!(c.colouring, Colouring::Own | Colouring::Print))
+    table().class(category).is_none_or(|c| matches!(c.colouring, Colouring::Own | Colouring::Print | Colouring::Cover))
 }
 
 #[cfg(test)]
@@ -99,7 +101,7 @@ mod tests {
     }
 
     #[test]
-    fn a_picture_is_drawn_as_a_print_in_every_tone_and_asked_no_colour_and_so_is_a_book() {
+    fn a_picture_is_drawn_as_a_print_in_every_tone_and_asked_no_colour() {
         assert!(keeps_own_colours("picture"));
         assert_eq!(finish_drawn("picture", &Rng::new(1)), None);
         let mut rng = Rng::new(5);
@@ -114,9 +116,24 @@ mod tests {
             assert_eq!(rng.clone().next_u64(), before, "drawing a look does not advance the generator");
         }
         assert_eq!(tones.len(), table().print_tones().len(), "every tone is drawn: {tones:?}");
-        assert!(matches!(look_drawn("book", &rng), Look::Print(_)), "a book's toy-coloured cover art is toned as a print");
-        assert!(keeps_own_colours("book"));
         assert!(matches!(look_drawn("sofa", &rng), Look::Finish(_)));
         assert_eq!(look_drawn("television", &rng), Look::Own);
+    }
+
+    #[test]
+    fn a_book_is_drawn_in_every_cover_tone_and_asked_no_colour() {
+        assert!(keeps_own_colours("book"));
+        assert_eq!(finish_drawn("book", &Rng::new(1)), None);
+        let mut rng = Rng::new(7);
+        let mut tones = std::collections::BTreeSet::new();
+        for _ in 0..200 {
+            rng.next_u64();
+            match look_drawn("book", &rng) {
+                Look::Print(t) => tones.insert(t.name.as_str()),
+                other => panic!("a book drawn as {other:?}"),
+            };
+        }
+        let covers: std::collections::BTreeSet<&str> = table().cover_tones().iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(tones, covers, "every cover tone is drawn, and only cover tones");
     }
 }

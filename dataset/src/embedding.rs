@@ -33,7 +33,7 @@ const STOPWORDS: &[&str] = &[
 ];
 
 /// FNV-1a, 64-bit: stable across platforms and releases (unlike `std`'s hasher).
-fn fnv1a(text: &str) -> u64 {
+pub(crate) fn fnv1a(text: &str) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
 }
 

@@ -402,8 +402,7 @@ const SIZE_DRAWS: usize = 512;
 /// size jitter), sorted; a stream of draws of the class's own, so that two classes'
 /// draws are independent.
 fn library_volumes(assets: &AssetSource, class: &str) -> Vec<f64> {
-    let stream = class.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
-    let mut rng = Rng::new(0x5a5a_0001 ^ stream);
+    let mut rng = Rng::new(0x5a5a_0001 ^ crate::embedding::fnv1a(class));
     let mut volumes: Vec<f64> = (0..SIZE_DRAWS).filter_map(|_| assets.make(class, &mut rng)).map(|asset| asset.size.iter().product()).collect();
     volumes.sort_by(f64::total_cmp);
     volumes

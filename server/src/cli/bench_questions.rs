@@ -240,7 +240,7 @@ impl Predictors<'_> {
 /// [`RESAMPLES`] resamplings of the test scenes with replacement (a scene's questions stay
 /// together: its answers, not its questions, are what a build draws). `hits` picks the
 /// predictor's hits from a tally.
-fn interval(scenes: &[&TemplateTally], hits: impl Fn(&TemplateTally) -> usize) -> Option<(f64, f64)> {
+fn interval(scenes: &[TemplateTally], hits: impl Fn(&TemplateTally) -> usize) -> Option<(f64, f64)> {
     if scenes.is_empty() {
         return None;
     }
@@ -249,7 +249,7 @@ fn interval(scenes: &[&TemplateTally], hits: impl Fn(&TemplateTally) -> usize) -
         .filter_map(|_| {
             let (mut lead, mut questions) = (0.0, 0usize);
             for _ in 0..scenes.len() {
-                let x = scenes[rng.below(scenes.len())];
+                let x = &scenes[rng.below(scenes.len())];
                 lead += hits(x) as f64 - x.majority as f64;
                 questions += x.questions;
             }
@@ -283,17 +283,16 @@ pub fn run(releases: &[PathBuf], regenerate: bool, draws: u64, json: Option<&Pat
         "| template (category / form) | test questions | majority % | val majority % | val lookup % | pool odds % | val lookup − majority, 95 % of scene resamplings | pool odds − majority, the same |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|");
-    let row = |label: &str, x: &TemplateTally, of_scenes: &[&TemplateTally]| {
+    let row = |label: &str, x: &TemplateTally, of_scenes: &[TemplateTally]| {
         let cells = [x.majority, x.val_majority, x.val_lookup, x.pool_odds].map(|k| pct(k, x.questions));
         let leads = [span(interval(of_scenes, |t| t.val_lookup)), span(interval(of_scenes, |t| t.pool_odds))];
         println!("| {label} | {} | {} | {} |", x.questions, cells.join(" | "), leads.join(" | "));
     };
-    let mut all = TemplateTally::default();
     for (t, x) in &total {
-        let of_scenes: Vec<&TemplateTally> = scenes.iter().map(|s| s.get(t).unwrap_or(&EMPTY)).collect();
+        let of_scenes: Vec<TemplateTally> = scenes.iter().map(|s| s.get(t).copied().unwrap_or_default()).collect();
         row(t, x, &of_scenes);
-        all.add(x);
     }
+    // Every template of a scene together, and their sum.
     let whole: Vec<TemplateTally> = scenes
         .iter()
         .map(|s| {
@@ -302,15 +301,14 @@ pub fn run(releases: &[PathBuf], regenerate: bool, draws: u64, json: Option<&Pat
             sum
         })
         .collect();
-    row("**all**", &all, &whole.iter().collect::<Vec<_>>());
+    let mut all = TemplateTally::default();
+    whole.iter().for_each(|x| all.add(x));
+    row("**all**", &all, &whole);
     if let Some(path) = json {
         std::fs::write(path, serde_json::to_vec_pretty(&total)?)?;
     }
     Ok(())
 }
-
-/// A scene that asks none of a template.
-const EMPTY: TemplateTally = TemplateTally { questions: 0, majority: 0, val_majority: 0, val_lookup: 0, pool_odds: 0 };
 
 #[cfg(test)]
 mod tests {
@@ -323,7 +321,7 @@ mod tests {
     #[test]
     fn scenes_that_all_lead_alike_leave_no_doubt_about_the_lead() {
         let scenes = vec![scene(10, 5, 6); 20];
-        assert_eq!(interval(&scenes.iter().collect::<Vec<_>>(), |t| t.pool_odds), Some((10.0, 10.0)));
+        assert_eq!(interval(&scenes, |t| t.pool_odds), Some((10.0, 10.0)));
     }
 
     #[test]
@@ -332,7 +330,7 @@ mod tests {
         let mut scenes = vec![scene(0, 0, 0); 14];
         scenes.extend([scene(10, 5, 5); 4]);
         scenes.extend([scene(10, 5, 10); 2]);
-        let (lo, hi) = interval(&scenes.iter().collect::<Vec<_>>(), |t| t.pool_odds).expect("some resampling asks questions");
+        let (lo, hi) = interval(&scenes, |t| t.pool_odds).expect("some resampling asks questions");
         assert!(lo <= 0.0 && hi >= 30.0, "a lead resting on two scenes: {lo} … {hi}");
         assert_eq!(interval(&[], |t| t.pool_odds), None);
     }

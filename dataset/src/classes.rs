@@ -150,6 +150,8 @@ pub struct ClassDef {
     pub forge: Vec<ForgeRecipe>,
     /// Deliberately drawn by the procedural library.
     pub procedural: bool,
+    /// Its pack texture's print is dropped: the whole main material takes the finish.
+    pub plain: bool,
 }
 
 impl ClassDef {
@@ -229,6 +231,8 @@ struct RawClass {
     forge: Vec<ForgeRecipe>,
     #[serde(default)]
     procedural: bool,
+    #[serde(default)]
+    plain: bool,
 }
 
 #[derive(Deserialize)]
@@ -276,6 +280,9 @@ impl ClassTable {
             if c.role != Role::Shell && (c.size.is_none() || c.rests.is_none()) {
                 return Err(format!("{}: a furniture or object class needs a size and where it rests", field("size")));
             }
+            if c.plain && !matches!(colouring, Colouring::Drawn(_)) {
+                return Err(format!("{}: a plain class is drawn in finishes (a list or \"@palette\")", field("plain")));
+            }
             if let Some(r) = c.forge.iter().find(|r| r.factory.is_some() == r.composed.is_some()) {
                 return Err(format!("{}: a recipe names a factory or a composed builder, not {r:?}", field("forge")));
             }
@@ -290,6 +297,7 @@ impl ClassTable {
                 colouring,
                 forge: c.forge,
                 procedural: c.procedural,
+                plain: c.plain,
             });
         }
         if classes.first().is_none_or(|c| c.name != "other") {
@@ -453,6 +461,21 @@ mod tests {
         assert!(ClassTable::parse(&bright).unwrap_err().contains("cover.navy"));
         let fine = format!("{base}[cover]\nnavy = {{ ink = [0.8, 0.7, 0.5], paper = [0.1, 0.1, 0.3], chroma = 0.0 }}\n{classes}");
         assert_eq!(ClassTable::parse(&fine).map(|t| (t.cover_tones().len(), t.print_tones().len())), Ok((1, 0)));
+    }
+
+    #[test]
+    fn boxes_drop_their_print_and_only_a_class_drawn_in_finishes_can() {
+        assert!(table().class("box").is_some_and(|c| c.plain && matches!(c.colouring, Colouring::Drawn(_))));
+        assert!(table().class("sofa").is_some_and(|c| !c.plain), "fabrics keep their weave");
+        let base = "[finish]\nwhite = { colour = [0.9, 0.9, 0.9], material = \"paint\" }\n";
+        let class = |finishes: &str| {
+            format!(
+                "{base}[[class]]\nname = \"other\"\nrole = \"shell\"\n[[class]]\nname = \"box\"\nrole = \"object\"\nsize = [[0.2, 0.4], [0.2, 0.4], [0.1, 0.3]]\nrests = \"surface\"\n{finishes}plain = true\n"
+            )
+        };
+        assert!(ClassTable::parse(&class("finishes = [\"white\"]\n")).is_ok_and(|t| t.class("box").is_some_and(|c| c.plain)));
+        let e = ClassTable::parse(&class("finishes = \"own\"\n")).unwrap_err();
+        assert!(e.contains("(box).plain") && e.contains("finishes"), "{e}");
     }
 
     #[test]

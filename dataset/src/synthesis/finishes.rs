@@ -14,8 +14,9 @@ pub enum Look {
     Own,
     /// Its main material recoloured in a finish of its class's palette.
     Finish(&'static Finish),
-    /// Its own print toned (a picture; a book's cover art, in a cover tone).
-    Print(&'static PrintTone),
+    /// Its own print toned (a book's cover art, in a cover tone), or for a picture a print
+    /// drawn from `art` in a print tone ([`super::artwork`]).
+    Print { tone: &'static PrintTone, art: u64 },
 }
 
 impl Look {
@@ -24,7 +25,7 @@ impl Look {
         match self {
             Look::Own => String::new(),
             Look::Finish(f) => format!(" in {}", f.name.replace('_', " ")),
-            Look::Print(t) => format!(" printed in {}", t.name.replace('_', " ")),
+            Look::Print { tone, .. } => format!(" printed in {}", tone.name.replace('_', " ")),
         }
     }
 }
@@ -42,7 +43,8 @@ pub fn look_drawn(category: &str, rng: &Rng) -> Look {
         return finish_drawn(category, rng).map_or(Look::Own, Look::Finish);
     }
     let mut draw = Rng::new(rng.clone().next_u64() ^ 0x9_1217);
-    Look::Print(&tones[draw.below(tones.len())])
+    let tone = &tones[draw.below(tones.len())];
+    Look::Print { tone, art: draw.next_u64() }
 }
 
 /// The finish of an instance of `category` drawn from the state of `rng` without advancing
@@ -110,7 +112,7 @@ mod tests {
             rng.next_u64();
             let before = rng.clone().next_u64();
             match look_drawn("picture", &rng) {
-                Look::Print(t) => tones.insert(t.name.as_str()),
+                Look::Print { tone, .. } => tones.insert(tone.name.as_str()),
                 other => panic!("a picture drawn as {other:?}"),
             };
             assert_eq!(rng.clone().next_u64(), before, "drawing a look does not advance the generator");
@@ -129,7 +131,7 @@ mod tests {
         for _ in 0..200 {
             rng.next_u64();
             match look_drawn("book", &rng) {
-                Look::Print(t) => tones.insert(t.name.as_str()),
+                Look::Print { tone, .. } => tones.insert(tone.name.as_str()),
                 other => panic!("a book drawn as {other:?}"),
             };
         }

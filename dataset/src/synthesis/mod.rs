@@ -2,6 +2,7 @@
 //! both the built-in synthesizer and SceneSmith itself (or any external command that
 //! writes the same format).
 
+pub mod artwork;
 pub mod dressing;
 pub mod export;
 pub mod external;

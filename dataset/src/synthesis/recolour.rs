@@ -48,14 +48,16 @@ const MAIN_FAR: f32 = 85.0;
 /// other colours (a chair's black legs, a desk's white frame) keep theirs, unless they lie
 /// scattered among the main material's ([`among_main`]): a weave's dark threads, a
 /// granite's flecks, a bake's aliasing are the material's pattern, and kept in their own
-/// colours they were the yellow and black "starfield" on a navy sofa.
-pub(super) fn recolour(texture: &Texture, meshes: &[&TriangleMesh], scale: f32, finish: &Finish) -> RgbImage {
+/// colours they were the yellow and black "starfield" on a navy sofa. With `print`
+/// [`Print::Dropped`] every texel is of the main material, with its finish's drawn pattern.
+pub(super) fn recolour(texture: &Texture, meshes: &[&TriangleMesh], scale: f32, finish: &Finish, print: Print) -> RgbImage {
     let samples = shown_texels(texture, meshes);
     let main = main_colour(&samples);
     let main_luminance = luminance(main);
     let texel_size = texel_metres(texture, meshes, scale);
     let coarse_wood = finish.material == MaterialKind::Wood && texel_size > COARSE_GRAIN_TEXEL;
-    let drawn = coarse_wood || brightness_spread(&samples, main) < FLAT;
+    let dropped = print == Print::Dropped;
+    let drawn = dropped || coarse_wood || brightness_spread(&samples, main) < FLAT;
     let (width, height) = (texture.width as usize, texture.height as usize);
     let most = (MAX_DRAWN_SIDE / width.max(height).max(1)).clamp(1, MAX_UPSAMPLE);
     let factor = if coarse_wood { ((texel_size / FINE_TEXEL).ceil() as usize).clamp(1, most) } else { 1 };
@@ -69,7 +71,7 @@ pub(super) fn recolour(texture: &Texture, meshes: &[&TriangleMesh], scale: f32, 
         .flat_map(|o| {
             let (x, y) = (o % out_width, o / out_width);
             let i = (y / factor) * width + x / factor;
-            let (texel, weight) = (texels[i], of_main[i].max(among[i]));
+            let (texel, weight) = (texels[i], if dropped { 1.0 } else { of_main[i].max(among[i]) });
             let deviation = if drawn {
                 material_pattern(finish.material, x as f32 * out_texel, y as f32 * out_texel)
             } else {
@@ -80,6 +82,15 @@ pub(super) fn recolour(texture: &Texture, meshes: &[&TriangleMesh], scale: f32, 
         })
         .collect();
     RgbImage { width: out_width as u32, height: out_height as u32, pixels }
+}
+
+/// What becomes of a texture's print (what is not its main material) when it is recoloured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Print {
+    /// Parts of other colours keep theirs (a chair's legs, a desk's frame, a can's label).
+    Kept,
+    /// It is not the class's look (the class table's `plain`): the finish covers it.
+    Dropped,
 }
 
 /// The side of one texel of `texture` on `meshes` at `scale`, in metres: the square root of
@@ -165,7 +176,7 @@ fn material_pattern(material: MaterialKind, x: f32, y: f32) -> f32 {
 }
 
 /// Smooth value noise in about [-1, 1] on an integer lattice hashed with `seed`.
-fn value_noise(x: f32, y: f32, seed: u32) -> f32 {
+pub(super) fn value_noise(x: f32, y: f32, seed: u32) -> f32 {
     let hash = |i: i32, j: i32| {
         let mut h = (i as u32).wrapping_mul(0x8DA6_B343) ^ (j as u32).wrapping_mul(0xD816_3841) ^ seed.wrapping_mul(0xCB1A_B31F);
         h ^= h >> 13;
@@ -243,18 +254,16 @@ fn main_colour(samples: &[([f32; 3], f32)]) -> [f32; 3] {
 /// tone's ink and paper, plus the tone's share of the texel's own colour (its difference from
 /// its grey). The print's shapes stay, its toy colours go; a dark frame takes the ink.
 pub(super) fn toned(texture: &Texture, tone: &PrintTone) -> Vec<u8> {
-    texture
-        .rgba
-        .chunks_exact(4)
-        .flat_map(|p| {
-            let texel = [p[0], p[1], p[2]].map(|v| f32::from(v) / 255.0);
-            let grey = luminance(texel);
-            std::array::from_fn::<u8, 3, _>(|c| {
-                let value = tone.ink[c] + (tone.paper[c] - tone.ink[c]) * grey + tone.chroma * (texel[c] - grey);
-                (value * 255.0).round().clamp(0.0, 255.0) as u8
-            })
-        })
-        .collect()
+    texture.rgba.chunks_exact(4).flat_map(|p| tone_texel([p[0], p[1], p[2]].map(|v| f32::from(v) / 255.0), tone)).collect()
+}
+
+/// One texel (sRGB, 0–1) toned in `tone`, as [`toned`] tones each.
+pub(super) fn tone_texel(texel: [f32; 3], tone: &PrintTone) -> [u8; 3] {
+    let grey = luminance(texel);
+    std::array::from_fn(|c| {
+        let value = tone.ink[c] + (tone.paper[c] - tone.ink[c]) * grey + tone.chroma * (texel[c] - grey);
+        (value * 255.0).round().clamp(0.0, 255.0) as u8
+    })
 }
 
 /// The largest relative brightness a shell texture's marks (plaster, brush strokes) give a
@@ -351,6 +360,35 @@ mod tests {
     }
 
     #[test]
+    fn a_dropped_print_leaves_only_the_finish_in_its_own_faint_pattern() {
+        let kraft = table().finish("kraft").expect("a finish of the table");
+        let size = 64;
+        // A food box's art: a grey ground with black letters and a green blot.
+        let letters = |x: usize, y: usize| (8..24).contains(&y) && x % 6 < 3;
+        let mut art = texture(size, [120, 110, 112], [10, 10, 10], letters);
+        for t in art.rgba.chunks_exact_mut(4).skip(40 * size).take(10 * size) {
+            t[..3].copy_from_slice(&[60, 110, 60]);
+        }
+        let kept = recolour(&art, &[&grid()], 0.05, kraft, Print::Kept).pixels;
+        assert_eq!(texel(&kept, size, 1, 10), [10, 10, 10], "kept, the letters stay black");
+        let plain = recolour(&art, &[&grid()], 0.05, kraft, Print::Dropped).pixels;
+        let card = kraft.colour.map(|c| c * 255.0);
+        // Letters, blot and ground alike: kraft within its pattern (strength 0.5 of ±0.4).
+        for t in plain.chunks_exact(3) {
+            assert!((0..3).all(|c| (f32::from(t[c]) - card[c]).abs() <= 0.21 * card[c] + 1.0), "{t:?} against {card:?}");
+        }
+        let mean: [f32; 3] = std::array::from_fn(|c| plain.chunks_exact(3).map(|t| f32::from(t[c])).sum::<f32>() / (size * size) as f32);
+        assert!((0..3).all(|c| (mean[c] - card[c]).abs() < 0.05 * card[c]), "{mean:?} against {card:?}");
+        // No trace of the print: a letter's texel is as bright as the ground three texels
+        // either side (their mean, which the pattern's smooth slope does not move).
+        let brightness = |x: usize, y: usize| luminance(texel(&plain, size, x, y).map(f32::from));
+        for (x, y) in (8..24).flat_map(|y| (3..size - 3).map(move |x| (x, y))).filter(|&(x, y)| letters(x, y)) {
+            let ground = (brightness(x - 3, y) + brightness(x + 3, y)) / 2.0;
+            assert!((brightness(x, y) - ground).abs() < 3.0, "letter at ({x}, {y}): {} against {ground}", brightness(x, y));
+        }
+    }
+
+    #[test]
     fn scattered_threads_of_another_colour_take_the_finish_as_its_pattern_and_a_part_of_its_own_keeps_its_colour() {
         let navy = table().finish("navy_fabric").expect("a finish of the table");
         let size = 64;
@@ -364,7 +402,7 @@ mod tests {
                 t[..3].copy_from_slice(&[172, 170, 100]);
             }
         }
-        let out = recolour(&fabric, &[&grid()], 1.0, navy).pixels;
+        let out = recolour(&fabric, &[&grid()], 1.0, navy, Print::Kept).pixels;
         let navy_rgb = navy.colour.map(|c| c * 255.0);
         let near_navy = |t: [u8; 3], tolerance: f32| (0..3).all(|c| (t[c] as f32 - navy_rgb[c]).abs() <= tolerance * navy_rgb[c].max(1.0));
         // A thread among the weave is a darker navy, not black; the weave beside it is navy.
@@ -395,7 +433,7 @@ mod tests {
         let leg = |x: usize, y: usize| x < 16 && y < 16;
         let bake = texture(size, [205, 200, 190], [10, 10, 10], leg);
         let scale = 0.012 / 0.125;
-        let out = recolour(&bake, &[&grid()], scale, oak);
+        let out = recolour(&bake, &[&grid()], scale, oak, Print::Kept);
         assert_eq!((out.width, out.height), (3 * size as u32, 3 * size as u32));
         let side = 3 * size;
         let at = |x: usize, y: usize| texel(&out.pixels, side, x, y).map(f32::from);
@@ -416,10 +454,10 @@ mod tests {
         assert_eq!(texel(&out.pixels, side, 15, 15), [10, 10, 10]);
         // A fabric on the same mesh keeps its bake's size.
         let fabric = table().finish("navy_fabric").expect("a finish of the table");
-        assert_eq!(recolour(&bake, &[&grid()], scale, fabric).width, size as u32);
+        assert_eq!(recolour(&bake, &[&grid()], scale, fabric, Print::Kept).width, size as u32);
         // A bake half the longest drawn side grows only twice, whatever its texel.
         let long = Texture { width: (MAX_DRAWN_SIDE / 2) as u32, height: 1, rgba: [205, 200, 190, 255].repeat(MAX_DRAWN_SIDE / 2) };
-        let wide = recolour(&long, &[&grid()], 1.0, oak);
+        let wide = recolour(&long, &[&grid()], 1.0, oak, Print::Kept);
         assert_eq!((wide.width, wide.height), (MAX_DRAWN_SIDE as u32, 2));
     }
 }

@@ -7,13 +7,14 @@ use std::path::Path;
 use osmab_evaluator::formats::image::{RgbImage, write_png_rgb};
 use osmab_evaluator::{InputError, Result};
 
+use super::artwork::printed;
 use super::export::to_gltf;
 use super::finishes::Look;
 use super::gltf_out::{OutMaterial, OutPrimitive, write_gltf};
 use super::library::PackMesh;
-use super::recolour::{painted, recolour, toned};
+use super::recolour::{Print, painted, recolour, toned};
 use super::source::ShellTexture;
-use crate::classes::Finish;
+use crate::classes::{Colouring, Finish, table};
 use crate::convert::gltf::{TriangleMesh, read_gltf};
 
 /// Write the pack mesh `mesh` of an instance of `category` as `dir/stem.gltf` (+ `.bin`
@@ -23,6 +24,10 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
     std::fs::create_dir_all(dir).map_err(|e| InputError::io(dir, &e))?;
     let scale = mesh.scale as f32;
     let positions: Vec<Vec<[f32; 3]>> = asset.meshes.iter().map(|m| m.positions.iter().map(|p| p.map(|v| v * scale)).collect()).collect();
+    let class = table().class(category);
+    let print = if class.is_some_and(|c| c.plain) { Print::Dropped } else { Print::Kept };
+    // A picture's print is drawn anew; a book keeps its cover art, toned.
+    let pictured = class.is_some_and(|c| c.colouring == Colouring::Print);
     let mut names = Vec::new();
     for (k, material) in asset.materials.iter().enumerate() {
         let Some(texture) = &material.texture else {
@@ -32,8 +37,9 @@ pub fn write_pack_gltf(mesh: &PackMesh, category: &str, dir: &Path, stem: &str) 
         let users: Vec<&TriangleMesh> = asset.meshes.iter().filter(|m| m.material == Some(k)).collect();
         let as_drawn = |pixels| RgbImage { width: texture.width, height: texture.height, pixels };
         let image = match mesh.look {
-            Look::Finish(finish) => recolour(texture, &users, scale, finish),
-            Look::Print(tone) => as_drawn(toned(texture, tone)),
+            Look::Finish(finish) => recolour(texture, &users, scale, finish, print),
+            Look::Print { tone, art } if pictured => printed(texture, &users, tone, art),
+            Look::Print { tone, .. } => as_drawn(toned(texture, tone)),
             Look::Own => as_drawn(texture.rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()),
         };
         let name = format!("{stem}_{k}.png");

@@ -115,16 +115,9 @@ fn canvas_of(texture: &Texture, meshes: &[&TriangleMesh]) -> Option<Canvas> {
         let Some(uvs) = &m.uvs else { continue };
         for t in m.indices.chunks_exact(3) {
             let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize);
-            let Some(([pa, pb, pc], [ua, ub, uc])) = m
-                .positions
-                .get(a)
-                .zip(m.positions.get(b))
-                .zip(m.positions.get(c))
-                .map(|((a, b), c)| [*a, *b, *c])
-                .zip(uvs.get(a).zip(uvs.get(b)).zip(uvs.get(c)).map(|((a, b), c)| [*a, *b, *c]))
-            else {
-                continue;
-            };
+            // Indices are checked against the vertices when the glTF is read (as `texel_metres` relies on).
+            let [pa, pb, pc] = [a, b, c].map(|i| m.positions[i]);
+            let [ua, ub, uc] = [a, b, c].map(|i| uvs[i]);
             let (e1, e2) = ([0, 1, 2].map(|k| pb[k] - pa[k]), [0, 1, 2].map(|k| pc[k] - pa[k]));
             let normal = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
             let double_area = normal.iter().map(|v| v * v).sum::<f32>().sqrt();

@@ -595,6 +595,9 @@ struct Resolver<'a> {
     lightings: Vec<LightingResolver<'a>>,
     /// Whether some lighting lights pixels one by one (which needs their positions and normals).
     per_pixel: bool,
+    /// The level of detail of every triangle of `screen`, by its number (none when the frame
+    /// is not coloured).
+    lods: Vec<Lod>,
     /// The camera pose's rotation and translation, and its origin.
     r: [[f32; 4]; 3],
     camera_origin: [f32; 3],
@@ -641,6 +644,7 @@ impl<'a> Resolver<'a> {
         let pose = camera.pose;
         let lightings: Vec<LightingResolver> = lightings.iter().map(|pass| LightingResolver::new(pass, &pose)).collect();
         Resolver {
+            lods: if lightings.is_empty() { Vec::new() } else { levels_of_detail(world, screen) },
             world,
             screen,
             w: camera.width as usize,
@@ -756,7 +760,7 @@ impl<'a> Resolver<'a> {
     fn showing<'s>(&'s self, hit: u32, screen: &'s ScreenTriangle, coloured: bool) -> Showing<'s> {
         let triangle = &self.world.triangles()[screen.source as usize];
         let surface = &self.world.surfaces()[triangle.surface as usize];
-        let lod = if coloured { Lod::of(screen, triangle, surface) } else { Lod::default() };
+        let lod = if coloured { self.lods[hit as usize] } else { Lod::default() };
         Showing { hit, screen, triangle, surface, lod }
     }
 
@@ -910,6 +914,22 @@ enum Baked<'a> {
     Plane(&'a LightPlane, &'a [[f32; 4]]),
     Vertices([&'a SampleLight; 3], usize),
     None,
+}
+
+/// The level of detail of every (clipped) triangle of `screen`, by its number: computed once
+/// a frame, not once for each run of pixels showing it (some three runs a triangle, one for
+/// each row it crosses, in the rooms of a release).
+fn levels_of_detail(world: &World, screen: &Screen) -> Vec<Lod> {
+    let of_part = |part: &Part| -> Vec<Lod> {
+        part.triangles
+            .iter()
+            .map(|st| {
+                let triangle = &world.triangles()[st.source as usize];
+                Lod::of(st, triangle, &world.surfaces()[triangle.surface as usize])
+            })
+            .collect()
+    };
+    screen.parts.par_iter().map(of_part).collect::<Vec<_>>().concat()
 }
 
 /// Which mipmap level a triangle's pixels read: log2 of how many texels a pixel covers,

@@ -936,7 +936,7 @@ fn levels_of_detail(world: &World, screen: &Screen) -> Vec<Lod> {
 /// measured over the triangle's (clipped) piece at its mean depth and scaled, pixel by
 /// pixel, by the pixel's depth against that mean (a floor seen from 1 m reads finer texels
 /// near the camera than far away).
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct Lod {
     /// The level at the mean depth.
     at_mean: f32,
@@ -1174,6 +1174,58 @@ mod tests {
         let clusters = 24 * clustered.clusters().len();
         assert!(drawn > 24 * 160 * 120 / 10, "the objects are in view: {drawn} pixels");
         assert!(culled > clusters / 2, "{culled} of {clusters} clusters culled");
+    }
+
+    #[test]
+    fn each_visible_triangle_s_level_of_detail_is_found_under_the_number_its_pixels_hold() {
+        use crate::convert::gltf::Texture;
+        use crate::render::mesh::{MipMaps, Surface};
+        // Objects in a ring around the camera, textured at eight densities from 1 to 128
+        // repeats, in clusters of one object: the frame's triangles come in several parts.
+        let texture = Arc::new(MipMaps::of(Texture { width: 64, height: 64, rgba: vec![128; 64 * 64 * 4] }));
+        let surfaces = vec![Surface { color: [1.0; 3], texture: Some(texture), occlusion_in_alpha: false }];
+        let mut triangles = Vec::new();
+        for object in 0..200u16 {
+            let a = std::f32::consts::TAU * object as f32 / 200.0;
+            let centre = [3.0 * a.cos(), 0.0, 3.0 * a.sin()];
+            let uv_scale = (1u32 << (object % 8)) as f32;
+            for k in 0..8 {
+                let offset = k as f32 * 0.05;
+                triangles.push(Triangle {
+                    positions: [
+                        [centre[0], centre[1] + offset, centre[2]],
+                        [centre[0] + 0.2, centre[1] + offset, centre[2]],
+                        [centre[0], centre[1] + offset + 0.2, centre[2] + 0.1],
+                    ],
+                    normals: [[0.0, 0.0, -1.0]; 3],
+                    uvs: [[0.0, 0.0], [uv_scale, 0.0], [0.0, uv_scale]],
+                    surface: 0,
+                    class_id: 1,
+                    instance_id: object + 1,
+                });
+            }
+        }
+        let world = World::with_cluster_size(triangles, surfaces, 8);
+        let pose = Matrix4::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let camera = Camera { width: 320, height: 240, fx: 160.0, fy: 160.0, cx: 159.5, cy: 119.5, pose };
+        let mut frame = Frame::default();
+        find_visible(&world, &camera, &mut frame);
+        let screen = &frame.screen;
+        let lods = levels_of_detail(&world, screen);
+        let filled: Vec<usize> = screen.parts.iter().enumerate().filter(|(_, part)| !part.triangles.is_empty()).map(|(p, _)| p).collect();
+        assert!(filled.len() >= 2, "the triangles seen come in several parts: {filled:?}");
+        let mut levels = Vec::new();
+        for p in filled {
+            for (place, st) in screen.parts[p].triangles.iter().enumerate() {
+                let triangle = &world.triangles()[st.source as usize];
+                let own = Lod::of(st, triangle, &world.surfaces()[0]);
+                assert_eq!(lods[screen.index(p, place as u32) as usize], own, "part {p}, place {place}");
+                levels.push(own.at_mean);
+            }
+        }
+        assert_eq!(lods.len(), levels.len(), "one level of detail for each triangle of the frame");
+        levels.sort_by(f32::total_cmp);
+        assert!(levels[levels.len() - 1] - levels[0] > 3.0, "the objects' levels differ: {levels:?}");
     }
 
     #[test]

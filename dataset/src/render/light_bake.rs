@@ -69,12 +69,30 @@ impl LightPlane {
     /// (ambient, then direct RGB).
     #[inline(always)]
     pub fn sample(&self, texels: &[[f32; 4]], p: [f32; 3]) -> [f32; 4] {
-        let u = ((p[self.axes[0]] - self.origin[0]) * (1.0 / TEXEL)).max(0.0);
-        let v = ((p[self.axes[1]] - self.origin[1]) * (1.0 / TEXEL)).max(0.0);
-        let (x, y) = ((u as usize).min(self.size[0] - 2), (v as usize).min(self.size[1] - 2));
-        let (fx, fy) = ((u - x as f32).min(1.0), (v - y as f32).min(1.0));
+        self.sample_in_plane(texels, [p[self.axes[0]], p[self.axes[1]]])
+    }
+
+    /// The two world axes the plane spans, in the order [`LightPlane::sample_in_plane`]
+    /// takes a point's coordinates along them.
+    #[inline(always)]
+    pub fn axes(&self) -> [usize; 2] {
+        self.axes
+    }
+
+    /// [`LightPlane::sample`] of a point given by its coordinates along the plane's
+    /// [`LightPlane::axes`] alone (the third, across the plane, is not read).
+    #[inline(always)]
+    pub fn sample_in_plane(&self, texels: &[[f32; 4]], q: [f32; 2]) -> [f32; 4] {
+        let u = ((q[0] - self.origin[0]) * (1.0 / TEXEL)).max(0.0);
+        let v = ((q[1] - self.origin[1]) * (1.0 / TEXEL)).max(0.0);
+        // Through u32, which converts in one instruction where usize takes several; the
+        // values are the same (a map's side is at most MAX_TEXELS).
+        let (x, y) = ((u as u32 as usize).min(self.size[0] - 2), (v as u32 as usize).min(self.size[1] - 2));
+        let (fx, fy) = ((u - x as u32 as f32).min(1.0), (v - y as u32 as f32).min(1.0));
         let i = self.first as usize + y * self.size[0] + x;
-        let (a, b, c, d) = (&texels[i], &texels[i + 1], &texels[i + self.size[0]], &texels[i + self.size[0] + 1]);
+        // The two texels of each row as one slice: one bounds check a row.
+        let (near, far) = (&texels[i..i + 2], &texels[i + self.size[0]..i + self.size[0] + 2]);
+        let (a, b, c, d) = (&near[0], &near[1], &far[0], &far[1]);
         let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
         std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k] + w[3] * d[k])
     }

@@ -779,28 +779,25 @@ impl<'a> Resolver<'a> {
             }
             return;
         }
-        // The run's triangle and where its light is read, looked up once a run.
-        let mut current: Option<(u32, &Triangle, Baked)> = None;
+        // Where the run's light is read, looked up once a run.
+        let mut current: Option<(u32, Baked)> = None;
         for px in 0..w {
             if run[px] == NO_RUN {
                 (lr[px], lg[px], lb[px]) = (0.0, 0.0, 0.0);
                 continue;
             }
-            let (tri, baked) = match current {
-                Some((at, tri, baked)) if at == run[px] => (tri, baked),
+            let baked = match current {
+                Some((at, baked)) if at == run[px] => baked,
                 _ => {
                     let t = runs[run[px] as usize] as usize;
-                    let tri = &self.world.triangles()[t];
-                    let baked = self.baked(lighting, t, tri);
-                    current = Some((run[px], tri, baked));
-                    (tri, baked)
+                    let baked = self.baked(lighting, t, &self.world.triangles()[t]);
+                    current = Some((run[px], baked));
+                    baked
                 }
             };
             let b = [b0[px], b1[px], b2[px]];
             let [ambient, r, g, bl] = match baked {
-                Baked::Plane(plane, texels) => {
-                    plane.sample(texels, std::array::from_fn(|k| b[0] * tri.positions[0][k] + b[1] * tri.positions[1][k] + b[2] * tri.positions[2][k]))
-                }
+                Baked::Plane(plane, texels, corners) => plane.sample_in_plane(texels, corners.map(|c| b[0] * c[0] + b[1] * c[1] + b[2] * c[2])),
                 Baked::Vertices(v, side) => {
                     let channel = |c: usize| b[0] * v[0][c] + b[1] * v[1][c] + b[2] * v[2][c];
                     [channel(side), channel(2 + 3 * side), channel(3 + 3 * side), channel(4 + 3 * side)]
@@ -817,7 +814,7 @@ impl<'a> Resolver<'a> {
     fn baked<'s>(&self, lighting: &'s LightingResolver, t: usize, tri: &Triangle) -> Baked<'s> {
         match &lighting.baked {
             Some((light, bake)) => match bake.plane_of(t) {
-                Some(plane) => Baked::Plane(plane, &light.texels),
+                Some(plane) => Baked::Plane(plane, &light.texels, plane.axes().map(|a| tri.positions.map(|p| p[a]))),
                 None => Baked::Vertices(bake.corners()[t].map(|k| &light.samples[k as usize]), self.side_seen(tri)),
             },
             None => Baked::None,
@@ -907,11 +904,12 @@ struct Showing<'a> {
     lod: Lod,
 }
 
-/// Where a triangle's baked light is read: its plane's light map (and the texels' light),
-/// or its three vertices' light and the side seen; none without a bake.
+/// Where a triangle's baked light is read: its plane's light map (the texels' light, and
+/// the triangle's corners along the plane's two axes), or its three vertices' light and the
+/// side seen; none without a bake.
 #[derive(Clone, Copy)]
 enum Baked<'a> {
-    Plane(&'a LightPlane, &'a [[f32; 4]]),
+    Plane(&'a LightPlane, &'a [[f32; 4]], [[f32; 3]; 2]),
     Vertices([&'a SampleLight; 3], usize),
     None,
 }
@@ -971,7 +969,7 @@ impl Lod {
         let ratio = (z * self.inv_mean_depth).max(1e-6);
         let log2 = ratio.to_bits() as f32 * (1.0 / (1u32 << 23) as f32) - 127.0;
         let level = self.at_mean + log2;
-        if level < MAGNIFIED { Sampling::Magnified } else { Sampling::Level(level.max(0.0) as usize) }
+        if level < MAGNIFIED { Sampling::Magnified } else { Sampling::Level(level.max(0.0) as u32 as usize) }
     }
 }
 
@@ -1275,5 +1273,40 @@ mod tests {
         assert_eq!(red(-0.25), 255.0);
         // Every channel is blended alike, alpha too.
         assert_eq!(bilinear(&tex, 0.5, 0.9), [127.5, 127.5, 127.5, 100.0]);
+    }
+
+    #[test]
+    fn a_floor_with_a_light_map_is_lit_at_each_pixel_as_its_map_reads_at_the_point_the_pixel_shows() {
+        use crate::render::mesh::Surface;
+        // A 4 × 4 m mid-grey floor with a light map, a light 1.2 m over it (off the
+        // camera's axis), seen from 1.5 m up, looking down.
+        let floor = |p: [[f32; 3]; 3]| Triangle { positions: p, normals: [[0.0, 1.0, 0.0]; 3], uvs: [[0.0; 2]; 3], surface: 0, class_id: 1, instance_id: 1 };
+        let triangles = vec![floor([[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0]]), floor([[-2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]])];
+        let light = Light { position: [0.6, 1.2, -0.3], color: [1.0; 3], attached_to_camera: false };
+        let surfaces = vec![Surface { color: [0.5; 3], texture: None, occlusion_in_alpha: false }];
+        let world = World::with_cluster_size(triangles, surfaces, 64).with_light_bake(&[light.position], None, &[1]);
+        // OpenCV axes: x right along the world's x, y down along its z, z forward down.
+        #[rustfmt::skip]
+        let pose = Matrix4::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 1.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let camera = Camera { width: 96, height: 64, fx: 60.0, fy: 60.0, cx: 47.5, cy: 31.5, pose };
+        let mut frame = Frame::default();
+        render(&world, &camera, &Shading::Lit(vec![light]), &mut frame);
+        let bake = world.light_bake().expect("baked");
+        let map = bake.plane_of(0).expect("the floor has a light map");
+        let lit = bake.sample_light(&[light]);
+        let (mut brightest, mut darkest) = (0u8, 255u8);
+        for (i, &z) in frame.depth.iter().enumerate() {
+            assert!((z - 1.5).abs() < 1e-3, "pixel {i} sees the floor 1.5 m below: {z}");
+            let (x, y) = ((i % 96) as f32, (i / 96) as f32);
+            // The point the pixel shows, in the world: x along x, z along the image's y.
+            let point = [(x - 47.5) / 60.0 * z, 0.0, (y - 31.5) / 60.0 * z];
+            let [ambient, red, ..] = map.sample(&lit.texels, point);
+            let expected = 0.5 * (ambient + red) * 255.0;
+            let got = frame.rgb[3 * i];
+            assert!((got as f32 - expected).abs() <= 1.0, "pixel ({x}, {y}): {got}, its light map gives {expected:.2}");
+            (brightest, darkest) = (brightest.max(got), darkest.min(got));
+        }
+        // The map is read where the pixel lies: bright under the light, dim in the far corners.
+        assert!(brightest > darkest + 20, "the light falls off across the floor: {darkest}..{brightest}");
     }
 }
